@@ -1,0 +1,81 @@
+// ajard's configuration: one typed struct, loaded and validated in one place (config.cpp).
+// Every key is described in docs/configuration.md; config/ajard.yaml is the default (simulated
+// hardware), config/ajard.robot.yaml the example for the real robot.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "ajar/core/robot_model.hpp"
+#include "ajar/drivers/settings.hpp"
+
+namespace ajar::daemon {
+
+// Thrown for any config mistake. what() is one line: "FILE: KEY.PATH: problem (got VALUE; allowed
+// ...)", so an operator can fix it without reading code.
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Thrown by start-up (drivers, socket, state directory) with a message naming what failed.
+class StartupError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct NetworkConfig {
+  std::string bind_address = "127.0.0.1";
+  std::uint16_t port = 7450;
+  int max_clients = 300;
+  int send_queue_frames = 512;       // per session; a client that lets it fill is dropped
+  double read_deadline_s = 10.0;     // a started frame must complete within this
+  double idle_timeout_s = 0;         // 0 = none (observers may stay idle forever)
+};
+
+struct ControlConfig {
+  double rate_hz = 500;              // control loop rate
+  bool realtime = false;             // try SCHED_FIFO at `priority`; warn and fall back if refused
+  int priority = 80;
+  bool lock_memory = false;          // try mlockall(MCL_CURRENT | MCL_FUTURE)
+  double motion_timeout_margin_s = 2.0;  // deadline = planned duration * 1.5 + margin
+  double aligned_tolerance_rad = 0.005;  // a re-measured plane within this counts as aligned
+};
+
+struct SafetyConfig {
+  double deadman_timeout_s = 0.5;    // controller silent this long during motion -> stop + fault
+};
+
+struct LoggingConfig {
+  std::string level = "info";        // trace | debug | info | warn | error | critical | off
+  std::string sink = "auto";         // auto (journald under systemd, else stderr) | stderr | journald
+};
+
+struct StateConfig {
+  std::string directory = "state";   // accepted parameters are persisted here (relative to cwd)
+};
+
+struct Config {
+  std::string source_path;           // the file it was loaded from
+  NetworkConfig network;
+  Eigen::Matrix4d camera_to_base_m = Eigen::Matrix4d::Identity();  // ^B_C T in metres
+  core::BaseGeometry base;
+  core::Limits limits;
+  drivers::DriverSettings drivers;
+  ControlConfig control;
+  SafetyConfig safety;
+  LoggingConfig logging;
+  StateConfig state;
+};
+
+// Loads and validates `path`. Throws ConfigError naming the file, the key path, the bad value and
+// what is allowed: unknown keys (typos), wrong types, out-of-range values, a non-rigid transform.
+Config load_config(const std::string& path);
+
+// The effective config as YAML (every key, defaults filled in), for --check-config.
+std::string to_yaml(const Config& config);
+
+}  // namespace ajar::daemon

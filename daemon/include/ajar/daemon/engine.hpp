@@ -1,0 +1,66 @@
+// Engine: the daemon's heart below the network. It owns the procedure state machine, the accepted
+// door parameters (persisted), the control loop thread (which owns the motion card) and the arm.
+// The network layer (server.hpp) owns sessions, roles, request de-duplication and fan-out, and
+// talks to the engine only through this interface, from the single I/O thread.
+//
+// Threading: every method is called from the I/O thread, except where noted. The engine talks to
+// its control thread through a bounded lock-free queue and reads back published snapshots; no call
+// here blocks on the control loop.
+#pragma once
+
+#include <chrono>
+#include <functional>
+#include <memory>
+
+#include "ajar/protocol/messages.hpp"
+
+namespace ajar::daemon {
+
+struct Config;
+
+class Engine {
+ public:
+  // Receives events for every session (state changes, motion, faults). Called on the I/O thread
+  // from inside handle_command() or poll().
+  using EventSink = std::function<void(const protocol::Event&)>;
+
+  virtual ~Engine() = default;
+
+  // Brings the drivers up (init -> configured -> active), restores persisted parameters, and starts
+  // the control thread. Throws ajar::daemon::StartupError naming what failed.
+  virtual void start() = 0;
+  // Stops motion (smooth), persists, joins the control thread, brings the drivers down. Idempotent.
+  virtual void shutdown() noexcept = 0;
+
+  // A command from the controlling session (roles are enforced by the caller). Validates with core,
+  // updates the procedure, queues motion to the control loop. Returns the reply: Ack or ErrorReply.
+  // Never moves anything on a refusal.
+  virtual protocol::Message handle_command(const protocol::Message& request) = 0;
+
+  // Stop / EmergencyStop from any session role is routed here too (via handle_command).
+
+  // The controller is alive: any frame from it counts. The deadman in the control loop stops motion
+  // and latches kDeadman when no heartbeat arrives for safety.deadman_timeout_s while moving.
+  // Thread-safe (an atomic store).
+  virtual void controller_heartbeat() noexcept = 0;
+  // The controlling session went away (disconnect or take-over). If anything moves, it is stopped at
+  // once and kDeadman latches.
+  virtual void controller_lost() = 0;
+
+  // Called periodically (at least every few ms) on the I/O thread: drains control-loop reports,
+  // emits events, persists changes.
+  virtual void poll() = 0;
+
+  virtual protocol::Status status() const = 0;
+  virtual protocol::Telemetry telemetry() const = 0;
+  virtual protocol::Welcome welcome_template() const = 0;  // limits and versions for Welcome
+
+  // Health for systemd's watchdog: true while the control loop keeps its period (it has completed a
+  // cycle within the last few periods). Thread-safe.
+  virtual bool control_loop_healthy() const noexcept = 0;
+};
+
+// Builds the engine for a loaded config (drivers selected by config.drivers.kind).
+std::unique_ptr<Engine> make_engine(const Config& config);
+
+}  // namespace ajar::daemon

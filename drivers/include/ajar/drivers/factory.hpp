@@ -1,0 +1,36 @@
+// Builds the drivers the config selects (drivers.kind): real hardware, the simulators, or mocks.
+#pragma once
+
+#include <memory>
+#include <stdexcept>
+
+#include "ajar/core/robot_model.hpp"
+#include "ajar/drivers/manipulator.hpp"
+#include "ajar/drivers/motion_card.hpp"
+#include "ajar/drivers/settings.hpp"
+
+namespace ajar::drivers {
+
+// Start-up failure of a driver, naming what failed (e.g. the vendor library path, a missing symbol,
+// the serial device).
+class DriverStartupError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct DriverSet {
+  // Whatever must outlive the drivers (e.g. the in-process arm-controller simulator behind the
+  // pseudo-terminal in sim mode). Declared first so that it is destroyed after card and arm.
+  std::shared_ptr<void> keepalive;
+  std::unique_ptr<MotionCard> card;
+  std::unique_ptr<Manipulator> arm;
+};
+
+// kReal: GTS4 driver over settings.card.library_path + serial arm on settings.arm.device.
+// kSim:  the same GTS4 driver over the card simulator library + the serial arm driver over a
+//        pseudo-terminal to an in-process arm-controller simulator.
+// kMock: in-process doubles with settings.mock's fault menu.
+// Throws DriverStartupError when something cannot be loaded or opened.
+DriverSet make_drivers(const DriverSettings& settings, const core::BaseGeometry& base);
+
+}  // namespace ajar::drivers

@@ -1,0 +1,95 @@
+// Frames: encode a message into bytes, and a streaming decoder that takes bytes in any chunking.
+// Frame layout (little-endian, see docs/protocol.md): magic, version, type, flags, request id,
+// payload length, CRC-32C over header and payload.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "ajar/core/error.hpp"
+#include "ajar/protocol/messages.hpp"
+
+namespace ajar::protocol {
+
+inline constexpr std::uint32_t kMagic = 0x52414A41;  // bytes "AJAR" on the wire
+inline constexpr std::size_t kHeaderSize = 22;
+inline constexpr std::size_t kMaxPayloadSize = 1024;   // hard maximum, checked before reading
+inline constexpr std::size_t kMaxFrameSize = kHeaderSize + kMaxPayloadSize;
+
+// Flag bits. Unknown (reserved) bits set by a peer are reported with kUnknownFlags.
+enum Flags : std::uint16_t {
+  kFlagNone = 0,
+  kFlagRetransmit = 1u << 0,   // host: this is a retry of an earlier request id (informational)
+  kFlagKnownMask = kFlagRetransmit,
+};
+
+struct Envelope {
+  std::uint32_t request_id = 0;   // replies echo the request's id; daemon-initiated frames use 0
+  std::uint16_t flags = 0;
+  Message message;
+};
+
+struct FrameHeader {
+  std::uint32_t magic = kMagic;
+  std::uint8_t version_major = kVersionMajor;
+  std::uint8_t version_minor = kVersionMinor;
+  std::uint16_t type = 0;          // raw MessageType
+  std::uint16_t flags = 0;
+  std::uint32_t request_id = 0;
+  std::uint32_t payload_length = 0;
+  std::uint32_t crc = 0;
+};
+
+// Encodes `envelope` as one frame into `out` (which must hold kMaxFrameSize bytes at most needed).
+// Returns the frame size in bytes, or 0 when `out` is too small. Never allocates.
+std::size_t encode(const Envelope& envelope, std::span<std::uint8_t> out) noexcept;
+// Convenience: appends one frame to `out`.
+void encode_append(const Envelope& envelope, std::vector<std::uint8_t>& out);
+
+// A decoding failure: what was wrong, where, and whether the byte stream can continue.
+struct DecodeError {
+  ErrorCode code = ErrorCode::kOk;
+  std::uint32_t request_id = 0;    // from the header when it was readable, else 0
+  std::uint16_t type = 0;          // raw message type from the header when readable, else 0
+  bool framing_lost = false;       // true: the connection must be closed (bad magic, oversize)
+  const char* field = "";          // offending field, e.g. "points[2].z", "frame", "header.crc"
+};
+
+// Streaming decoder. Feed it bytes as they arrive, in any chunking (one byte at a time works);
+// it yields one outcome at a time. Owns a fixed buffer of kMaxFrameSize: no allocation per frame.
+class StreamDecoder {
+ public:
+  enum class Kind { kNeedMore, kMessage, kError };
+  struct Outcome {
+    Kind kind = Kind::kNeedMore;
+    Envelope envelope;     // valid when kind == kMessage
+    DecodeError error;     // valid when kind == kError
+  };
+
+  // Consumes bytes from `in` until one outcome is produced or `in` is exhausted; returns the number
+  // of bytes consumed. Call again with the rest of `in` while it is non-empty. After an error with
+  // framing_lost the decoder stays failed (every later call yields the same error) until reset().
+  std::size_t feed(std::span<const std::uint8_t> in, Outcome& outcome) noexcept;
+  void reset() noexcept;
+
+ private:
+  std::array<std::uint8_t, kMaxFrameSize> buffer_{};
+  std::size_t filled_ = 0;
+  bool failed_ = false;
+  DecodeError failure_;
+};
+
+// Decodes one complete frame (header + payload) held in `frame`. Used by the streaming decoder and
+// directly by tests and the fuzzer.
+StreamDecoder::Outcome decode_frame(std::span<const std::uint8_t> frame) noexcept;
+
+// Decodes a header only (first kHeaderSize bytes); no CRC check.
+FrameHeader decode_header(std::span<const std::uint8_t, kHeaderSize> bytes) noexcept;
+
+// CRC-32C (Castagnoli), as used in frames. Check value: crc32c("123456789") == 0xE3069283.
+std::uint32_t crc32c(std::span<const std::uint8_t> bytes) noexcept;
+
+}  // namespace ajar::protocol

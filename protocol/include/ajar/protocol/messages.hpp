@@ -1,0 +1,245 @@
+// Ajar wire protocol v1: the messages, as plain C++ values. Pure: no sockets, threads or logging.
+// The byte-level layout of every message is in docs/protocol.md; codec.hpp turns these into bytes
+// and back. Every field has a fixed size on the wire: no message allocates when decoded.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <string_view>
+#include <variant>
+
+#include "ajar/core/error.hpp"
+#include "ajar/core/types.hpp"
+
+namespace ajar::protocol {
+
+inline constexpr std::uint8_t kVersionMajor = 1;
+inline constexpr std::uint8_t kVersionMinor = 0;
+inline constexpr std::size_t kMaxPlanePoints = 16;
+inline constexpr std::size_t kMinPlanePoints = 3;
+
+// A string with a fixed capacity and an explicit length (wire: u8 length + bytes, see spec).
+template <std::size_t N>
+struct FixedString {
+  static_assert(N <= 255);
+  std::array<char, N> bytes{};
+  std::uint8_t length = 0;
+
+  FixedString() = default;
+  FixedString(std::string_view s) { assign(s); }  // NOLINT: implicit, truncates to N
+  void assign(std::string_view s) {
+    length = static_cast<std::uint8_t>(std::min(s.size(), N));
+    std::copy_n(s.data(), length, bytes.data());
+  }
+  std::string_view view() const { return {bytes.data(), length}; }
+  friend bool operator==(const FixedString& a, const FixedString& b) { return a.view() == b.view(); }
+};
+
+enum class MessageType : std::uint16_t {
+  // host -> daemon
+  kHello = 0x0101,
+  kPing = 0x0102,
+  kMeasureDoorWidth = 0x0110,
+  kMeasureHandle = 0x0111,
+  kMeasureDoorPlane = 0x0112,
+  kSetContactPoint = 0x0113,
+  kAlignBase = 0x0120,
+  kEngage = 0x0121,
+  kStop = 0x0130,
+  kEmergencyStop = 0x0131,
+  kReset = 0x0132,
+  kGetStatus = 0x0140,
+  kSubscribe = 0x0141,
+  // daemon -> host
+  kWelcome = 0x0201,
+  kPong = 0x0202,
+  kAck = 0x0203,
+  kError = 0x0204,
+  kEvent = 0x0205,
+  kStatus = 0x0206,
+  kTelemetry = 0x0207,
+};
+
+enum class Role : std::uint8_t { kController = 0, kObserver = 1 };
+
+// The procedure (paper Fig. 4) as the daemon enforces it.
+enum class ProcedureState : std::uint8_t {
+  kAwaitingWidth = 0,    // nothing measured yet
+  kAwaitingHandle = 1,   // width stored
+  kAwaitingPlane = 2,    // width and handle stored
+  kReadyToAlign = 3,     // plane stored, base not aligned
+  kAligning = 4,         // wheels turning
+  kAligned = 5,          // base squared up; awaiting the contact point
+  kReadyToEngage = 6,    // contact point stored
+  kEngaging = 7,         // task handed to the arm, arm working
+  kEngaged = 8,          // arm accepted/finished the hand-off
+  kFault = 9,            // a fault is latched: only Stop, EmergencyStop, Reset, GetStatus, ...
+};
+
+enum class EventKind : std::uint8_t {
+  kStateChanged = 0,
+  kMotionStarted = 1,
+  kMotionFinished = 2,
+  kMotionStopped = 3,
+  kFaultLatched = 4,
+  kFaultCleared = 5,
+  kControlChanged = 6,   // the controller session changed (take-over, disconnect)
+};
+
+enum class ArmState : std::uint8_t {
+  kDisconnected = 0,
+  kIdle = 1,
+  kBusy = 2,             // executing a door task
+  kDone = 3,
+  kFault = 4,
+};
+
+// Lifecycle of a driver as reported on the wire (mirrors drivers::LifecycleState).
+enum class DriverState : std::uint8_t {
+  kUnconfigured = 0,
+  kInactive = 1,
+  kActive = 2,
+  kFault = 3,
+};
+
+using core::FramedPoint;
+
+// ---- host -> daemon -----------------------------------------------------------------------------
+
+struct Hello {
+  std::uint8_t version_major = kVersionMajor;
+  std::uint8_t version_minor = kVersionMinor;
+  Role requested_role = Role::kObserver;
+  bool take_over = false;              // controller only: take control from the current controller
+  std::uint64_t client_instance_id = 0;  // survives reconnects; keys duplicate detection
+  FixedString<32> client_name;
+};
+struct Ping { std::uint64_t client_time_ns = 0; };
+struct MeasureDoorWidth { FramedPoint p1_hinge; FramedPoint p2_moving_edge; };
+struct MeasureHandle { FramedPoint p1_axis; FramedPoint p2_free_end; };
+struct MeasureDoorPlane {
+  std::uint8_t count = 0;   // 3..16 on the wire
+  std::array<FramedPoint, kMaxPlanePoints> points{};
+};
+struct SetContactPoint { FramedPoint contact; };
+struct AlignBase {};
+struct Engage {};
+struct Stop {};
+struct EmergencyStop {};
+struct Reset {};
+struct GetStatus {};
+struct Subscribe { float telemetry_rate_hz = 0; };  // 0 = off; capped at the loop rate
+
+// ---- daemon -> host -----------------------------------------------------------------------------
+
+struct Welcome {
+  std::uint8_t version_major = kVersionMajor;
+  std::uint8_t version_minor = kVersionMinor;
+  Role granted_role = Role::kObserver;
+  std::uint64_t session_id = 0;
+  FixedString<32> daemon_version;
+  float loop_rate_hz = 0;
+  float deadman_timeout_s = 0;
+  float min_door_width_m = 0, max_door_width_m = 0;
+  float min_handle_length_m = 0, max_handle_length_m = 0;
+  float max_yaw_correction_rad = 0;
+};
+struct Pong { std::uint64_t client_time_ns = 0; std::uint64_t daemon_time_ns = 0; };
+
+// What an Ack carries depends on what it acknowledges.
+struct SpanAck {            // MeasureDoorWidth, MeasureHandle
+  double length_m = 0;
+  core::RotationDirection direction = core::RotationDirection::kClockwise;
+  core::Vec3 p1_base_m = core::Vec3::Zero();
+  core::Vec3 p2_base_m = core::Vec3::Zero();
+};
+struct PlaneAck {           // MeasureDoorPlane
+  core::Vec3 normal = core::Vec3::UnitX();   // unit, toward the robot, base frame
+  double yaw_deviation_rad = 0;              // CCW positive
+  double left_wheel_rad = 0, right_wheel_rad = 0;
+  std::int64_t left_counts = 0, right_counts = 0;
+  double residual_yaw_rad = 0;               // left undone by rounding to counts
+  double rms_residual_m = 0;
+  std::uint8_t point_count = 0;
+};
+struct ContactAck {         // SetContactPoint
+  core::Vec3 contact_base_m = core::Vec3::Zero();
+  double reach_margin_m = 0;
+};
+struct EmptyAck {};         // everything else (AlignBase: motion accepted; Stop; Reset; Subscribe)
+using AckBody = std::variant<EmptyAck, SpanAck, PlaneAck, ContactAck>;
+
+struct Ack {
+  MessageType acknowledged = MessageType::kPing;  // body layout follows from this
+  ProcedureState state = ProcedureState::kAwaitingWidth;  // state after the command
+  AckBody body;
+};
+
+struct ErrorReply {
+  ErrorCode code = ErrorCode::kInternal;
+  MessageType offending_type = MessageType::kPing;  // type of the refused request (raw if unknown)
+  FixedString<32> field;
+  FixedString<200> message;
+};
+
+struct Event {
+  EventKind kind = EventKind::kStateChanged;
+  ProcedureState state = ProcedureState::kAwaitingWidth;
+  ErrorCode fault = ErrorCode::kOk;    // for kFaultLatched; kOk otherwise
+  std::uint64_t daemon_time_ns = 0;
+  FixedString<120> detail;
+};
+
+struct LoopStatistics {
+  float rate_hz = 0;
+  std::uint64_t cycles = 0;
+  std::uint64_t overruns = 0;
+  std::uint32_t period_p50_ns = 0, period_p99_ns = 0, period_max_ns = 0;
+  std::uint32_t jitter_p99_ns = 0;   // |period - nominal|, p99
+};
+
+struct Status {
+  ProcedureState state = ProcedureState::kAwaitingWidth;
+  ErrorCode latched_fault = ErrorCode::kOk;
+  bool restored_from_disk = false;   // parameters came back from the state file at start
+  bool controller_connected = false;
+  std::uint16_t session_count = 0;
+  // Stored parameters; each `has_` says whether the value below is meaningful.
+  bool has_width = false;  SpanAck width;
+  bool has_handle = false; SpanAck handle;
+  bool has_plane = false;  PlaneAck plane;
+  bool has_contact = false; ContactAck contact;
+  DriverState card = DriverState::kUnconfigured;
+  DriverState arm = DriverState::kUnconfigured;
+  ArmState arm_state = ArmState::kDisconnected;
+  LoopStatistics loop;
+};
+
+struct Telemetry {
+  std::uint64_t daemon_time_ns = 0;   // monotonic, since daemon start
+  ProcedureState state = ProcedureState::kAwaitingWidth;
+  bool moving = false;
+  double left_wheel_rad = 0, right_wheel_rad = 0;       // from encoders, wheel-forward positive
+  std::int64_t left_counts = 0, right_counts = 0;       // encoder counts as read from the card
+  double base_yaw_odometry_rad = 0;                     // CCW positive, since daemon start
+  ArmState arm_state = ArmState::kDisconnected;
+  LoopStatistics loop;
+};
+
+using Message = std::variant<Hello, Ping, MeasureDoorWidth, MeasureHandle, MeasureDoorPlane,
+                             SetContactPoint, AlignBase, Engage, Stop, EmergencyStop, Reset,
+                             GetStatus, Subscribe, Welcome, Pong, Ack, ErrorReply, Event, Status,
+                             Telemetry>;
+
+// The message type of a value, and whether it travels host -> daemon.
+MessageType type_of(const Message& m) noexcept;
+bool is_request(MessageType t) noexcept;
+std::string_view to_string(MessageType t) noexcept;   // "MeasureDoorWidth", ...
+std::string_view to_string(ProcedureState s) noexcept;  // "awaiting_width", ...
+std::string_view to_string(EventKind k) noexcept;
+std::string_view to_string(Role r) noexcept;
+std::string_view to_string(ArmState s) noexcept;
+std::string_view to_string(DriverState s) noexcept;
+
+}  // namespace ajar::protocol
