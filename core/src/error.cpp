@@ -112,6 +112,8 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "ARM_REJECTED";
     case ErrorCode::kDeadman:
       return "DEADMAN";
+    case ErrorCode::kEmergencyStopped:
+      return "EMERGENCY_STOPPED";
     case ErrorCode::kInternal:
       return "INTERNAL";
   }

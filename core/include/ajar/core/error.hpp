@@ -75,6 +75,7 @@ enum class ErrorCode : std::uint16_t {
   kArmDisconnected = 510,      // serial device gone
   kArmRejected = 511,          // arm controller refused the task
   kDeadman = 512,              // controller went silent during motion
+  kEmergencyStopped = 513,     // an emergency stop was commanded: Reset to continue
 
   kInternal = 900,             // a bug: please report
 };

@@ -127,7 +127,9 @@ struct AlignBase {};
 struct Engage {};
 struct Stop {};
 struct EmergencyStop {};
-struct Reset {};
+// Clears a latched fault (drivers are recovered). With clear_parameters it also aborts the procedure:
+// every stored measurement is discarded and the state returns to kAwaitingWidth.
+struct Reset { bool clear_parameters = false; };
 struct GetStatus {};
 struct Subscribe { float telemetry_rate_hz = 0; };  // 0 = off; capped at the loop rate
 
@@ -210,6 +212,7 @@ struct Status {
   bool has_handle = false; SpanAck handle;
   bool has_plane = false;  PlaneAck plane;
   bool has_contact = false; ContactAck contact;
+  double base_yaw_odometry_rad = 0;  // CCW positive, since daemon start
   DriverState card = DriverState::kUnconfigured;
   DriverState arm = DriverState::kUnconfigured;
   ArmState arm_state = ArmState::kDisconnected;
