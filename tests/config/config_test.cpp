@@ -1,0 +1,216 @@
+#include "ajar/daemon/config.hpp"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "ajar/core/geometry.hpp"
+
+namespace ajar::daemon {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ConfigTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::string pattern = (fs::temp_directory_path() / "ajar-config-XXXXXX").string();
+    ASSERT_NE(mkdtemp(pattern.data()), nullptr);
+    dir_ = pattern;
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string write(const std::string& yaml) {
+    const std::string path = (dir_ / "ajard.yaml").string();
+    std::ofstream(path) << yaml;
+    return path;
+  }
+
+  // The ConfigError message for `yaml`, or "" when it loads.
+  std::string error_for(const std::string& yaml) {
+    const std::string path = write(yaml);
+    try {
+      (void)load_config(path);
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "";
+  }
+
+  fs::path dir_;
+};
+
+std::string repo_file(const char* relative) {
+  return std::string(AJAR_SOURCE_DIR) + "/" + relative;
+}
+
+TEST_F(ConfigTest, ShippedSimConfigLoadsWithThePapersTransformInMetres) {
+  const Config c = load_config(repo_file("config/ajard.yaml"));
+  EXPECT_EQ(c.network.bind_address, "127.0.0.1");
+  EXPECT_EQ(c.network.port, 7450);
+  EXPECT_EQ(c.drivers.kind, drivers::DriverKind::kSim);
+  EXPECT_TRUE(c.camera_to_base_m.isApprox(core::paper_camera_to_base_m(), 1e-12));
+  EXPECT_DOUBLE_EQ(c.camera_to_base_m(0, 3), 0.15);
+  EXPECT_DOUBLE_EQ(c.camera_to_base_m(2, 3), -0.22);
+  EXPECT_EQ(c.base.left.card_axis, 1);
+  EXPECT_EQ(c.base.right.polarity, -1);
+  EXPECT_DOUBLE_EQ(c.limits.max_door_width_m, 1.5);
+  EXPECT_DOUBLE_EQ(c.limits.arm.max_reach_m, 1.0);
+}
+
+TEST_F(ConfigTest, ShippedRobotConfigSelectsTheRealDrivers) {
+  const Config c = load_config(repo_file("config/ajard.robot.yaml"));
+  EXPECT_EQ(c.drivers.kind, drivers::DriverKind::kReal);
+  EXPECT_EQ(c.drivers.card.library_path, "/opt/googoltech/lib/libgts.so");
+  EXPECT_TRUE(c.control.realtime);
+  EXPECT_EQ(c.state.directory, "/var/lib/ajar");
+}
+
+TEST_F(ConfigTest, EmptyFileGivesTheDefaults) {
+  const Config c = load_config(write(""));
+  EXPECT_EQ(c.network.port, 7450);
+  EXPECT_TRUE(c.camera_to_base_m.isApprox(core::paper_camera_to_base_m(), 1e-12));
+  EXPECT_DOUBLE_EQ(c.control.rate_hz, 500);
+}
+
+TEST_F(ConfigTest, MisspelledKeyIsNamedWithItsPathLineAndSuggestion) {
+  const std::string e = error_for("base:\n  wheel_radius_m: 0.1\n  wheel_radus_m: 0.2\n");
+  EXPECT_NE(e.find(dir_.string() + "/ajard.yaml:3:"), std::string::npos) << e;
+  EXPECT_NE(e.find("base.wheel_radus_m: unknown key"), std::string::npos) << e;
+  EXPECT_NE(e.find("did you mean 'wheel_radius_m'"), std::string::npos) << e;
+}
+
+TEST_F(ConfigTest, UnknownTopLevelSectionIsRefused) {
+  const std::string e = error_for("netwrok:\n  port: 1\n");
+  EXPECT_NE(e.find("netwrok: unknown key"), std::string::npos) << e;
+  EXPECT_NE(e.find("did you mean 'network'"), std::string::npos) << e;
+}
+
+TEST_F(ConfigTest, WrongTypeNamesKeyValueAndAllowedRange) {
+  const std::string e = error_for("network:\n  port: seventy\n");
+  EXPECT_NE(e.find("network.port: must be a whole number"), std::string::npos) << e;
+  EXPECT_NE(e.find("'seventy'"), std::string::npos) << e;
+  EXPECT_NE(e.find("0..65535"), std::string::npos) << e;
+  EXPECT_NE(error_for("network:\n  port: 74.5\n").find("network.port"), std::string::npos);
+  EXPECT_NE(error_for("control:\n  realtime: maybe\n").find("control.realtime: must be true or"),
+            std::string::npos);
+  EXPECT_NE(error_for("base: 3\n").find("base: must be a map"), std::string::npos);
+}
+
+TEST_F(ConfigTest, OutOfRangeValuesAreRefused) {
+  EXPECT_NE(
+      error_for("base:\n  wheel_radius_m: -0.1\n").find("base.wheel_radius_m: is out of range"),
+      std::string::npos);
+  EXPECT_NE(error_for("network:\n  port: 70000\n").find("network.port: is out of range"),
+            std::string::npos);
+  EXPECT_NE(error_for("control:\n  rate_hz: .nan\n").find("control.rate_hz: must be finite"),
+            std::string::npos);
+  EXPECT_NE(error_for("limits:\n  door_width_m: [1.5, 0.6]\n")
+                .find("limits.door_width_m: must be [min, max] with min < max"),
+            std::string::npos);
+  EXPECT_NE(error_for("limits:\n  door_width_m: [0.6]\n").find("must be a list of 2 numbers"),
+            std::string::npos);
+  EXPECT_NE(error_for("base:\n  right_wheel: {card_axis: 1, polarity: -1}\n")
+                .find("base.right_wheel.card_axis: must differ"),
+            std::string::npos);
+  EXPECT_NE(error_for("base:\n  left_wheel: {card_axis: 1, polarity: 0}\n")
+                .find("base.left_wheel.polarity: must be +1 or -1"),
+            std::string::npos);
+  EXPECT_NE(
+      error_for("drivers:\n  arm: {baud: 12345}\n").find("drivers.arm.baud: is not a standard"),
+      std::string::npos);
+  EXPECT_NE(error_for("network:\n  bind_address: localhost-ish\n")
+                .find("network.bind_address: is not an IP address"),
+            std::string::npos);
+}
+
+TEST_F(ConfigTest, UnknownEnumWordListsTheAllowedOnes) {
+  const std::string e = error_for("drivers:\n  kind: simulated\n");
+  EXPECT_NE(e.find("drivers.kind: is not one of the allowed values (got 'simulated'; allowed: sim, "
+                   "mock, real)"),
+            std::string::npos)
+      << e;
+}
+
+TEST_F(ConfigTest, RealDriversNeedTheVendorLibrary) {
+  const std::string e = error_for("drivers:\n  kind: real\n");
+  EXPECT_NE(e.find("drivers.card.library: is required when drivers.kind is real"),
+            std::string::npos)
+      << e;
+}
+
+std::string transform_yaml(const std::string& rows) {
+  return "frames:\n  camera_to_base_m:\n" + rows;
+}
+
+TEST_F(ConfigTest, NonRigidTransformsAreRefusedWithTheKey) {
+  // A scaled rotation (the paper's matrix left in centimetres is rigid; scaling R is not).
+  const std::string scaled = transform_yaml(
+      "    - [0, 0, 2, 0.15]\n    - [-1, 0, 0, 0.015]\n    - [0, -1, 0, -0.22]\n"
+      "    - [0, 0, 0, 1]\n");
+  std::string e = error_for(scaled);
+  EXPECT_NE(e.find("frames.camera_to_base_m: is not a rigid transform"), std::string::npos) << e;
+
+  // A reflection: orthonormal but det = -1.
+  e = error_for(
+      transform_yaml("    - [0, 0, 1, 0.15]\n    - [1, 0, 0, 0.015]\n    - [0, -1, 0, -0.22]\n"
+                     "    - [0, 0, 0, 1]\n"));
+  EXPECT_NE(e.find("frames.camera_to_base_m: is not a rigid transform"), std::string::npos) << e;
+  EXPECT_NE(e.find("determinant"), std::string::npos) << e;
+
+  // Bottom row not 0 0 0 1.
+  e = error_for(
+      transform_yaml("    - [0, 0, 1, 0.15]\n    - [-1, 0, 0, 0.015]\n    - [0, -1, 0, -0.22]\n"
+                     "    - [0, 0, 0.1, 1]\n"));
+  EXPECT_NE(e.find("bottom_row"), std::string::npos) << e;
+
+  // Wrong shape and a non-number.
+  EXPECT_NE(error_for(transform_yaml("    - [0, 0, 1]\n")).find("must be a 4x4 matrix"),
+            std::string::npos);
+  EXPECT_NE(error_for(transform_yaml("    - [0, 0, 1, x]\n    - [0, 0, 1, 0]\n    - [0, 0, 1, 0]\n"
+                                     "    - [0, 0, 0, 1]\n"))
+                .find("frames.camera_to_base_m[0][3]: must be a number"),
+            std::string::npos);
+}
+
+TEST_F(ConfigTest, ARigidCustomTransformIsAccepted) {
+  const double c = std::cos(0.3), s = std::sin(0.3);
+  std::ostringstream rows;
+  rows.precision(17);
+  rows << "    - [" << c << ", " << -s << ", 0, 0.1]\n    - [" << s << ", " << c
+       << ", 0, 0.2]\n    - [0, 0, 1, 0.3]\n    - [0, 0, 0, 1]\n";
+  const Config cfg = load_config(write(transform_yaml(rows.str())));
+  EXPECT_NEAR(cfg.camera_to_base_m(1, 0), s, 1e-15);
+  EXPECT_DOUBLE_EQ(cfg.camera_to_base_m(2, 3), 0.3);
+}
+
+TEST_F(ConfigTest, MissingFileAndBrokenYamlNameTheFile) {
+  try {
+    (void)load_config((dir_ / "nope.yaml").string());
+    FAIL() << "no error for a missing file";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("nope.yaml: cannot open"), std::string::npos);
+  }
+  const std::string e = error_for("network: [1, 2\n");
+  EXPECT_NE(e.find("ajard.yaml:"), std::string::npos) << e;
+  EXPECT_NE(e.find("not valid YAML"), std::string::npos) << e;
+}
+
+TEST_F(ConfigTest, EffectiveConfigRoundTrips) {
+  const Config original = load_config(repo_file("config/ajard.yaml"));
+  const std::string yaml = to_yaml(original);
+  const Config again = load_config(write(yaml));
+  EXPECT_EQ(to_yaml(again), yaml);
+  EXPECT_TRUE(again.camera_to_base_m.isApprox(original.camera_to_base_m, 0));
+  EXPECT_EQ(again.drivers.arm.parity, original.drivers.arm.parity);
+}
+
+}  // namespace
+}  // namespace ajar::daemon
