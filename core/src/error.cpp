@@ -68,6 +68,8 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "PLANE_RESIDUAL_TOO_LARGE";
     case ErrorCode::kUnknownFrame:
       return "UNKNOWN_FRAME";
+    case ErrorCode::kTransformNotRigid:
+      return "TRANSFORM_NOT_RIGID";
     case ErrorCode::kWrongState:
       return "WRONG_STATE";
     case ErrorCode::kMissingDoorWidth:
@@ -114,6 +116,10 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "DEADMAN";
     case ErrorCode::kEmergencyStopped:
       return "EMERGENCY_STOPPED";
+    case ErrorCode::kCardOpenFailed:
+      return "CARD_OPEN_FAILED";
+    case ErrorCode::kArmFault:
+      return "ARM_FAULT";
     case ErrorCode::kInternal:
       return "INTERNAL";
   }

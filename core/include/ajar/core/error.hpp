@@ -49,6 +49,7 @@ enum class ErrorCode : std::uint16_t {
   kOutOfReach = 310,           // contact point outside the arm's reachable workspace
   kPlaneResidualTooLarge = 311,// plane fit RMS residual above the configured maximum
   kUnknownFrame = 312,         // a point names a frame that is neither camera nor base
+  kTransformNotRigid = 313,    // camera->base matrix not rigid (rotation, determinant, bottom row)
 
   // 4xx: the procedure (daemon/).
   kWrongState = 400,           // command not allowed in the current procedure state
@@ -76,6 +77,8 @@ enum class ErrorCode : std::uint16_t {
   kArmRejected = 511,          // arm controller refused the task
   kDeadman = 512,              // controller went silent during motion
   kEmergencyStopped = 513,     // an emergency stop was commanded: Reset to continue
+  kCardOpenFailed = 514,       // GTS -6: the card could not be opened (missing, in use, driver)
+  kArmFault = 515,             // the arm controller reported a fault (task aborted): clear_fault
 
   kInternal = 900,             // a bug: please report
 };

@@ -23,12 +23,15 @@ class CameraToBase {
  public:
   // Accepts a 4x4 homogeneous matrix whose rotation is orthonormal to `tolerance` (max abs entry
   // of R^T R - I), det(R) = +1 within tolerance, and bottom row exactly 0 0 0 1; all finite.
-  // The error's field is "rotation", "determinant", "bottom_row" or "matrix".
+  // The error's field is "rotation", "determinant", "bottom_row" (code kTransformNotRigid) or
+  // "matrix" (kNonFinite). An accepted rotation is snapped to the nearest exact rotation (SVD), so
+  // to_camera inverts to_base to rounding error.
   static Result<CameraToBase> from_matrix(const Eigen::Matrix4d& matrix, double tolerance = 1e-6);
 
   Vec3 to_base(const Vec3& camera_point_m) const { return transform_ * camera_point_m; }
   Vec3 to_camera(const Vec3& base_point_m) const { return transform_.inverse() * base_point_m; }
-  // Expresses a framed point in the base frame.
+  // Expresses a framed point in the base frame. A Frame value outside the enum gives NaNs (which
+  // every later finite check refuses); check_depth reports it as kUnknownFrame.
   Vec3 to_base(const FramedPoint& point) const;
   const Eigen::Isometry3d& isometry() const { return transform_; }
 
@@ -47,8 +50,10 @@ struct Span {
 // Algorithm 1 in the base frame: length = |P1P2|; y1 - y2 > 0 -> CCW, < 0 -> CW.
 // Where the paper silently answers CW, this refuses: kPointsTooClose (|P1P2| below the minimum
 // separation), kAmbiguousDirection (|y1 - y2| below the minimum separation) or
-// kPointsNotSideBySide (|y1 - y2| / |P1P2| below min_lateral_fraction). kNonFinite for NaN/inf.
-// Fields are "p1" / "p2".
+// kPointsNotSideBySide (|y1 - y2| / |P1P2| below min_lateral_fraction), checked in that order, so
+// y1 == y2 is always kAmbiguousDirection. kNonFinite for NaN/inf (field "p1.x" .. "p2.z"); the
+// other errors name "p2". P1 is the hinge side: a door hinged on the robot's left (larger y)
+// opens CCW.
 Result<Span> measure_span(const Vec3& p1_base_m, const Vec3& p2_base_m, const Tolerances& tol);
 
 // ---- Door plane (eq. 3-4 and least squares) ---------------------------------------------------
@@ -67,16 +72,19 @@ Result<Plane> plane_from_three_points(const Vec3& a_m, const Vec3& b_m, const Ve
 
 // N >= 3 points: least-squares plane (SVD of the centred points) with its RMS residual.
 // Degeneracy is scale-aware: second singular value / first below tol.collinearity -> collinear.
-// With exactly three points the normal equals plane_from_three_points'.
+// With exactly three points it is plane_from_three_points. Fewer than 3: kBadCount ("points").
+// Non-finite: kNonFinite ("points[i].x"). A plane through the base origin has no robot side: its
+// normal is made to face -x (then -y, then -z).
 Result<Plane> fit_plane(std::span<const Vec3> points_base_m, const Tolerances& tol);
 
 // ---- Signed yaw deviation ----------------------------------------------------------------------
 
 // The signed angle (radians, counter-clockwise about base +z positive, in (-pi/2, pi/2)) that the
 // base must turn so that its +x axis points squarely into the door, i.e. along -normal projected on
-// the floor. Independent of the order the points were picked in (the normal is oriented toward the
-// robot first). kPlaneNotVertical when the normal tilts more than tol.max_door_tilt_rad from
-// horizontal.
+// the floor: atan2(-n.y, -n.x). Independent of the order the points were picked in (the normal is
+// oriented toward the robot first). kPlaneNotVertical (field "points") when the normal tilts more
+// than tol.max_door_tilt_rad from horizontal; kYawOutOfRange ("yaw_deviation_rad") when the door
+// does not face the robot's front half (|yaw| >= pi/2); kNonFinite for a zero or NaN normal.
 Result<double> yaw_deviation_rad(const Plane& plane, const Tolerances& tol);
 
 // ---- Wheel angles (eq. 6-7) --------------------------------------------------------------------
@@ -96,20 +104,28 @@ struct WheelCommand {
   double residual_yaw_rad = 0;
 };
 
+// `base` must be valid (positive radii, gear ratio and counts per rev; the config checks it). A
+// non-finite yaw, or one whose counts would exceed 2^53, gives an all-zero command (nothing moves)
+// with residual_yaw_rad = yaw_rad.
 WheelCommand wheel_command(double yaw_rad, const BaseGeometry& base);
 
-// Wheel rotation (rad, wheel-forward positive) for a motor count on an axis, and back.
+// Wheel rotation (rad, wheel-forward positive) for a card count on an axis (polarity applied):
+// counts * polarity / (gear_ratio * counts_per_rev) * 2pi. With base_yaw_from_wheels_rad this is
+// the exact inverse of wheel_command: commanding the yaw read back from counts gives those counts.
 double counts_to_wheel_rad(std::int64_t counts, const WheelAxis& axis, const BaseGeometry& base);
-// Base yaw (rad, CCW positive) implied by left/right wheel rotations (differential drive in place).
+// Base yaw (rad, CCW positive) implied by left/right wheel rotations (differential drive in place):
+// (right - left) / 2 * R_W / R_B.
 double base_yaw_from_wheels_rad(double left_wheel_rad, double right_wheel_rad,
                                 const BaseGeometry& base);
 
 // ---- Validation predicates ----------------------------------------------------------------------
 // Each returns Ok or an Error whose field names the offending input (using `field`).
 
+// kNonFinite naming the coordinate: field "p2" -> "p2.z".
 Status check_finite(const Vec3& p, std::string_view field);
 // A point given in the camera frame must lie within [min_depth_m, max_depth_m] along camera z.
-// A base-frame point is taken back to the camera frame first.
+// A base-frame point is taken back to the camera frame first. Bounds inclusive.
+// kPointOutOfDepthRange (field), kUnknownFrame (field + ".frame").
 Status check_depth(const FramedPoint& p, const CameraToBase& t, const Limits& limits,
                    std::string_view field);
 Status check_door_width(double width_m, const Limits& limits, std::string_view field = "width_m");
@@ -117,7 +133,13 @@ Status check_handle_length(double length_m, const Limits& limits,
                            std::string_view field = "handle_length_m");
 Status check_yaw(double yaw_rad, const Limits& limits, std::string_view field = "yaw_deviation_rad");
 
-// Reach margin (m): how far inside the arm workspace a base-frame point is; negative = outside.
+// Ranges are inclusive; a NaN value gives kNonFinite. Messages carry the value and the range, e.g.
+// "door width 40.000 m is outside the allowed range 0.500..2.000 m".
+//
+// Reach margin (m): the distance from a base-frame point to the nearest workspace boundary (inner
+// sphere, outer sphere, bottom or top of the z band), i.e. min(r - min_reach, max_reach - r,
+// z - min_z, max_z - z) with r = |p - shoulder|; negative = outside (then by how much it misses
+// the most violated boundary). check_reach: kOutOfReach when the margin is negative.
 double reach_margin_m(const Vec3& p_base_m, const ArmWorkspace& arm);
 Status check_reach(const Vec3& p_base_m, const ArmWorkspace& arm, std::string_view field);
 

@@ -10,7 +10,9 @@
 namespace ajar::core {
 
 // Door width (paper IV.A): P1 on the hinge side, P2 near the moving edge. Checks, in order:
-// finite ("p1"/"p2"), depth range, Algorithm 1 degeneracies, width range ("width_m").
+// finite ("p1.x".."p2.z"), known frame ("p1.frame"), depth range ("p1"/"p2"), Algorithm 1
+// degeneracies ("p2"), width range ("width_m"). p1_base_m / p2_base_m: the points in the base
+// frame.
 struct SpanMeasurement {
   Span span;
   Vec3 p1_base_m = Vec3::Zero();
@@ -27,6 +29,10 @@ Result<SpanMeasurement> measure_handle(const FramedPoint& p1, const FramedPoint&
 // Door plane (paper V.A), 3..16 points ("points[i]"): finite, depth, degeneracy, plane fit
 // (three points: cross product; more: least squares), RMS residual ("rms_residual_m"), tilt,
 // yaw within the maximum correction ("yaw_deviation_rad"); then the wheel command (eq. 6-7).
+// Count outside kMinPlanePoints..kMaxPlanePoints: kBadCount ("points"). No heap allocation for the
+// points themselves; the SVD of 4+ points allocates.
+inline constexpr int kMinPlanePoints = 3;
+inline constexpr int kMaxPlanePoints = 16;  // more: kBadCount, field "points"
 struct PlaneMeasurement {
   Plane plane;
   double yaw_deviation_rad = 0;
@@ -37,7 +43,8 @@ Result<PlaneMeasurement> measure_door_plane(std::span<const FramedPoint> points,
                                             const CameraToBase& t, const Limits& limits,
                                             const BaseGeometry& base);
 
-// Contact point (paper IV.C): finite, depth, within the arm's workspace ("contact").
+// Contact point (paper IV.C): finite ("contact.x"), depth, within the arm's workspace ("contact").
+// reach_margin_m: see reach_margin_m() (>= 0 here).
 struct ContactMeasurement {
   Vec3 contact_base_m = Vec3::Zero();
   double reach_margin_m = 0;

@@ -11,7 +11,10 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <string>
+#include <vector>
 
+#include "ajar/drivers/factory.hpp"
 #include "ajar/protocol/messages.hpp"
 
 namespace ajar::daemon {
@@ -25,6 +28,10 @@ class Engine {
   using EventSink = std::function<void(const protocol::Event&)>;
 
   virtual ~Engine() = default;
+
+  // Where events go (every session). Set it before start(); the engine keeps a copy. Events
+  // emitted while no sink is set are dropped.
+  virtual void set_event_sink(EventSink sink) { (void)sink; }
 
   // Brings the drivers up (init -> configured -> active), restores persisted parameters, and starts
   // the control thread. Throws ajar::daemon::StartupError naming what failed.
@@ -43,8 +50,8 @@ class Engine {
   // and latches kDeadman when no heartbeat arrives for safety.deadman_timeout_s while moving.
   // Thread-safe (an atomic store).
   virtual void controller_heartbeat() noexcept = 0;
-  // The controlling session went away (disconnect or take-over). If anything moves, it is stopped at
-  // once and kDeadman latches.
+  // The controlling session went away (disconnect or take-over). If anything moves, it is stopped
+  // at once and kDeadman latches.
   virtual void controller_lost() = 0;
 
   // Called periodically (at least every few ms) on the I/O thread: drains control-loop reports,
@@ -58,9 +65,21 @@ class Engine {
   // Health for systemd's watchdog: true while the control loop keeps its period (it has completed a
   // cycle within the last few periods). Thread-safe.
   virtual bool control_loop_healthy() const noexcept = 0;
+
+  // Warnings from start() for the network layer to log (the engine never logs): realtime
+  // scheduling or mlockall refused, a corrupt/unreadable state file (started clean), a restored
+  // state that no longer validates with the current config. Valid after start().
+  virtual std::vector<std::string> startup_warnings() const { return {}; }
+  // Warnings that arose since the last call (e.g. the state file could not be written). Call after
+  // poll() and log them.
+  virtual std::vector<std::string> take_warnings() { return {}; }
 };
 
-// Builds the engine for a loaded config (drivers selected by config.drivers.kind).
+// Builds the engine for a loaded config (drivers selected by config.drivers.kind). Throws
+// StartupError when the drivers cannot be created (e.g. a vendor library is missing).
 std::unique_ptr<Engine> make_engine(const Config& config);
+// The same over drivers made elsewhere (tests: fakes or mocks). `drivers.card` and `drivers.arm`
+// must be set.
+std::unique_ptr<Engine> make_engine(const Config& config, drivers::DriverSet drivers);
 
 }  // namespace ajar::daemon

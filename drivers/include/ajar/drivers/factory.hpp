@@ -29,8 +29,14 @@ struct DriverSet {
 // kReal: GTS4 driver over settings.card.library_path + serial arm on settings.arm.device.
 // kSim:  the same GTS4 driver over the card simulator library + the serial arm driver over a
 //        pseudo-terminal to an in-process arm-controller simulator.
-// kMock: in-process doubles with settings.mock's fault menu.
-// Throws DriverStartupError when something cannot be loaded or opened.
+//        settings.card.library_path empty = the simulator built with this tree; simulated time
+//        runs settings.sim_speedup times faster (card simulator and arm task duration).
+// kMock: in-process doubles with settings.mock's fault menu (MockMotionCard's clock also runs
+//        sim_speedup times faster).
+// The drivers come back bare and unopened: the caller wraps them in the lifecycle (lifecycle.hpp;
+// the card in ManagedMotionCard over base.left/right.card_axis) and brings them up through it.
+// Throws DriverStartupError when something cannot be loaded (library path, missing symbol) or the
+// settings are unusable (wheel axes outside 1..card.axis_count or equal, sim_speedup <= 0).
 DriverSet make_drivers(const DriverSettings& settings, const core::BaseGeometry& base);
 
 }  // namespace ajar::drivers

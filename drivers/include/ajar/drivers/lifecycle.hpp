@@ -7,6 +7,29 @@
 //
 // Motion calls (move_relative, hand_off, ...) are refused with kDriverNotActive unless active.
 // Stops (smooth_stop, emergency_stop, stop) are always passed through: stopping is never refused.
+//
+// Transitions called in the wrong state return kWrongState and change nothing. A failing
+// configure() leaves the wrapper unconfigured; any other failing call that means the hardware is
+// unhealthy latches kFault (the call's own error is returned). What latches:
+// - card: kCardCommunication, kCardOpenFailed, kAxisAlarm, kFollowingError, kMotionTimeout (the
+//   servo did not come on), and an axis_status() that reports a drive alarm or following error;
+// - arm: kDriverError and kInternal (the implementation is broken). Link trouble
+//   (kArmDisconnected, kArmTimeout) and refusals (kArmRejected) do not latch here: the serial
+//   driver reconnects on its own and reports them in status(); the procedure latches its own fault.
+// Not latched (the caller's or the situation's doing): kCardBadParameter, kCardBusy, kLimitHit,
+// kEmergencyStopped, kDriverError from the card (e.g. servo off).
+//
+// The MotionCard / Manipulator interface of a wrapper drives the lifecycle too, so code that only
+// knows the interface brings a wrapped driver up in the usual order:
+//   open() = configure(); close() = deactivate() (if active) + cleanup();
+//   enable_axes() is allowed when inactive or active and makes it active;
+//   disable_axes() is allowed in any configured state and makes an active wrapper inactive;
+//   clear_faults() in kFault = the implementation's clear_faults() + recover();
+//   axis_status() is always passed through.
+//   connect() = configure(); disconnect() = deactivate() (if active) + cleanup();
+//   clear_fault() in kFault = recover(); status() is always passed through.
+//
+// Threading: like the drivers they wrap, one owner thread (the card: the control thread).
 #pragma once
 
 #include <cstdint>
@@ -18,20 +41,32 @@
 
 namespace ajar::drivers {
 
-enum class LifecycleState : std::uint8_t { kUnconfigured = 0, kInactive = 1, kActive = 2, kFault = 3 };
+enum class LifecycleState : std::uint8_t {
+  kUnconfigured = 0,
+  kInactive = 1,
+  kActive = 2,
+  kFault = 3
+};
 const char* to_string(LifecycleState s) noexcept;
 
 // Wraps a MotionCard; itself a MotionCard so the control loop depends on the interface only.
 class ManagedMotionCard final : public MotionCard {
  public:
-  // `axes` are the axes this card drives (the two wheels): activate() enables exactly those.
-  ManagedMotionCard(std::unique_ptr<MotionCard> impl, std::span<const int> axes);
+  // `axes` are the axes this card drives (the two wheels, at most 8): activate() enables exactly
+  // those. deactivate() waits up to stop_timeout_ms for the smooth stop before it disables them.
+  // Throws std::invalid_argument for more than 8 axes or a null impl.
+  ManagedMotionCard(std::unique_ptr<MotionCard> impl, std::span<const int> axes,
+                    int stop_timeout_ms = 5000);
 
-  Status configure();   // open(): unconfigured -> inactive
-  Status activate();    // clear faults, enable axes: inactive -> active
-  Status deactivate();  // smooth stop, disable axes: active -> inactive
-  Status cleanup();     // close(): inactive -> unconfigured
-  Status recover();     // fault -> inactive (clear faults) when the card answers again
+  Status configure();  // open(): unconfigured -> inactive
+  Status activate();   // clear faults, enable axes: inactive -> active
+  // Smooth stop, poll (1 ms sleeps) until the axes rest or stop_timeout_ms passed (then emergency
+  // stop), disable axes: active -> inactive.
+  Status deactivate();
+  Status cleanup();  // close(): inactive or fault -> unconfigured
+  // fault -> inactive: clear faults, then every axis must answer axis_status() without a drive
+  // alarm or following error; otherwise stays in fault and returns why.
+  Status recover();
   LifecycleState state() const noexcept { return state_; }
 
   Status open() override;
@@ -48,17 +83,22 @@ class ManagedMotionCard final : public MotionCard {
   std::unique_ptr<MotionCard> impl_;
   int axes_[8] = {};
   std::size_t axis_count_ = 0;
+  int stop_timeout_ms_ = 5000;
   LifecycleState state_ = LifecycleState::kUnconfigured;
+
+  std::span<const int> axes() const { return {axes_, axis_count_}; }
+  Status track(Status s);
 };
 
 class ManagedManipulator final : public Manipulator {
  public:
+  // Throws std::invalid_argument for a null impl.
   explicit ManagedManipulator(std::unique_ptr<Manipulator> impl);
 
   Status configure();   // connect(): unconfigured -> inactive
   Status activate();    // inactive -> active
   Status deactivate();  // stop(): active -> inactive
-  Status cleanup();     // disconnect(): inactive -> unconfigured
+  Status cleanup();     // disconnect(): inactive or fault -> unconfigured
   Status recover();     // fault -> inactive (clear_fault)
   LifecycleState state() const noexcept { return state_; }
 
@@ -72,6 +112,8 @@ class ManagedManipulator final : public Manipulator {
  private:
   std::unique_ptr<Manipulator> impl_;
   LifecycleState state_ = LifecycleState::kUnconfigured;
+
+  Status track(Status s);
 };
 
 }  // namespace ajar::drivers

@@ -14,6 +14,7 @@ struct GtsCardSettings {
   std::string card_config_path;      // passed to GT_LoadConfig; empty = skip
   int channel = 0;                   // GT_Open channel
   int poll_timeout_ms = 2000;        // deadline for start-up waits (e.g. servo on)
+  int axis_count = 4;                // axes on the card (GTS-400: 4, GTS-800: 8); valid 1..n
 };
 
 struct SerialArmSettings {

@@ -16,18 +16,19 @@ namespace ajar::protocol {
 
 inline constexpr std::uint32_t kMagic = 0x52414A41;  // bytes "AJAR" on the wire
 inline constexpr std::size_t kHeaderSize = 22;
-inline constexpr std::size_t kMaxPayloadSize = 1024;   // hard maximum, checked before reading
+inline constexpr std::size_t kMaxPayloadSize = 1024;  // hard maximum, checked before reading
 inline constexpr std::size_t kMaxFrameSize = kHeaderSize + kMaxPayloadSize;
 
-// Flag bits. Unknown (reserved) bits set by a peer are reported with kUnknownFlags.
+// Flag bits. Flags are must-understand: a frame with a reserved bit set is refused as a whole with
+// kUnknownFlags (framing_lost false; the message is NOT processed; the session continues).
 enum Flags : std::uint16_t {
   kFlagNone = 0,
-  kFlagRetransmit = 1u << 0,   // host: this is a retry of an earlier request id (informational)
+  kFlagRetransmit = 1u << 0,  // host: this is a retry of an earlier request id (informational)
   kFlagKnownMask = kFlagRetransmit,
 };
 
 struct Envelope {
-  std::uint32_t request_id = 0;   // replies echo the request's id; daemon-initiated frames use 0
+  std::uint32_t request_id = 0;  // replies echo the request's id; daemon-initiated frames use 0
   std::uint16_t flags = 0;
   Message message;
 };
@@ -36,7 +37,7 @@ struct FrameHeader {
   std::uint32_t magic = kMagic;
   std::uint8_t version_major = kVersionMajor;
   std::uint8_t version_minor = kVersionMinor;
-  std::uint16_t type = 0;          // raw MessageType
+  std::uint16_t type = 0;  // raw MessageType
   std::uint16_t flags = 0;
   std::uint32_t request_id = 0;
   std::uint32_t payload_length = 0;
@@ -44,18 +45,35 @@ struct FrameHeader {
 };
 
 // Encodes `envelope` as one frame into `out` (which must hold kMaxFrameSize bytes at most needed).
-// Returns the frame size in bytes, or 0 when `out` is too small. Never allocates.
+// Returns the frame size in bytes, or 0 when `out` is too small or the message cannot be encoded:
+// an Ack whose body alternative does not match `acknowledged` (or acknowledges a non-request type),
+// a MeasureDoorPlane whose count is outside 3..16. Never allocates. The header carries this
+// library's version (kVersionMajor.kVersionMinor). Values are not validated otherwise: a sender
+// must not put NaN/infinity in numeric fields (the peer's decoder refuses the frame).
 std::size_t encode(const Envelope& envelope, std::span<std::uint8_t> out) noexcept;
-// Convenience: appends one frame to `out`.
-void encode_append(const Envelope& envelope, std::vector<std::uint8_t>& out);
+// Convenience: appends one frame to `out`. Returns false (and leaves `out` unchanged) when the
+// message cannot be encoded (see encode()).
+bool encode_append(const Envelope& envelope, std::vector<std::uint8_t>& out);
+
+// True when the two messages are of the same type and encode to the same payload bytes (doubles
+// compared bit for bit). Used by tests, the fuzzer and conformance checks.
+bool wire_equal(const Message& a, const Message& b) noexcept;
 
 // A decoding failure: what was wrong, where, and whether the byte stream can continue.
+// framing_lost is true for kBadMagic, kUnsupportedVersion and kPayloadTooLarge (and for a
+// decode_frame() input that is not exactly one frame); every other error skips exactly the one
+// frame (its declared length) and the stream continues with the next frame.
+// Order of checks: magic, major version, payload length maximum, CRC, flags, type, then the
+// payload: the fields that size it (Ack.acknowledged, MeasureDoorPlane.count), the payload length
+// for the type, then every other field in wire order; the first failure is reported.
+// A frame whose minor version is newer than kVersionMinor may carry a longer payload (fields
+// appended by the newer minor): the extra bytes are ignored. Otherwise the length must be exact.
 struct DecodeError {
   ErrorCode code = ErrorCode::kOk;
-  std::uint32_t request_id = 0;    // from the header when it was readable, else 0
-  std::uint16_t type = 0;          // raw message type from the header when readable, else 0
-  bool framing_lost = false;       // true: the connection must be closed (bad magic, oversize)
-  const char* field = "";          // offending field, e.g. "points[2].z", "frame", "header.crc"
+  std::uint32_t request_id = 0;  // from the header when it was readable, else 0
+  std::uint16_t type = 0;        // raw message type from the header when readable, else 0
+  bool framing_lost = false;     // true: the connection must be closed (bad magic, oversize)
+  const char* field = "";        // offending field, e.g. "points[2].z", "frame", "header.crc"
 };
 
 // Streaming decoder. Feed it bytes as they arrive, in any chunking (one byte at a time works);
@@ -65,13 +83,14 @@ class StreamDecoder {
   enum class Kind { kNeedMore, kMessage, kError };
   struct Outcome {
     Kind kind = Kind::kNeedMore;
-    Envelope envelope;     // valid when kind == kMessage
-    DecodeError error;     // valid when kind == kError
+    Envelope envelope;  // valid when kind == kMessage
+    DecodeError error;  // valid when kind == kError
   };
 
   // Consumes bytes from `in` until one outcome is produced or `in` is exhausted; returns the number
   // of bytes consumed. Call again with the rest of `in` while it is non-empty. After an error with
-  // framing_lost the decoder stays failed (every later call yields the same error) until reset().
+  // framing_lost the decoder stays failed (every later call consumes all of `in` and yields the
+  // same error) until reset(). Bad magic is detected at the first wrong byte.
   std::size_t feed(std::span<const std::uint8_t> in, Outcome& outcome) noexcept;
   void reset() noexcept;
 

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string_view>
 #include <variant>
@@ -19,7 +20,16 @@ inline constexpr std::uint8_t kVersionMinor = 0;
 inline constexpr std::size_t kMaxPlanePoints = 16;
 inline constexpr std::size_t kMinPlanePoints = 3;
 
-// A string with a fixed capacity and an explicit length (wire: u8 length + bytes, see spec).
+// Copies `in` into `out` (capacity `capacity`) so that the result is valid on the wire: at most
+// `capacity` bytes, cut only at a UTF-8 code point boundary, invalid UTF-8 bytes replaced by '?',
+// control characters (U+0000..U+001F, U+007F) replaced by ' '. Returns the length written.
+std::size_t copy_wire_string(std::string_view in, char* out, std::size_t capacity) noexcept;
+// True when `s` is acceptable as a wire string: valid UTF-8 without control characters.
+bool is_wire_string(std::string_view s) noexcept;
+
+// A string with a fixed capacity and an explicit length (wire: u8 length + N bytes, zero padded;
+// see docs/protocol.md). assign() sanitizes (see copy_wire_string) so that what is stored always
+// encodes into something the peer's decoder accepts.
 template <std::size_t N>
 struct FixedString {
   static_assert(N <= 255);
@@ -28,12 +38,15 @@ struct FixedString {
 
   FixedString() = default;
   FixedString(std::string_view s) { assign(s); }  // NOLINT: implicit, truncates to N
+  FixedString(const char* s) : FixedString(std::string_view(s)) {}  // NOLINT: implicit
   void assign(std::string_view s) {
-    length = static_cast<std::uint8_t>(std::min(s.size(), N));
-    std::copy_n(s.data(), length, bytes.data());
+    bytes.fill('\0');
+    length = static_cast<std::uint8_t>(copy_wire_string(s, bytes.data(), N));
   }
   std::string_view view() const { return {bytes.data(), length}; }
-  friend bool operator==(const FixedString& a, const FixedString& b) { return a.view() == b.view(); }
+  friend bool operator==(const FixedString& a, const FixedString& b) {
+    return a.view() == b.view();
+  }
 };
 
 enum class MessageType : std::uint16_t {
@@ -65,16 +78,16 @@ enum class Role : std::uint8_t { kController = 0, kObserver = 1 };
 
 // The procedure (paper Fig. 4) as the daemon enforces it.
 enum class ProcedureState : std::uint8_t {
-  kAwaitingWidth = 0,    // nothing measured yet
-  kAwaitingHandle = 1,   // width stored
-  kAwaitingPlane = 2,    // width and handle stored
-  kReadyToAlign = 3,     // plane stored, base not aligned
-  kAligning = 4,         // wheels turning
-  kAligned = 5,          // base squared up; awaiting the contact point
-  kReadyToEngage = 6,    // contact point stored
-  kEngaging = 7,         // task handed to the arm, arm working
-  kEngaged = 8,          // arm accepted/finished the hand-off
-  kFault = 9,            // a fault is latched: only Stop, EmergencyStop, Reset, GetStatus, ...
+  kAwaitingWidth = 0,   // nothing measured yet
+  kAwaitingHandle = 1,  // width stored
+  kAwaitingPlane = 2,   // width and handle stored
+  kReadyToAlign = 3,    // plane stored, base not aligned
+  kAligning = 4,        // wheels turning
+  kAligned = 5,         // base squared up; awaiting the contact point
+  kReadyToEngage = 6,   // contact point stored
+  kEngaging = 7,        // task handed to the arm, arm working
+  kEngaged = 8,         // arm accepted/finished the hand-off
+  kFault = 9,           // a fault is latched: only Stop, EmergencyStop, Reset, GetStatus, ...
 };
 
 enum class EventKind : std::uint8_t {
@@ -84,13 +97,13 @@ enum class EventKind : std::uint8_t {
   kMotionStopped = 3,
   kFaultLatched = 4,
   kFaultCleared = 5,
-  kControlChanged = 6,   // the controller session changed (take-over, disconnect)
+  kControlChanged = 6,  // the controller session changed (take-over, disconnect)
 };
 
 enum class ArmState : std::uint8_t {
   kDisconnected = 0,
   kIdle = 1,
-  kBusy = 2,             // executing a door task
+  kBusy = 2,  // executing a door task
   kDone = 3,
   kFault = 4,
 };
@@ -111,27 +124,41 @@ struct Hello {
   std::uint8_t version_major = kVersionMajor;
   std::uint8_t version_minor = kVersionMinor;
   Role requested_role = Role::kObserver;
-  bool take_over = false;              // controller only: take control from the current controller
+  bool take_over = false;  // controller only: take control from the current controller
   std::uint64_t client_instance_id = 0;  // survives reconnects; keys duplicate detection
   FixedString<32> client_name;
 };
-struct Ping { std::uint64_t client_time_ns = 0; };
-struct MeasureDoorWidth { FramedPoint p1_hinge; FramedPoint p2_moving_edge; };
-struct MeasureHandle { FramedPoint p1_axis; FramedPoint p2_free_end; };
+struct Ping {
+  std::uint64_t client_time_ns = 0;
+};
+struct MeasureDoorWidth {
+  FramedPoint p1_hinge;
+  FramedPoint p2_moving_edge;
+};
+struct MeasureHandle {
+  FramedPoint p1_axis;
+  FramedPoint p2_free_end;
+};
 struct MeasureDoorPlane {
-  std::uint8_t count = 0;   // 3..16 on the wire
+  std::uint8_t count = 0;  // 3..16 on the wire
   std::array<FramedPoint, kMaxPlanePoints> points{};
 };
-struct SetContactPoint { FramedPoint contact; };
+struct SetContactPoint {
+  FramedPoint contact;
+};
 struct AlignBase {};
 struct Engage {};
 struct Stop {};
 struct EmergencyStop {};
-// Clears a latched fault (drivers are recovered). With clear_parameters it also aborts the procedure:
-// every stored measurement is discarded and the state returns to kAwaitingWidth.
-struct Reset { bool clear_parameters = false; };
+// Clears a latched fault (drivers are recovered). With clear_parameters it also aborts the
+// procedure: every stored measurement is discarded and the state returns to kAwaitingWidth.
+struct Reset {
+  bool clear_parameters = false;
+};
 struct GetStatus {};
-struct Subscribe { float telemetry_rate_hz = 0; };  // 0 = off; capped at the loop rate
+struct Subscribe {
+  float telemetry_rate_hz = 0;
+};  // 0 = off; capped at the loop rate
 
 // ---- daemon -> host -----------------------------------------------------------------------------
 
@@ -147,33 +174,36 @@ struct Welcome {
   float min_handle_length_m = 0, max_handle_length_m = 0;
   float max_yaw_correction_rad = 0;
 };
-struct Pong { std::uint64_t client_time_ns = 0; std::uint64_t daemon_time_ns = 0; };
+struct Pong {
+  std::uint64_t client_time_ns = 0;
+  std::uint64_t daemon_time_ns = 0;
+};
 
 // What an Ack carries depends on what it acknowledges.
-struct SpanAck {            // MeasureDoorWidth, MeasureHandle
+struct SpanAck {  // MeasureDoorWidth, MeasureHandle
   double length_m = 0;
   core::RotationDirection direction = core::RotationDirection::kClockwise;
   core::Vec3 p1_base_m = core::Vec3::Zero();
   core::Vec3 p2_base_m = core::Vec3::Zero();
 };
-struct PlaneAck {           // MeasureDoorPlane
-  core::Vec3 normal = core::Vec3::UnitX();   // unit, toward the robot, base frame
-  double yaw_deviation_rad = 0;              // CCW positive
+struct PlaneAck {                           // MeasureDoorPlane
+  core::Vec3 normal = core::Vec3::UnitX();  // unit, toward the robot, base frame
+  double yaw_deviation_rad = 0;             // CCW positive
   double left_wheel_rad = 0, right_wheel_rad = 0;
   std::int64_t left_counts = 0, right_counts = 0;
-  double residual_yaw_rad = 0;               // left undone by rounding to counts
+  double residual_yaw_rad = 0;  // left undone by rounding to counts
   double rms_residual_m = 0;
   std::uint8_t point_count = 0;
 };
-struct ContactAck {         // SetContactPoint
+struct ContactAck {  // SetContactPoint
   core::Vec3 contact_base_m = core::Vec3::Zero();
   double reach_margin_m = 0;
 };
-struct EmptyAck {};         // everything else (AlignBase: motion accepted; Stop; Reset; Subscribe)
+struct EmptyAck {};  // everything else (AlignBase: motion accepted; Stop; Reset; Subscribe)
 using AckBody = std::variant<EmptyAck, SpanAck, PlaneAck, ContactAck>;
 
 struct Ack {
-  MessageType acknowledged = MessageType::kPing;  // body layout follows from this
+  MessageType acknowledged = MessageType::kPing;          // body layout follows from this
   ProcedureState state = ProcedureState::kAwaitingWidth;  // state after the command
   AckBody body;
 };
@@ -188,7 +218,7 @@ struct ErrorReply {
 struct Event {
   EventKind kind = EventKind::kStateChanged;
   ProcedureState state = ProcedureState::kAwaitingWidth;
-  ErrorCode fault = ErrorCode::kOk;    // for kFaultLatched; kOk otherwise
+  ErrorCode fault = ErrorCode::kOk;  // for kFaultLatched; kOk otherwise
   std::uint64_t daemon_time_ns = 0;
   FixedString<120> detail;
 };
@@ -198,20 +228,24 @@ struct LoopStatistics {
   std::uint64_t cycles = 0;
   std::uint64_t overruns = 0;
   std::uint32_t period_p50_ns = 0, period_p99_ns = 0, period_max_ns = 0;
-  std::uint32_t jitter_p99_ns = 0;   // |period - nominal|, p99
+  std::uint32_t jitter_p99_ns = 0;  // |period - nominal|, p99
 };
 
 struct Status {
   ProcedureState state = ProcedureState::kAwaitingWidth;
   ErrorCode latched_fault = ErrorCode::kOk;
-  bool restored_from_disk = false;   // parameters came back from the state file at start
+  bool restored_from_disk = false;  // parameters came back from the state file at start
   bool controller_connected = false;
   std::uint16_t session_count = 0;
   // Stored parameters; each `has_` says whether the value below is meaningful.
-  bool has_width = false;  SpanAck width;
-  bool has_handle = false; SpanAck handle;
-  bool has_plane = false;  PlaneAck plane;
-  bool has_contact = false; ContactAck contact;
+  bool has_width = false;
+  SpanAck width;
+  bool has_handle = false;
+  SpanAck handle;
+  bool has_plane = false;
+  PlaneAck plane;
+  bool has_contact = false;
+  ContactAck contact;
   double base_yaw_odometry_rad = 0;  // CCW positive, since daemon start
   DriverState card = DriverState::kUnconfigured;
   DriverState arm = DriverState::kUnconfigured;
@@ -220,25 +254,25 @@ struct Status {
 };
 
 struct Telemetry {
-  std::uint64_t daemon_time_ns = 0;   // monotonic, since daemon start
+  std::uint64_t daemon_time_ns = 0;  // monotonic, since daemon start
   ProcedureState state = ProcedureState::kAwaitingWidth;
   bool moving = false;
-  double left_wheel_rad = 0, right_wheel_rad = 0;       // from encoders, wheel-forward positive
-  std::int64_t left_counts = 0, right_counts = 0;       // encoder counts as read from the card
-  double base_yaw_odometry_rad = 0;                     // CCW positive, since daemon start
+  double left_wheel_rad = 0, right_wheel_rad = 0;  // from encoders, wheel-forward positive
+  std::int64_t left_counts = 0, right_counts = 0;  // encoder counts as read from the card
+  double base_yaw_odometry_rad = 0;                // CCW positive, since daemon start
   ArmState arm_state = ArmState::kDisconnected;
   LoopStatistics loop;
 };
 
-using Message = std::variant<Hello, Ping, MeasureDoorWidth, MeasureHandle, MeasureDoorPlane,
-                             SetContactPoint, AlignBase, Engage, Stop, EmergencyStop, Reset,
-                             GetStatus, Subscribe, Welcome, Pong, Ack, ErrorReply, Event, Status,
-                             Telemetry>;
+using Message =
+    std::variant<Hello, Ping, MeasureDoorWidth, MeasureHandle, MeasureDoorPlane, SetContactPoint,
+                 AlignBase, Engage, Stop, EmergencyStop, Reset, GetStatus, Subscribe, Welcome, Pong,
+                 Ack, ErrorReply, Event, Status, Telemetry>;
 
 // The message type of a value, and whether it travels host -> daemon.
 MessageType type_of(const Message& m) noexcept;
 bool is_request(MessageType t) noexcept;
-std::string_view to_string(MessageType t) noexcept;   // "MeasureDoorWidth", ...
+std::string_view to_string(MessageType t) noexcept;     // "MeasureDoorWidth", ...
 std::string_view to_string(ProcedureState s) noexcept;  // "awaiting_width", ...
 std::string_view to_string(EventKind k) noexcept;
 std::string_view to_string(Role r) noexcept;

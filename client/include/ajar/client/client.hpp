@@ -1,0 +1,134 @@
+// Host-side client of ajard: one TCP connection, the Hello handshake, request/reply with request ids
+// and timeouts, events and telemetry callbacks, and a heartbeat. Linkable by a GUI.
+//
+// Threading contract:
+//  - Every public method is thread-safe and synchronous (it blocks the calling thread until done or
+//    its timeout expires). An internal I/O thread (Boost.Asio) owns the socket.
+//  - Event, telemetry and disconnect callbacks run ON THE I/O THREAD. They must return quickly and
+//    must not call blocking Client methods (request, hello, connect, close): that would deadlock
+//    until the call times out. Copy the value and hand it to your own thread (e.g. post to the GUI
+//    event loop). Set the callbacks before connect(); setting them later is allowed (mutex-guarded).
+//  - The Client must not be destroyed from inside one of its callbacks.
+//
+// Retries: a request that times out is re-sent with the SAME request id (flag kFlagRetransmit); the
+// daemon de-duplicates by (client_instance_id, request id), so a retried command executes once.
+// The client_instance_id survives reconnects of one Client object (random per Client unless given),
+// and request ids keep increasing across reconnects.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "ajar/protocol/codec.hpp"
+#include "ajar/protocol/messages.hpp"
+
+namespace ajar::client {
+
+using Milliseconds = std::chrono::milliseconds;
+
+// "HOST:PORT" (HOST may be a name, an IPv4 address or "[IPv6]"). Port 1..65535.
+struct Endpoint {
+  std::string host = "127.0.0.1";
+  std::uint16_t port = 7450;
+};
+std::optional<Endpoint> parse_endpoint(std::string_view text);
+
+// What a call came back with.
+enum class Outcome {
+  kReply,         // the daemon answered with the expected reply (Ack, Pong, Status, Welcome)
+  kRefused,       // the daemon answered with an ErrorReply (see Response::error)
+  kTimeout,       // no reply within the timeout (after all retries)
+  kDisconnected,  // not connected, connection lost or refused
+};
+std::string_view to_string(Outcome outcome) noexcept;
+
+struct Response {
+  Outcome outcome = Outcome::kDisconnected;
+  protocol::Message reply;          // kReply / kRefused: the reply message as received
+  protocol::ErrorReply error;       // kRefused: a copy of the ErrorReply
+  std::string transport_error;      // kTimeout / kDisconnected: what happened, for people
+  std::uint32_t request_id = 0;     // the id the request travelled with
+  int attempts = 0;                 // frames sent (1 + retries used)
+  Milliseconds round_trip{0};       // send of the last attempt -> reply
+  bool ok() const { return outcome == Outcome::kReply; }
+  template <typename T>
+  const T* get() const { return std::get_if<T>(&reply); }
+};
+
+struct ClientOptions {
+  Milliseconds connect_timeout{3000};
+  Milliseconds request_timeout{3000};   // per attempt
+  int retries = 1;                      // re-sends after the first attempt, same request id
+  std::uint64_t client_instance_id = 0; // 0: random per Client object
+  std::string client_name = "ajarctl";
+};
+
+class Client {
+ public:
+  using EventHandler = std::function<void(const protocol::Event&)>;
+  using TelemetryHandler = std::function<void(const protocol::Telemetry&)>;
+  using DisconnectHandler = std::function<void(const std::string& why)>;
+
+  explicit Client(ClientOptions options = {});
+  ~Client();  // closes the connection and joins the I/O thread
+  Client(const Client&) = delete;
+  Client& operator=(const Client&) = delete;
+
+  // Connects (closing any previous connection). Returns an empty string on success, else why not.
+  std::string connect(const Endpoint& endpoint);
+  std::string connect(const Endpoint& endpoint, Milliseconds timeout);
+  void close();
+  bool connected() const;
+
+  // The Hello handshake. On kReply, Response::get<Welcome>() holds the Welcome (also kept below).
+  Response hello(protocol::Role role, bool take_over = false);
+  std::optional<protocol::Welcome> welcome() const;
+
+  // Sends `request` with a fresh request id and waits for the reply with that id, retrying on
+  // timeout. timeout <= 0 uses options.request_timeout.
+  Response request(const protocol::Message& request, Milliseconds timeout = Milliseconds{0});
+  Response request(const protocol::Message& request, Milliseconds timeout, int retries);
+
+  // Heartbeat: while enabled, the I/O thread sends a Ping every `interval` (keeps the deadman fed
+  // while a controller waits for motion). Their Pongs are swallowed. interval <= 0 disables.
+  void set_heartbeat(Milliseconds interval);
+
+  void on_event(EventHandler handler);
+  void on_telemetry(TelemetryHandler handler);
+  void on_disconnect(DisconnectHandler handler);
+
+  // ---- Low level, for conformance tests --------------------------------------------------------
+  std::uint32_t next_request_id();
+  std::uint64_t client_instance_id() const { return instance_id_; }
+  // Writes raw bytes as they are (no framing). False when not connected.
+  bool send_raw(std::span<const std::uint8_t> bytes);
+  // Encodes and writes one envelope as it is (no id assignment, no waiting).
+  bool send_envelope(const protocol::Envelope& envelope);
+  // Waits for a non-event, non-telemetry frame with `request_id` (any id when nullopt).
+  std::optional<protocol::Envelope> wait_reply(std::optional<std::uint32_t> request_id,
+                                               Milliseconds timeout);
+  // Waits until the daemon closes the connection. True if it did within the timeout.
+  bool wait_closed(Milliseconds timeout);
+  // Drops every queued, unclaimed reply.
+  void discard_replies();
+
+  const ClientOptions& options() const { return options_; }
+
+ private:
+  struct Impl;
+  ClientOptions options_;
+  std::uint64_t instance_id_;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Fills a FramedPoint.
+protocol::FramedPoint framed(core::Frame frame, double x_m, double y_m, double z_m);
+
+}  // namespace ajar::client

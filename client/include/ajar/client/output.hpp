@@ -1,0 +1,39 @@
+// ajarctl's output: every reply, event and telemetry sample as one JSON line (--json) or as text for
+// people. The JSON fields are documented in docs/ajarctl.md; every object has "type" and, for
+// replies, "command" and "ok".
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "ajar/client/client.hpp"
+#include "ajar/client/json.hpp"
+
+namespace ajar::client {
+
+// Client-side error codes for the "error" object when the daemon did not answer (no wire value).
+inline constexpr std::string_view kTimeoutCode = "TIMEOUT";
+inline constexpr std::string_view kDisconnectedCode = "DISCONNECTED";
+
+JsonObject error_object(std::string_view code, std::string_view field, std::string_view message);
+JsonObject error_object(const protocol::ErrorReply& error);
+
+// Fields of a stored/acknowledged value, shared by Ack and Status renderings.
+void add_span_fields(JsonObject& o, const protocol::SpanAck& span, std::string_view length_key);
+void add_plane_fields(JsonObject& o, const protocol::PlaneAck& plane);
+void add_contact_fields(JsonObject& o, const protocol::ContactAck& contact);
+JsonObject status_object(const protocol::Status& status);
+JsonObject welcome_object(const protocol::Welcome& welcome);
+
+// One reply to `command` (e.g. "measure_width"): {"type": "ack"|"error"|"status"|..., "command",
+// "ok", ...}.
+JsonObject response_object(std::string_view command, const Response& response);
+std::string response_text(std::string_view command, const Response& response);
+
+JsonObject event_object(const protocol::Event& event);
+std::string event_text(const protocol::Event& event);
+JsonObject telemetry_object(const protocol::Telemetry& telemetry);
+std::string telemetry_text(const protocol::Telemetry& telemetry);
+std::string status_text(const protocol::Status& status);
+
+}  // namespace ajar::client

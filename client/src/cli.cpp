@@ -1,0 +1,349 @@
+#include "ajar/client/cli.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <sstream>
+
+#include "ajar/version.hpp"
+
+namespace ajar::client {
+
+namespace {
+
+bool parse_double(const std::string& text, double& out) {
+  if (text.empty()) return false;
+  const char* begin = text.data();
+  const char* end = text.data() + text.size();
+  if (*begin == '+') ++begin;
+  const auto [ptr, ec] = std::from_chars(begin, end, out);
+  return ec == std::errc{} && ptr == end && std::isfinite(out);
+}
+
+bool parse_int(const std::string& text, int& out) {
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
+  return ec == std::errc{} && ptr == text.data() + text.size();
+}
+
+bool parse_frame(const std::string& text, core::Frame& frame) {
+  if (text == "camera") {
+    frame = core::Frame::kCamera;
+  } else if (text == "base") {
+    frame = core::Frame::kBase;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// Reads `count` points (3 numbers each) from words; error names the offending word.
+std::string parse_points(std::span<const std::string> words, core::Frame frame,
+                         std::vector<protocol::FramedPoint>& points) {
+  if (words.size() % 3 != 0) {
+    return "points need three coordinates each (X Y Z in metres); got " +
+           std::to_string(words.size()) + " numbers";
+  }
+  for (std::size_t i = 0; i < words.size(); i += 3) {
+    double xyz[3];
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (!parse_double(words[i + k], xyz[k])) {
+        return "not a finite number: '" + words[i + k] + "'";
+      }
+    }
+    points.push_back(framed(frame, xyz[0], xyz[1], xyz[2]));
+  }
+  return {};
+}
+
+CommandParse fail(std::string message) { return CommandParse{std::nullopt, std::move(message)}; }
+
+}  // namespace
+
+std::string usage() {
+  return R"(usage: ajarctl [OPTIONS] COMMAND [ARGS...]
+       ajarctl [OPTIONS] script [FILE]      (commands one per line, from FILE or stdin)
+       ajarctl [OPTIONS] --keep [COMMAND]   (run COMMAND, then commands from stdin)
+
+Drives and inspects ajard over its TCP protocol. Points are in metres, in the camera frame
+unless --frame base.
+
+options:
+  --connect HOST:PORT   daemon address (default 127.0.0.1:7450)
+  --json                one JSON object per line per reply or event (docs/ajarctl.md)
+  --frame camera|base   frame of the points given to measure/contact (default camera)
+  --timeout S           seconds to wait for each reply attempt (default 3)
+  --retries N           re-sends of a timed-out request, same request id (default 1)
+  --take-over           take control from the current controller
+  --keep                after COMMAND, read more commands from stdin (one session)
+  --keep-going          in script mode, continue after a failed command
+  --version, -h/--help
+
+commands:
+  ping [-n N] [-i S]                    round-trip times (min/avg/max/p99)
+  status                                procedure state, stored parameters, drivers, odometry
+  watch [--rate HZ] [--duration S]      telemetry and events until interrupted (Ctrl-C)
+  measure width X1 Y1 Z1 X2 Y2 Z2       P1 on the hinge side, P2 near the moving edge
+  measure handle X1 Y1 Z1 X2 Y2 Z2      P1 on the handle's axis, P2 at its free end
+  measure plane X Y Z X Y Z X Y Z [...] 3 to 16 points on the door
+  contact X Y Z                         the contact point (after alignment)
+  align [--no-wait] [--wait-timeout S]  turn the base square to the door; waits for the outcome
+  engage [--no-wait] [--wait-timeout S] hand the door model and contact point to the arm
+  stop                                  stop motion (any role)
+  estop                                 emergency stop (any role; Reset to continue)
+  reset [--clear]                       clear a latched fault; --clear also discards the procedure
+  sleep S                               (script mode) pause S seconds, keeping the session alive
+  conformance [--vectors DIR]           hold the daemon to the protocol; ends "N passed, N failed"
+  simulate SCENARIO.yaml [--trace FILE] [--seeds N] [--seed S] [--config AJARD.yaml]
+                                        rehearse the whole procedure on a simulated door
+
+measure, contact, align, engage, reset and script mode take the controller role; a one-shot
+'align --no-wait' disconnects during the motion, which the deadman stops: use it in script mode.
+
+exit codes: 0 success, 1 the daemon refused (or a check/tolerance failed), 2 usage,
+            3 connection failure or timeout.
+)";
+}
+
+std::vector<std::string> split_line(const std::string& line) {
+  std::vector<std::string> words;
+  std::istringstream in(line.substr(0, line.find('#')));
+  std::string word;
+  while (in >> word) words.push_back(word);
+  return words;
+}
+
+ParsedArgs parse_global_options(std::span<const std::string> args) {
+  ParsedArgs parsed;
+  auto& o = parsed.options;
+  std::size_t i = 0;
+  auto value = [&](const std::string& name) -> const std::string* {
+    if (i + 1 >= args.size()) {
+      parsed.error = name + " needs a value";
+      return nullptr;
+    }
+    return &args[++i];
+  };
+  for (; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a.empty() || a[0] != '-') break;
+    if (a == "--json") {
+      o.json = true;
+    } else if (a == "--keep") {
+      o.keep = true;
+    } else if (a == "--keep-going") {
+      o.keep_going = true;
+    } else if (a == "--take-over") {
+      o.take_over = true;
+    } else if (a == "-h" || a == "--help") {
+      o.help = true;
+    } else if (a == "--version") {
+      o.version = true;
+    } else if (a == "--connect") {
+      const auto* v = value(a);
+      if (!v) return parsed;
+      auto endpoint = parse_endpoint(*v);
+      if (!endpoint) {
+        parsed.error = "--connect wants HOST:PORT, got '" + *v + "'";
+        return parsed;
+      }
+      o.endpoint = *endpoint;
+    } else if (a == "--frame") {
+      const auto* v = value(a);
+      if (!v) return parsed;
+      if (!parse_frame(*v, o.frame)) {
+        parsed.error = "--frame wants camera or base, got '" + *v + "'";
+        return parsed;
+      }
+    } else if (a == "--timeout") {
+      const auto* v = value(a);
+      if (!v) return parsed;
+      if (!parse_double(*v, o.timeout_s) || o.timeout_s <= 0 || o.timeout_s > 3600) {
+        parsed.error = "--timeout wants seconds in (0, 3600], got '" + *v + "'";
+        return parsed;
+      }
+    } else if (a == "--retries") {
+      const auto* v = value(a);
+      if (!v) return parsed;
+      if (!parse_int(*v, o.retries) || o.retries < 0 || o.retries > 100) {
+        parsed.error = "--retries wants 0..100, got '" + *v + "'";
+        return parsed;
+      }
+    } else {
+      parsed.error = "unknown option '" + a + "'";
+      return parsed;
+    }
+  }
+  parsed.command.assign(args.begin() + static_cast<std::ptrdiff_t>(i), args.end());
+  return parsed;
+}
+
+CommandParse parse_command(std::span<const std::string> words_in, core::Frame frame) {
+  if (words_in.empty()) return fail("no command given (try --help)");
+  // A per-command --frame F may appear anywhere after the command word.
+  std::vector<std::string> words;
+  for (std::size_t i = 0; i < words_in.size(); ++i) {
+    if (i > 0 && words_in[i] == "--frame") {
+      if (i + 1 >= words_in.size() || !parse_frame(words_in[i + 1], frame)) {
+        return fail("--frame wants camera or base");
+      }
+      ++i;
+      continue;
+    }
+    words.push_back(words_in[i]);
+  }
+  const std::string& name = words[0];
+  const std::span<const std::string> rest(words.data() + 1, words.size() - 1);
+  Command c;
+  c.name = name;
+
+  auto wait_options = [&](std::span<const std::string> opts) -> std::string {
+    for (std::size_t i = 0; i < opts.size(); ++i) {
+      if (opts[i] == "--no-wait") {
+        c.wait = false;
+      } else if (opts[i] == "--wait-timeout" && i + 1 < opts.size() &&
+                 parse_double(opts[i + 1], c.wait_timeout_s) && c.wait_timeout_s > 0) {
+        ++i;
+      } else {
+        return "unexpected argument '" + opts[i] + "' for " + name;
+      }
+    }
+    return {};
+  };
+
+  if (name == "ping") {
+    c.kind = Command::Kind::kPing;
+    for (std::size_t i = 0; i < rest.size(); ++i) {
+      if (rest[i] == "-n" && i + 1 < rest.size() && parse_int(rest[i + 1], c.count) &&
+          c.count > 0 && c.count <= 1000000) {
+        ++i;
+      } else if (rest[i] == "-i" && i + 1 < rest.size() && parse_double(rest[i + 1], c.interval_s) &&
+                 c.interval_s >= 0) {
+        ++i;
+      } else {
+        return fail("ping takes [-n COUNT] [-i SECONDS], got '" + rest[i] + "'");
+      }
+    }
+    c.request = protocol::Ping{};
+    return {c, {}};
+  }
+  if (name == "status") {
+    if (!rest.empty()) return fail("status takes no arguments");
+    c.kind = Command::Kind::kStatus;
+    c.request = protocol::GetStatus{};
+    return {c, {}};
+  }
+  if (name == "watch") {
+    c.kind = Command::Kind::kWatch;
+    for (std::size_t i = 0; i < rest.size(); ++i) {
+      if (rest[i] == "--rate" && i + 1 < rest.size() && parse_double(rest[i + 1], c.rate_hz) &&
+          c.rate_hz >= 0) {
+        ++i;
+      } else if (rest[i] == "--duration" && i + 1 < rest.size() &&
+                 parse_double(rest[i + 1], c.duration_s) && c.duration_s >= 0) {
+        ++i;
+      } else {
+        return fail("watch takes [--rate HZ] [--duration S], got '" + rest[i] + "'");
+      }
+    }
+    return {c, {}};
+  }
+  if (name == "measure") {
+    if (rest.empty()) return fail("measure wants width, handle or plane");
+    const std::string& what = rest[0];
+    std::vector<protocol::FramedPoint> points;
+    if (auto e = parse_points(rest.subspan(1), frame, points); !e.empty()) {
+      return fail("measure " + what + ": " + e);
+    }
+    c.kind = Command::Kind::kRequest;
+    c.needs_controller = true;
+    if (what == "width" || what == "handle") {
+      if (points.size() != 2) {
+        return fail("measure " + what + " wants two points: X1 Y1 Z1 X2 Y2 Z2");
+      }
+      if (what == "width") {
+        c.name = "measure_width";
+        c.request = protocol::MeasureDoorWidth{points[0], points[1]};
+      } else {
+        c.name = "measure_handle";
+        c.request = protocol::MeasureHandle{points[0], points[1]};
+      }
+      return {c, {}};
+    }
+    if (what == "plane") {
+      if (points.size() < protocol::kMinPlanePoints || points.size() > protocol::kMaxPlanePoints) {
+        return fail("measure plane wants 3 to 16 points (X Y Z each), got " +
+                    std::to_string(points.size()));
+      }
+      protocol::MeasureDoorPlane plane;
+      plane.count = static_cast<std::uint8_t>(points.size());
+      std::copy(points.begin(), points.end(), plane.points.begin());
+      c.name = "measure_plane";
+      c.request = plane;
+      return {c, {}};
+    }
+    return fail("measure wants width, handle or plane, got '" + what + "'");
+  }
+  if (name == "contact") {
+    std::vector<protocol::FramedPoint> points;
+    if (auto e = parse_points(rest, frame, points); !e.empty()) return fail("contact: " + e);
+    if (points.size() != 1) return fail("contact wants one point: X Y Z");
+    c.kind = Command::Kind::kRequest;
+    c.needs_controller = true;
+    c.request = protocol::SetContactPoint{points[0]};
+    return {c, {}};
+  }
+  if (name == "align" || name == "engage") {
+    if (auto e = wait_options(rest); !e.empty()) return fail(e);
+    c.kind = name == "align" ? Command::Kind::kAlign : Command::Kind::kEngage;
+    c.needs_controller = true;
+    if (name == "align") {
+      c.request = protocol::AlignBase{};
+    } else {
+      c.request = protocol::Engage{};
+    }
+    return {c, {}};
+  }
+  if (name == "stop" || name == "estop") {
+    if (!rest.empty()) return fail(name + " takes no arguments");
+    c.kind = Command::Kind::kRequest;
+    if (name == "stop") {
+      c.request = protocol::Stop{};
+    } else {
+      c.request = protocol::EmergencyStop{};
+    }
+    return {c, {}};
+  }
+  if (name == "reset") {
+    protocol::Reset reset;
+    for (const auto& a : rest) {
+      if (a != "--clear") return fail("reset takes [--clear], got '" + a + "'");
+      reset.clear_parameters = true;
+    }
+    c.kind = Command::Kind::kRequest;
+    c.needs_controller = true;
+    c.request = reset;
+    return {c, {}};
+  }
+  if (name == "sleep") {
+    if (rest.size() != 1 || !parse_double(rest[0], c.duration_s) || c.duration_s < 0) {
+      return fail("sleep wants SECONDS");
+    }
+    c.kind = Command::Kind::kSleep;
+    return {c, {}};
+  }
+  if (name == "conformance" || name == "simulate" || name == "script") {
+    c.kind = name == "conformance" ? Command::Kind::kConformance
+             : name == "simulate"  ? Command::Kind::kSimulate
+                                   : Command::Kind::kScript;
+    c.args.assign(rest.begin(), rest.end());
+    if (c.kind == Command::Kind::kSimulate && c.args.empty()) {
+      return fail("simulate wants SCENARIO.yaml");
+    }
+    if (c.kind == Command::Kind::kScript && c.args.size() > 1) {
+      return fail("script takes at most one FILE");
+    }
+    return {c, {}};
+  }
+  return fail("unknown command '" + name + "' (try --help)");
+}
+
+}  // namespace ajar::client

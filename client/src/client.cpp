@@ -1,0 +1,482 @@
+#include <utility>  // before Asio (asio issue 944 with GCC 12)
+
+#include "ajar/client/client.hpp"
+
+#include <atomic>
+#include <charconv>
+#include <condition_variable>
+#include <deque>
+#include <future>
+#include <mutex>
+#include <random>
+#include <set>
+#include <thread>
+
+#include <boost/asio.hpp>
+
+namespace ajar::client {
+
+namespace asio = boost::asio;
+using tcp = asio::ip::tcp;
+using Clock = std::chrono::steady_clock;
+
+std::optional<Endpoint> parse_endpoint(std::string_view text) {
+  std::string_view host;
+  std::string_view port_text;
+  if (!text.empty() && text.front() == '[') {
+    const auto close = text.find(']');
+    if (close == std::string_view::npos || close + 1 >= text.size() || text[close + 1] != ':') {
+      return std::nullopt;
+    }
+    host = text.substr(1, close - 1);
+    port_text = text.substr(close + 2);
+  } else {
+    const auto colon = text.rfind(':');
+    if (colon == std::string_view::npos) return std::nullopt;
+    host = text.substr(0, colon);
+    port_text = text.substr(colon + 1);
+    if (host.find(':') != std::string_view::npos) return std::nullopt;
+  }
+  if (host.empty() || port_text.empty()) return std::nullopt;
+  unsigned port = 0;
+  const auto [end, ec] = std::from_chars(port_text.data(), port_text.data() + port_text.size(), port);
+  if (ec != std::errc{} || end != port_text.data() + port_text.size() || port == 0 ||
+      port > 65535) {
+    return std::nullopt;
+  }
+  return Endpoint{std::string(host), static_cast<std::uint16_t>(port)};
+}
+
+std::string_view to_string(Outcome outcome) noexcept {
+  switch (outcome) {
+    case Outcome::kReply:
+      return "reply";
+    case Outcome::kRefused:
+      return "refused";
+    case Outcome::kTimeout:
+      return "timeout";
+    case Outcome::kDisconnected:
+      return "disconnected";
+  }
+  return "unknown";
+}
+
+protocol::FramedPoint framed(core::Frame frame, double x_m, double y_m, double z_m) {
+  protocol::FramedPoint p;
+  p.frame = frame;
+  p.position_m = core::Vec3(x_m, y_m, z_m);
+  return p;
+}
+
+struct Client::Impl {
+  asio::io_context io;
+  asio::executor_work_guard<asio::io_context::executor_type> work{io.get_executor()};
+  std::thread thread;
+
+  // Shared with callers; guarded by mutex.
+  std::mutex mutex;
+  std::condition_variable changed;
+  bool is_connected = false;
+  std::deque<protocol::Envelope> replies;
+  std::optional<protocol::Welcome> welcome;
+
+  std::mutex handler_mutex;
+  EventHandler event_handler;
+  TelemetryHandler telemetry_handler;
+  DisconnectHandler disconnect_handler;
+
+  std::atomic<std::uint32_t> next_id{1};
+
+  // I/O thread only.
+  std::shared_ptr<tcp::socket> socket;
+  std::array<std::uint8_t, 4096> read_buffer{};
+  protocol::StreamDecoder decoder;
+  std::deque<std::vector<std::uint8_t>> write_queue;
+  bool writing = false;
+  asio::steady_timer heartbeat_timer{io};
+  Milliseconds heartbeat_interval{0};
+  std::set<std::uint32_t> heartbeat_ids;
+
+  static constexpr std::size_t kMaxQueuedReplies = 1024;
+
+  void on_closed(const std::string& why) {
+    if (!socket) return;
+    boost::system::error_code ignored;
+    socket->shutdown(tcp::socket::shutdown_both, ignored);
+    socket->close(ignored);
+    socket.reset();
+    write_queue.clear();
+    writing = false;
+    heartbeat_ids.clear();
+    {
+      std::lock_guard lock(mutex);
+      is_connected = false;
+    }
+    changed.notify_all();
+    DisconnectHandler handler;
+    {
+      std::lock_guard lock(handler_mutex);
+      handler = disconnect_handler;
+    }
+    if (handler && !why.empty()) handler(why);
+  }
+
+  void dispatch(protocol::Envelope&& envelope) {
+    if (const auto* event = std::get_if<protocol::Event>(&envelope.message)) {
+      EventHandler handler;
+      {
+        std::lock_guard lock(handler_mutex);
+        handler = event_handler;
+      }
+      if (handler) handler(*event);
+      return;
+    }
+    if (const auto* telemetry = std::get_if<protocol::Telemetry>(&envelope.message)) {
+      TelemetryHandler handler;
+      {
+        std::lock_guard lock(handler_mutex);
+        handler = telemetry_handler;
+      }
+      if (handler) handler(*telemetry);
+      return;
+    }
+    if (envelope.request_id != 0 && heartbeat_ids.erase(envelope.request_id) > 0) return;
+    {
+      std::lock_guard lock(mutex);
+      replies.push_back(std::move(envelope));
+      if (replies.size() > kMaxQueuedReplies) replies.pop_front();
+    }
+    changed.notify_all();
+  }
+
+  void start_read(const std::shared_ptr<tcp::socket>& sock) {
+    sock->async_read_some(asio::buffer(read_buffer), [this, sock](boost::system::error_code ec,
+                                                                   std::size_t n) {
+      if (sock != socket) return;  // a stale connection
+      if (ec) {
+        on_closed(ec == asio::error::eof ? "connection closed by the daemon"
+                                         : "connection lost: " + ec.message());
+        return;
+      }
+      std::span<const std::uint8_t> in(read_buffer.data(), n);
+      while (!in.empty()) {
+        protocol::StreamDecoder::Outcome outcome;
+        const std::size_t used = decoder.feed(in, outcome);
+        in = in.subspan(used);
+        if (outcome.kind == protocol::StreamDecoder::Kind::kMessage) {
+          dispatch(std::move(outcome.envelope));
+        } else if (outcome.kind == protocol::StreamDecoder::Kind::kError) {
+          if (outcome.error.framing_lost) {
+            on_closed("undecodable data from the daemon (" +
+                      std::string(ajar::to_string(outcome.error.code)) + ")");
+            return;
+          }
+        } else if (used == 0) {
+          break;
+        }
+      }
+      start_read(sock);
+    });
+  }
+
+  void write(std::vector<std::uint8_t> bytes) {
+    if (!socket) return;
+    write_queue.push_back(std::move(bytes));
+    if (!writing) start_write();
+  }
+
+  void start_write() {
+    if (!socket || write_queue.empty()) {
+      writing = false;
+      return;
+    }
+    writing = true;
+    auto sock = socket;
+    asio::async_write(*sock, asio::buffer(write_queue.front()),
+                      [this, sock](boost::system::error_code ec, std::size_t) {
+                        if (sock != socket) return;
+                        if (ec) {
+                          on_closed("cannot send: " + ec.message());
+                          return;
+                        }
+                        write_queue.pop_front();
+                        start_write();
+                      });
+  }
+
+  void schedule_heartbeat() {
+    if (heartbeat_interval.count() <= 0) return;
+    heartbeat_timer.expires_after(heartbeat_interval);
+    heartbeat_timer.async_wait([this](boost::system::error_code ec) {
+      if (ec) return;
+      if (socket) {
+        protocol::Envelope envelope;
+        envelope.request_id = next_id.fetch_add(1);
+        protocol::Ping ping;
+        ping.client_time_ns = static_cast<std::uint64_t>(
+            std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch())
+                .count());
+        envelope.message = ping;
+        if (heartbeat_ids.size() > 4096) heartbeat_ids.clear();
+        heartbeat_ids.insert(envelope.request_id);
+        std::vector<std::uint8_t> bytes;
+        protocol::encode_append(envelope, bytes);
+        write(std::move(bytes));
+      }
+      schedule_heartbeat();
+    });
+  }
+};
+
+namespace {
+std::uint64_t random_instance_id() {
+  std::random_device device;
+  std::uint64_t id = (static_cast<std::uint64_t>(device()) << 32) ^ device();
+  id ^= static_cast<std::uint64_t>(Clock::now().time_since_epoch().count());
+  return id == 0 ? 1 : id;
+}
+}  // namespace
+
+Client::Client(ClientOptions options)
+    : options_(std::move(options)),
+      instance_id_(options_.client_instance_id != 0 ? options_.client_instance_id
+                                                    : random_instance_id()),
+      impl_(std::make_unique<Impl>()) {
+  impl_->thread = std::thread([impl = impl_.get()] { impl->io.run(); });
+}
+
+Client::~Client() {
+  {
+    std::lock_guard lock(impl_->handler_mutex);
+    impl_->event_handler = nullptr;
+    impl_->telemetry_handler = nullptr;
+    impl_->disconnect_handler = nullptr;
+  }
+  asio::post(impl_->io, [impl = impl_.get()] {
+    impl->heartbeat_timer.cancel();
+    impl->on_closed("");
+    impl->io.stop();
+  });
+  impl_->work.reset();
+  if (impl_->thread.joinable()) impl_->thread.join();
+}
+
+std::string Client::connect(const Endpoint& endpoint) {
+  return connect(endpoint, options_.connect_timeout);
+}
+
+std::string Client::connect(const Endpoint& endpoint, Milliseconds timeout) {
+  auto promise = std::make_shared<std::promise<std::string>>();
+  auto future = promise->get_future();
+  Impl* impl = impl_.get();
+  asio::post(impl->io, [impl, endpoint, timeout, promise] {
+    impl->on_closed("");
+    impl->decoder.reset();
+    auto sock = std::make_shared<tcp::socket>(impl->io);
+    auto timer = std::make_shared<asio::steady_timer>(impl->io, timeout);
+    auto resolver = std::make_shared<tcp::resolver>(impl->io);
+    auto done = std::make_shared<bool>(false);
+    const std::string where = endpoint.host + ":" + std::to_string(endpoint.port);
+    timer->async_wait([sock, resolver, done, promise, where](boost::system::error_code ec) {
+      if (ec || *done) return;
+      *done = true;
+      resolver->cancel();
+      boost::system::error_code ignored;
+      sock->close(ignored);
+      promise->set_value("timed out connecting to " + where);
+    });
+    resolver->async_resolve(
+        endpoint.host, std::to_string(endpoint.port),
+        [impl, sock, timer, resolver, done, promise, where](boost::system::error_code ec,
+                                                           tcp::resolver::results_type results) {
+          if (*done) return;
+          if (ec) {
+            *done = true;
+            timer->cancel();
+            promise->set_value("cannot resolve " + where + ": " + ec.message());
+            return;
+          }
+          asio::async_connect(
+              *sock, results,
+              [impl, sock, timer, done, promise, where](boost::system::error_code cec,
+                                                        const tcp::endpoint&) {
+                if (*done) return;
+                *done = true;
+                timer->cancel();
+                if (cec) {
+                  promise->set_value("cannot connect to " + where + ": " + cec.message());
+                  return;
+                }
+                boost::system::error_code ignored;
+                sock->set_option(tcp::no_delay(true), ignored);
+                impl->socket = sock;
+                {
+                  std::lock_guard lock(impl->mutex);
+                  impl->is_connected = true;
+                  impl->replies.clear();
+                  impl->welcome.reset();
+                }
+                impl->start_read(sock);
+                impl->schedule_heartbeat();
+                promise->set_value("");
+              });
+        });
+  });
+  if (future.wait_for(timeout + Milliseconds{2000}) != std::future_status::ready) {
+    return "timed out connecting to " + endpoint.host + ":" + std::to_string(endpoint.port);
+  }
+  return future.get();
+}
+
+void Client::close() {
+  auto promise = std::make_shared<std::promise<void>>();
+  auto future = promise->get_future();
+  asio::post(impl_->io, [impl = impl_.get(), promise] {
+    impl->on_closed("");
+    promise->set_value();
+  });
+  future.wait();
+}
+
+bool Client::connected() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->is_connected;
+}
+
+Response Client::hello(protocol::Role role, bool take_over) {
+  protocol::Hello hello;
+  hello.requested_role = role;
+  hello.take_over = take_over;
+  hello.client_instance_id = instance_id_;
+  hello.client_name.assign(options_.client_name);
+  Response response = request(hello);
+  if (const auto* welcome = response.get<protocol::Welcome>()) {
+    std::lock_guard lock(impl_->mutex);
+    impl_->welcome = *welcome;
+  }
+  return response;
+}
+
+std::optional<protocol::Welcome> Client::welcome() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->welcome;
+}
+
+Response Client::request(const protocol::Message& message, Milliseconds timeout) {
+  return request(message, timeout, options_.retries);
+}
+
+Response Client::request(const protocol::Message& message, Milliseconds timeout, int retries) {
+  if (timeout.count() <= 0) timeout = options_.request_timeout;
+  Response response;
+  protocol::Envelope envelope;
+  envelope.request_id = next_request_id();
+  envelope.message = message;
+  response.request_id = envelope.request_id;
+  for (int attempt = 0; attempt <= std::max(0, retries); ++attempt) {
+    envelope.flags = attempt == 0 ? protocol::kFlagNone : protocol::kFlagRetransmit;
+    if (!send_envelope(envelope)) {
+      response.outcome = Outcome::kDisconnected;
+      response.transport_error = "not connected";
+      return response;
+    }
+    ++response.attempts;
+    const auto sent = Clock::now();
+    auto reply = wait_reply(envelope.request_id, timeout);
+    if (reply) {
+      response.round_trip = std::chrono::duration_cast<Milliseconds>(Clock::now() - sent);
+      response.reply = std::move(reply->message);
+      if (const auto* error = std::get_if<protocol::ErrorReply>(&response.reply)) {
+        response.outcome = Outcome::kRefused;
+        response.error = *error;
+      } else {
+        response.outcome = Outcome::kReply;
+      }
+      return response;
+    }
+    if (!connected()) {
+      response.outcome = Outcome::kDisconnected;
+      response.transport_error = "connection lost while waiting for the reply";
+      return response;
+    }
+  }
+  response.outcome = Outcome::kTimeout;
+  response.transport_error = "no reply to " + std::string(protocol::to_string(
+                                                  protocol::type_of(message))) +
+                             " within " + std::to_string(timeout.count()) + " ms (" +
+                             std::to_string(response.attempts) + " attempts)";
+  return response;
+}
+
+void Client::set_heartbeat(Milliseconds interval) {
+  asio::post(impl_->io, [impl = impl_.get(), interval] {
+    impl->heartbeat_interval = interval;
+    impl->heartbeat_timer.cancel();
+    impl->schedule_heartbeat();
+  });
+}
+
+void Client::on_event(EventHandler handler) {
+  std::lock_guard lock(impl_->handler_mutex);
+  impl_->event_handler = std::move(handler);
+}
+void Client::on_telemetry(TelemetryHandler handler) {
+  std::lock_guard lock(impl_->handler_mutex);
+  impl_->telemetry_handler = std::move(handler);
+}
+void Client::on_disconnect(DisconnectHandler handler) {
+  std::lock_guard lock(impl_->handler_mutex);
+  impl_->disconnect_handler = std::move(handler);
+}
+
+std::uint32_t Client::next_request_id() {
+  std::uint32_t id = impl_->next_id.fetch_add(1);
+  if (id == 0) id = impl_->next_id.fetch_add(1);
+  return id;
+}
+
+bool Client::send_raw(std::span<const std::uint8_t> bytes) {
+  if (!connected()) return false;
+  asio::post(impl_->io, [impl = impl_.get(), data = std::vector<std::uint8_t>(
+                                                 bytes.begin(), bytes.end())]() mutable {
+    impl->write(std::move(data));
+  });
+  return true;
+}
+
+bool Client::send_envelope(const protocol::Envelope& envelope) {
+  std::vector<std::uint8_t> bytes;
+  protocol::encode_append(envelope, bytes);
+  return send_raw(bytes);
+}
+
+std::optional<protocol::Envelope> Client::wait_reply(std::optional<std::uint32_t> request_id,
+                                                     Milliseconds timeout) {
+  const auto deadline = Clock::now() + timeout;
+  std::unique_lock lock(impl_->mutex);
+  std::optional<protocol::Envelope> found;
+  impl_->changed.wait_until(lock, deadline, [&] {
+    auto& replies = impl_->replies;
+    for (auto it = replies.begin(); it != replies.end(); ++it) {
+      if (!request_id || it->request_id == *request_id) {
+        found = std::move(*it);
+        replies.erase(it);
+        return true;
+      }
+    }
+    return !impl_->is_connected;
+  });
+  return found;
+}
+
+bool Client::wait_closed(Milliseconds timeout) {
+  std::unique_lock lock(impl_->mutex);
+  return impl_->changed.wait_for(lock, timeout, [&] { return !impl_->is_connected; });
+}
+
+void Client::discard_replies() {
+  std::lock_guard lock(impl_->mutex);
+  impl_->replies.clear();
+}
+
+}  // namespace ajar::client

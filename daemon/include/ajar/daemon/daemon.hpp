@@ -1,0 +1,33 @@
+// run_daemon: ajard's life after the command line. Start-up order: bind and listen (fails fast on a
+// busy port), engine.start() (drivers active, state restored, control loop running), start serving,
+// write the port file, READY=1. Then the I/O thread runs the server, the engine's poll timer,
+// signals and the systemd watchdog until SIGTERM/SIGINT:
+//   SIGTERM/SIGINT  STOPPING=1, stop accepting, engine.shutdown() (stops motion, persists), close
+//                   sessions, exit code 0;
+//   SIGHUP          re-reads the config file; applies logging.level only; every other change is
+//                   logged as needing a restart; a broken file is logged and ignored.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "ajar/daemon/config.hpp"
+#include "ajar/daemon/engine.hpp"
+
+namespace ajar::daemon {
+
+struct RunOptions {
+  std::string port_file;                  // written (atomically) once serving; "" = none
+  std::function<Config()> reload_config;  // for SIGHUP; empty = SIGHUP only logs
+  std::function<std::unique_ptr<Engine>(const Config&)> make_engine;  // empty = make_engine()
+};
+
+// Returns kExitOk after a clean shutdown, kExitStartup when start-up failed (logged).
+int run_daemon(const Config& config, const RunOptions& options);
+
+// Writes `text` to `path` atomically (temporary file in the same directory, fsync, rename).
+// Throws StartupError naming the file.
+void write_file_atomically(const std::string& path, const std::string& text);
+
+}  // namespace ajar::daemon

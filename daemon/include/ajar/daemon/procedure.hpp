@@ -1,0 +1,121 @@
+// Procedure: the paper's door procedure (Fig. 4) as a pure state machine — no threads, no I/O.
+// The engine calls it from the I/O thread and carries out the motion it allows. docs/procedure.md
+// has the full table; in short:
+//
+//   width -> handle -> plane -> align -> contact point -> engage
+//
+// The state is derived from what is stored (ProcedureRecord), never kept separately:
+//   fault latched -> kFault; aligning -> kAligning; engaging -> kEngaging; engaged -> kEngaged;
+//   else the first missing step: no width -> kAwaitingWidth, no handle -> kAwaitingHandle,
+//   no plane -> kAwaitingPlane, base not aligned -> kReadyToAlign, no contact -> kAligned,
+//   else kReadyToEngage.
+//
+// Refusal precedence for every command (the first that applies): kFaultLatched (Reset first),
+// kMotionInProgress (aligning or engaging), the first missing earlier step (kMissingDoorWidth,
+// kMissingHandle, kMissingPlane, kNotAligned, kMissingContactPoint), then core's validation.
+// A refusal changes nothing.
+//
+// Re-measuring overwrites:
+//   - width / handle: replaced; every later step is kept (plane, alignment and contact point do not
+//     depend on them). After kEngaged the phase returns to idle (kReadyToEngage).
+//   - plane, base not aligned: replaced.
+//   - plane, base aligned: |yaw| <= aligned_tolerance_rad keeps the alignment and the contact
+//     point; otherwise the base is no longer aligned (kReadyToAlign) and the contact point, taken
+//     in the base frame before a turn that is now needed, is discarded.
+//   - contact point: replaced (base must be aligned).
+// An alignment that did not finish (Stop, fault, emergency stop, restart) leaves kReadyToAlign
+// with the plane shown but consumed: the base turned by an unknown part of the correction, so
+// AlignBase is refused with kMissingPlane until the plane is measured again.
+// AlignBase on an aligned base: kWrongState (re-measure the plane to align again).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+
+#include "ajar/core/geometry.hpp"
+#include "ajar/drivers/manipulator.hpp"
+#include "ajar/protocol/messages.hpp"
+
+namespace ajar::daemon {
+
+enum class Phase : std::uint8_t { kIdle = 0, kAligning = 1, kEngaging = 2, kEngaged = 3 };
+
+// Everything that is persisted: the accepted requests (their derived values are recomputed with
+// core on restore, so a state file never bypasses validation) and the procedure's flags.
+struct ProcedureRecord {
+  std::optional<protocol::MeasureDoorWidth> width;
+  std::optional<protocol::MeasureHandle> handle;
+  std::optional<protocol::MeasureDoorPlane> plane;
+  std::optional<protocol::SetContactPoint> contact;
+  bool aligned = false;
+  bool plane_consumed = false;  // an alignment with this plane was interrupted
+  Phase phase = Phase::kIdle;
+  ErrorCode fault = ErrorCode::kOk;
+};
+
+struct ProcedureLimits {
+  double aligned_tolerance_rad = 0.005;
+};
+
+class Procedure {
+ public:
+  Procedure(const core::CameraToBase& camera_to_base, const core::Limits& limits,
+            const core::BaseGeometry& base, ProcedureLimits procedure_limits);
+
+  protocol::ProcedureState state() const noexcept;
+  const ProcedureRecord& record() const noexcept { return record_; }
+  ErrorCode fault() const noexcept { return record_.fault; }
+  Phase phase() const noexcept { return record_.phase; }
+
+  // Measurements: validated with core; on success stored and acknowledged with derived values.
+  Result<protocol::SpanAck> measure_width(const protocol::MeasureDoorWidth& m);
+  Result<protocol::SpanAck> measure_handle(const protocol::MeasureHandle& m);
+  Result<protocol::PlaneAck> measure_plane(const protocol::MeasureDoorPlane& m);
+  Result<protocol::ContactAck> set_contact(const protocol::SetContactPoint& m);
+
+  // AlignBase: the wheel command to run (checks only; nothing changes).
+  Result<core::WheelCommand> check_align() const;
+  void alignment_started();      // -> kAligning
+  void alignment_finished();     // -> aligned (kAligned / kReadyToEngage)
+  void alignment_interrupted();  // -> kReadyToAlign, plane consumed
+  void alignment_not_started();  // the move was refused before the wheels turned: as before
+
+  // Engage: the task for the arm (checks only).
+  Result<drivers::DoorTask> check_engage() const;
+  void engaging_started();      // -> kEngaging
+  void engaging_finished();     // -> kEngaged
+  void engaging_interrupted();  // -> kReadyToEngage
+
+  // A fault latches (the first one stays: it is the root cause); motion phases end.
+  void latch_fault(ErrorCode code);
+  void clear_fault();
+  void clear_parameters();  // everything measured is discarded: kAwaitingWidth
+
+  // Derived values of what is stored (for Status).
+  const std::optional<protocol::SpanAck>& width() const noexcept { return width_; }
+  const std::optional<protocol::SpanAck>& handle() const noexcept { return handle_; }
+  const std::optional<protocol::PlaneAck>& plane() const noexcept { return plane_; }
+  const std::optional<protocol::ContactAck>& contact() const noexcept { return contact_; }
+
+  // Replays a persisted record through core's validation. Aligning at the time of the record ->
+  // kReadyToAlign with the plane consumed; engaging -> kReadyToEngage; engaged and faults are kept.
+  // On an error nothing is restored (the procedure stays clean) and the error says what failed.
+  Status restore(const ProcedureRecord& record);
+
+ private:
+  Status check_measure_allowed() const;
+  Status check_prerequisites(bool need_width, bool need_handle, bool need_plane,
+                             bool need_aligned) const;
+
+  core::CameraToBase camera_to_base_;
+  core::Limits limits_;
+  core::BaseGeometry base_;
+  ProcedureLimits procedure_limits_;
+  ProcedureRecord record_;
+  std::optional<protocol::SpanAck> width_, handle_;
+  std::optional<protocol::PlaneAck> plane_;
+  std::optional<core::WheelCommand> wheels_;
+  std::optional<protocol::ContactAck> contact_;
+};
+
+}  // namespace ajar::daemon

@@ -1,0 +1,361 @@
+#include "ajar/daemon/control_loop.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "ajar/core/geometry.hpp"
+#include "ajar/daemon/realtime.hpp"
+
+namespace ajar::daemon {
+namespace {
+
+constexpr double kNsPerS = 1e9;
+
+std::int64_t seconds_to_ns(double s) noexcept {
+  return std::llround(s * kNsPerS);
+}
+
+// Motor counts per radian at the wheel.
+double counts_per_wheel_rad(const core::BaseGeometry& base) noexcept {
+  return base.gear_ratio * base.encoder_counts_per_rev / (2.0 * std::numbers::pi);
+}
+
+}  // namespace
+
+drivers::TrapezoidProfile wheel_profile(const core::BaseGeometry& base) noexcept {
+  const double per_rad = counts_per_wheel_rad(base);
+  drivers::TrapezoidProfile profile;
+  profile.velocity_counts_per_ms = base.max_wheel_speed_rad_s * per_rad / 1e3;
+  profile.acceleration_counts_per_ms2 = base.max_wheel_accel_rad_s2 * per_rad / 1e6;
+  profile.deceleration_counts_per_ms2 = profile.acceleration_counts_per_ms2;
+  profile.smooth_time_ms = 0;
+  return profile;
+}
+
+double planned_duration_s(std::int64_t distance_counts,
+                          const drivers::TrapezoidProfile& profile) noexcept {
+  const double d = std::abs(static_cast<double>(distance_counts));
+  const double v = profile.velocity_counts_per_ms;
+  const double a =
+      std::min(profile.acceleration_counts_per_ms2, profile.deceleration_counts_per_ms2);
+  if (d == 0 || v <= 0 || a <= 0) return 0;
+  const double ramp_distance = v * v / a;  // accelerate to v and decelerate back to 0
+  const double ms = d >= ramp_distance ? d / v + v / a : 2.0 * std::sqrt(d / a);
+  return ms / 1e3;
+}
+
+ControlLoop::ControlLoop(std::unique_ptr<drivers::ManagedMotionCard> card,
+                         const ControlLoopSettings& settings)
+    : card_(std::move(card)),
+      settings_(settings),
+      axes_{settings.base.left.card_axis, settings.base.right.card_axis},
+      profile_(wheel_profile(settings.base)),
+      period_ns_(std::max<std::int64_t>(1, std::llround(kNsPerS / settings.rate_hz))),
+      deadman_ns_(seconds_to_ns(settings.deadman_timeout_s)),
+      stop_timeout_ns_(
+          seconds_to_ns(1.5 * (profile_.velocity_counts_per_ms /
+                               std::max(profile_.deceleration_counts_per_ms2, 1e-12) / 1e3) +
+                        settings.motion_timeout_margin_s)),
+      statistics_(settings.rate_hz) {}
+
+ControlLoop::~ControlLoop() {
+  stop_thread();
+}
+
+Status ControlLoop::bring_up() {
+  if (auto s = card_->configure(); !s) return s;
+  return card_->activate();
+}
+
+void ControlLoop::bring_down() noexcept {
+  if (card_->state() == drivers::LifecycleState::kActive) {
+    (void)card_->smooth_stop(axes_);
+    (void)card_->deactivate();
+  }
+  if (card_->state() == drivers::LifecycleState::kInactive) (void)card_->cleanup();
+}
+
+std::vector<std::string> ControlLoop::start_thread() {
+  if (thread_.joinable()) return {};
+  exit_requested_.store(false);
+  std::vector<std::string> warnings;
+  std::atomic<bool> ready{false};
+  const RealtimeRequest request{settings_.realtime, settings_.priority, settings_.lock_memory};
+  last_cycle_end_ns_.store(monotonic_now_ns());
+  thread_ = std::thread([this, request, &warnings, &ready] {
+    warnings = apply_realtime(request);
+    const std::int64_t first = monotonic_now_ns() + period_ns_;
+    ready.store(true, std::memory_order_release);
+    ready.notify_one();
+    thread_main(first);
+  });
+  ready.wait(false, std::memory_order_acquire);
+  thread_running_.store(true, std::memory_order_release);
+  return warnings;
+}
+
+void ControlLoop::stop_thread() noexcept {
+  thread_running_.store(false, std::memory_order_release);
+  exit_requested_.store(true);
+  if (thread_.joinable()) thread_.join();
+}
+
+void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
+  std::int64_t deadline = first_deadline_ns;
+  while (!exit_requested_.load(std::memory_order_relaxed)) {
+    sleep_until_ns(deadline);
+    cycle(monotonic_now_ns());
+    const std::int64_t end = monotonic_now_ns();
+    last_cycle_end_ns_.store(end, std::memory_order_release);
+    deadline += period_ns_;
+    if (end > deadline) {  // missed at least one deadline: count it, skip to the next free slot
+      statistics_.record_overrun();
+      while (deadline <= end)
+        deadline += period_ns_;
+    }
+  }
+}
+
+bool ControlLoop::post_move(const MoveCommand& move) noexcept {
+  return commands_.push(move);
+}
+void ControlLoop::request_stop() noexcept {
+  stop_requested_.store(true, std::memory_order_release);
+}
+void ControlLoop::request_emergency_stop() noexcept {
+  emergency_stop_requested_.store(true, std::memory_order_release);
+}
+void ControlLoop::request_fault_stop(ErrorCode code) noexcept {
+  fault_stop_code_.store(static_cast<std::uint16_t>(code), std::memory_order_release);
+}
+void ControlLoop::request_recover() noexcept {
+  recover_requested_.store(true, std::memory_order_release);
+}
+void ControlLoop::set_arm_moving(bool moving) noexcept {
+  arm_moving_.store(moving, std::memory_order_release);
+}
+bool ControlLoop::pop_report(LoopReport& r) noexcept {
+  return reports_.pop(r);
+}
+void ControlLoop::heartbeat(std::int64_t now_ns) noexcept {
+  heartbeat_ns_.store(now_ns, std::memory_order_release);
+}
+
+bool ControlLoop::healthy(std::int64_t now_ns) const noexcept {
+  if (!thread_running_.load(std::memory_order_acquire)) return false;
+  const std::int64_t limit = std::max<std::int64_t>(10 * period_ns_, 20'000'000);
+  return now_ns - last_cycle_end_ns_.load(std::memory_order_acquire) <= limit;
+}
+
+void ControlLoop::report(const LoopReport& r) noexcept {
+  if (!reports_.push(r)) ++reports_dropped_;
+}
+
+void ControlLoop::latch(ErrorCode code, int axis) noexcept {
+  if (fault_ != ErrorCode::kOk) return;  // the first fault is the root cause
+  fault_ = code;
+  report({LoopReportKind::kFault, code, motion_id_, axis});
+}
+
+void ControlLoop::finish(LoopReportKind kind, ErrorCode code) noexcept {
+  report({kind, code, motion_id_, 0});
+  motion_ = Motion::kIdle;
+}
+
+void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
+  if (!card_->smooth_stop(axes_)) (void)card_->emergency_stop(axes_);
+  motion_ = Motion::kStopping;
+  motion_deadline_ns_ = now_ns + stop_timeout_ns_;
+}
+
+void ControlLoop::handle_requests(std::int64_t now_ns) noexcept {
+  if (emergency_stop_requested_.exchange(false, std::memory_order_acq_rel)) {
+    (void)card_->emergency_stop(axes_);
+    latch(ErrorCode::kEmergencyStopped, 0);
+    if (motion_ != Motion::kIdle) {
+      stop_reason_ = ErrorCode::kEmergencyStopped;
+      motion_ = Motion::kStopping;
+      motion_deadline_ns_ = now_ns + stop_timeout_ns_;
+    }
+  }
+  if (const auto code = fault_stop_code_.exchange(0, std::memory_order_acq_rel); code != 0) {
+    latch(static_cast<ErrorCode>(code), 0);
+    if (motion_ == Motion::kMoving) {
+      stop_reason_ = static_cast<ErrorCode>(code);
+      begin_stop(now_ns);
+    }
+  }
+  if (stop_requested_.exchange(false, std::memory_order_acq_rel) && motion_ == Motion::kMoving) {
+    stop_reason_ = ErrorCode::kOk;
+    begin_stop(now_ns);
+  }
+  if (recover_requested_.exchange(false, std::memory_order_acq_rel)) {
+    if (motion_ == Motion::kMoving) {
+      stop_reason_ = ErrorCode::kOk;
+      begin_stop(now_ns);
+    }
+    Status s = Ok{};
+    if (card_->state() == drivers::LifecycleState::kFault) s = card_->recover();
+    if (s && card_->state() == drivers::LifecycleState::kInactive) {
+      s = card_->activate();
+    } else if (s && card_->state() == drivers::LifecycleState::kActive) {
+      s = card_->clear_faults(axes_);
+      if (s) s = card_->enable_axes(axes_);
+    }
+    if (s) {
+      fault_ = ErrorCode::kOk;
+      report({LoopReportKind::kRecovered, ErrorCode::kOk, 0, 0});
+    } else {
+      const ErrorCode code = s.error().code;
+      if (fault_ == ErrorCode::kOk) fault_ = code;
+      report({LoopReportKind::kRecovered, code, 0, 0});
+    }
+  }
+}
+
+void ControlLoop::start_move(const MoveCommand& move, std::int64_t now_ns) noexcept {
+  if (motion_ != Motion::kIdle) {
+    report({LoopReportKind::kMoveRefused, ErrorCode::kMotionInProgress, move.motion_id, 0});
+    return;
+  }
+  if (fault_ != ErrorCode::kOk) {
+    report({LoopReportKind::kMoveRefused, ErrorCode::kFaultLatched, move.motion_id, 0});
+    return;
+  }
+  const drivers::AxisMove moves[2] = {{axes_[0], move.left_counts}, {axes_[1], move.right_counts}};
+  motion_id_ = move.motion_id;
+  if (auto s = card_->move_relative(moves, profile_); !s) {
+    latch(s.error().code, 0);
+    report({LoopReportKind::kMoveRefused, s.error().code, move.motion_id, 0});
+    return;
+  }
+  target_counts_[0] = snapshot_profile_counts_[0] + move.left_counts;
+  target_counts_[1] = snapshot_profile_counts_[1] + move.right_counts;
+  seen_moving_ = false;
+  stop_reason_ = ErrorCode::kOk;
+  motion_ = Motion::kMoving;
+  const double planned = std::max(planned_duration_s(move.left_counts, profile_),
+                                  planned_duration_s(move.right_counts, profile_));
+  motion_deadline_ns_ = now_ns + seconds_to_ns(planned * 1.5 + settings_.motion_timeout_margin_s);
+}
+
+void ControlLoop::cycle(std::int64_t now_ns) noexcept {
+  if (previous_cycle_ns_ >= 0) statistics_.record_period(now_ns - previous_cycle_ns_);
+  previous_cycle_ns_ = now_ns;
+
+  handle_requests(now_ns);
+  MoveCommand move;
+  while (commands_.pop(move)) {
+    handle_requests(now_ns);  // a Reset posted before this move must be applied before it
+    start_move(move, now_ns);
+  }
+
+  supervise(now_ns);
+
+  ++snapshot_.cycles;
+  snapshot_.time_ns = now_ns;
+  snapshot_.motion_active = motion_ != Motion::kIdle;
+  snapshot_.fault = fault_;
+  snapshot_.card_state = card_->state();
+  snapshot_.reports_dropped = reports_dropped_;
+  if (snapshot_.cycles % 50 == 1) snapshot_.statistics = statistics_.summary();
+  published_.store(snapshot_);
+}
+
+void ControlLoop::supervise(std::int64_t now_ns) noexcept {
+  drivers::AxisStatus status[2];
+  bool answered = true;
+  ErrorCode read_error = ErrorCode::kOk;
+  for (int i = 0; i < 2; ++i) {
+    auto r = card_->axis_status(axes_[i]);
+    if (r) {
+      status[i] = *r;
+    } else {
+      answered = false;
+      read_error = r.error().code;
+    }
+  }
+  if (answered) {
+    if (!have_origin_) {
+      origin_counts_[0] = status[0].encoder_position_counts;
+      origin_counts_[1] = status[1].encoder_position_counts;
+      have_origin_ = true;
+    }
+    snapshot_.left_counts = status[0].encoder_position_counts;
+    snapshot_.right_counts = status[1].encoder_position_counts;
+    snapshot_.left_wheel_rad = core::counts_to_wheel_rad(
+        status[0].encoder_position_counts - origin_counts_[0], settings_.base.left, settings_.base);
+    snapshot_.right_wheel_rad =
+        core::counts_to_wheel_rad(status[1].encoder_position_counts - origin_counts_[1],
+                                  settings_.base.right, settings_.base);
+    snapshot_.base_yaw_rad = core::base_yaw_from_wheels_rad(
+        snapshot_.left_wheel_rad, snapshot_.right_wheel_rad, settings_.base);
+    snapshot_.moving = status[0].moving || status[1].moving;
+    snapshot_profile_counts_[0] = status[0].profile_position_counts;
+    snapshot_profile_counts_[1] = status[1].profile_position_counts;
+  }
+
+  const bool silent = now_ns - heartbeat_ns_.load(std::memory_order_acquire) > deadman_ns_;
+  switch (motion_) {
+    case Motion::kMoving: {
+      ErrorCode fault = ErrorCode::kOk;
+      int axis = 0;
+      if (!answered) {
+        fault = read_error == ErrorCode::kOk ? ErrorCode::kCardCommunication : read_error;
+      } else {
+        for (int i = 0; i < 2 && fault == ErrorCode::kOk; ++i) {
+          if (status[i].alarm)
+            fault = ErrorCode::kAxisAlarm;
+          else if (status[i].following_error)
+            fault = ErrorCode::kFollowingError;
+          else if (status[i].positive_limit || status[i].negative_limit)
+            fault = ErrorCode::kLimitHit;
+          if (fault != ErrorCode::kOk) axis = axes_[i];
+        }
+      }
+      if (fault == ErrorCode::kOk && silent) fault = ErrorCode::kDeadman;
+      if (fault == ErrorCode::kOk && now_ns > motion_deadline_ns_)
+        fault = ErrorCode::kMotionTimeout;
+      if (fault != ErrorCode::kOk) {
+        latch(fault, axis);
+        stop_reason_ = fault;
+        begin_stop(now_ns);
+        break;
+      }
+      if (status[0].moving || status[1].moving) seen_moving_ = true;
+      const bool at_rest =
+          !status[0].moving && !status[1].moving && status[0].in_position && status[1].in_position;
+      const bool reached = status[0].profile_position_counts == target_counts_[0] &&
+                           status[1].profile_position_counts == target_counts_[1];
+      if (at_rest && (seen_moving_ || reached))
+        finish(LoopReportKind::kMotionFinished, ErrorCode::kOk);
+      break;
+    }
+    case Motion::kStopping:
+      if (answered && !status[0].moving && !status[1].moving) {
+        finish(LoopReportKind::kMotionStopped, stop_reason_);
+      } else if (now_ns > motion_deadline_ns_) {
+        (void)card_->emergency_stop(axes_);
+        latch(ErrorCode::kMotionTimeout, 0);
+        finish(LoopReportKind::kMotionStopped, ErrorCode::kMotionTimeout);
+      }
+      break;
+    case Motion::kIdle:
+      if (fault_ == ErrorCode::kOk) {
+        if (arm_moving_.load(std::memory_order_acquire) && silent) {
+          latch(ErrorCode::kDeadman, 0);
+        } else if (answered) {
+          for (int i = 0; i < 2; ++i) {
+            if (status[i].alarm) {
+              latch(ErrorCode::kAxisAlarm, axes_[i]);
+              break;
+            }
+          }
+        }
+      }
+      break;
+  }
+}
+
+}  // namespace ajar::daemon

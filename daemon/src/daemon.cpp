@@ -1,0 +1,255 @@
+#include <utility>  // before Asio (asio issue 944)
+
+#include "ajar/daemon/daemon.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <csignal>
+#include <cstring>
+#include <filesystem>
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <spdlog/spdlog.h>
+
+#include "ajar/daemon/cli.hpp"
+#include "ajar/daemon/logging.hpp"
+#include "ajar/daemon/server.hpp"
+#include "ajar/daemon/systemd_notify.hpp"
+#include "ajar/drivers/factory.hpp"
+
+namespace ajar::daemon {
+namespace {
+
+namespace asio = boost::asio;
+using Clock = std::chrono::steady_clock;
+
+constexpr auto kStatusEvery = std::chrono::seconds(5);
+constexpr auto kShutdownGrace = std::chrono::seconds(3);
+
+std::string state_text(const protocol::Status& s, std::size_t sessions) {
+  std::string text = "state " + std::string(protocol::to_string(s.state));
+  if (s.latched_fault != ErrorCode::kOk)
+    text += ", fault " + std::string(to_string(s.latched_fault));
+  text += "; " + std::to_string(sessions) + " session(s)";
+  return text;
+}
+
+class Runner {
+ public:
+  Runner(const Config& config, const RunOptions& options)
+      : config_(config),
+        options_(options),
+        signals_(io_, SIGTERM, SIGINT, SIGHUP),
+        watchdog_timer_(io_),
+        status_timer_(io_),
+        grace_timer_(io_) {}
+
+  int run() {
+    try {
+      engine_ = options_.make_engine ? options_.make_engine(config_) : make_engine(config_);
+      server_ = std::make_unique<Server>(io_, *engine_, ServerOptions::from(config_.network));
+      port_ = server_->listen();
+      engine_->start();
+      for (const auto& w : engine_->startup_warnings())
+        spdlog::warn("{}", w);
+      server_->start();
+      if (!options_.port_file.empty()) {
+        write_file_atomically(options_.port_file, std::to_string(port_) + "\n");
+      }
+    } catch (const StartupError& e) {
+      return fail(e.what());
+    } catch (const drivers::DriverStartupError& e) {
+      return fail(e.what());
+    } catch (const std::exception& e) {
+      return fail(e.what());
+    }
+
+    wait_signal();
+    start_watchdog();
+    schedule_status();
+    const std::string where = config_.network.bind_address + ":" + std::to_string(port_);
+    spdlog::info("ajard ready: listening on {}, drivers active, control loop at {} Hz", where,
+                 config_.control.rate_hz);
+    notifier_.ready("serving on " + where);
+
+    io_.run();
+    engine_.reset();
+    spdlog::info("ajard stopped");
+    return kExitOk;
+  }
+
+ private:
+  int fail(const std::string& what) {
+    spdlog::critical("start-up failed: {}", what);
+    if (engine_) engine_->shutdown();
+    if (server_) server_->stop();
+    io_.restart();
+    io_.poll();
+    server_.reset();
+    engine_.reset();
+    return kExitStartup;
+  }
+
+  void wait_signal() {
+    signals_.async_wait([this](const boost::system::error_code& ec, int signal_number) {
+      if (ec) return;
+      if (signal_number == SIGHUP) {
+        reload();
+        wait_signal();
+        return;
+      }
+      shutdown(signal_number == SIGTERM ? "SIGTERM" : "SIGINT");
+    });
+  }
+
+  void shutdown(const char* why) {
+    spdlog::info("{}: shutting down (stopping motion, persisting state)", why);
+    notifier_.stopping(std::string("stopping (") + why + ")");
+    stopping_ = true;
+    server_->stop();
+    engine_->shutdown();
+    boost::system::error_code ignored;
+    signals_.cancel(ignored);
+    watchdog_timer_.cancel();
+    status_timer_.cancel();
+    // Sessions close gracefully (flush, FIN); a peer that never closes must not hold the exit.
+    grace_timer_.expires_after(kShutdownGrace);
+    grace_timer_.async_wait([this](const boost::system::error_code& ec) {
+      if (!ec) io_.stop();
+    });
+    // When every session is gone, nothing else keeps the loop running but this timer.
+    check_sessions_gone();
+  }
+
+  void check_sessions_gone() {
+    if (server_->session_count() == 0) {
+      grace_timer_.cancel();
+      return;
+    }
+    status_timer_.expires_after(std::chrono::milliseconds(10));
+    status_timer_.async_wait([this](const boost::system::error_code& ec) {
+      if (!ec) check_sessions_gone();
+    });
+  }
+
+  void reload() {
+    if (!options_.reload_config) {
+      spdlog::warn("SIGHUP: no config file to reload");
+      return;
+    }
+    try {
+      const Config fresh = options_.reload_config();
+      if (fresh.logging.level != config_.logging.level) {
+        set_log_level(fresh.logging.level);
+        spdlog::warn("SIGHUP: logging.level is now {}", fresh.logging.level);
+      }
+      Config compare = fresh;
+      compare.logging.level = config_.logging.level;
+      config_.logging.level = fresh.logging.level;
+      Config current = config_;
+      if (to_yaml(compare) != to_yaml(current)) {
+        spdlog::warn(
+            "SIGHUP: the config file changed in keys that are not reloaded (only logging.level "
+            "is); restart ajard to apply them");
+      } else {
+        spdlog::info("SIGHUP: config reloaded");
+      }
+    } catch (const std::exception& e) {
+      spdlog::error("SIGHUP: config not reloaded, keeping the running one: {}", e.what());
+    }
+  }
+
+  void start_watchdog() {
+    const auto interval = notifier_.watchdog_interval();
+    if (!interval) return;
+    spdlog::info("systemd watchdog: petting every {} ms while the control loop is healthy",
+                 interval->count() / 1000);
+    watchdog_interval_ = *interval;
+    pet_watchdog();
+  }
+
+  void pet_watchdog() {
+    if (stopping_) return;
+    const bool healthy = engine_->control_loop_healthy();
+    if (healthy) {
+      notifier_.watchdog();
+      if (stalled_) spdlog::warn("control loop healthy again: petting the systemd watchdog");
+    } else if (!stalled_) {
+      spdlog::critical(
+          "control loop stalled: not petting the systemd watchdog (systemd will "
+          "restart ajard unless it recovers)");
+      notifier_.status("control loop stalled");
+    }
+    stalled_ = !healthy;
+    watchdog_timer_.expires_after(watchdog_interval_);
+    watchdog_timer_.async_wait([this](const boost::system::error_code& ec) {
+      if (!ec) pet_watchdog();
+    });
+  }
+
+  void schedule_status() {
+    if (!notifier_.enabled()) return;
+    status_timer_.expires_after(kStatusEvery);
+    status_timer_.async_wait([this](const boost::system::error_code& ec) {
+      if (ec || stopping_) return;
+      if (!stalled_) notifier_.status(state_text(engine_->status(), server_->session_count()));
+      schedule_status();
+    });
+  }
+
+  Config config_;
+  const RunOptions& options_;
+  asio::io_context io_{1};
+  asio::signal_set signals_;
+  asio::steady_timer watchdog_timer_;
+  asio::steady_timer status_timer_;
+  asio::steady_timer grace_timer_;
+  SystemdNotifier notifier_;
+  std::unique_ptr<Engine> engine_;
+  std::unique_ptr<Server> server_;
+  std::uint16_t port_ = 0;
+  std::chrono::microseconds watchdog_interval_{0};
+  bool stalled_ = false;
+  bool stopping_ = false;
+};
+
+}  // namespace
+
+void write_file_atomically(const std::string& path, const std::string& text) {
+  const std::string temporary = path + ".tmp." + std::to_string(::getpid());
+  auto fail = [&](const char* what) {
+    const int err = errno;
+    ::unlink(temporary.c_str());
+    throw StartupError("cannot write " + path + ": " + what + ": " + std::strerror(err));
+  };
+  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) fail("open");
+  std::size_t written = 0;
+  while (written < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      ::close(fd);
+      fail("write");
+    }
+    written += static_cast<std::size_t>(n);
+  }
+  if (::fsync(fd) != 0) {
+    ::close(fd);
+    fail("fsync");
+  }
+  if (::close(fd) != 0) fail("close");
+  if (::rename(temporary.c_str(), path.c_str()) != 0) fail("rename");
+}
+
+int run_daemon(const Config& config, const RunOptions& options) {
+  Runner runner(config, options);
+  return runner.run();
+}
+
+}  // namespace ajar::daemon

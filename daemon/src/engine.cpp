@@ -1,0 +1,597 @@
+// The engine: procedure + control loop + arm + persistence, driven from the I/O thread.
+// docs/procedure.md and docs/control-loop.md describe the behaviour; this file wires it up.
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ajar/core/geometry.hpp"
+#include "ajar/daemon/config.hpp"
+#include "ajar/daemon/control_loop.hpp"
+#include "ajar/daemon/engine.hpp"
+#include "ajar/daemon/procedure.hpp"
+#include "ajar/daemon/realtime.hpp"
+#include "ajar/daemon/state_store.hpp"
+#include "ajar/version.hpp"
+
+namespace ajar::daemon {
+namespace {
+
+using protocol::EventKind;
+using protocol::MessageType;
+using protocol::ProcedureState;
+
+core::CameraToBase camera_to_base_or_throw(const Config& config) {
+  auto t = core::CameraToBase::from_matrix(config.camera_to_base_m);
+  if (!t) {
+    throw StartupError("camera_to_base_m: " + t.error().message + " (" + t.error().field + ")");
+  }
+  return *t;
+}
+
+ControlLoopSettings loop_settings(const Config& c) {
+  ControlLoopSettings s;
+  s.rate_hz = c.control.rate_hz;
+  s.realtime = c.control.realtime;
+  s.priority = c.control.priority;
+  s.lock_memory = c.control.lock_memory;
+  s.deadman_timeout_s = c.safety.deadman_timeout_s;
+  s.motion_timeout_margin_s = c.control.motion_timeout_margin_s;
+  s.base = c.base;
+  return s;
+}
+
+protocol::DriverState to_wire(drivers::LifecycleState s) {
+  switch (s) {
+    case drivers::LifecycleState::kUnconfigured:
+      return protocol::DriverState::kUnconfigured;
+    case drivers::LifecycleState::kInactive:
+      return protocol::DriverState::kInactive;
+    case drivers::LifecycleState::kActive:
+      return protocol::DriverState::kActive;
+    case drivers::LifecycleState::kFault:
+      return protocol::DriverState::kFault;
+  }
+  return protocol::DriverState::kFault;
+}
+
+protocol::ArmState to_wire(drivers::ArmPhase p) {
+  switch (p) {
+    case drivers::ArmPhase::kDisconnected:
+      return protocol::ArmState::kDisconnected;
+    case drivers::ArmPhase::kIdle:
+      return protocol::ArmState::kIdle;
+    case drivers::ArmPhase::kBusy:
+      return protocol::ArmState::kBusy;
+    case drivers::ArmPhase::kDone:
+      return protocol::ArmState::kDone;
+    case drivers::ArmPhase::kFault:
+      return protocol::ArmState::kFault;
+  }
+  return protocol::ArmState::kFault;
+}
+
+std::string describe(const Error& e) {
+  std::string s(to_string(e.code));
+  if (!e.field.empty()) s += " (" + e.field + ")";
+  if (!e.message.empty()) s += ": " + e.message;
+  return s;
+}
+
+class EngineImpl final : public Engine {
+ public:
+  EngineImpl(const Config& config, drivers::DriverSet drivers)
+      : config_(config),
+        keepalive_(std::move(drivers.keepalive)),
+        procedure_(camera_to_base_or_throw(config), config.limits, config.base,
+                   ProcedureLimits{config.control.aligned_tolerance_rad}),
+        store_(config.state.directory),
+        start_ns_(monotonic_now_ns()) {
+    if (!drivers.card || !drivers.arm) throw StartupError("drivers: card and arm are required");
+    const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
+    loop_ = std::make_unique<ControlLoop>(
+        std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes),
+        loop_settings(config));
+    arm_ = std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm));
+  }
+
+  ~EngineImpl() override { shutdown(); }
+
+  void set_event_sink(EventSink sink) override { sink_ = std::move(sink); }
+
+  void start() override {
+    if (started_) return;
+    store_.prepare();
+    if (auto s = loop_->bring_up(); !s) {
+      loop_->bring_down();
+      throw StartupError("motion card: " + describe(s.error()));
+    }
+    if (auto s = arm_->configure(); !s) {
+      loop_->bring_down();
+      throw StartupError("manipulator: " + describe(s.error()));
+    }
+    if (auto s = arm_->activate(); !s) {
+      (void)arm_->cleanup();
+      loop_->bring_down();
+      throw StartupError("manipulator: " + describe(s.error()));
+    }
+    restore();
+    for (auto& w : loop_->start_thread())
+      startup_warnings_.push_back(std::move(w));
+    last_state_ = procedure_.state();
+    started_ = true;
+  }
+
+  void shutdown() noexcept override {
+    if (!started_ || stopped_) return;
+    stopped_ = true;
+    try {
+      drain_reports();
+      loop_->request_stop();
+      (void)arm_->stop();
+      loop_->set_arm_moving(false);
+      if (procedure_.phase() == Phase::kAligning) procedure_.alignment_interrupted();
+      if (procedure_.phase() == Phase::kEngaging) procedure_.engaging_interrupted();
+      // Let the wheels come to rest under the loop's supervision (bounded).
+      const std::int64_t give_up = monotonic_now_ns() + 5'000'000'000;
+      while (loop_->snapshot().motion_active && monotonic_now_ns() < give_up) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      }
+      persist();
+    } catch (...) {  // shutting down: nothing sensible to do but carry on
+    }
+    loop_->stop_thread();
+    loop_->bring_down();
+    if (arm_->state() == drivers::LifecycleState::kActive) (void)arm_->deactivate();
+    if (arm_->state() == drivers::LifecycleState::kInactive) (void)arm_->cleanup();
+  }
+
+  protocol::Message handle_command(const protocol::Message& request) override {
+    drain_reports();
+    protocol::Message reply = dispatch(request);
+    flush();
+    return reply;
+  }
+
+  void controller_heartbeat() noexcept override { loop_->heartbeat(monotonic_now_ns()); }
+
+  void controller_lost() override {
+    drain_reports();
+    const Phase phase = procedure_.phase();
+    if (phase == Phase::kAligning || phase == Phase::kEngaging) {
+      loop_->request_fault_stop(ErrorCode::kDeadman);
+      if (phase == Phase::kEngaging) (void)arm_->stop();
+      loop_->set_arm_moving(false);
+      latch(ErrorCode::kDeadman, "the controller went away during motion: stopped");
+    }
+    flush();
+  }
+
+  void poll() override {
+    drain_reports();
+    poll_arm();
+    reconcile();
+    flush();
+  }
+
+  protocol::Status status() const override {
+    const LoopSnapshot snap = loop_->snapshot();
+    protocol::Status s;
+    s.state = procedure_.state();
+    s.latched_fault = procedure_.fault();
+    s.restored_from_disk = restored_;
+    if (procedure_.width()) s.has_width = true, s.width = *procedure_.width();
+    if (procedure_.handle()) s.has_handle = true, s.handle = *procedure_.handle();
+    if (procedure_.plane()) s.has_plane = true, s.plane = *procedure_.plane();
+    if (procedure_.contact()) s.has_contact = true, s.contact = *procedure_.contact();
+    s.base_yaw_odometry_rad = snap.base_yaw_rad;
+    s.card = to_wire(snap.card_state);
+    s.arm = to_wire(arm_->state());
+    s.arm_state = to_wire(arm_->status().phase);
+    s.loop = snap.statistics;
+    return s;
+  }
+
+  protocol::Telemetry telemetry() const override {
+    const LoopSnapshot snap = loop_->snapshot();
+    protocol::Telemetry t;
+    t.daemon_time_ns = daemon_time_ns();
+    t.state = procedure_.state();
+    t.moving = snap.moving || snap.motion_active || procedure_.phase() == Phase::kEngaging;
+    t.left_wheel_rad = snap.left_wheel_rad;
+    t.right_wheel_rad = snap.right_wheel_rad;
+    t.left_counts = snap.left_counts;
+    t.right_counts = snap.right_counts;
+    t.base_yaw_odometry_rad = snap.base_yaw_rad;
+    t.arm_state = to_wire(arm_->status().phase);
+    t.loop = snap.statistics;
+    return t;
+  }
+
+  protocol::Welcome welcome_template() const override {
+    protocol::Welcome w;
+    w.daemon_version.assign(std::string("ajard ") + kVersion);
+    w.loop_rate_hz = static_cast<float>(config_.control.rate_hz);
+    w.deadman_timeout_s = static_cast<float>(config_.safety.deadman_timeout_s);
+    w.min_door_width_m = static_cast<float>(config_.limits.min_door_width_m);
+    w.max_door_width_m = static_cast<float>(config_.limits.max_door_width_m);
+    w.min_handle_length_m = static_cast<float>(config_.limits.min_handle_length_m);
+    w.max_handle_length_m = static_cast<float>(config_.limits.max_handle_length_m);
+    w.max_yaw_correction_rad = static_cast<float>(config_.limits.max_yaw_correction_rad);
+    return w;
+  }
+
+  bool control_loop_healthy() const noexcept override { return loop_->healthy(monotonic_now_ns()); }
+
+  std::vector<std::string> startup_warnings() const override { return startup_warnings_; }
+
+  std::vector<std::string> take_warnings() override {
+    std::vector<std::string> w;
+    w.swap(warnings_);
+    return w;
+  }
+
+ private:
+  // ---- commands --------------------------------------------------------------------------------
+
+  protocol::Message dispatch(const protocol::Message& request) {
+    const MessageType type = protocol::type_of(request);
+    if (const auto* m = std::get_if<protocol::MeasureDoorWidth>(&request)) {
+      return answer(type, procedure_.measure_width(*m));
+    }
+    if (const auto* m = std::get_if<protocol::MeasureHandle>(&request)) {
+      return answer(type, procedure_.measure_handle(*m));
+    }
+    if (const auto* m = std::get_if<protocol::MeasureDoorPlane>(&request)) {
+      return answer(type, procedure_.measure_plane(*m));
+    }
+    if (const auto* m = std::get_if<protocol::SetContactPoint>(&request)) {
+      return answer(type, procedure_.set_contact(*m));
+    }
+    if (std::holds_alternative<protocol::AlignBase>(request)) return align(type);
+    if (std::holds_alternative<protocol::Engage>(request)) return engage(type);
+    if (std::holds_alternative<protocol::Stop>(request)) return stop(type);
+    if (std::holds_alternative<protocol::EmergencyStop>(request)) return emergency_stop(type);
+    if (const auto* m = std::get_if<protocol::Reset>(&request)) return reset(type, *m);
+    if (std::holds_alternative<protocol::GetStatus>(request)) return status();
+    if (const auto* m = std::get_if<protocol::Ping>(&request)) {
+      return protocol::Pong{m->client_time_ns, daemon_time_ns()};
+    }
+    if (const auto* m = std::get_if<protocol::Subscribe>(&request)) {
+      if (!(m->telemetry_rate_hz >= 0.0F) ||
+          static_cast<double>(m->telemetry_rate_hz) > config_.control.rate_hz) {
+        return refuse(type, make_error(ErrorCode::kRateLimited, "telemetry_rate_hz",
+                                       "telemetry rate must be 0..loop rate"));
+      }
+      return ack(type, protocol::EmptyAck{});
+    }
+    return refuse(type, make_error(ErrorCode::kWrongState, "", "not a command for the procedure"));
+  }
+
+  template <typename T>
+  protocol::Message answer(MessageType type, Result<T> result) {
+    if (!result) return refuse(type, result.error());
+    dirty_ = true;
+    return ack(type, std::move(result).value());
+  }
+
+  protocol::Message ack(MessageType type, protocol::AckBody body) {
+    protocol::Ack a;
+    a.acknowledged = type;
+    a.state = procedure_.state();
+    a.body = std::move(body);
+    return a;
+  }
+
+  static protocol::Message refuse(MessageType type, const Error& e) {
+    protocol::ErrorReply r;
+    r.code = e.code;
+    r.offending_type = type;
+    r.field.assign(e.field);
+    r.message.assign(e.message.empty() ? std::string(to_string(e.code)) : e.message);
+    return r;
+  }
+
+  protocol::Message align(MessageType type) {
+    auto wheels = procedure_.check_align();
+    if (!wheels) return refuse(type, wheels.error());
+    if (wheels_busy_) {
+      return refuse(type, make_error(ErrorCode::kMotionInProgress, "",
+                                     "the wheels are still stopping: wait for them to rest"));
+    }
+    if (wheels->left_counts == 0 && wheels->right_counts == 0) {  // already square to the door
+      procedure_.alignment_started();
+      procedure_.alignment_finished();
+      dirty_ = true;
+      return ack(type, protocol::EmptyAck{});
+    }
+    loop_->heartbeat(monotonic_now_ns());  // the controller just spoke
+    const MoveCommand move{++motion_id_, wheels->left_counts, wheels->right_counts};
+    if (!loop_->post_move(move)) {
+      return refuse(type, make_error(ErrorCode::kQueueFull, "",
+                                     "control loop command queue full: retry later"));
+    }
+    procedure_.alignment_started();
+    wheels_busy_ = true;
+    emit(EventKind::kMotionStarted, ErrorCode::kOk,
+         "aligning: left " + std::to_string(move.left_counts) + " counts, right " +
+             std::to_string(move.right_counts) + " counts");
+    dirty_ = true;
+    return ack(type, protocol::EmptyAck{});
+  }
+
+  protocol::Message engage(MessageType type) {
+    auto task = procedure_.check_engage();
+    if (!task) return refuse(type, task.error());
+    if (wheels_busy_) {
+      return refuse(type, make_error(ErrorCode::kMotionInProgress, "",
+                                     "the wheels are still stopping: wait for them to rest"));
+    }
+    auto id = arm_->hand_off(*task);
+    if (!id) {
+      Error e = id.error();
+      if (e.field.empty()) e.field = "arm";
+      return refuse(type, e);
+    }
+    arm_task_id_ = *id;
+    loop_->heartbeat(monotonic_now_ns());
+    loop_->set_arm_moving(true);
+    procedure_.engaging_started();
+    emit(EventKind::kMotionStarted, ErrorCode::kOk,
+         "engaging: task " + std::to_string(arm_task_id_) + " handed to the arm");
+    dirty_ = true;
+    return ack(type, protocol::EmptyAck{});
+  }
+
+  void stop_motion() {
+    loop_->request_stop();
+    (void)arm_->stop();
+    loop_->set_arm_moving(false);
+    if (procedure_.phase() == Phase::kAligning) procedure_.alignment_interrupted();
+    if (procedure_.phase() == Phase::kEngaging) {
+      procedure_.engaging_interrupted();
+      emit(EventKind::kMotionStopped, ErrorCode::kOk, "arm stopped");
+    }
+    dirty_ = true;
+  }
+
+  protocol::Message stop(MessageType type) {
+    stop_motion();
+    return ack(type, protocol::EmptyAck{});
+  }
+
+  protocol::Message emergency_stop(MessageType type) {
+    loop_->request_emergency_stop();
+    (void)arm_->stop();
+    loop_->set_arm_moving(false);
+    latch(ErrorCode::kEmergencyStopped, "emergency stop: wheels and arm stopped");
+    return ack(type, protocol::EmptyAck{});
+  }
+
+  protocol::Message reset(MessageType type, const protocol::Reset& r) {
+    if (procedure_.phase() == Phase::kAligning || procedure_.phase() == Phase::kEngaging) {
+      stop_motion();
+    }
+    if (procedure_.fault() != ErrorCode::kOk) {
+      if (auto s = recover_arm(); !s) {
+        Error e = s.error();
+        if (e.field.empty()) e.field = "arm";
+        return refuse(type, e);
+      }
+      loop_->request_recover();
+      ++recovers_pending_;
+      const ErrorCode was = procedure_.fault();
+      procedure_.clear_fault();
+      emit(EventKind::kFaultCleared, ErrorCode::kOk,
+           "reset: " + std::string(to_string(was)) + " cleared");
+    }
+    if (r.clear_parameters) procedure_.clear_parameters();
+    dirty_ = true;
+    return ack(type, protocol::EmptyAck{});
+  }
+
+  Status recover_arm() {
+    if (arm_->state() == drivers::LifecycleState::kFault) {
+      if (auto s = arm_->recover(); !s) return s;
+    }
+    if (arm_->state() == drivers::LifecycleState::kInactive) {
+      if (auto s = arm_->activate(); !s) return s;
+    }
+    if (arm_->status().phase == drivers::ArmPhase::kFault) {
+      if (auto s = arm_->clear_fault(); !s) return s;
+    }
+    return Ok{};
+  }
+
+  // ---- reports and the arm ---------------------------------------------------------------------
+
+  void drain_reports() {
+    LoopReport r;
+    while (loop_->pop_report(r)) {
+      switch (r.kind) {
+        case LoopReportKind::kMotionFinished:
+          if (r.motion_id != motion_id_) break;
+          wheels_busy_ = false;
+          if (procedure_.phase() == Phase::kAligning) {
+            procedure_.alignment_finished();
+            dirty_ = true;
+          }
+          emit(EventKind::kMotionFinished, ErrorCode::kOk, "base aligned");
+          break;
+        case LoopReportKind::kMotionStopped:
+          if (r.motion_id == motion_id_) wheels_busy_ = false;
+          if (procedure_.phase() == Phase::kAligning) {  // stopped on its own (should not happen)
+            procedure_.alignment_interrupted();
+            dirty_ = true;
+          }
+          emit(EventKind::kMotionStopped, r.code,
+               r.code == ErrorCode::kOk ? std::string("wheels stopped")
+                                        : "wheels stopped: " + std::string(to_string(r.code)));
+          break;
+        case LoopReportKind::kMoveRefused:
+          if (r.motion_id != motion_id_) break;
+          wheels_busy_ = false;
+          procedure_.alignment_not_started();
+          dirty_ = true;
+          break;
+        case LoopReportKind::kFault:
+          if (recovers_pending_ > 0) break;  // latched before the Reset that cleared it
+          if (procedure_.phase() == Phase::kEngaging || r.code == ErrorCode::kDeadman) {
+            (void)arm_->stop();
+            loop_->set_arm_moving(false);
+          }
+          latch(r.code,
+                r.axis != 0 ? "axis " + std::to_string(r.axis) : std::string("control loop"));
+          break;
+        case LoopReportKind::kRecovered:
+          if (recovers_pending_ > 0) --recovers_pending_;
+          if (r.code != ErrorCode::kOk) latch(r.code, "motion card did not recover");
+          break;
+      }
+    }
+  }
+
+  void poll_arm() {
+    if (procedure_.phase() != Phase::kEngaging) return;
+    const drivers::ArmStatus st = arm_->status();
+    if (st.phase == drivers::ArmPhase::kDone && st.task_id == arm_task_id_) {
+      procedure_.engaging_finished();
+      loop_->set_arm_moving(false);
+      emit(EventKind::kMotionFinished, ErrorCode::kOk, "the arm finished the door task");
+      dirty_ = true;
+    } else if (st.phase == drivers::ArmPhase::kFault) {
+      loop_->set_arm_moving(false);
+      latch(st.last_error == ErrorCode::kOk ? ErrorCode::kArmRejected : st.last_error,
+            "the arm reported a fault");
+    } else if (st.phase == drivers::ArmPhase::kDisconnected) {
+      loop_->set_arm_moving(false);
+      latch(ErrorCode::kArmDisconnected, "the arm is disconnected");
+    } else if (arm_->state() == drivers::LifecycleState::kFault) {
+      loop_->set_arm_moving(false);
+      latch(ErrorCode::kDriverError, "the arm driver failed");
+    }
+  }
+
+  // Backstop when reports were dropped (report queue full): the snapshot is authoritative.
+  void reconcile() {
+    const LoopSnapshot snap = loop_->snapshot();
+    if (snap.reports_dropped == reports_dropped_seen_) return;
+    reports_dropped_seen_ = snap.reports_dropped;
+    if (recovers_pending_ == 0 && snap.fault != ErrorCode::kOk) latch(snap.fault, "control loop");
+    if (!snap.motion_active && wheels_busy_) {
+      wheels_busy_ = false;
+      if (procedure_.phase() == Phase::kAligning) {
+        procedure_.alignment_interrupted();
+        dirty_ = true;
+      }
+    }
+  }
+
+  // ---- faults, events, persistence -------------------------------------------------------------
+
+  void latch(ErrorCode code, const std::string& detail) {
+    const bool was_clear = procedure_.fault() == ErrorCode::kOk;
+    procedure_.latch_fault(code);
+    if (was_clear || code == ErrorCode::kEmergencyStopped) {
+      emit(EventKind::kFaultLatched, code, std::string(to_string(code)) + ": " + detail);
+    }
+    dirty_ = true;
+  }
+
+  void emit(EventKind kind, ErrorCode fault, const std::string& detail) {
+    protocol::Event e;
+    e.kind = kind;
+    e.state = procedure_.state();
+    e.fault = kind == EventKind::kFaultLatched ? fault : ErrorCode::kOk;
+    e.daemon_time_ns = daemon_time_ns();
+    e.detail.assign(detail);
+    if (sink_) sink_(e);
+  }
+
+  void flush() {
+    if (dirty_) {
+      dirty_ = false;
+      persist();
+    }
+    const ProcedureState now = procedure_.state();
+    if (now != last_state_) {
+      last_state_ = now;
+      emit(EventKind::kStateChanged, procedure_.fault(), std::string(protocol::to_string(now)));
+    }
+  }
+
+  void persist() {
+    if (!started_) return;
+    if (auto s = store_.save(procedure_.record()); !s) {
+      if (s.error().message != last_persist_error_) {
+        last_persist_error_ = s.error().message;
+        warnings_.push_back("state not persisted: " + s.error().message);
+      }
+    } else {
+      last_persist_error_.clear();
+    }
+  }
+
+  void restore() {
+    auto loaded = store_.load();
+    if (!loaded) {
+      startup_warnings_.push_back("state file unreadable, starting with a clean procedure: " +
+                                  loaded.error().message);
+      std::error_code ec;
+      std::filesystem::rename(store_.path(), store_.path() + ".corrupt", ec);
+      if (!ec)
+        startup_warnings_.push_back("kept the unreadable state file as " + store_.path() +
+                                    ".corrupt");
+      return;
+    }
+    if (!loaded->found) return;
+    if (auto s = procedure_.restore(loaded->record); !s) {
+      startup_warnings_.push_back("state file " + store_.path() +
+                                  " no longer validates with this config, starting with a clean "
+                                  "procedure: " +
+                                  describe(s.error()));
+      return;
+    }
+    restored_ = true;
+    started_ = true;  // persist() needs it; start() sets it for good right after
+    persist();        // the normalised record (aligning -> ready to align, ...)
+    started_ = false;
+  }
+
+  std::uint64_t daemon_time_ns() const {
+    return static_cast<std::uint64_t>(monotonic_now_ns() - start_ns_);
+  }
+
+  Config config_;
+  std::shared_ptr<void> keepalive_;  // first: outlives the drivers
+  std::unique_ptr<ControlLoop> loop_;
+  std::unique_ptr<drivers::ManagedManipulator> arm_;
+  Procedure procedure_;
+  StateStore store_;
+  std::int64_t start_ns_;
+  EventSink sink_;
+
+  bool started_ = false;
+  bool stopped_ = false;
+  bool restored_ = false;
+  bool dirty_ = false;
+  bool wheels_busy_ = false;
+  std::uint32_t motion_id_ = 0;
+  std::uint32_t arm_task_id_ = 0;
+  int recovers_pending_ = 0;
+  std::uint64_t reports_dropped_seen_ = 0;
+  ProcedureState last_state_ = ProcedureState::kAwaitingWidth;
+  std::vector<std::string> startup_warnings_;
+  std::vector<std::string> warnings_;
+  std::string last_persist_error_;
+};
+
+}  // namespace
+
+std::unique_ptr<Engine> make_engine(const Config& config, drivers::DriverSet drivers) {
+  return std::make_unique<EngineImpl>(config, std::move(drivers));
+}
+
+}  // namespace ajar::daemon

@@ -1,0 +1,278 @@
+#include "ajar/daemon/procedure.hpp"
+
+#include <cmath>
+#include <span>
+#include <string>
+
+#include "ajar/core/measurements.hpp"
+
+namespace ajar::daemon {
+namespace {
+
+using protocol::ProcedureState;
+
+protocol::SpanAck to_ack(const core::SpanMeasurement& m) {
+  protocol::SpanAck ack;
+  ack.length_m = m.span.length_m;
+  ack.direction = m.span.direction;
+  ack.p1_base_m = m.p1_base_m;
+  ack.p2_base_m = m.p2_base_m;
+  return ack;
+}
+
+protocol::PlaneAck to_ack(const core::PlaneMeasurement& m) {
+  protocol::PlaneAck ack;
+  ack.normal = m.plane.normal;
+  ack.yaw_deviation_rad = m.yaw_deviation_rad;
+  ack.left_wheel_rad = m.wheels.left_wheel_rad;
+  ack.right_wheel_rad = m.wheels.right_wheel_rad;
+  ack.left_counts = m.wheels.left_counts;
+  ack.right_counts = m.wheels.right_counts;
+  ack.residual_yaw_rad = m.wheels.residual_yaw_rad;
+  ack.rms_residual_m = m.plane.rms_residual_m;
+  ack.point_count = static_cast<std::uint8_t>(m.point_count);
+  return ack;
+}
+
+Error missing(ErrorCode code, const char* message) {
+  return make_error(code, "", message);
+}
+
+}  // namespace
+
+Procedure::Procedure(const core::CameraToBase& camera_to_base, const core::Limits& limits,
+                     const core::BaseGeometry& base, ProcedureLimits procedure_limits)
+    : camera_to_base_(camera_to_base),
+      limits_(limits),
+      base_(base),
+      procedure_limits_(procedure_limits) {}
+
+ProcedureState Procedure::state() const noexcept {
+  if (record_.fault != ErrorCode::kOk) return ProcedureState::kFault;
+  switch (record_.phase) {
+    case Phase::kAligning:
+      return ProcedureState::kAligning;
+    case Phase::kEngaging:
+      return ProcedureState::kEngaging;
+    case Phase::kEngaged:
+      return ProcedureState::kEngaged;
+    case Phase::kIdle:
+      break;
+  }
+  if (!width_) return ProcedureState::kAwaitingWidth;
+  if (!handle_) return ProcedureState::kAwaitingHandle;
+  if (!plane_) return ProcedureState::kAwaitingPlane;
+  if (!record_.aligned) return ProcedureState::kReadyToAlign;
+  if (!contact_) return ProcedureState::kAligned;
+  return ProcedureState::kReadyToEngage;
+}
+
+Status Procedure::check_measure_allowed() const {
+  if (record_.fault != ErrorCode::kOk) {
+    return make_error(
+        ErrorCode::kFaultLatched, "",
+        "a fault is latched (" + std::string(to_string(record_.fault)) + "): Reset first");
+  }
+  if (record_.phase == Phase::kAligning || record_.phase == Phase::kEngaging) {
+    return make_error(ErrorCode::kMotionInProgress, "",
+                      "the robot is moving: wait for the motion to finish or Stop it");
+  }
+  return Ok{};
+}
+
+Status Procedure::check_prerequisites(bool need_width, bool need_handle, bool need_plane,
+                                      bool need_aligned) const {
+  if (need_width && !width_)
+    return missing(ErrorCode::kMissingDoorWidth, "measure the door width first");
+  if (need_handle && !handle_)
+    return missing(ErrorCode::kMissingHandle, "measure the handle first");
+  if (need_plane && !plane_)
+    return missing(ErrorCode::kMissingPlane, "measure the door plane first");
+  if (need_aligned && !record_.aligned)
+    return missing(ErrorCode::kNotAligned, "align the base first");
+  return Ok{};
+}
+
+Result<protocol::SpanAck> Procedure::measure_width(const protocol::MeasureDoorWidth& m) {
+  if (auto s = check_measure_allowed(); !s) return std::move(s).error();
+  auto r = core::measure_door_width(m.p1_hinge, m.p2_moving_edge, camera_to_base_, limits_);
+  if (!r) return std::move(r).error();
+  width_ = to_ack(*r);
+  record_.width = m;
+  if (record_.phase == Phase::kEngaged) record_.phase = Phase::kIdle;
+  return *width_;
+}
+
+Result<protocol::SpanAck> Procedure::measure_handle(const protocol::MeasureHandle& m) {
+  if (auto s = check_measure_allowed(); !s) return std::move(s).error();
+  if (auto s = check_prerequisites(true, false, false, false); !s) return std::move(s).error();
+  auto r = core::measure_handle(m.p1_axis, m.p2_free_end, camera_to_base_, limits_);
+  if (!r) return std::move(r).error();
+  handle_ = to_ack(*r);
+  record_.handle = m;
+  if (record_.phase == Phase::kEngaged) record_.phase = Phase::kIdle;
+  return *handle_;
+}
+
+Result<protocol::PlaneAck> Procedure::measure_plane(const protocol::MeasureDoorPlane& m) {
+  if (auto s = check_measure_allowed(); !s) return std::move(s).error();
+  if (auto s = check_prerequisites(true, true, false, false); !s) return std::move(s).error();
+  if (m.count < protocol::kMinPlanePoints || m.count > protocol::kMaxPlanePoints) {
+    return make_error(ErrorCode::kBadCount, "count",
+                      "a door plane needs 3 to 16 points, got " + std::to_string(m.count));
+  }
+  auto r = core::measure_door_plane(std::span<const core::FramedPoint>(m.points.data(), m.count),
+                                    camera_to_base_, limits_, base_);
+  if (!r) return std::move(r).error();
+  const bool keeps_alignment =
+      record_.aligned && std::abs(r->yaw_deviation_rad) <= procedure_limits_.aligned_tolerance_rad;
+  plane_ = to_ack(*r);
+  wheels_ = r->wheels;
+  record_.plane = m;
+  record_.plane_consumed = false;
+  if (!keeps_alignment) {
+    record_.aligned = false;
+    contact_.reset();
+    record_.contact.reset();
+  }
+  if (record_.phase == Phase::kEngaged) record_.phase = Phase::kIdle;
+  return *plane_;
+}
+
+Result<protocol::ContactAck> Procedure::set_contact(const protocol::SetContactPoint& m) {
+  if (auto s = check_measure_allowed(); !s) return std::move(s).error();
+  if (auto s = check_prerequisites(true, true, true, true); !s) return std::move(s).error();
+  auto r = core::measure_contact_point(m.contact, camera_to_base_, limits_);
+  if (!r) return std::move(r).error();
+  protocol::ContactAck ack;
+  ack.contact_base_m = r->contact_base_m;
+  ack.reach_margin_m = r->reach_margin_m;
+  contact_ = ack;
+  record_.contact = m;
+  if (record_.phase == Phase::kEngaged) record_.phase = Phase::kIdle;
+  return *contact_;
+}
+
+Result<core::WheelCommand> Procedure::check_align() const {
+  if (auto s = check_measure_allowed(); !s) return std::move(s).error();
+  if (auto s = check_prerequisites(true, true, true, false); !s) return std::move(s).error();
+  if (record_.plane_consumed) {
+    return make_error(ErrorCode::kMissingPlane, "",
+                      "the last alignment was interrupted: measure the door plane again first");
+  }
+  if (record_.aligned) {
+    return make_error(ErrorCode::kWrongState, "",
+                      "the base is already aligned: measure the door plane again to re-align");
+  }
+  return *wheels_;
+}
+
+void Procedure::alignment_started() {
+  record_.phase = Phase::kAligning;
+  record_.plane_consumed = true;  // until it finishes, the plane no longer describes the base
+}
+
+void Procedure::alignment_finished() {
+  if (record_.phase == Phase::kAligning) record_.phase = Phase::kIdle;
+  record_.aligned = true;
+  record_.plane_consumed = false;
+}
+
+void Procedure::alignment_interrupted() {
+  if (record_.phase == Phase::kAligning) record_.phase = Phase::kIdle;
+  record_.aligned = false;
+  record_.plane_consumed = true;
+}
+
+void Procedure::alignment_not_started() {
+  if (record_.phase == Phase::kAligning) record_.phase = Phase::kIdle;
+  record_.plane_consumed = false;
+}
+
+Result<drivers::DoorTask> Procedure::check_engage() const {
+  if (auto s = check_measure_allowed(); !s) return std::move(s).error();
+  if (auto s = check_prerequisites(true, true, true, true); !s) return std::move(s).error();
+  if (!contact_) return missing(ErrorCode::kMissingContactPoint, "set the contact point first");
+  if (record_.phase == Phase::kEngaged) {
+    return make_error(ErrorCode::kWrongState, "",
+                      "already engaged: re-measure or Reset to run the task again");
+  }
+  drivers::DoorTask task;
+  task.contact_base_m = contact_->contact_base_m;
+  task.door_width_m = width_->length_m;
+  task.handle_length_m = handle_->length_m;
+  task.door_direction = width_->direction;
+  task.handle_direction = handle_->direction;
+  return task;
+}
+
+void Procedure::engaging_started() {
+  record_.phase = Phase::kEngaging;
+}
+
+void Procedure::engaging_finished() {
+  if (record_.phase == Phase::kEngaging) record_.phase = Phase::kEngaged;
+}
+
+void Procedure::engaging_interrupted() {
+  if (record_.phase == Phase::kEngaging) record_.phase = Phase::kIdle;
+}
+
+void Procedure::latch_fault(ErrorCode code) {
+  if (record_.phase == Phase::kAligning) alignment_interrupted();
+  if (record_.phase == Phase::kEngaging) engaging_interrupted();
+  if (record_.fault == ErrorCode::kOk) record_.fault = code;
+}
+
+void Procedure::clear_fault() {
+  record_.fault = ErrorCode::kOk;
+}
+
+void Procedure::clear_parameters() {
+  const ErrorCode fault = record_.fault;
+  record_ = ProcedureRecord{};
+  record_.fault = fault;
+  width_.reset();
+  handle_.reset();
+  plane_.reset();
+  wheels_.reset();
+  contact_.reset();
+}
+
+Status Procedure::restore(const ProcedureRecord& record) {
+  Procedure replay(camera_to_base_, limits_, base_, procedure_limits_);
+  if (record.width) {
+    if (auto r = replay.measure_width(*record.width); !r) return std::move(r).error();
+  }
+  if (record.handle) {
+    if (auto r = replay.measure_handle(*record.handle); !r) return std::move(r).error();
+  }
+  if (record.plane) {
+    if (auto r = replay.measure_plane(*record.plane); !r) return std::move(r).error();
+  }
+  if (record.aligned || record.phase == Phase::kEngaging || record.phase == Phase::kEngaged) {
+    if (!record.plane) return missing(ErrorCode::kMissingPlane, "aligned without a plane");
+    replay.record_.aligned = true;
+  }
+  if (record.contact) {
+    if (auto r = replay.set_contact(*record.contact); !r) return std::move(r).error();
+  }
+  replay.record_.plane_consumed = record.plane_consumed;
+  switch (record.phase) {
+    case Phase::kAligning:  // turned by an unknown amount before the restart
+      replay.record_.aligned = false;
+      replay.record_.plane_consumed = true;
+      break;
+    case Phase::kEngaged:
+      if (replay.contact_) replay.record_.phase = Phase::kEngaged;
+      break;
+    case Phase::kEngaging:  // the arm's outcome is unknown: engage again
+    case Phase::kIdle:
+      break;
+  }
+  replay.record_.fault = record.fault;
+  *this = std::move(replay);
+  return Ok{};
+}
+
+}  // namespace ajar::daemon

@@ -1,0 +1,208 @@
+#include <utility>  // before Asio (asio issue 944)
+
+#include "ajar/daemon/server.hpp"
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <spdlog/spdlog.h>
+
+#include "ajar/daemon/config.hpp"
+#include "ajar/daemon/session_hub.hpp"
+
+namespace ajar::daemon {
+namespace {
+
+namespace asio = boost::asio;
+using tcp = asio::ip::tcp;
+using Clock = std::chrono::steady_clock;
+
+Clock::duration seconds(double s) {
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+}
+
+// The engine's event sink setter, when the engine interface has one (engine.hpp is owned by the
+// engine; the template keeps this file compiling whichever way it is spelled).
+template <typename E>
+bool install_event_sink(E& engine, Engine::EventSink sink) {
+  if constexpr (requires { engine.set_event_sink(sink); }) {
+    engine.set_event_sink(std::move(sink));
+    return true;
+  } else {
+    return false;
+  }
+}
+
+std::string endpoint_text(const tcp::endpoint& e) {
+  const auto address = e.address();
+  return (address.is_v6() ? "[" + address.to_string() + "]" : address.to_string()) + ":" +
+         std::to_string(e.port());
+}
+
+}  // namespace
+
+ServerOptions ServerOptions::from(const NetworkConfig& network) {
+  ServerOptions options;
+  options.bind_address = network.bind_address;
+  options.port = network.port;
+  options.max_clients = network.max_clients;
+  options.session.send_queue_frames =
+      static_cast<std::size_t>(std::max(network.send_queue_frames, 1));
+  options.session.read_deadline = seconds(network.read_deadline_s);
+  options.session.idle_timeout = seconds(network.idle_timeout_s);
+  return options;
+}
+
+struct Server::Impl {
+  Impl(asio::io_context& io_context, Engine& eng, ServerOptions opts)
+      : io(io_context),
+        engine(eng),
+        options(std::move(opts)),
+        acceptor(io),
+        poll_timer(io),
+        hub(eng, options.ledger) {}
+
+  void accept() {
+    acceptor.async_accept([this](const boost::system::error_code& ec, tcp::socket socket) {
+      if (stopped) return;
+      if (ec) {
+        if (ec != asio::error::operation_aborted) {
+          spdlog::warn("accept failed: {}", ec.message());
+          // Out of file descriptors and the like: try again shortly rather than spin.
+          retry_timer = std::make_unique<asio::steady_timer>(io, std::chrono::milliseconds(100));
+          retry_timer->async_wait([this](const boost::system::error_code& wait_ec) {
+            if (!wait_ec && !stopped) accept();
+          });
+        }
+        return;
+      }
+      on_accepted(std::move(socket));
+      accept();
+    });
+  }
+
+  void on_accepted(tcp::socket socket) {
+    boost::system::error_code ec;
+    socket.set_option(tcp::no_delay(true), ec);
+    const auto remote = socket.remote_endpoint(ec);
+    const std::string peer = ec ? std::string("unknown peer") : endpoint_text(remote);
+    const std::uint64_t id = ++last_session_id;
+    if (hub.session_count() >= static_cast<std::size_t>(std::max(options.max_clients, 0))) {
+      spdlog::warn("refused {}: {} clients connected (network.max_clients)", peer,
+                   hub.session_count());
+      protocol::ErrorReply error;
+      error.code = ErrorCode::kTooManyClients;
+      error.offending_type = protocol::MessageType::kHello;
+      error.message.assign("too many clients (" + std::to_string(options.max_clients) +
+                           "); try again later");
+      auto session =
+          std::make_shared<TcpSession>(std::move(socket), id, peer, nullptr, options.session);
+      session->refuse(encode_frame(protocol::Envelope{0, 0, error}), "too many clients");
+      return;
+    }
+    std::make_shared<TcpSession>(std::move(socket), id, peer, &hub, options.session)->start();
+  }
+
+  void schedule_poll() {
+    next_poll += options.poll_period;
+    const auto now = Clock::now();
+    if (next_poll < now) next_poll = now + options.poll_period;  // fell behind: do not burst
+    poll_timer.expires_at(next_poll);
+    poll_timer.async_wait([this](const boost::system::error_code& ec) {
+      if (ec || stopped) return;
+      poll();
+      schedule_poll();
+    });
+  }
+
+  void poll() {
+    try {
+      engine.poll();
+    } catch (const std::exception& e) {
+      spdlog::error("engine poll failed: {}", e.what());
+    }
+    for (const auto& warning : engine.take_warnings())
+      spdlog::warn("{}", warning);
+    hub.tick(Clock::now());
+  }
+
+  asio::io_context& io;
+  Engine& engine;
+  ServerOptions options;
+  tcp::acceptor acceptor;
+  asio::steady_timer poll_timer;
+  std::unique_ptr<asio::steady_timer> retry_timer;
+  SessionHub hub;
+  Clock::time_point next_poll{};
+  std::uint64_t last_session_id = 0;
+  std::uint16_t bound_port = 0;
+  bool started = false;
+  bool stopped = false;
+};
+
+Server::Server(asio::io_context& io, Engine& engine, ServerOptions options)
+    : impl_(std::make_unique<Impl>(io, engine, std::move(options))) {}
+
+Server::~Server() = default;
+
+std::uint16_t Server::listen() {
+  auto& d = *impl_;
+  const std::string where = d.options.bind_address + ":" + std::to_string(d.options.port);
+  boost::system::error_code ec;
+  const auto address = asio::ip::make_address(d.options.bind_address, ec);
+  if (ec)
+    throw StartupError("network.bind_address: '" + d.options.bind_address +
+                       "' is not an IP address");
+  const tcp::endpoint endpoint(address, d.options.port);
+  auto fail = [&](const char* what) {
+    throw StartupError("cannot listen on " + where + ": " + what + ": " + ec.message());
+  };
+  d.acceptor.open(endpoint.protocol(), ec);
+  if (ec) fail("socket");
+  d.acceptor.set_option(tcp::acceptor::reuse_address(true), ec);
+  if (ec) fail("SO_REUSEADDR");
+  d.acceptor.bind(endpoint, ec);
+  if (ec) fail("bind");
+  d.acceptor.listen(asio::socket_base::max_listen_connections, ec);
+  if (ec) fail("listen");
+  d.bound_port = d.acceptor.local_endpoint(ec).port();
+  spdlog::info("listening on {}", endpoint_text(tcp::endpoint(address, d.bound_port)));
+  return d.bound_port;
+}
+
+void Server::start() {
+  auto& d = *impl_;
+  if (d.started) return;
+  d.started = true;
+  if (!install_event_sink(d.engine,
+                          [&hub = d.hub](const protocol::Event& e) { hub.on_event(e); })) {
+    spdlog::error("this engine has no event sink: events are not sent to sessions");
+  }
+  d.accept();
+  d.next_poll = Clock::now();
+  d.schedule_poll();
+}
+
+void Server::stop() {
+  auto& d = *impl_;
+  if (d.stopped) return;
+  d.stopped = true;
+  boost::system::error_code ignored;
+  d.acceptor.close(ignored);
+  d.poll_timer.cancel();
+  if (d.retry_timer) d.retry_timer->cancel();
+  d.hub.close_all("daemon shutting down");
+  install_event_sink(d.engine, [](const protocol::Event&) {});
+}
+
+std::uint16_t Server::port() const noexcept {
+  return impl_->bound_port;
+}
+std::size_t Server::session_count() const noexcept {
+  return impl_->hub.session_count();
+}
+const SessionHub& Server::hub() const noexcept {
+  return impl_->hub;
+}
+
+}  // namespace ajar::daemon

@@ -1,0 +1,332 @@
+#include "ajar/daemon/session_hub.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <limits>
+
+#include <spdlog/spdlog.h>
+
+namespace ajar::daemon {
+namespace {
+
+using protocol::MessageType;
+
+std::uint64_t monotonic_ns() {
+  return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                        std::chrono::steady_clock::now().time_since_epoch())
+                                        .count());
+}
+
+bool needs_controller(MessageType t) {
+  switch (t) {
+    case MessageType::kMeasureDoorWidth:
+    case MessageType::kMeasureHandle:
+    case MessageType::kMeasureDoorPlane:
+    case MessageType::kSetContactPoint:
+    case MessageType::kAlignBase:
+    case MessageType::kEngage:
+    case MessageType::kReset:
+      return true;
+    default:
+      return false;
+  }
+}
+
+bool is_stop(MessageType t) {
+  return t == MessageType::kStop || t == MessageType::kEmergencyStop;
+}
+
+}  // namespace
+
+SharedFrame encode_frame(const protocol::Envelope& envelope) {
+  std::array<std::uint8_t, protocol::kMaxFrameSize> buffer{};
+  const std::size_t size = protocol::encode(envelope, buffer);
+  if (size == 0) {
+    // Cannot happen for messages built by the daemon (every message fits kMaxFrameSize).
+    spdlog::error("cannot encode {} frame",
+                  protocol::to_string(protocol::type_of(envelope.message)));
+    return nullptr;
+  }
+  return std::make_shared<const std::vector<std::uint8_t>>(
+      buffer.begin(), buffer.begin() + static_cast<long>(size));
+}
+
+SessionHub::SessionHub(Engine& engine, RequestLedger::Limits ledger_limits)
+    : engine_(engine), ledger_(ledger_limits) {}
+
+void SessionHub::on_open(SessionLink& link) {
+  SessionState state;
+  state.link = &link;
+  sessions_[link.id()] = std::move(state);
+  spdlog::info("session {} opened from {} ({} sessions)", link.id(), link.peer(), sessions_.size());
+}
+
+std::string SessionHub::describe(const SessionState& s) const {
+  std::string text = "session " + std::to_string(s.link->id());
+  if (!s.client_name.empty()) text += " (" + s.client_name + ")";
+  return text;
+}
+
+void SessionHub::reply(SessionState& s, std::uint32_t request_id, protocol::Message message) {
+  if (auto frame = encode_frame(protocol::Envelope{request_id, 0, std::move(message)})) {
+    s.link->send(std::move(frame));
+  }
+}
+
+void SessionHub::refuse(SessionState& s, const protocol::Envelope& envelope, ErrorCode code,
+                        std::string_view field, std::string_view message) {
+  protocol::ErrorReply error;
+  error.code = code;
+  error.offending_type = protocol::type_of(envelope.message);
+  error.field = field;
+  error.message = message;
+  spdlog::debug("session {}: {} refused: {} {} ({})", s.link->id(),
+                protocol::to_string(error.offending_type), to_string(code), field, message);
+  reply(s, envelope.request_id, error);
+}
+
+void SessionHub::broadcast(const protocol::Message& message) {
+  auto frame = encode_frame(protocol::Envelope{0, 0, message});
+  if (!frame) return;
+  for (auto& [id, s] : sessions_) {
+    if (s.greeted) s.link->send(frame);
+  }
+}
+
+void SessionHub::announce_controller(std::string_view detail) {
+  protocol::Event event;
+  event.kind = protocol::EventKind::kControlChanged;
+  event.state = engine_.status().state;
+  event.daemon_time_ns = monotonic_ns();
+  event.detail = detail;
+  spdlog::info("control changed: {}", detail);
+  broadcast(event);
+}
+
+void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelope) {
+  auto it = sessions_.find(link.id());
+  if (it == sessions_.end()) return;
+  SessionState& s = it->second;
+  if (controller_ == link.id()) engine_.controller_heartbeat();
+
+  const MessageType type = protocol::type_of(envelope.message);
+  if (!protocol::is_request(type)) {
+    refuse(s, envelope, ErrorCode::kUnknownMessageType, "type",
+           "a daemon-to-host message is not a request");
+    return;
+  }
+  if (type == MessageType::kHello) {
+    handle_hello(s, envelope);
+    return;
+  }
+  if (is_stop(type)) {  // from any session, greeted or not: stopping is never refused here
+    spdlog::info("{}: {}", describe(s), protocol::to_string(type));
+    reply(s, envelope.request_id, call_engine(envelope.message));
+    return;
+  }
+  if (!s.greeted) {
+    refuse(s, envelope, ErrorCode::kHelloRequired, "", "send Hello first");
+    return;
+  }
+  switch (type) {
+    case MessageType::kPing: {
+      const auto& ping = std::get<protocol::Ping>(envelope.message);
+      reply(s, envelope.request_id, protocol::Pong{ping.client_time_ns, monotonic_ns()});
+      return;
+    }
+    case MessageType::kGetStatus: {
+      protocol::Status status = engine_.status();
+      status.controller_connected = controller_.has_value();
+      status.session_count = static_cast<std::uint16_t>(
+          std::min<std::size_t>(sessions_.size(), std::numeric_limits<std::uint16_t>::max()));
+      reply(s, envelope.request_id, status);
+      return;
+    }
+    case MessageType::kSubscribe:
+      handle_subscribe(s, envelope);
+      return;
+    default:
+      break;
+  }
+  if (needs_controller(type)) {
+    handle_command(s, envelope);
+    return;
+  }
+  refuse(s, envelope, ErrorCode::kUnknownMessageType, "type", "not handled by this daemon");
+}
+
+void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelope) {
+  const auto& hello = std::get<protocol::Hello>(envelope.message);
+  if (s.greeted) {
+    refuse(s, envelope, ErrorCode::kAlreadyGreeted, "",
+           "this session already said Hello; to change role, connect again");
+    return;
+  }
+  if (hello.version_major != protocol::kVersionMajor) {
+    refuse(s, envelope, ErrorCode::kUnsupportedVersion, "version_major",
+           "this daemon speaks protocol version " + std::to_string(protocol::kVersionMajor) + ".x");
+    return;
+  }
+  std::optional<std::uint64_t> demoted;
+  if (hello.requested_role == protocol::Role::kController) {
+    if (controller_ && !hello.take_over) {
+      refuse(s, envelope, ErrorCode::kControllerBusy, "take_over",
+             describe(sessions_.at(*controller_)) +
+                 " is the controller; send Hello with take_over=true to take control, or ask "
+                 "for the observer role");
+      return;
+    }
+    demoted = controller_;
+    controller_ = s.link->id();
+  }
+  s.greeted = true;
+  s.role = hello.requested_role;
+  s.client_instance_id = hello.client_instance_id;
+  s.client_name = std::string(hello.client_name.view());
+
+  protocol::Welcome welcome = engine_.welcome_template();
+  welcome.granted_role = s.role;
+  welcome.session_id = s.link->id();
+  reply(s, envelope.request_id, welcome);
+  spdlog::info("{} greeted from {} as {} (client instance {:#x})", describe(s), s.link->peer(),
+               protocol::to_string(s.role), s.client_instance_id);
+
+  if (s.role != protocol::Role::kController) return;
+  if (demoted) {
+    auto old = sessions_.find(*demoted);
+    std::string old_name = "session " + std::to_string(*demoted);
+    if (old != sessions_.end()) {
+      old->second.role = protocol::Role::kObserver;
+      old_name = describe(old->second);
+    }
+    engine_.controller_lost();  // stops motion the old controller started (DEADMAN if moving)
+    announce_controller(describe(s) + " took control from " + old_name);
+  } else {
+    announce_controller(describe(s) + " is the controller");
+  }
+}
+
+void SessionHub::handle_subscribe(SessionState& s, const protocol::Envelope& envelope) {
+  const auto& subscribe = std::get<protocol::Subscribe>(envelope.message);
+  const double rate_hz = static_cast<double>(subscribe.telemetry_rate_hz);
+  if (!std::isfinite(rate_hz) || rate_hz < 0) {
+    refuse(s, envelope, ErrorCode::kRateLimited, "telemetry_rate_hz",
+           "telemetry rate must be a finite number >= 0 (0 = off)");
+    return;
+  }
+  const double loop_rate_hz = static_cast<double>(engine_.welcome_template().loop_rate_hz);
+  const double effective_hz = loop_rate_hz > 0 ? std::min(rate_hz, loop_rate_hz) : rate_hz;
+  if (effective_hz <= 0) {
+    s.telemetry_period = Clock::duration::zero();
+  } else {
+    s.telemetry_period =
+        std::max<Clock::duration>(std::chrono::duration_cast<Clock::duration>(
+                                      std::chrono::duration<double>(1.0 / effective_hz)),
+                                  Clock::duration(1));
+    s.next_telemetry = Clock::now();
+  }
+  protocol::Ack ack;
+  ack.acknowledged = MessageType::kSubscribe;
+  ack.state = engine_.status().state;
+  reply(s, envelope.request_id, ack);
+}
+
+protocol::Message SessionHub::call_engine(const protocol::Message& request) {
+  try {
+    return engine_.handle_command(request);
+  } catch (const std::exception& e) {
+    spdlog::error("engine failed on {}: {}", protocol::to_string(protocol::type_of(request)),
+                  e.what());
+    protocol::ErrorReply error;
+    error.code = ErrorCode::kInternal;
+    error.offending_type = protocol::type_of(request);
+    error.message.assign(std::string("internal error: ") + e.what());
+    return error;
+  }
+}
+
+void SessionHub::handle_command(SessionState& s, const protocol::Envelope& envelope) {
+  const MessageType type = protocol::type_of(envelope.message);
+  if (controller_ != s.link->id()) {
+    refuse(s, envelope, ErrorCode::kNotController, "",
+           "this session is an observer; connect with Hello{requested_role=controller} "
+           "(take_over=true to take control from the current controller)");
+    return;
+  }
+  const bool deduplicate = s.client_instance_id != 0 && envelope.request_id != 0;
+  if (deduplicate) {
+    if (const protocol::Message* recorded =
+            ledger_.find(s.client_instance_id, envelope.request_id, type)) {
+      spdlog::info("{}: {} request {} is a repeat: original reply sent again, not executed",
+                   describe(s), protocol::to_string(type), envelope.request_id);
+      reply(s, envelope.request_id, *recorded);
+      return;
+    }
+  }
+  spdlog::debug("{}: {} request {}", describe(s), protocol::to_string(type), envelope.request_id);
+  protocol::Message answer = call_engine(envelope.message);
+  const auto* error = std::get_if<protocol::ErrorReply>(&answer);
+  const bool executed_or_refused = error == nullptr || error->code != ErrorCode::kQueueFull;
+  if (deduplicate && executed_or_refused) {
+    ledger_.record(s.client_instance_id, envelope.request_id, type, answer);
+  }
+  reply(s, envelope.request_id, std::move(answer));
+}
+
+void SessionHub::on_decode_error(SessionLink& link, const protocol::DecodeError& error) {
+  auto it = sessions_.find(link.id());
+  if (it == sessions_.end()) return;
+  SessionState& s = it->second;
+  if (controller_ == link.id()) engine_.controller_heartbeat();
+  protocol::ErrorReply reply_body;
+  reply_body.code = error.code;
+  reply_body.offending_type = static_cast<MessageType>(error.type);
+  reply_body.field = std::string_view(error.field == nullptr ? "" : error.field);
+  reply_body.message.assign(std::string(error.framing_lost
+                                            ? "frame rejected, framing lost: closing: "
+                                            : "frame rejected: ") +
+                            std::string(to_string(error.code)));
+  spdlog::warn("session {} from {}: bad frame: {} field '{}' request {}{}", link.id(), link.peer(),
+               to_string(error.code), reply_body.field.view(), error.request_id,
+               error.framing_lost ? " (framing lost, closing)" : "");
+  reply(s, error.request_id, reply_body);
+  if (error.framing_lost) link.close_after_flush("framing lost");
+}
+
+void SessionHub::on_closed(SessionLink& link, std::string_view reason) {
+  auto it = sessions_.find(link.id());
+  if (it == sessions_.end()) return;
+  const std::string name = describe(it->second);
+  sessions_.erase(it);
+  spdlog::info("{} closed: {} ({} sessions)", name, reason, sessions_.size());
+  if (controller_ == link.id()) {
+    controller_.reset();
+    engine_.controller_lost();
+    announce_controller(name + " (the controller) disconnected; no controller");
+  }
+}
+
+void SessionHub::on_event(const protocol::Event& event) {
+  broadcast(event);
+}
+
+void SessionHub::tick(Clock::time_point now) {
+  SharedFrame frame;
+  for (auto& [id, s] : sessions_) {
+    if (s.telemetry_period == Clock::duration::zero() || now < s.next_telemetry) continue;
+    if (!frame) frame = encode_frame(protocol::Envelope{0, 0, engine_.telemetry()});
+    if (!frame) return;
+    s.link->send(frame);
+    s.next_telemetry += s.telemetry_period;
+    if (s.next_telemetry < now)
+      s.next_telemetry = now + s.telemetry_period;  // no bursts after a stall
+  }
+}
+
+void SessionHub::close_all(std::string_view reason) {
+  for (auto& [id, s] : sessions_)
+    s.link->close_after_flush(reason);
+}
+
+}  // namespace ajar::daemon

@@ -1,0 +1,304 @@
+#include "ajar/daemon/state_store.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include <boost/crc.hpp>
+
+#include "ajar/daemon/config.hpp"
+
+namespace ajar::daemon {
+namespace {
+
+constexpr const char* kMagic = "ajar-state";
+
+std::uint32_t crc32(std::string_view bytes) {
+  boost::crc_32_type crc;
+  crc.process_bytes(bytes.data(), bytes.size());
+  return crc.checksum();
+}
+
+void put_number(std::string& out, double v) {
+  char buffer[64];
+  const auto r = std::to_chars(buffer, buffer + sizeof(buffer), v);
+  out.push_back(' ');
+  out.append(buffer, r.ptr);
+}
+
+void put_point(std::string& out, const core::FramedPoint& p) {
+  out += p.frame == core::Frame::kBase ? " base" : " camera";
+  for (int i = 0; i < 3; ++i)
+    put_number(out, p.position_m[i]);
+}
+
+const char* phase_name(Phase p) {
+  switch (p) {
+    case Phase::kAligning:
+      return "aligning";
+    case Phase::kEngaging:
+      return "engaging";
+    case Phase::kEngaged:
+      return "engaged";
+    case Phase::kIdle:
+      break;
+  }
+  return "idle";
+}
+
+Error bad(const std::string& message) {
+  return make_error(ErrorCode::kInternal, "state_file", message);
+}
+
+// Whitespace-separated tokens of one line.
+class Tokens {
+ public:
+  explicit Tokens(const std::string& line) {
+    std::istringstream in(line);
+    std::string t;
+    while (in >> t)
+      tokens_.push_back(t);
+  }
+  std::size_t size() const { return tokens_.size(); }
+  const std::string& operator[](std::size_t i) const { return tokens_[i]; }
+
+ private:
+  std::vector<std::string> tokens_;
+};
+
+bool parse_double(const std::string& s, double& v) {
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  return r.ec == std::errc() && r.ptr == s.data() + s.size();
+}
+
+bool parse_int(const std::string& s, long long& v) {
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  return r.ec == std::errc() && r.ptr == s.data() + s.size();
+}
+
+// Parses "<frame> x y z" starting at token `at`.
+bool parse_point(const Tokens& t, std::size_t at, core::FramedPoint& p) {
+  if (at + 4 > t.size()) return false;
+  if (t[at] == "camera")
+    p.frame = core::Frame::kCamera;
+  else if (t[at] == "base")
+    p.frame = core::Frame::kBase;
+  else
+    return false;
+  for (int i = 0; i < 3; ++i) {
+    double v = 0;
+    if (!parse_double(t[at + 1 + static_cast<std::size_t>(i)], v)) return false;
+    p.position_m[i] = v;
+  }
+  return true;
+}
+
+std::string errno_text() {
+  return std::strerror(errno);
+}
+
+}  // namespace
+
+std::string encode_state(const ProcedureRecord& r) {
+  std::string out;
+  out += std::string(kMagic) + " " + std::to_string(kStateFormatVersion) + "\n";
+  out += std::string("phase ") + phase_name(r.phase) + "\n";
+  out += std::string("aligned ") + (r.aligned ? "1" : "0") + "\n";
+  out += std::string("plane_consumed ") + (r.plane_consumed ? "1" : "0") + "\n";
+  out += "fault " + std::to_string(static_cast<unsigned>(r.fault)) + "\n";
+  if (r.width) {
+    out += "width";
+    put_point(out, r.width->p1_hinge);
+    put_point(out, r.width->p2_moving_edge);
+    out += "\n";
+  }
+  if (r.handle) {
+    out += "handle";
+    put_point(out, r.handle->p1_axis);
+    put_point(out, r.handle->p2_free_end);
+    out += "\n";
+  }
+  if (r.plane) {
+    out += "plane " + std::to_string(r.plane->count);
+    for (std::size_t i = 0; i < r.plane->count && i < r.plane->points.size(); ++i) {
+      put_point(out, r.plane->points[i]);
+    }
+    out += "\n";
+  }
+  if (r.contact) {
+    out += "contact";
+    put_point(out, r.contact->contact);
+    out += "\n";
+  }
+  char crc[32];
+  std::snprintf(crc, sizeof(crc), "crc32 %08x\n", crc32(out));
+  out += crc;
+  return out;
+}
+
+Result<ProcedureRecord> decode_state(const std::string& text) {
+  const auto crc_at = text.rfind("crc32 ");
+  if (crc_at == std::string::npos || (crc_at > 0 && text[crc_at - 1] != '\n')) {
+    return bad("no checksum line (truncated?)");
+  }
+  const std::string body = text.substr(0, crc_at);
+  const Tokens crc_line(text.substr(crc_at));
+  unsigned long expected = 0;
+  if (crc_line.size() != 2 ||
+      std::from_chars(crc_line[1].data(), crc_line[1].data() + crc_line[1].size(), expected, 16)
+              .ec != std::errc() ||
+      expected != crc32(body)) {
+    return bad("checksum mismatch (corrupt file)");
+  }
+
+  ProcedureRecord r;
+  std::istringstream in(body);
+  std::string line;
+  int line_number = 0;
+  bool have_header = false;
+  while (std::getline(in, line)) {
+    ++line_number;
+    const Tokens t(line);
+    if (t.size() == 0) continue;
+    const auto fail = [&](const std::string& what) {
+      return bad("line " + std::to_string(line_number) + ": " + what);
+    };
+    if (!have_header) {
+      if (t.size() != 2 || t[0] != kMagic) return fail("not an ajar state file");
+      if (t[1] != std::to_string(kStateFormatVersion)) {
+        return fail("unsupported format version " + t[1] + " (this daemon reads " +
+                    std::to_string(kStateFormatVersion) + ")");
+      }
+      have_header = true;
+      continue;
+    }
+    const std::string& key = t[0];
+    if (key == "phase" && t.size() == 2) {
+      if (t[1] == "idle")
+        r.phase = Phase::kIdle;
+      else if (t[1] == "aligning")
+        r.phase = Phase::kAligning;
+      else if (t[1] == "engaging")
+        r.phase = Phase::kEngaging;
+      else if (t[1] == "engaged")
+        r.phase = Phase::kEngaged;
+      else
+        return fail("unknown phase '" + t[1] + "'");
+    } else if ((key == "aligned" || key == "plane_consumed") && t.size() == 2 &&
+               (t[1] == "0" || t[1] == "1")) {
+      (key == "aligned" ? r.aligned : r.plane_consumed) = t[1] == "1";
+    } else if (key == "fault" && t.size() == 2) {
+      long long code = 0;
+      if (!parse_int(t[1], code) || code < 0 || code > 0xFFFF) return fail("bad fault code");
+      r.fault = static_cast<ErrorCode>(code);
+    } else if (key == "width" && t.size() == 9) {
+      protocol::MeasureDoorWidth m;
+      if (!parse_point(t, 1, m.p1_hinge) || !parse_point(t, 5, m.p2_moving_edge)) {
+        return fail("bad width points");
+      }
+      r.width = m;
+    } else if (key == "handle" && t.size() == 9) {
+      protocol::MeasureHandle m;
+      if (!parse_point(t, 1, m.p1_axis) || !parse_point(t, 5, m.p2_free_end)) {
+        return fail("bad handle points");
+      }
+      r.handle = m;
+    } else if (key == "plane" && t.size() >= 2) {
+      long long n = 0;
+      if (!parse_int(t[1], n) || n < 0 || n > static_cast<long long>(protocol::kMaxPlanePoints) ||
+          t.size() != 2 + 4 * static_cast<std::size_t>(n)) {
+        return fail("bad plane point count");
+      }
+      protocol::MeasureDoorPlane m;
+      m.count = static_cast<std::uint8_t>(n);
+      for (std::size_t i = 0; i < m.count; ++i) {
+        if (!parse_point(t, 2 + 4 * i, m.points[i])) return fail("bad plane point");
+      }
+      r.plane = m;
+    } else if (key == "contact" && t.size() == 5) {
+      protocol::SetContactPoint m;
+      if (!parse_point(t, 1, m.contact)) return fail("bad contact point");
+      r.contact = m;
+    } else {
+      return fail("unexpected '" + line + "'");
+    }
+  }
+  if (!have_header) return bad("empty file");
+  return r;
+}
+
+StateStore::StateStore(std::string directory)
+    : directory_(std::move(directory)), path_(directory_ + "/ajard.state") {}
+
+void StateStore::prepare() const {
+  std::error_code ec;
+  std::filesystem::create_directories(directory_, ec);
+  if (ec || !std::filesystem::is_directory(directory_)) {
+    throw StartupError("state.directory: cannot create '" + directory_ + "' (" +
+                       (ec ? ec.message() : std::string("not a directory")) + ")");
+  }
+}
+
+Result<StateStore::Loaded> StateStore::load() const {
+  Loaded loaded;
+  std::ifstream in(path_, std::ios::binary);
+  if (!in) {
+    if (!std::filesystem::exists(path_)) return loaded;
+    return bad("cannot read '" + path_ + "'");
+  }
+  std::ostringstream content;
+  content << in.rdbuf();
+  auto r = decode_state(content.str());
+  if (!r) {
+    Error e = std::move(r).error();
+    e.message = path_ + ": " + e.message;
+    return e;
+  }
+  loaded.found = true;
+  loaded.record = std::move(r).value();
+  return loaded;
+}
+
+Status StateStore::save(const ProcedureRecord& record) const {
+  const std::string text = encode_state(record);
+  const std::string tmp = path_ + ".tmp";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
+  if (fd < 0) return bad("cannot create '" + tmp + "': " + errno_text());
+  std::size_t written = 0;
+  while (written < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const std::string why = errno_text();
+      ::close(fd);
+      return bad("cannot write '" + tmp + "': " + why);
+    }
+    written += static_cast<std::size_t>(n);
+  }
+  if (::fsync(fd) != 0) {
+    const std::string why = errno_text();
+    ::close(fd);
+    return bad("cannot fsync '" + tmp + "': " + why);
+  }
+  ::close(fd);
+  if (::rename(tmp.c_str(), path_.c_str()) != 0) {
+    return bad("cannot rename '" + tmp + "' to '" + path_ + "': " + errno_text());
+  }
+  const int dir = ::open(directory_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir < 0) return bad("cannot open directory '" + directory_ + "': " + errno_text());
+  const int rc = ::fsync(dir);
+  const std::string why = rc != 0 ? errno_text() : std::string();
+  ::close(dir);
+  if (rc != 0) return bad("cannot fsync directory '" + directory_ + "': " + why);
+  return Ok{};
+}
+
+}  // namespace ajar::daemon

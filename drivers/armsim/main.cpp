@@ -1,0 +1,80 @@
+// ajar-armsim [--task-ms N] [--reply-delay-ms N] [--refuse]
+// Runs ArmControllerSimulator on a pseudo-terminal, prints the device path to open, and serves
+// until SIGINT or SIGTERM. Requests and counters are printed once a second when they change.
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <string>
+
+#include "ajar/drivers/arm_simulator.hpp"
+
+namespace {
+
+int parse_ms(const char* text, const char* flag) {
+  char* end = nullptr;
+  const long v = std::strtol(text, &end, 10);
+  if (end == text || *end != '\0' || v < 0 || v > 3'600'000) {
+    std::fprintf(stderr, "ajar-armsim: %s wants milliseconds 0..3600000, not '%s'\n", flag, text);
+    std::exit(2);
+  }
+  return static_cast<int>(v);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ajar::drivers::ArmSimulatorSettings settings;
+  bool refuse = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--task-ms" && i + 1 < argc) {
+      settings.task_duration_ms = parse_ms(argv[++i], "--task-ms");
+    } else if (arg == "--reply-delay-ms" && i + 1 < argc) {
+      settings.reply_delay_ms = parse_ms(argv[++i], "--reply-delay-ms");
+    } else if (arg == "--refuse") {
+      refuse = true;
+    } else {
+      std::fprintf(stderr, "usage: ajar-armsim [--task-ms N] [--reply-delay-ms N] [--refuse]\n");
+      return 2;
+    }
+  }
+
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);  // before the simulator's thread starts
+
+  try {
+    ajar::drivers::ArmControllerSimulator sim(settings);
+    sim.set_refuse_tasks(refuse);
+    std::printf("%s\n", sim.device_path().c_str());
+    std::fflush(stdout);
+    ajar::drivers::ArmControllerSimulator::Counters last{};
+    timespec tick{1, 0};
+    for (;;) {
+      siginfo_t info;
+      if (sigtimedwait(&signals, &info, &tick) > 0) break;
+      const auto c = sim.counters();
+      if (c.requests != last.requests || c.tasks_completed != last.tasks_completed) {
+        std::fprintf(stderr,
+                     "requests %llu, duplicates %llu, tasks executed %llu, completed %llu, "
+                     "stops %llu, bad lines %llu, phase %s\n",
+                     static_cast<unsigned long long>(c.requests),
+                     static_cast<unsigned long long>(c.duplicates_ignored),
+                     static_cast<unsigned long long>(c.tasks_executed),
+                     static_cast<unsigned long long>(c.tasks_completed),
+                     static_cast<unsigned long long>(c.stops),
+                     static_cast<unsigned long long>(c.bad_requests),
+                     ajar::drivers::arm::to_string(sim.phase()));
+        last = c;
+      }
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "ajar-armsim: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

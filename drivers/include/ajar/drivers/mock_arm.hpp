@@ -1,0 +1,59 @@
+// MockManipulator: an in-process arm for daemon tests, with the fault menu of settings.hpp.
+// Thread-safe; never blocks (except connect() under kSlow). No thread of its own: the phase is
+// derived from the time the task was handed off.
+//
+//   kOff          a task is busy for kTaskDurationMs, then done.
+//   kStuck        a task stays busy forever (until stop()).
+//   kSlow         a task is busy for slow_ms * 4; connect() takes slow_ms.
+//   kErrorCode    the arm refuses every task: kFault with kArmRejected.
+//   kIntermittent every second task (the 2nd, 4th, ...) ends in kFault with kArmTimeout.
+//   kGarbage      the line is garbled: every task ends in kFault with kArmTimeout after slow_ms,
+//                 as the serial driver reports it when every reply is corrupt.
+// stop() ends a task (kIdle); clear_fault() turns kFault into kIdle.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <mutex>
+
+#include "ajar/drivers/manipulator.hpp"
+#include "ajar/drivers/settings.hpp"
+
+namespace ajar::drivers {
+
+class MockManipulator final : public Manipulator {
+ public:
+  static constexpr int kTaskDurationMs = 20;
+
+  explicit MockManipulator(MockFault fault = MockFault::kOff, int slow_ms = 50);
+
+  Status connect() override;
+  Status disconnect() override;
+  Result<std::uint32_t> hand_off(const DoorTask& task) override;
+  Status stop() override;
+  Status clear_fault() override;
+  ArmStatus status() const override;
+
+  // Test controls and observations.
+  void set_fault(MockFault fault);
+  std::uint64_t tasks_started() const;
+  std::uint64_t stops() const;
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  void settle_locked(Clock::time_point now) const;  // advances busy -> done/fault by time
+
+  mutable std::mutex mutex_;
+  MockFault fault_;
+  int slow_ms_;
+  bool connected_ = false;
+  mutable ArmStatus status_;
+  Clock::time_point busy_until_{};
+  ErrorCode task_outcome_ = ErrorCode::kOk;  // kOk = done, else fault with this code
+  bool task_never_ends_ = false;
+  std::uint32_t next_task_id_ = 1;
+  std::uint64_t tasks_started_ = 0;
+  std::uint64_t stops_ = 0;
+};
+
+}  // namespace ajar::drivers

@@ -1,0 +1,380 @@
+#include "ajar/drivers/arm_protocol.hpp"
+
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <vector>
+
+namespace ajar::drivers::arm {
+namespace {
+
+struct CommandName {
+  Command command;
+  std::string_view name;
+};
+constexpr std::array<CommandName, 8> kCommandNames{{{Command::kTask, "TASK"},
+                                                    {Command::kStatus, "STAT"},
+                                                    {Command::kStop, "STOP"},
+                                                    {Command::kClear, "CLR"},
+                                                    {Command::kAck, "ACK"},
+                                                    {Command::kNak, "NAK"},
+                                                    {Command::kReport, "STA"},
+                                                    {Command::kDone, "DONE"}}};
+
+std::optional<Command> command_from(std::string_view name) {
+  for (const auto& entry : kCommandNames) {
+    if (entry.name == name) return entry.command;
+  }
+  return std::nullopt;
+}
+
+bool is_request(Command c) {
+  return c == Command::kTask || c == Command::kStatus || c == Command::kStop ||
+         c == Command::kClear;
+}
+
+std::optional<ControllerPhase> phase_from(std::string_view s) {
+  if (s == "IDLE") return ControllerPhase::kIdle;
+  if (s == "BUSY") return ControllerPhase::kBusy;
+  if (s == "DONE") return ControllerPhase::kDone;
+  if (s == "FAULT") return ControllerPhase::kFault;
+  return std::nullopt;
+}
+
+std::optional<RejectReason> reason_from(std::string_view s) {
+  if (s == "BUSY") return RejectReason::kBusy;
+  if (s == "FAULT") return RejectReason::kFault;
+  if (s == "REFUSED") return RejectReason::kRefused;
+  if (s == "BADREQ") return RejectReason::kBadRequest;
+  return std::nullopt;
+}
+
+std::optional<core::RotationDirection> direction_from(std::string_view s) {
+  if (s == "CW") return core::RotationDirection::kClockwise;
+  if (s == "CCW") return core::RotationDirection::kCounterClockwise;
+  return std::nullopt;
+}
+
+constexpr char kHex[] = "0123456789ABCDEF";
+
+std::optional<int> hex_digit(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return std::nullopt;
+}
+
+void append_uint(std::string& out, std::uint64_t v) {
+  char buf[24];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, r.ptr);
+}
+
+void append_metres(std::string& out, double v) {
+  char buf[48];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::fixed, 4);
+  out.append(buf, r.ptr);
+}
+
+Error bad(ErrorCode code, std::string field, std::string message) {
+  return make_error(code, std::move(field), "arm protocol: " + std::move(message));
+}
+
+template <typename T>
+std::optional<T> parse_uint(std::string_view s, T max) {
+  if (s.empty() || s.size() > 10) return std::nullopt;
+  std::uint64_t v = 0;
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (r.ec != std::errc{} || r.ptr != s.data() + s.size() || v > max) return std::nullopt;
+  return static_cast<T>(v);
+}
+
+Result<double> parse_metres(std::string_view s, const char* field) {
+  double v = 0;
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), v, std::chars_format::fixed);
+  if (s.empty() || r.ec != std::errc{} || r.ptr != s.data() + s.size()) {
+    return bad(ErrorCode::kBadPayloadLength, field, "not a number: '" + std::string(s) + "'");
+  }
+  if (!std::isfinite(v)) return bad(ErrorCode::kNonFiniteNumber, field, "not finite");
+  return v;
+}
+
+std::vector<std::string_view> split(std::string_view body) {
+  std::vector<std::string_view> out;
+  std::size_t start = 0;
+  for (;;) {
+    const auto comma = body.find(',', start);
+    out.push_back(body.substr(start, comma == std::string_view::npos ? comma : comma - start));
+    if (comma == std::string_view::npos) return out;
+    start = comma + 1;
+  }
+}
+
+}  // namespace
+
+const char* to_string(Command c) noexcept {
+  for (const auto& entry : kCommandNames) {
+    if (entry.command == c) return entry.name.data();
+  }
+  return "UNKNOWN";
+}
+
+const char* to_string(ControllerPhase p) noexcept {
+  switch (p) {
+    case ControllerPhase::kIdle:
+      return "IDLE";
+    case ControllerPhase::kBusy:
+      return "BUSY";
+    case ControllerPhase::kDone:
+      return "DONE";
+    case ControllerPhase::kFault:
+      return "FAULT";
+  }
+  return "UNKNOWN";
+}
+
+const char* to_string(RejectReason r) noexcept {
+  switch (r) {
+    case RejectReason::kBusy:
+      return "BUSY";
+    case RejectReason::kFault:
+      return "FAULT";
+    case RejectReason::kRefused:
+      return "REFUSED";
+    case RejectReason::kBadRequest:
+      return "BADREQ";
+  }
+  return "UNKNOWN";
+}
+
+std::uint16_t crc16_ccitt(std::string_view bytes) noexcept {
+  std::uint16_t crc = 0xFFFF;
+  for (const char ch : bytes) {
+    crc = static_cast<std::uint16_t>(
+        crc ^ (static_cast<std::uint16_t>(static_cast<unsigned char>(ch)) << 8U));
+    for (int bit = 0; bit < 8; ++bit) {
+      crc = (crc & 0x8000U) != 0 ? static_cast<std::uint16_t>((crc << 1U) ^ 0x1021U)
+                                 : static_cast<std::uint16_t>(crc << 1U);
+    }
+  }
+  return crc;
+}
+
+Result<std::string> encode(const Message& m) {
+  std::string body;
+  append_uint(body, m.seq);
+  body += ',';
+  body += to_string(m.command);
+  switch (m.command) {
+    case Command::kTask: {
+      const double lengths[] = {m.task.contact_base_m.x(), m.task.contact_base_m.y(),
+                                m.task.contact_base_m.z(), m.task.door_width_m,
+                                m.task.handle_length_m};
+      const char* names[] = {"contact_base_m.x", "contact_base_m.y", "contact_base_m.z",
+                             "door_width_m", "handle_length_m"};
+      body += ',';
+      append_uint(body, m.task_id);
+      for (std::size_t i = 0; i < 5; ++i) {
+        if (!std::isfinite(lengths[i])) {
+          return bad(ErrorCode::kNonFiniteNumber, names[i], "not finite");
+        }
+        body += ',';
+        append_metres(body, lengths[i]);
+      }
+      body += ',';
+      body += core::to_string(m.task.door_direction);
+      body += ',';
+      body += core::to_string(m.task.handle_direction);
+      break;
+    }
+    case Command::kStatus:
+    case Command::kStop:
+    case Command::kClear:
+      break;
+    case Command::kAck:
+    case Command::kNak:
+      body += ',';
+      body += to_string(m.subject);
+      if (m.command == Command::kNak) {
+        body += ',';
+        body += to_string(m.reason);
+      }
+      [[fallthrough]];
+    case Command::kReport:
+      body += ',';
+      body += to_string(m.phase);
+      [[fallthrough]];
+    case Command::kDone:
+      body += ',';
+      append_uint(body, m.task_id);
+      break;
+  }
+  const std::uint16_t crc = crc16_ccitt(body);
+  std::string line;
+  line.reserve(body.size() + 8);
+  line += '$';
+  line += body;
+  line += '*';
+  for (int shift = 12; shift >= 0; shift -= 4) {
+    line += kHex[(crc >> static_cast<unsigned>(shift)) & 0xFU];
+  }
+  line += "\r\n";
+  return line;
+}
+
+Result<Message> decode(std::string_view line) {
+  if (line.size() < 8 || line.front() != '$') {
+    return bad(ErrorCode::kBadPayloadLength, "", "line too short or without '$'");
+  }
+  const auto star = line.rfind('*');
+  if (star == std::string_view::npos || line.size() - star != 5) {
+    return bad(ErrorCode::kBadPayloadLength, "crc", "no '*' followed by four hex digits");
+  }
+  std::uint16_t crc_sent = 0;
+  for (std::size_t i = star + 1; i < line.size(); ++i) {
+    const auto d = hex_digit(line[i]);
+    if (!d) return bad(ErrorCode::kBadPayloadLength, "crc", "not upper-case hex");
+    crc_sent = static_cast<std::uint16_t>((crc_sent << 4U) | static_cast<unsigned>(*d));
+  }
+  const std::string_view body = line.substr(1, star - 1);
+  if (crc16_ccitt(body) != crc_sent) return bad(ErrorCode::kCrcMismatch, "crc", "CRC mismatch");
+
+  const auto f = split(body);
+  Message m;
+  if (f.size() < 2) return bad(ErrorCode::kBadPayloadLength, "", "no command");
+  const auto seq = parse_uint<std::uint16_t>(f[0], 0xFFFF);
+  if (!seq) return bad(ErrorCode::kBadPayloadLength, "seq", "not a number 0..65535");
+  m.seq = *seq;
+  const auto cmd = command_from(f[1]);
+  if (!cmd) {
+    return bad(ErrorCode::kUnknownMessageType, "command", "unknown '" + std::string(f[1]) + "'");
+  }
+  m.command = *cmd;
+
+  auto want_fields = [&](std::size_t n) -> Status {
+    if (f.size() != n) {
+      return bad(
+          ErrorCode::kBadPayloadLength, to_string(m.command),
+          "expected " + std::to_string(n - 2) + " fields, got " + std::to_string(f.size() - 2));
+    }
+    return Ok{};
+  };
+  auto task_id_at = [&](std::size_t i) -> Status {
+    const auto id = parse_uint<std::uint32_t>(f[i], 0xFFFFFFFFU);
+    if (!id) return bad(ErrorCode::kBadPayloadLength, "task_id", "not a number");
+    m.task_id = *id;
+    return Ok{};
+  };
+  auto phase_at = [&](std::size_t i) -> Status {
+    const auto p = phase_from(f[i]);
+    if (!p)
+      return bad(ErrorCode::kInvalidEnumValue, "phase", "unknown '" + std::string(f[i]) + "'");
+    m.phase = *p;
+    return Ok{};
+  };
+
+  switch (m.command) {
+    case Command::kTask: {
+      if (auto s = want_fields(10); !s) return std::move(s).error();
+      if (auto s = task_id_at(2); !s) return std::move(s).error();
+      const char* names[] = {"contact_base_m.x", "contact_base_m.y", "contact_base_m.z",
+                             "door_width_m", "handle_length_m"};
+      double v[5] = {};
+      for (std::size_t i = 0; i < 5; ++i) {
+        auto r = parse_metres(f[3 + i], names[i]);
+        if (!r) return std::move(r).error();
+        v[i] = *r;
+      }
+      m.task.contact_base_m = core::Vec3(v[0], v[1], v[2]);
+      m.task.door_width_m = v[3];
+      m.task.handle_length_m = v[4];
+      const auto door = direction_from(f[8]);
+      if (!door) return bad(ErrorCode::kInvalidEnumValue, "door_direction", "not CW/CCW");
+      const auto handle = direction_from(f[9]);
+      if (!handle) return bad(ErrorCode::kInvalidEnumValue, "handle_direction", "not CW/CCW");
+      m.task.door_direction = *door;
+      m.task.handle_direction = *handle;
+      break;
+    }
+    case Command::kStatus:
+    case Command::kStop:
+    case Command::kClear:
+      if (auto s = want_fields(2); !s) return std::move(s).error();
+      break;
+    case Command::kAck:
+    case Command::kNak: {
+      const bool nak = m.command == Command::kNak;
+      if (auto s = want_fields(nak ? 6 : 5); !s) return std::move(s).error();
+      const auto subject = command_from(f[2]);
+      if (!subject || !is_request(*subject)) {
+        return bad(ErrorCode::kInvalidEnumValue, "subject", "not a request name");
+      }
+      m.subject = *subject;
+      std::size_t i = 3;
+      if (nak) {
+        const auto reason = reason_from(f[i]);
+        if (!reason) return bad(ErrorCode::kInvalidEnumValue, "reason", "unknown reason");
+        m.reason = *reason;
+        ++i;
+      }
+      if (auto s = phase_at(i); !s) return std::move(s).error();
+      if (auto s = task_id_at(i + 1); !s) return std::move(s).error();
+      break;
+    }
+    case Command::kReport:
+      if (auto s = want_fields(4); !s) return std::move(s).error();
+      if (auto s = phase_at(2); !s) return std::move(s).error();
+      if (auto s = task_id_at(3); !s) return std::move(s).error();
+      break;
+    case Command::kDone:
+      if (auto s = want_fields(3); !s) return std::move(s).error();
+      if (auto s = task_id_at(2); !s) return std::move(s).error();
+      break;
+  }
+  return m;
+}
+
+void LineReader::feed(std::string_view bytes) {
+  for (const char c : bytes) {
+    if (c == '$') {
+      if (in_line_) dropped_bytes_ += current_.size();
+      current_.assign(1, '$');
+      in_line_ = true;
+      continue;
+    }
+    if (!in_line_) {
+      ++dropped_bytes_;
+      continue;
+    }
+    if (c == '\n') {
+      if (!current_.empty() && current_.back() == '\r') current_.pop_back();
+      pending_ += current_;
+      pending_ += '\n';
+      current_.clear();
+      in_line_ = false;
+      continue;
+    }
+    if (current_.size() >= kMaxLineBytes) {
+      dropped_bytes_ += current_.size() + 1;
+      current_.clear();
+      in_line_ = false;
+      continue;
+    }
+    current_ += c;
+  }
+}
+
+std::optional<std::string> LineReader::next_line() {
+  const auto nl = pending_.find('\n');
+  if (nl == std::string::npos) return std::nullopt;
+  std::string line = pending_.substr(0, nl);
+  pending_.erase(0, nl + 1);
+  return line;
+}
+
+void LineReader::clear() {
+  pending_.clear();
+  current_.clear();
+  in_line_ = false;
+}
+
+}  // namespace ajar::drivers::arm

@@ -1,0 +1,65 @@
+#include <dlfcn.h>
+
+#include "ajar/drivers/factory.hpp"
+#include "ajar/drivers/gts_sim_control.hpp"
+
+namespace ajar::drivers {
+
+namespace {
+
+template <typename F>
+F resolve(void* handle, const char* name, const std::string& path) {
+  void* sym = dlsym(handle, name);
+  if (sym == nullptr) {
+    throw DriverStartupError("card simulator library " + path + " lacks the symbol " + name);
+  }
+  return reinterpret_cast<F>(sym);
+}
+
+}  // namespace
+
+GtsSimControl::GtsSimControl(const std::string& library_path) {
+  handle_ = dlopen(library_path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (handle_ == nullptr) {
+    const char* why = dlerror();
+    throw DriverStartupError("cannot load card simulator library " + library_path + ": " +
+                             (why != nullptr ? why : "unknown error"));
+  }
+  try {
+    reset = resolve<AjarSim_Reset_t>(handle_, "AjarSim_Reset", library_path);
+    set_time_scale = resolve<AjarSim_SetTimeScale_t>(handle_, "AjarSim_SetTimeScale", library_path);
+    inject_fault_raw = resolve<AjarSim_InjectFault_t>(handle_, "AjarSim_InjectFault", library_path);
+    fail_next_calls =
+        resolve<AjarSim_FailNextCalls_t>(handle_, "AjarSim_FailNextCalls", library_path);
+    set_call_delay_us =
+        resolve<AjarSim_SetCallDelayUs_t>(handle_, "AjarSim_SetCallDelayUs", library_path);
+    set_encoder_lag_ms =
+        resolve<AjarSim_SetEncoderLagMs_t>(handle_, "AjarSim_SetEncoderLagMs", library_path);
+    call_count = resolve<AjarSim_CallCount_t>(handle_, "AjarSim_CallCount", library_path);
+    last_update_mask =
+        resolve<AjarSim_LastUpdateMask_t>(handle_, "AjarSim_LastUpdateMask", library_path);
+    last_stop = resolve<AjarSim_LastStop_t>(handle_, "AjarSim_LastStop", library_path);
+    now_ms = resolve<AjarSim_NowMs_t>(handle_, "AjarSim_NowMs", library_path);
+  } catch (...) {
+    dlclose(handle_);
+    throw;
+  }
+}
+
+GtsSimControl::~GtsSimControl() {
+  dlclose(handle_);
+}
+
+void GtsSimControl::inject_fault(int axis, SimFault fault) const {
+  inject_fault_raw(static_cast<short>(axis), static_cast<int>(fault));
+}
+
+std::string default_card_simulator_path() {
+#ifdef AJAR_CARDSIM_DEFAULT_PATH
+  return AJAR_CARDSIM_DEFAULT_PATH;
+#else
+  return {};
+#endif
+}
+
+}  // namespace ajar::drivers

@@ -1,0 +1,307 @@
+#include "ajar/drivers/gts_card.hpp"
+
+#include <dlfcn.h>
+
+#include <chrono>
+#include <cmath>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ajar/drivers/card_checks.hpp"
+#include "ajar/drivers/card_gts_abi.hpp"
+#include "ajar/drivers/factory.hpp"
+
+namespace ajar::drivers {
+
+namespace {
+
+using card::axis_error;
+
+std::string where(std::string_view call, int axis) {
+  std::string s(call);
+  if (axis > 0) s += "(axis " + std::to_string(axis) + ")";
+  return s;
+}
+
+template <typename F>
+F resolve(void* handle, const char* name, const std::string& path) {
+  dlerror();
+  void* sym = dlsym(handle, name);
+  if (sym == nullptr) {
+    throw DriverStartupError("GTS card library " + path + " lacks the symbol " + name);
+  }
+  return reinterpret_cast<F>(sym);
+}
+
+// Decodes a GT_GetSts word (positions left at 0).
+AxisStatus decode_status(long sts) {
+  AxisStatus st;
+  st.enabled = (sts & gts::kStsServoOn) != 0;
+  st.moving = (sts & gts::kStsProfileMoving) != 0;
+  st.in_position = (sts & gts::kStsInPosition) != 0;
+  st.alarm = (sts & gts::kStsDriveAlarm) != 0;
+  st.following_error = (sts & gts::kStsFollowingError) != 0;
+  st.positive_limit = (sts & gts::kStsPositiveLimit) != 0;
+  st.negative_limit = (sts & gts::kStsNegativeLimit) != 0;
+  st.smooth_stopped = (sts & gts::kStsSmoothStop) != 0;
+  st.emergency_stopped = (sts & gts::kStsEmergencyStop) != 0;
+  return st;
+}
+
+// The mask of the valid axes in `axes` (stops act on those even if others are invalid).
+long valid_mask(std::span<const int> axes, int axis_count) {
+  long mask = 0;
+  for (const int axis : axes) {
+    if (axis >= 1 && axis <= axis_count) mask |= gts::axis_mask(axis);
+  }
+  return mask;
+}
+
+}  // namespace
+
+Error gts_error(short code, std::string_view call, int axis) {
+  ErrorCode ec = ErrorCode::kDriverError;
+  const char* meaning = "unknown vendor code";
+  if (code == gts::kCmdExecuteError) {
+    meaning = "execution error";
+  } else if (code == gts::kCmdBadParameter) {
+    ec = ErrorCode::kCardBadParameter;
+    meaning = "bad parameter";
+  } else if (code >= -5 && code <= -1) {
+    ec = ErrorCode::kCardCommunication;
+    meaning = "communication failure";
+  } else if (code == gts::kCmdOpenFailed) {
+    ec = ErrorCode::kCardOpenFailed;
+    meaning = "open failed";
+  } else if (code == gts::kCmdNoResponse) {
+    ec = ErrorCode::kCardCommunication;
+    meaning = "no response";
+  } else if (code == gts::kCmdBusy) {
+    ec = ErrorCode::kCardBusy;
+    meaning = "resource busy";
+  }
+  return make_error(
+      ec, "",
+      where(call, axis) + " failed: vendor code " + std::to_string(code) + " (" + meaning + ")");
+}
+
+struct GtsMotionCard::Api {
+  gts::GT_Open_t open;
+  gts::GT_Close_t close;
+  gts::GT_Reset_t reset;
+  gts::GT_LoadConfig_t load_config;
+  gts::GT_ClrSts_t clr_sts;
+  gts::GT_AxisOn_t axis_on;
+  gts::GT_AxisOff_t axis_off;
+  gts::GT_PrfTrap_t prf_trap;
+  gts::GT_SetTrapPrm_t set_trap_prm;
+  gts::GT_SetPos_t set_pos;
+  gts::GT_SetVel_t set_vel;
+  gts::GT_Update_t update;
+  gts::GT_GetSts_t get_sts;
+  gts::GT_GetPrfPos_t get_prf_pos;
+  gts::GT_GetEncPos_t get_enc_pos;
+  gts::GT_Stop_t stop;
+};
+
+GtsMotionCard::GtsMotionCard(GtsCardSettings settings) : settings_(std::move(settings)) {
+  const std::string& path = settings_.library_path;
+  if (path.empty()) throw DriverStartupError("GTS card library path is empty (drivers.card)");
+  if (settings_.axis_count < 1 || settings_.axis_count > gts::kMaxAxes) {
+    throw DriverStartupError("GTS card axis_count " + std::to_string(settings_.axis_count) +
+                             " outside 1.." + std::to_string(gts::kMaxAxes));
+  }
+  dlerror();
+  handle_ = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (handle_ == nullptr) {
+    const char* why = dlerror();
+    throw DriverStartupError("cannot load GTS card library " + path + ": " +
+                             (why != nullptr ? why : "unknown error"));
+  }
+  try {
+    api_ = std::make_unique<Api>(Api{
+        resolve<gts::GT_Open_t>(handle_, "GT_Open", path),
+        resolve<gts::GT_Close_t>(handle_, "GT_Close", path),
+        resolve<gts::GT_Reset_t>(handle_, "GT_Reset", path),
+        resolve<gts::GT_LoadConfig_t>(handle_, "GT_LoadConfig", path),
+        resolve<gts::GT_ClrSts_t>(handle_, "GT_ClrSts", path),
+        resolve<gts::GT_AxisOn_t>(handle_, "GT_AxisOn", path),
+        resolve<gts::GT_AxisOff_t>(handle_, "GT_AxisOff", path),
+        resolve<gts::GT_PrfTrap_t>(handle_, "GT_PrfTrap", path),
+        resolve<gts::GT_SetTrapPrm_t>(handle_, "GT_SetTrapPrm", path),
+        resolve<gts::GT_SetPos_t>(handle_, "GT_SetPos", path),
+        resolve<gts::GT_SetVel_t>(handle_, "GT_SetVel", path),
+        resolve<gts::GT_Update_t>(handle_, "GT_Update", path),
+        resolve<gts::GT_GetSts_t>(handle_, "GT_GetSts", path),
+        resolve<gts::GT_GetPrfPos_t>(handle_, "GT_GetPrfPos", path),
+        resolve<gts::GT_GetEncPos_t>(handle_, "GT_GetEncPos", path),
+        resolve<gts::GT_Stop_t>(handle_, "GT_Stop", path),
+    });
+  } catch (...) {
+    dlclose(handle_);
+    throw;
+  }
+}
+
+GtsMotionCard::~GtsMotionCard() {
+  if (open_) api_->close();
+  dlclose(handle_);
+}
+
+Status GtsMotionCard::call(short code, std::string_view name, int axis) const {
+  if (code == gts::kCmdSuccess) return Ok{};
+  return gts_error(code, name, axis);
+}
+
+Status GtsMotionCard::check_axes(std::span<const int> axes) const {
+  if (!open_) return make_error(ErrorCode::kDriverError, "", "GTS card is not open");
+  return card::check_axes(axes, settings_.axis_count);
+}
+
+Status GtsMotionCard::open() {
+  if (auto s = call(api_->open(static_cast<short>(settings_.channel), 1), "GT_Open", 0); !s) {
+    return s;
+  }
+  open_ = true;
+  if (auto s = call(api_->reset(), "GT_Reset", 0); !s) return s;
+  if (!settings_.card_config_path.empty()) {
+    std::string file = settings_.card_config_path;
+    if (auto s = call(api_->load_config(file.data()), "GT_LoadConfig", 0); !s) {
+      return make_error(s.error().code, "card_config_path",
+                        s.error().message + " for " + settings_.card_config_path);
+    }
+  }
+  return call(api_->clr_sts(1, static_cast<short>(settings_.axis_count)), "GT_ClrSts", 0);
+}
+
+Status GtsMotionCard::close() {
+  if (!open_) return Ok{};
+  open_ = false;
+  return call(api_->close(), "GT_Close", 0);
+}
+
+Status GtsMotionCard::enable_axes(std::span<const int> axes) {
+  if (auto s = check_axes(axes); !s) return s;
+  for (const int axis : axes) {
+    if (auto s = call(api_->axis_on(static_cast<short>(axis)), "GT_AxisOn", axis); !s) return s;
+  }
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(settings_.poll_timeout_ms);
+  std::vector<int> pending(axes.begin(), axes.end());
+  while (true) {
+    for (auto it = pending.begin(); it != pending.end();) {
+      long sts = 0;
+      const auto a = static_cast<short>(*it);
+      if (auto s = call(api_->get_sts(a, &sts, 1, nullptr), "GT_GetSts", *it); !s) return s;
+      if ((sts & gts::kStsDriveAlarm) != 0) {
+        return axis_error(ErrorCode::kAxisAlarm, *it, "drive alarm while enabling");
+      }
+      it = (sts & gts::kStsServoOn) != 0 ? pending.erase(it) : it + 1;
+    }
+    if (pending.empty()) return Ok{};
+    if (std::chrono::steady_clock::now() >= deadline) {
+      return axis_error(ErrorCode::kMotionTimeout, pending.front(),
+                        "servo not on within " + std::to_string(settings_.poll_timeout_ms) + " ms");
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
+Status GtsMotionCard::disable_axes(std::span<const int> axes) {
+  if (auto s = check_axes(axes); !s) return s;
+  for (const int axis : axes) {
+    if (auto s = call(api_->axis_off(static_cast<short>(axis)), "GT_AxisOff", axis); !s) return s;
+  }
+  return Ok{};
+}
+
+Status GtsMotionCard::clear_faults(std::span<const int> axes) {
+  if (auto s = check_axes(axes); !s) return s;
+  for (const int axis : axes) {
+    if (auto s = call(api_->clr_sts(static_cast<short>(axis), 1), "GT_ClrSts", axis); !s) return s;
+  }
+  return Ok{};
+}
+
+Status GtsMotionCard::move_relative(std::span<const AxisMove> moves,
+                                    const TrapezoidProfile& profile) {
+  if (!open_) return make_error(ErrorCode::kDriverError, "", "GTS card is not open");
+  if (auto s = card::check_move(moves, profile, settings_.axis_count); !s) return s;
+  // Refuse with a named error before anything is commanded.
+  for (const AxisMove& m : moves) {
+    long sts = 0;
+    const auto a = static_cast<short>(m.axis);
+    if (auto s = call(api_->get_sts(a, &sts, 1, nullptr), "GT_GetSts", m.axis); !s) return s;
+    if (auto s = card::check_can_move(decode_status(sts), m.axis, m.distance_counts); !s) {
+      return s;
+    }
+  }
+  gts::TTrapPrm prm{profile.acceleration_counts_per_ms2, profile.deceleration_counts_per_ms2, 0.0,
+                    static_cast<short>(std::lround(profile.smooth_time_ms))};
+  long mask = 0;
+  for (const AxisMove& m : moves) {
+    const auto axis = static_cast<short>(m.axis);
+    if (auto s = call(api_->prf_trap(axis), "GT_PrfTrap", m.axis); !s) return s;
+    if (auto s = call(api_->set_trap_prm(axis, &prm), "GT_SetTrapPrm", m.axis); !s) return s;
+    double current = 0;
+    if (auto s = call(api_->get_prf_pos(axis, &current, 1, nullptr), "GT_GetPrfPos", m.axis); !s) {
+      return s;
+    }
+    // The card's position registers are 32-bit.
+    const double target = std::round(current) + static_cast<double>(m.distance_counts);
+    if (!std::isfinite(target) || std::fabs(target) > 2147483647.0) {
+      return axis_error(ErrorCode::kCardBadParameter, m.axis, "target position out of range");
+    }
+    if (auto s = call(api_->set_pos(axis, std::lround(target)), "GT_SetPos", m.axis); !s) return s;
+    if (auto s = call(api_->set_vel(axis, profile.velocity_counts_per_ms), "GT_SetVel", m.axis);
+        !s) {
+      return s;
+    }
+    mask |= gts::axis_mask(m.axis);
+  }
+  return call(api_->update(mask), "GT_Update", 0);
+}
+
+Status GtsMotionCard::smooth_stop(std::span<const int> axes) {
+  if (!open_) return make_error(ErrorCode::kDriverError, "", "GTS card is not open");
+  if (const long mask = valid_mask(axes, settings_.axis_count); mask != 0) {
+    if (auto s = call(api_->stop(mask, 0), "GT_Stop", 0); !s) return s;
+  }
+  return check_axes(axes);
+}
+
+Status GtsMotionCard::emergency_stop(std::span<const int> axes) {
+  if (!open_) return make_error(ErrorCode::kDriverError, "", "GTS card is not open");
+  if (const long mask = valid_mask(axes, settings_.axis_count); mask != 0) {
+    if (auto s = call(api_->stop(mask, mask), "GT_Stop", 0); !s) return s;
+  }
+  return check_axes(axes);
+}
+
+Result<AxisStatus> GtsMotionCard::axis_status(int axis) {
+  const int one[] = {axis};
+  if (auto s = check_axes(one); !s) return std::move(s).error();
+  const auto a = static_cast<short>(axis);
+  long sts = 0;
+  double prf = 0;
+  double enc = 0;
+  if (auto s = call(api_->get_sts(a, &sts, 1, nullptr), "GT_GetSts", axis); !s) {
+    return std::move(s).error();
+  }
+  if (auto s = call(api_->get_prf_pos(a, &prf, 1, nullptr), "GT_GetPrfPos", axis); !s) {
+    return std::move(s).error();
+  }
+  if (auto s = call(api_->get_enc_pos(a, &enc, 1, nullptr), "GT_GetEncPos", axis); !s) {
+    return std::move(s).error();
+  }
+  if (!std::isfinite(prf) || !std::isfinite(enc)) {
+    return axis_error(ErrorCode::kDriverError, axis, "card reported a non-finite position");
+  }
+  AxisStatus st = decode_status(sts);
+  st.profile_position_counts = std::llround(prf);
+  st.encoder_position_counts = std::llround(enc);
+  return st;
+}
+
+}  // namespace ajar::drivers

@@ -1,0 +1,132 @@
+#include "ajar/drivers/mock_arm.hpp"
+
+#include <thread>
+
+namespace ajar::drivers {
+
+MockManipulator::MockManipulator(MockFault fault, int slow_ms)
+    : fault_(fault), slow_ms_(slow_ms < 0 ? 0 : slow_ms) {}
+
+Status MockManipulator::connect() {
+  MockFault fault;
+  int slow_ms;
+  {
+    std::lock_guard lock(mutex_);
+    fault = fault_;
+    slow_ms = slow_ms_;
+  }
+  if (fault == MockFault::kSlow) std::this_thread::sleep_for(std::chrono::milliseconds(slow_ms));
+  std::lock_guard lock(mutex_);
+  connected_ = true;
+  if (status_.phase == ArmPhase::kDisconnected) {
+    status_.phase = ArmPhase::kIdle;
+    status_.last_error = ErrorCode::kOk;
+  }
+  return Ok{};
+}
+
+Status MockManipulator::disconnect() {
+  std::lock_guard lock(mutex_);
+  connected_ = false;
+  status_.phase = ArmPhase::kDisconnected;
+  status_.last_error = ErrorCode::kOk;
+  return Ok{};
+}
+
+void MockManipulator::settle_locked(Clock::time_point now) const {
+  if (status_.phase != ArmPhase::kBusy || task_never_ends_ || now < busy_until_) return;
+  if (task_outcome_ == ErrorCode::kOk) {
+    status_.phase = ArmPhase::kDone;
+  } else {
+    status_.phase = ArmPhase::kFault;
+    status_.last_error = task_outcome_;
+  }
+}
+
+Result<std::uint32_t> MockManipulator::hand_off(const DoorTask& /*task*/) {
+  std::lock_guard lock(mutex_);
+  const auto now = Clock::now();
+  settle_locked(now);
+  if (!connected_) return make_error(ErrorCode::kArmDisconnected, "", "mock arm: not connected");
+  if (status_.phase == ArmPhase::kBusy || status_.phase == ArmPhase::kFault) {
+    return make_error(ErrorCode::kWrongState, "",
+                      status_.phase == ArmPhase::kBusy ? "mock arm: a task is busy"
+                                                       : "mock arm: faulted, clear_fault first");
+  }
+  const std::uint32_t id = next_task_id_++;
+  ++tasks_started_;
+  status_.task_id = id;
+  status_.phase = ArmPhase::kBusy;
+  status_.last_error = ErrorCode::kOk;
+  task_never_ends_ = false;
+  task_outcome_ = ErrorCode::kOk;
+  int duration_ms = kTaskDurationMs;
+  switch (fault_) {
+    case MockFault::kOff:
+      break;
+    case MockFault::kStuck:
+      task_never_ends_ = true;
+      break;
+    case MockFault::kSlow:
+      duration_ms = slow_ms_ * 4;
+      break;
+    case MockFault::kErrorCode:
+      duration_ms = 0;
+      task_outcome_ = ErrorCode::kArmRejected;
+      break;
+    case MockFault::kIntermittent:
+      if (tasks_started_ % 2 == 0) task_outcome_ = ErrorCode::kArmTimeout;
+      break;
+    case MockFault::kGarbage:
+      duration_ms = slow_ms_;
+      task_outcome_ = ErrorCode::kArmTimeout;
+      break;
+  }
+  busy_until_ = now + std::chrono::milliseconds(duration_ms);
+  settle_locked(now);
+  return id;
+}
+
+Status MockManipulator::stop() {
+  std::lock_guard lock(mutex_);
+  ++stops_;
+  settle_locked(Clock::now());
+  if (status_.phase == ArmPhase::kBusy) status_.phase = ArmPhase::kIdle;
+  task_never_ends_ = false;
+  if (!connected_) return make_error(ErrorCode::kArmDisconnected, "", "mock arm: not connected");
+  return Ok{};
+}
+
+Status MockManipulator::clear_fault() {
+  std::lock_guard lock(mutex_);
+  settle_locked(Clock::now());
+  if (!connected_) return make_error(ErrorCode::kArmDisconnected, "", "mock arm: not connected");
+  if (status_.phase == ArmPhase::kFault) {
+    status_.phase = ArmPhase::kIdle;
+    status_.last_error = ErrorCode::kOk;
+  }
+  return Ok{};
+}
+
+ArmStatus MockManipulator::status() const {
+  std::lock_guard lock(mutex_);
+  settle_locked(Clock::now());
+  return status_;
+}
+
+void MockManipulator::set_fault(MockFault fault) {
+  std::lock_guard lock(mutex_);
+  fault_ = fault;
+}
+
+std::uint64_t MockManipulator::tasks_started() const {
+  std::lock_guard lock(mutex_);
+  return tasks_started_;
+}
+
+std::uint64_t MockManipulator::stops() const {
+  std::lock_guard lock(mutex_);
+  return stops_;
+}
+
+}  // namespace ajar::drivers

@@ -1,0 +1,323 @@
+// The control loop driven cycle by cycle with a fake clock (no thread, no timing), plus a few
+// checks of the real thread that wait on conditions.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+
+#include "ajar/core/geometry.hpp"
+#include "ajar/daemon/control_loop.hpp"
+#include "ajar/daemon/realtime.hpp"
+#include "fake_motion_card.hpp"
+
+namespace ajar::daemon {
+namespace {
+
+using ajar::testing::FakeCardControl;
+using ajar::testing::FakeMotionCard;
+
+constexpr std::int64_t kMs = 1'000'000;
+
+class ControlLoopTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    settings.rate_hz = 500;
+    settings.deadman_timeout_s = 0.5;
+    settings.motion_timeout_margin_s = 2.0;
+    make_loop();
+  }
+  void make_loop() {
+    const int axes[2] = {settings.base.left.card_axis, settings.base.right.card_axis};
+    loop = std::make_unique<ControlLoop>(
+        std::make_unique<drivers::ManagedMotionCard>(std::make_unique<FakeMotionCard>(card), axes),
+        settings);
+    ASSERT_TRUE(loop->bring_up().ok());
+  }
+  // Runs n cycles, 2 ms apart, keeping the controller's heartbeat fresh when asked.
+  void run(int n, bool heartbeat = true) {
+    for (int i = 0; i < n; ++i) {
+      now += 2 * kMs;
+      if (heartbeat) loop->heartbeat(now);
+      loop->cycle(now);
+    }
+  }
+  std::vector<LoopReport> reports() {
+    std::vector<LoopReport> out;
+    LoopReport r;
+    while (loop->pop_report(r))
+      out.push_back(r);
+    return out;
+  }
+  static bool has(const std::vector<LoopReport>& rs, LoopReportKind kind,
+                  ErrorCode code = ErrorCode::kOk) {
+    for (const auto& r : rs) {
+      if (r.kind == kind && r.code == code) return true;
+    }
+    return false;
+  }
+
+  ControlLoopSettings settings;
+  std::shared_ptr<FakeCardControl> card = std::make_shared<FakeCardControl>();
+  std::unique_ptr<ControlLoop> loop;
+  std::int64_t now = 1'000 * kMs;
+};
+
+TEST(WheelProfile, ConvertsWheelLimitsToCardUnits) {
+  core::BaseGeometry base;  // 1 rad/s, 2 rad/s^2, 50:1, 10000 counts/rev
+  const auto p = wheel_profile(base);
+  const double counts_per_rad = 50.0 * 10000.0 / (2 * 3.14159265358979323846);
+  EXPECT_NEAR(p.velocity_counts_per_ms, 1.0 * counts_per_rad / 1e3, 1e-9);
+  EXPECT_NEAR(p.acceleration_counts_per_ms2, 2.0 * counts_per_rad / 1e6, 1e-12);
+  EXPECT_EQ(p.deceleration_counts_per_ms2, p.acceleration_counts_per_ms2);
+  // Triangular (short) and trapezoidal (long) durations.
+  EXPECT_NEAR(planned_duration_s(1000, p),
+              2.0 * std::sqrt(1000 / p.acceleration_counts_per_ms2) / 1e3, 1e-9);
+  const double v = p.velocity_counts_per_ms, a = p.acceleration_counts_per_ms2;
+  EXPECT_NEAR(planned_duration_s(-1'000'000, p), (1e6 / v + v / a) / 1e3, 1e-9);
+  EXPECT_EQ(planned_duration_s(0, p), 0.0);
+}
+
+TEST_F(ControlLoopTest, RunsAMoveToCompletion) {
+  ASSERT_TRUE(loop->post_move({7, 1200, -1200}));
+  run(30);
+  const auto rs = reports();
+  ASSERT_EQ(rs.size(), 1U);
+  EXPECT_EQ(rs[0].kind, LoopReportKind::kMotionFinished);
+  EXPECT_EQ(rs[0].motion_id, 7U);
+  EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.move_calls; }), 1);
+  const auto moves = card->with_lock([](FakeCardControl& c) { return c.last_moves; });
+  const auto profile = card->with_lock([](FakeCardControl& c) { return c.last_profile; });
+  ASSERT_EQ(moves.size(), 2U);
+  EXPECT_EQ(moves[0].axis, settings.base.left.card_axis);
+  EXPECT_EQ(moves[0].distance_counts, 1200);
+  EXPECT_EQ(moves[1].axis, settings.base.right.card_axis);
+  EXPECT_EQ(moves[1].distance_counts, -1200);
+  EXPECT_NEAR(profile.velocity_counts_per_ms, wheel_profile(settings.base).velocity_counts_per_ms,
+              1e-12);
+  const LoopSnapshot s = loop->snapshot();
+  EXPECT_FALSE(s.motion_active);
+  EXPECT_EQ(s.fault, ErrorCode::kOk);
+  EXPECT_EQ(s.left_counts, 1200);
+  EXPECT_EQ(s.right_counts, -1200);
+}
+
+TEST_F(ControlLoopTest, PublishesOdometryFromEncoderCounts) {
+  ASSERT_TRUE(loop->post_move({1, -5000, -5000}));  // polarity: right is -1, so both roll...
+  run(30);
+  const LoopSnapshot s = loop->snapshot();
+  const double left = core::counts_to_wheel_rad(-5000, settings.base.left, settings.base);
+  const double right = core::counts_to_wheel_rad(-5000, settings.base.right, settings.base);
+  EXPECT_DOUBLE_EQ(s.left_wheel_rad, left);
+  EXPECT_DOUBLE_EQ(s.right_wheel_rad, right);
+  EXPECT_DOUBLE_EQ(s.base_yaw_rad, core::base_yaw_from_wheels_rad(left, right, settings.base));
+  EXPECT_NE(s.base_yaw_rad, 0.0);
+}
+
+TEST_F(ControlLoopTest, CommandQueueIsBoundedAndSaysWhenFull) {
+  for (std::size_t i = 0; i < ControlLoop::kCommandQueueCapacity; ++i) {
+    ASSERT_TRUE(loop->post_move({static_cast<std::uint32_t>(i + 1), 10, 10}));
+  }
+  EXPECT_FALSE(loop->post_move({999, 10, 10}));
+  run(1);
+  // The first move starts; the others are refused while it runs, none is lost silently.
+  const auto rs = reports();
+  EXPECT_EQ(rs.size(), ControlLoop::kCommandQueueCapacity - 1);
+  EXPECT_TRUE(has(rs, LoopReportKind::kMoveRefused, ErrorCode::kMotionInProgress));
+  EXPECT_TRUE(loop->post_move({1000, 10, 10}));
+}
+
+TEST_F(ControlLoopTest, AxisAlarmDuringMotionStopsAndLatches) {
+  card->hold_motion = true;
+  ASSERT_TRUE(loop->post_move({1, 50000, -50000}));
+  run(3);
+  card->with_lock(
+      [&](FakeCardControl& c) { return c.alarm_axes.insert(settings.base.right.card_axis); });
+  run(5);
+  auto rs = reports();
+  ASSERT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kAxisAlarm));
+  for (const auto& r : rs) {
+    if (r.kind == LoopReportKind::kFault) {
+      EXPECT_EQ(r.axis, settings.base.right.card_axis);
+    }
+  }
+  EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.smooth_stops; }), 1);
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kAxisAlarm);
+
+  // No move starts with the fault latched.
+  card->hold_motion = false;
+  ASSERT_TRUE(loop->post_move({2, 10, 10}));
+  run(1);
+  rs = reports();
+  EXPECT_TRUE(has(rs, LoopReportKind::kMoveRefused, ErrorCode::kFaultLatched));
+  EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.move_calls; }), 1);
+
+  // Recover clears the card and the latch; the next move runs.
+  loop->request_recover();
+  run(1);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kRecovered, ErrorCode::kOk));
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kOk);
+  ASSERT_TRUE(loop->post_move({3, 10, 10}));
+  run(30);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kMotionFinished));
+}
+
+TEST_F(ControlLoopTest, MotionDeadlineStopsAndLatchesTimeout) {
+  card->hold_motion = true;
+  ASSERT_TRUE(loop->post_move({1, 1000, -1000}));
+  run(1);
+  const auto profile = wheel_profile(settings.base);
+  const double deadline_s =
+      planned_duration_s(1000, profile) * 1.5 + settings.motion_timeout_margin_s;
+  const int cycles = static_cast<int>(deadline_s / 0.002) + 2;
+  run(cycles - 3);
+  EXPECT_TRUE(reports().empty());  // not before the deadline
+  run(5);
+  const auto rs = reports();
+  EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kMotionTimeout));
+  EXPECT_TRUE(has(rs, LoopReportKind::kMotionStopped, ErrorCode::kMotionTimeout));
+}
+
+TEST_F(ControlLoopTest, DeadmanStopsASilentControllersMotion) {
+  card->hold_motion = true;
+  loop->heartbeat(now);
+  ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
+  const int silent_cycles = static_cast<int>(settings.deadman_timeout_s / 0.002);
+  run(silent_cycles - 2, /*heartbeat=*/false);
+  EXPECT_TRUE(reports().empty());
+  run(4, /*heartbeat=*/false);
+  const auto rs = reports();
+  EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kDeadman));
+  EXPECT_TRUE(has(rs, LoopReportKind::kMotionStopped, ErrorCode::kDeadman));
+  EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.smooth_stops; }), 1);
+}
+
+TEST_F(ControlLoopTest, FreshHeartbeatsKeepTheMotionGoing) {
+  ASSERT_TRUE(loop->post_move({1, 1000, -1000}));
+  run(400, /*heartbeat=*/true);  // far longer than the deadman timeout
+  const auto rs = reports();
+  EXPECT_TRUE(has(rs, LoopReportKind::kMotionFinished));
+  EXPECT_FALSE(has(rs, LoopReportKind::kFault, ErrorCode::kDeadman));
+}
+
+TEST_F(ControlLoopTest, DeadmanAlsoWatchesTheArm) {
+  loop->heartbeat(now);
+  loop->set_arm_moving(true);
+  run(static_cast<int>(settings.deadman_timeout_s / 0.002) + 2, false);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kFault, ErrorCode::kDeadman));
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kDeadman);
+}
+
+TEST_F(ControlLoopTest, IdleWithoutHeartbeatIsNotAFault) {
+  run(1000, false);
+  EXPECT_TRUE(reports().empty());
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kOk);
+}
+
+TEST_F(ControlLoopTest, EmergencyStopReachesTheCardInTheNextCycle) {
+  card->hold_motion = true;
+  ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
+  run(2);
+  loop->request_emergency_stop();
+  EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }), 0);
+  run(1);
+  EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }), 1);
+  const auto rs = reports();
+  EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kEmergencyStopped));
+  EXPECT_TRUE(has(rs, LoopReportKind::kMotionStopped, ErrorCode::kEmergencyStopped));
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kEmergencyStopped);
+}
+
+TEST_F(ControlLoopTest, EmergencyStopWhileIdleStillLatches) {
+  loop->request_emergency_stop();
+  run(1);
+  EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }), 1);
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kEmergencyStopped);
+}
+
+TEST_F(ControlLoopTest, StopEndsMotionSmoothlyWithoutFault) {
+  card->hold_motion = true;
+  ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
+  run(2);
+  loop->request_stop();
+  run(5);
+  const auto rs = reports();
+  EXPECT_TRUE(has(rs, LoopReportKind::kMotionStopped, ErrorCode::kOk));
+  EXPECT_FALSE(has(rs, LoopReportKind::kFault, ErrorCode::kOk));
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kOk);
+  EXPECT_FALSE(loop->snapshot().motion_active);
+  card->with_lock([](FakeCardControl& c) {
+    EXPECT_GE(c.smooth_stops, 1);
+    EXPECT_EQ(c.emergency_stops, 0);
+    return 0;
+  });
+}
+
+TEST_F(ControlLoopTest, FaultStopLatchesTheGivenCode) {
+  card->hold_motion = true;
+  ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
+  run(2);
+  loop->request_fault_stop(ErrorCode::kDeadman);
+  run(5);
+  const auto rs = reports();
+  EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kDeadman));
+  EXPECT_TRUE(has(rs, LoopReportKind::kMotionStopped, ErrorCode::kDeadman));
+}
+
+TEST_F(ControlLoopTest, AStopThatNeverEndsBecomesAnEmergencyStop) {
+  card->hold_motion = true;
+  card->hold_stop = true;
+  ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
+  run(2);
+  loop->request_stop();
+  run(5000);  // 10 s of fake time: beyond the stop deadline
+  const auto rs = reports();
+  EXPECT_TRUE(has(rs, LoopReportKind::kMotionStopped, ErrorCode::kMotionTimeout));
+  EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kMotionTimeout));
+  EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }), 1);
+}
+
+TEST_F(ControlLoopTest, CardRefusingTheMoveLatchesAndReports) {
+  card->fail_move = true;
+  ASSERT_TRUE(loop->post_move({4, 10, 10}));
+  run(1);
+  const auto rs = reports();
+  EXPECT_TRUE(has(rs, LoopReportKind::kMoveRefused, ErrorCode::kCardBadParameter));
+  EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kCardBadParameter));
+}
+
+TEST_F(ControlLoopTest, ThreadRunsAndHealthFollowsTheLoop) {
+  settings.realtime = true;  // refused without privileges: a warning, and it still runs
+  settings.lock_memory = true;
+  make_loop();
+  EXPECT_FALSE(loop->healthy(monotonic_now_ns()));
+  const auto warnings = loop->start_thread();
+  for (const auto& w : warnings) {
+    EXPECT_TRUE(w.find("control.realtime") != std::string::npos ||
+                w.find("control.lock_memory") != std::string::npos)
+        << w;
+  }
+  const auto wait_for = [&](auto pred) {
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (!pred() && std::chrono::steady_clock::now() < give_up) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    return pred();
+  };
+  EXPECT_TRUE(wait_for([&] { return loop->snapshot().cycles > 10; }));
+  EXPECT_TRUE(wait_for([&] { return loop->healthy(monotonic_now_ns()); }));
+  card->set_block_status(true);  // the loop stalls inside a card call
+  EXPECT_TRUE(wait_for([&] { return !loop->healthy(monotonic_now_ns()); }));
+  card->set_block_status(false);
+  EXPECT_TRUE(wait_for([&] { return loop->healthy(monotonic_now_ns()); }));
+  ASSERT_TRUE(loop->post_move({1, 100, -100}));
+  EXPECT_TRUE(wait_for([&] {
+    LoopReport r;
+    return loop->pop_report(r) && r.kind == LoopReportKind::kMotionFinished;
+  }));
+  loop->stop_thread();
+  EXPECT_FALSE(loop->healthy(monotonic_now_ns()));
+  loop->bring_down();
+}
+
+}  // namespace
+}  // namespace ajar::daemon

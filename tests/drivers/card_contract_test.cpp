@@ -1,0 +1,305 @@
+// The MotionCard contract, run against every implementation: the mock, the GTS driver over the
+// card simulator library (the sim driver = the real driver over its simulator), and the lifecycle
+// wrapper around each.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include "ajar/drivers/gts_card.hpp"
+#include "ajar/drivers/gts_sim_control.hpp"
+#include "ajar/drivers/lifecycle.hpp"
+#include "ajar/drivers/mock_card.hpp"
+#include "card_test_support.hpp"
+
+namespace ajar::drivers {
+namespace {
+
+using testing::kFastTimeScale;
+using testing::wait_until;
+
+constexpr std::array<int, 2> kWheels{1, 2};
+
+// Each maker builds one implementation and injects hardware faults into it.
+struct MockMaker {
+  MockMotionCard* raw = nullptr;
+  std::unique_ptr<MotionCard> make() {
+    auto card = std::make_unique<MockMotionCard>(MockFault::kOff, 0, kFastTimeScale, 4);
+    raw = card.get();
+    return card;
+  }
+  void alarm(int axis) { raw->inject_alarm(axis); }
+  void following_error(int axis) { raw->inject_following_error(axis); }
+  void limit(int axis, bool positive) { raw->inject_limit(axis, positive); }
+};
+
+struct SimMaker {
+  std::unique_ptr<GtsSimControl> sim;
+  std::unique_ptr<MotionCard> make() {
+    sim = std::make_unique<GtsSimControl>(testing::card_sim_path());
+    sim->reset();
+    sim->set_time_scale(kFastTimeScale);
+    return std::make_unique<GtsMotionCard>(testing::card_sim_settings());
+  }
+  void alarm(int axis) { sim->inject_fault(axis, SimFault::kDriveAlarm); }
+  void following_error(int axis) { sim->inject_fault(axis, SimFault::kFollowingError); }
+  void limit(int axis, bool positive) {
+    sim->inject_fault(axis, positive ? SimFault::kPositiveLimit : SimFault::kNegativeLimit);
+  }
+};
+
+template <typename Inner>
+struct ManagedMaker : Inner {
+  std::unique_ptr<MotionCard> make() {
+    return std::make_unique<ManagedMotionCard>(Inner::make(), kWheels);
+  }
+};
+
+template <typename Maker>
+class MotionCardContract : public ::testing::Test {
+ protected:
+  void SetUp() override { card_ = maker_.make(); }
+  void TearDown() override { card_.reset(); }
+
+  void open_and_enable() {
+    ASSERT_TRUE(card_->open().ok());
+    const auto s = card_->enable_axes(kWheels);
+    ASSERT_TRUE(s.ok()) << s.error().message;
+  }
+  AxisStatus status(int axis) {
+    auto st = card_->axis_status(axis);
+    EXPECT_TRUE(st.ok()) << (st.ok() ? "" : st.error().message);
+    return st.ok() ? *st : AxisStatus{};
+  }
+  bool wait_resting(int axis) {
+    return wait_until([&] {
+      auto st = card_->axis_status(axis);
+      return st.ok() && !st->moving;
+    });
+  }
+  // A move long enough that it is certainly still running when the test looks (hours of
+  // simulated time).
+  Status start_long_move(std::int64_t sign = 1) {
+    const AxisMove moves[] = {{1, sign * 100'000'000}, {2, sign * 100'000'000}};
+    return card_->move_relative(moves, TrapezoidProfile{1.0, 0.5, 0.5, 0});
+  }
+
+  Maker maker_;
+  std::unique_ptr<MotionCard> card_;
+};
+
+using Implementations =
+    ::testing::Types<MockMaker, SimMaker, ManagedMaker<MockMaker>, ManagedMaker<SimMaker>>;
+class ImplementationNames {
+ public:
+  template <typename T>
+  static std::string GetName(int) {
+    if (std::is_same_v<T, MockMaker>) return "Mock";
+    if (std::is_same_v<T, SimMaker>) return "GtsOverSimulator";
+    if (std::is_same_v<T, ManagedMaker<MockMaker>>) return "ManagedMock";
+    return "ManagedGtsOverSimulator";
+  }
+};
+TYPED_TEST_SUITE(MotionCardContract, Implementations, ImplementationNames);
+
+TYPED_TEST(MotionCardContract, RefusesEverythingBeforeOpen) {
+  EXPECT_FALSE(this->card_->axis_status(1).ok());
+  EXPECT_FALSE(this->card_->enable_axes(kWheels).ok());
+  const AxisMove moves[] = {{1, 100}};
+  EXPECT_FALSE(this->card_->move_relative(moves, TrapezoidProfile{}).ok());
+}
+
+TYPED_TEST(MotionCardContract, OpenGivesDisabledAxesAtRest) {
+  ASSERT_TRUE(this->card_->open().ok());
+  for (const int axis : kWheels) {
+    const AxisStatus st = this->status(axis);
+    EXPECT_FALSE(st.enabled);
+    EXPECT_FALSE(st.moving);
+    EXPECT_FALSE(st.faulted());
+    EXPECT_FALSE(st.emergency_stopped);
+    EXPECT_EQ(st.profile_position_counts, 0);
+    EXPECT_EQ(st.encoder_position_counts, 0);
+  }
+}
+
+TYPED_TEST(MotionCardContract, EnableThenDisable) {
+  this->open_and_enable();
+  EXPECT_TRUE(this->status(1).enabled);
+  EXPECT_TRUE(this->status(2).enabled);
+  EXPECT_FALSE(this->status(3).enabled);  // only the axes asked for
+  ASSERT_TRUE(this->card_->disable_axes(kWheels).ok());
+  EXPECT_FALSE(this->status(1).enabled);
+}
+
+TYPED_TEST(MotionCardContract, RelativeMoveReachesItsTargetOnEveryAxis) {
+  this->open_and_enable();
+  const AxisMove moves[] = {{1, 5000}, {2, -3000}};
+  const auto s = this->card_->move_relative(moves, TrapezoidProfile{10, 0.5, 0.5, 0});
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  ASSERT_TRUE(this->wait_resting(1));
+  ASSERT_TRUE(this->wait_resting(2));
+  const AxisStatus a1 = this->status(1);
+  const AxisStatus a2 = this->status(2);
+  EXPECT_EQ(a1.profile_position_counts, 5000);
+  EXPECT_EQ(a1.encoder_position_counts, 5000);
+  EXPECT_TRUE(a1.in_position);
+  EXPECT_EQ(a2.profile_position_counts, -3000);
+  EXPECT_EQ(a2.encoder_position_counts, -3000);
+  EXPECT_TRUE(a2.in_position);
+
+  // Relative to where the axis is now.
+  const AxisMove again[] = {{1, 1000}};
+  ASSERT_TRUE(this->card_->move_relative(again, TrapezoidProfile{10, 0.5, 0.5, 0}).ok());
+  ASSERT_TRUE(this->wait_resting(1));
+  EXPECT_EQ(this->status(1).profile_position_counts, 6000);
+  EXPECT_EQ(this->status(2).profile_position_counts, -3000);
+}
+
+TYPED_TEST(MotionCardContract, AxesOfOneMoveRunTogether) {
+  this->open_and_enable();
+  ASSERT_TRUE(this->start_long_move().ok());
+  EXPECT_TRUE(this->status(1).moving);
+  EXPECT_TRUE(this->status(2).moving);
+  EXPECT_FALSE(this->status(1).in_position);
+  ASSERT_TRUE(this->card_->emergency_stop(kWheels).ok());
+}
+
+TYPED_TEST(MotionCardContract, SmoothStopDeceleratesToRestAndDoesNotLatch) {
+  this->open_and_enable();
+  ASSERT_TRUE(this->start_long_move().ok());
+  ASSERT_TRUE(wait_until([&] { return this->status(1).profile_position_counts > 100; }));
+  ASSERT_TRUE(this->card_->smooth_stop(kWheels).ok());
+  ASSERT_TRUE(this->wait_resting(1));
+  ASSERT_TRUE(this->wait_resting(2));
+  const AxisStatus st = this->status(1);
+  EXPECT_TRUE(st.smooth_stopped);
+  EXPECT_FALSE(st.emergency_stopped);
+  EXPECT_GT(st.profile_position_counts, 100);
+  EXPECT_LT(st.profile_position_counts, 100'000'000);
+  // A smooth stop does not block the next move.
+  const AxisMove moves[] = {{1, 10}};
+  EXPECT_TRUE(this->card_->move_relative(moves, TrapezoidProfile{}).ok());
+}
+
+TYPED_TEST(MotionCardContract, EmergencyStopHaltsAtOnceAndLatchesUntilCleared) {
+  this->open_and_enable();
+  ASSERT_TRUE(this->start_long_move().ok());
+  ASSERT_TRUE(this->card_->emergency_stop(kWheels).ok());
+  const AxisStatus st = this->status(1);
+  EXPECT_FALSE(st.moving);
+  EXPECT_TRUE(st.emergency_stopped);
+  const std::int64_t stopped_at = st.profile_position_counts;
+  const AxisMove moves[] = {{1, 10}};
+  const auto refused = this->card_->move_relative(moves, TrapezoidProfile{});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kEmergencyStopped);
+  EXPECT_EQ(this->status(1).profile_position_counts, stopped_at);
+
+  ASSERT_TRUE(this->card_->clear_faults(kWheels).ok());
+  EXPECT_FALSE(this->status(1).emergency_stopped);
+  ASSERT_TRUE(this->card_->move_relative(moves, TrapezoidProfile{}).ok());
+  ASSERT_TRUE(this->wait_resting(1));
+  EXPECT_EQ(this->status(1).profile_position_counts, stopped_at + 10);
+}
+
+TYPED_TEST(MotionCardContract, StopsAreAcceptedWhenNothingMoves) {
+  this->open_and_enable();
+  EXPECT_TRUE(this->card_->smooth_stop(kWheels).ok());
+  EXPECT_TRUE(this->card_->emergency_stop(kWheels).ok());
+  EXPECT_TRUE(this->card_->smooth_stop({}).ok());
+}
+
+TYPED_TEST(MotionCardContract, BadParametersAreRefusedAndNothingMoves) {
+  this->open_and_enable();
+  const auto expect_bad = [&](std::span<const AxisMove> moves, const TrapezoidProfile& p) {
+    const auto s = this->card_->move_relative(moves, p);
+    ASSERT_FALSE(s.ok());
+    EXPECT_EQ(s.error().code, ErrorCode::kCardBadParameter) << s.error().message;
+  };
+  const AxisMove ok_move[] = {{1, 100}};
+  const AxisMove axis0[] = {{0, 100}};
+  const AxisMove axis99[] = {{99, 100}};
+  const AxisMove twice[] = {{1, 100}, {1, 100}};
+  expect_bad({}, TrapezoidProfile{});
+  expect_bad(axis0, TrapezoidProfile{});
+  expect_bad(axis99, TrapezoidProfile{});
+  expect_bad(twice, TrapezoidProfile{});
+  expect_bad(ok_move, TrapezoidProfile{0, 0.1, 0.1, 0});
+  expect_bad(ok_move, TrapezoidProfile{std::numeric_limits<double>::quiet_NaN(), 0.1, 0.1, 0});
+  expect_bad(ok_move, TrapezoidProfile{10, -1, 0.1, 0});
+  expect_bad(ok_move, TrapezoidProfile{10, 0.1, 0, 0});
+  expect_bad(ok_move, TrapezoidProfile{10, 0.1, 0.1, 60});
+  const int bad_axes[] = {0};
+  const auto e = this->card_->enable_axes(bad_axes);
+  ASSERT_FALSE(e.ok());
+  EXPECT_EQ(e.error().code, ErrorCode::kCardBadParameter);
+  EXPECT_FALSE(this->card_->axis_status(0).ok());
+  EXPECT_FALSE(this->status(1).moving);
+  EXPECT_EQ(this->status(1).profile_position_counts, 0);
+}
+
+TYPED_TEST(MotionCardContract, MoveOnADisabledAxisIsRefused) {
+  ASSERT_TRUE(this->card_->open().ok());
+  const AxisMove moves[] = {{1, 100}};
+  EXPECT_FALSE(this->card_->move_relative(moves, TrapezoidProfile{}).ok());
+  EXPECT_FALSE(this->status(1).moving);
+  EXPECT_EQ(this->status(1).profile_position_counts, 0);
+}
+
+TYPED_TEST(MotionCardContract, DriveAlarmRefusesMotionUntilClearedAndReenabled) {
+  this->open_and_enable();
+  this->maker_.alarm(1);
+  const AxisMove moves[] = {{1, 100}};
+  const auto refused = this->card_->move_relative(moves, TrapezoidProfile{});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kAxisAlarm);
+  const AxisStatus st = this->status(1);
+  EXPECT_TRUE(st.alarm);
+  EXPECT_FALSE(st.enabled);  // the drive dropped the servo
+  EXPECT_TRUE(st.faulted());
+
+  ASSERT_TRUE(this->card_->clear_faults(kWheels).ok());
+  EXPECT_FALSE(this->status(1).alarm);
+  ASSERT_TRUE(this->card_->enable_axes(kWheels).ok());
+  ASSERT_TRUE(this->card_->move_relative(moves, TrapezoidProfile{}).ok());
+  ASSERT_TRUE(this->wait_resting(1));
+  EXPECT_EQ(this->status(1).profile_position_counts, 100);
+}
+
+TYPED_TEST(MotionCardContract, FollowingErrorRefusesMotion) {
+  this->open_and_enable();
+  this->maker_.following_error(2);
+  const AxisMove moves[] = {{1, 100}, {2, 100}};
+  const auto refused = this->card_->move_relative(moves, TrapezoidProfile{});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kFollowingError);
+  EXPECT_TRUE(this->status(2).following_error);
+  EXPECT_EQ(this->status(1).profile_position_counts, 0);  // no axis of the move started
+}
+
+TYPED_TEST(MotionCardContract, LimitRefusesOnlyMotionIntoIt) {
+  this->open_and_enable();
+  this->maker_.limit(1, true);
+  EXPECT_TRUE(this->status(1).positive_limit);
+  const AxisMove forward[] = {{1, 100}};
+  const auto refused = this->card_->move_relative(forward, TrapezoidProfile{});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kLimitHit);
+  const AxisMove back[] = {{1, -100}};
+  ASSERT_TRUE(this->card_->move_relative(back, TrapezoidProfile{}).ok());
+  ASSERT_TRUE(this->wait_resting(1));
+  EXPECT_EQ(this->status(1).profile_position_counts, -100);
+}
+
+TYPED_TEST(MotionCardContract, CloseThenReopen) {
+  this->open_and_enable();
+  ASSERT_TRUE(this->card_->close().ok());
+  EXPECT_FALSE(this->card_->axis_status(1).ok());
+  ASSERT_TRUE(this->card_->open().ok());
+  EXPECT_TRUE(this->card_->axis_status(1).ok());
+}
+
+}  // namespace
+}  // namespace ajar::drivers

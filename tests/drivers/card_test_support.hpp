@@ -1,0 +1,46 @@
+// Shared helpers for the motion-card tests: where the card simulator is, and a deadline-bounded
+// wait (generous deadlines only: tests assert outcomes, never timing).
+#pragma once
+
+#include <chrono>
+#include <string>
+#include <thread>
+
+#include "ajar/drivers/settings.hpp"
+
+namespace ajar::drivers::testing {
+
+// Simulated time runs this much faster than real time: moves of a few thousand counts finish in
+// well under a millisecond of real time.
+inline constexpr double kFastTimeScale = 1000.0;
+
+inline std::string card_sim_path() {
+  return AJAR_CARDSIM_PATH;
+}
+
+// libajar_gts_sim_nostop.so: the simulator without GT_Stop, built next to the simulator.
+inline std::string card_sim_nostop_path() {
+  const std::string sim = card_sim_path();
+  return sim.substr(0, sim.find_last_of('/') + 1) + "libajar_gts_sim_nostop.so";
+}
+
+inline GtsCardSettings card_sim_settings() {
+  GtsCardSettings s;
+  s.library_path = card_sim_path();
+  s.axis_count = 4;
+  s.poll_timeout_ms = 10000;
+  return s;
+}
+
+// Polls `done` every millisecond until it holds or `timeout` passed; returns whether it held.
+template <typename Pred>
+bool wait_until(Pred&& done, std::chrono::milliseconds timeout = std::chrono::seconds(20)) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (!done()) {
+    if (std::chrono::steady_clock::now() >= deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return true;
+}
+
+}  // namespace ajar::drivers::testing

@@ -1,0 +1,268 @@
+// The lifecycle wrapper: order enforcement, stops always passing, and which errors latch kFault.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "ajar/drivers/lifecycle.hpp"
+#include "ajar/drivers/mock_card.hpp"
+#include "card_test_support.hpp"
+
+namespace ajar::drivers {
+namespace {
+
+using testing::kFastTimeScale;
+using testing::wait_until;
+
+constexpr std::array<int, 2> kWheels{1, 2};
+
+class ManagedCard : public ::testing::Test {
+ protected:
+  ManagedCard() {
+    auto mock = std::make_unique<MockMotionCard>(MockFault::kOff, 0, kFastTimeScale, 4);
+    mock_ = mock.get();
+    card_ = std::make_unique<ManagedMotionCard>(std::move(mock), kWheels);
+  }
+  Status move(std::int64_t distance = 100) {
+    const AxisMove moves[] = {{1, distance}, {2, distance}};
+    return card_->move_relative(moves, TrapezoidProfile{1, 0.5, 0.5, 0});
+  }
+
+  MockMotionCard* mock_ = nullptr;
+  std::unique_ptr<ManagedMotionCard> card_;
+};
+
+TEST_F(ManagedCard, EnforcesTheOrderOfTransitions) {
+  EXPECT_EQ(card_->state(), LifecycleState::kUnconfigured);
+  EXPECT_EQ(card_->activate().error().code, ErrorCode::kWrongState);
+  EXPECT_EQ(card_->deactivate().error().code, ErrorCode::kWrongState);
+  EXPECT_EQ(card_->cleanup().error().code, ErrorCode::kWrongState);
+  EXPECT_EQ(card_->recover().error().code, ErrorCode::kWrongState);
+  EXPECT_EQ(move().error().code, ErrorCode::kDriverNotActive);
+  EXPECT_EQ(card_->state(), LifecycleState::kUnconfigured);
+
+  ASSERT_TRUE(card_->configure().ok());
+  EXPECT_EQ(card_->state(), LifecycleState::kInactive);
+  EXPECT_EQ(card_->configure().error().code, ErrorCode::kWrongState);
+  EXPECT_EQ(card_->deactivate().error().code, ErrorCode::kWrongState);
+  EXPECT_EQ(move().error().code, ErrorCode::kDriverNotActive);
+  EXPECT_FALSE(card_->axis_status(1)->moving);
+
+  ASSERT_TRUE(card_->activate().ok());
+  EXPECT_EQ(card_->state(), LifecycleState::kActive);
+  EXPECT_TRUE(card_->axis_status(1)->enabled);
+  EXPECT_TRUE(card_->axis_status(2)->enabled);
+  EXPECT_FALSE(card_->axis_status(3)->enabled);  // only the managed axes
+  EXPECT_EQ(card_->activate().error().code, ErrorCode::kWrongState);
+  EXPECT_EQ(card_->cleanup().error().code, ErrorCode::kWrongState);
+  ASSERT_TRUE(move().ok());
+
+  ASSERT_TRUE(card_->deactivate().ok());
+  EXPECT_EQ(card_->state(), LifecycleState::kInactive);
+  EXPECT_FALSE(card_->axis_status(1)->enabled);
+  EXPECT_FALSE(card_->axis_status(1)->moving);
+  EXPECT_EQ(move().error().code, ErrorCode::kDriverNotActive);
+
+  ASSERT_TRUE(card_->cleanup().ok());
+  EXPECT_EQ(card_->state(), LifecycleState::kUnconfigured);
+  EXPECT_FALSE(card_->axis_status(1).ok());  // the card is closed
+}
+
+TEST_F(ManagedCard, StopsAreNeverRefused) {
+  ASSERT_TRUE(card_->configure().ok());
+  EXPECT_TRUE(card_->smooth_stop(kWheels).ok());
+  EXPECT_TRUE(card_->emergency_stop(kWheels).ok());
+  ASSERT_TRUE(card_->activate().ok());
+  mock_->inject_alarm(1);
+  (void)card_->axis_status(1);
+  ASSERT_EQ(card_->state(), LifecycleState::kFault);
+  EXPECT_TRUE(card_->smooth_stop(kWheels).ok());
+  EXPECT_TRUE(card_->emergency_stop(kWheels).ok());
+}
+
+TEST_F(ManagedCard, DeactivateStopsARunningMoveBeforeDisabling) {
+  ASSERT_TRUE(card_->configure().ok());
+  ASSERT_TRUE(card_->activate().ok());
+  ASSERT_TRUE(move(100'000'000).ok());
+  ASSERT_TRUE(card_->axis_status(1)->moving);
+  ASSERT_TRUE(card_->deactivate().ok());
+  const AxisStatus st = *card_->axis_status(1);
+  EXPECT_FALSE(st.moving);
+  EXPECT_FALSE(st.enabled);
+  EXPECT_TRUE(st.smooth_stopped);
+  EXPECT_FALSE(st.emergency_stopped);
+}
+
+TEST(ManagedCardDeadline, DeactivateFallsBackToEmergencyStopAfterItsDeadline) {
+  // Real-time clock and a deceleration that takes ~100 s: the smooth stop cannot finish within the
+  // 0 ms stop deadline.
+  auto mock = std::make_unique<MockMotionCard>(MockFault::kOff, 0, 1.0, 4);
+  ManagedMotionCard card(std::move(mock), kWheels, 0);
+  ASSERT_TRUE(card.configure().ok());
+  ASSERT_TRUE(card.activate().ok());
+  const AxisMove moves[] = {{1, 100'000'000}};
+  ASSERT_TRUE(card.move_relative(moves, TrapezoidProfile{10, 100, 0.0001, 0}).ok());
+  ASSERT_TRUE(wait_until([&] { return card.axis_status(1)->profile_position_counts > 0; }));
+  const auto s = card.deactivate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().code, ErrorCode::kMotionTimeout);
+  EXPECT_EQ(card.state(), LifecycleState::kInactive);
+  const AxisStatus st = *card.axis_status(1);
+  EXPECT_FALSE(st.moving);
+  EXPECT_TRUE(st.emergency_stopped);
+  EXPECT_FALSE(st.enabled);
+}
+
+TEST_F(ManagedCard, HardwareFaultsLatchAndRecoverNeedsHealthyAxes) {
+  ASSERT_TRUE(card_->configure().ok());
+  ASSERT_TRUE(card_->activate().ok());
+  mock_->inject_following_error(2);
+  EXPECT_TRUE(card_->axis_status(2)->following_error);
+  EXPECT_EQ(card_->state(), LifecycleState::kFault);
+  EXPECT_EQ(move().error().code, ErrorCode::kDriverNotActive);
+  EXPECT_EQ(card_->activate().error().code, ErrorCode::kWrongState);
+  ASSERT_TRUE(card_->recover().ok());  // clear_faults clears the mock's latch
+  EXPECT_EQ(card_->state(), LifecycleState::kInactive);
+  ASSERT_TRUE(card_->activate().ok());
+  EXPECT_TRUE(move().ok());
+}
+
+TEST_F(ManagedCard, ErrorsOfTheCallerOrTheSituationDoNotLatch) {
+  ASSERT_TRUE(card_->configure().ok());
+  ASSERT_TRUE(card_->activate().ok());
+  const AxisMove bad[] = {{7, 100}};
+  EXPECT_EQ(card_->move_relative(bad, TrapezoidProfile{}).error().code,
+            ErrorCode::kCardBadParameter);
+  mock_->inject_limit(1, true);
+  EXPECT_EQ(move().error().code, ErrorCode::kLimitHit);
+  ASSERT_TRUE(card_->emergency_stop(kWheels).ok());
+  EXPECT_EQ(move(-100).error().code, ErrorCode::kEmergencyStopped);
+  EXPECT_EQ(card_->state(), LifecycleState::kActive);
+}
+
+TEST_F(ManagedCard, CommunicationFailuresLatch) {
+  ASSERT_TRUE(card_->configure().ok());
+  ASSERT_TRUE(card_->activate().ok());
+  mock_->set_fault(MockFault::kIntermittent);
+  bool failed = false;
+  for (int i = 0; i < 3 && !failed; ++i) {
+    const auto st = card_->axis_status(1);
+    failed = !st.ok();
+    if (failed) {
+      EXPECT_EQ(st.error().code, ErrorCode::kCardCommunication);
+    }
+  }
+  ASSERT_TRUE(failed);
+  EXPECT_EQ(card_->state(), LifecycleState::kFault);
+}
+
+TEST_F(ManagedCard, TheMotionCardInterfaceDrivesTheLifecycle) {
+  ASSERT_TRUE(card_->open().ok());
+  EXPECT_EQ(card_->state(), LifecycleState::kInactive);
+  ASSERT_TRUE(card_->enable_axes(kWheels).ok());
+  EXPECT_EQ(card_->state(), LifecycleState::kActive);
+  ASSERT_TRUE(card_->disable_axes(kWheels).ok());
+  EXPECT_EQ(card_->state(), LifecycleState::kInactive);
+  ASSERT_TRUE(card_->enable_axes(kWheels).ok());
+  ASSERT_TRUE(move(100'000'000).ok());
+  ASSERT_TRUE(card_->close().ok());  // deactivates (stops) first
+  EXPECT_EQ(card_->state(), LifecycleState::kUnconfigured);
+}
+
+TEST(ManagedCardOpen, AFailedConfigureStaysUnconfigured) {
+  class FailingOpen final : public MotionCard {
+   public:
+    Status open() override { return make_error(ErrorCode::kCardOpenFailed, "", "no card"); }
+    Status close() override { return Ok{}; }
+    Status enable_axes(std::span<const int>) override { return Ok{}; }
+    Status disable_axes(std::span<const int>) override { return Ok{}; }
+    Status clear_faults(std::span<const int>) override { return Ok{}; }
+    Status move_relative(std::span<const AxisMove>, const TrapezoidProfile&) override {
+      return Ok{};
+    }
+    Status smooth_stop(std::span<const int>) override { return Ok{}; }
+    Status emergency_stop(std::span<const int>) override { return Ok{}; }
+    Result<AxisStatus> axis_status(int) override { return AxisStatus{}; }
+  };
+  ManagedMotionCard failing(std::make_unique<FailingOpen>(), kWheels);
+  EXPECT_EQ(failing.configure().error().code, ErrorCode::kCardOpenFailed);
+  EXPECT_EQ(failing.state(), LifecycleState::kUnconfigured);
+}
+
+// --- ManagedManipulator over a scripted fake --------------------------------------------------
+
+class FakeArm final : public Manipulator {
+ public:
+  struct Log {
+    std::vector<std::string> calls;
+    Error next_error{ErrorCode::kOk, "", ""};
+  };
+  explicit FakeArm(std::shared_ptr<Log> log) : log_(std::move(log)) {}
+  Status connect() override { return record("connect"); }
+  Status disconnect() override { return record("disconnect"); }
+  Result<std::uint32_t> hand_off(const DoorTask&) override {
+    if (auto s = record("hand_off"); !s) return std::move(s).error();
+    return std::uint32_t{7};
+  }
+  Status stop() override { return record("stop"); }
+  Status clear_fault() override { return record("clear_fault"); }
+  ArmStatus status() const override { return ArmStatus{ArmPhase::kIdle, ErrorCode::kOk, 0, 0}; }
+
+ private:
+  Status record(const char* name) {
+    log_->calls.emplace_back(name);
+    if (log_->next_error.code == ErrorCode::kOk) return Ok{};
+    Error e = log_->next_error;
+    log_->next_error.code = ErrorCode::kOk;
+    return e;
+  }
+  std::shared_ptr<Log> log_;
+};
+
+TEST(ManagedArm, EnforcesTheOrderAndPassesStops) {
+  auto log = std::make_shared<FakeArm::Log>();
+  ManagedManipulator arm(std::make_unique<FakeArm>(log));
+  EXPECT_EQ(arm.hand_off(DoorTask{}).error().code, ErrorCode::kDriverNotActive);
+  EXPECT_EQ(arm.activate().error().code, ErrorCode::kWrongState);
+  EXPECT_TRUE(arm.stop().ok());  // stopping is never refused
+  ASSERT_TRUE(arm.configure().ok());
+  EXPECT_EQ(arm.hand_off(DoorTask{}).error().code, ErrorCode::kDriverNotActive);
+  ASSERT_TRUE(arm.activate().ok());
+  const auto id = arm.hand_off(DoorTask{});
+  ASSERT_TRUE(id.ok());
+  EXPECT_EQ(*id, 7U);
+  EXPECT_EQ(arm.cleanup().error().code, ErrorCode::kWrongState);
+  ASSERT_TRUE(arm.deactivate().ok());
+  EXPECT_EQ(arm.hand_off(DoorTask{}).error().code, ErrorCode::kDriverNotActive);
+  ASSERT_TRUE(arm.cleanup().ok());
+  EXPECT_EQ(arm.state(), LifecycleState::kUnconfigured);
+  const std::vector<std::string> expected{"stop", "connect", "hand_off", "stop", "disconnect"};
+  EXPECT_EQ(log->calls, expected);
+}
+
+TEST(ManagedArm, BrokenImplementationLatchesButLinkTroubleDoesNot) {
+  auto log = std::make_shared<FakeArm::Log>();
+  ManagedManipulator arm(std::make_unique<FakeArm>(log));
+  ASSERT_TRUE(arm.connect().ok());
+  ASSERT_TRUE(arm.activate().ok());
+  log->next_error = make_error(ErrorCode::kArmTimeout, "", "no ack");
+  EXPECT_EQ(arm.hand_off(DoorTask{}).error().code, ErrorCode::kArmTimeout);
+  EXPECT_EQ(arm.state(), LifecycleState::kActive);
+  log->next_error = make_error(ErrorCode::kDriverError, "", "worker died");
+  EXPECT_EQ(arm.hand_off(DoorTask{}).error().code, ErrorCode::kDriverError);
+  EXPECT_EQ(arm.state(), LifecycleState::kFault);
+  EXPECT_EQ(arm.hand_off(DoorTask{}).error().code, ErrorCode::kDriverNotActive);
+  EXPECT_TRUE(arm.stop().ok());
+  ASSERT_TRUE(arm.clear_fault().ok());  // = recover()
+  EXPECT_EQ(arm.state(), LifecycleState::kInactive);
+  ASSERT_TRUE(arm.activate().ok());
+  EXPECT_TRUE(arm.hand_off(DoorTask{}).ok());
+  ASSERT_TRUE(arm.disconnect().ok());  // stops, then disconnects
+  EXPECT_EQ(arm.state(), LifecycleState::kUnconfigured);
+  EXPECT_EQ(log->calls.back(), "disconnect");
+  EXPECT_EQ(log->calls[log->calls.size() - 2], "stop");
+}
+
+}  // namespace
+}  // namespace ajar::drivers

@@ -1,0 +1,189 @@
+// Typical messages of every type (and every Ack body kind), shared by the vector generator, the
+// round-trip tests and the benchmark. Values are realistic and use every byte of their fields.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "ajar/protocol/codec.hpp"
+
+namespace ajar::protocol::samples {
+
+struct Sample {
+  std::string name;
+  Envelope envelope;
+};
+
+inline core::FramedPoint camera_point(double x, double y, double z) {
+  return {core::Frame::kCamera, core::Vec3(x, y, z)};
+}
+inline core::FramedPoint base_point(double x, double y, double z) {
+  return {core::Frame::kBase, core::Vec3(x, y, z)};
+}
+
+inline LoopStatistics loop_stats() {
+  LoopStatistics l;
+  l.rate_hz = 1000.0f;
+  l.cycles = 123456789;
+  l.overruns = 3;
+  l.period_p50_ns = 1000012;
+  l.period_p99_ns = 1004500;
+  l.period_max_ns = 1250000;
+  l.jitter_p99_ns = 4500;
+  return l;
+}
+
+inline SpanAck width_ack() {
+  return {0.9152, core::RotationDirection::kCounterClockwise, core::Vec3(1.21, 0.43, 0.02),
+          core::Vec3(1.23, -0.485, 0.05)};
+}
+inline SpanAck handle_ack() {
+  return {0.125, core::RotationDirection::kClockwise, core::Vec3(1.02, 0.31, 0.95),
+          core::Vec3(1.03, 0.185, 0.94)};
+}
+inline PlaneAck plane_ack() {
+  PlaneAck p;
+  p.normal = core::Vec3(-0.9986295347545738, 0.052335956242943835, 0.0);
+  p.yaw_deviation_rad = 0.05235987755982989;
+  p.left_wheel_rad = -0.1832595714594046;
+  p.right_wheel_rad = 0.1832595714594046;
+  p.left_counts = -2916;
+  p.right_counts = 2916;
+  p.residual_yaw_rad = 1.2e-5;
+  p.rms_residual_m = 0.0021;
+  p.point_count = 4;
+  return p;
+}
+inline ContactAck contact_ack() {
+  return {core::Vec3(0.98, 0.28, 0.93), 0.085};
+}
+
+inline std::vector<Sample> all() {
+  std::vector<Sample> s;
+  const auto add = [&s](std::string name, std::uint32_t id, Message m, std::uint16_t flags = 0) {
+    s.push_back({std::move(name), Envelope{id, flags, std::move(m)}});
+  };
+  // host -> daemon
+  Hello hello;
+  hello.requested_role = Role::kController;
+  hello.client_instance_id = 0x0123456789ABCDEFull;
+  hello.client_name = "door-gui 2.3";
+  add("hello_controller", 1, hello);
+  Hello observer;
+  observer.requested_role = Role::kObserver;
+  observer.client_instance_id = 0x1122334455667788ull;
+  observer.client_name = "Türöffner-Monitor";  // UTF-8 multi-byte characters
+  add("hello_observer_utf8", 1, observer);
+  Hello take_over = hello;
+  take_over.take_over = true;
+  add("hello_take_over", 1, take_over);
+  add("ping", 2, Ping{1700000000123456789ull});
+  add("ping_retransmit", 2, Ping{1700000000123456789ull}, kFlagRetransmit);
+  add("measure_door_width", 3,
+      MeasureDoorWidth{camera_point(-0.452, 0.118, 1.634), camera_point(0.463, 0.121, 1.702)});
+  add("measure_handle", 4,
+      MeasureHandle{camera_point(0.31, -0.05, 1.2), base_point(1.03, 0.185, 0.94)});
+  MeasureDoorPlane plane3;
+  plane3.count = 3;
+  plane3.points[0] = camera_point(-0.4, -0.3, 1.6);
+  plane3.points[1] = camera_point(0.4, -0.3, 1.65);
+  plane3.points[2] = camera_point(0.0, 0.35, 1.62);
+  add("measure_door_plane_3", 5, plane3);
+  MeasureDoorPlane plane16;
+  plane16.count = 16;
+  for (std::size_t i = 0; i < 16; ++i) {
+    const double u = static_cast<double>(i % 4) * 0.2 - 0.3;
+    const double v = static_cast<double>(i / 4) * 0.15 - 0.2;
+    plane16.points[i] = i == 15 ? base_point(1.5, 0.1, 1.1) : camera_point(u, v, 1.6 + 0.05 * u);
+  }
+  add("measure_door_plane_16", 6, plane16);
+  add("set_contact_point", 7, SetContactPoint{camera_point(0.28, 0.02, 1.18)});
+  add("align_base", 8, AlignBase{});
+  add("engage", 9, Engage{});
+  add("stop", 10, Stop{});
+  add("emergency_stop", 11, EmergencyStop{});
+  add("reset", 12, Reset{false});
+  add("reset_clear_parameters", 13, Reset{true});
+  add("get_status", 14, GetStatus{});
+  add("subscribe", 15, Subscribe{50.0f});
+
+  // daemon -> host
+  Welcome welcome;
+  welcome.granted_role = Role::kController;
+  welcome.session_id = 0xA1B2C3D4E5F60718ull;
+  welcome.daemon_version = "0.1.0";
+  welcome.loop_rate_hz = 1000.0f;
+  welcome.deadman_timeout_s = 0.5f;
+  welcome.min_door_width_m = 0.6f;
+  welcome.max_door_width_m = 1.2f;
+  welcome.min_handle_length_m = 0.08f;
+  welcome.max_handle_length_m = 0.25f;
+  welcome.max_yaw_correction_rad = 0.5236f;
+  add("welcome", 1, welcome);
+  add("pong", 2, Pong{1700000000123456789ull, 987654321012ull});
+  add("ack_measure_door_width", 3,
+      Ack{MessageType::kMeasureDoorWidth, ProcedureState::kAwaitingHandle, width_ack()});
+  add("ack_measure_handle", 4,
+      Ack{MessageType::kMeasureHandle, ProcedureState::kAwaitingPlane, handle_ack()});
+  add("ack_measure_door_plane", 5,
+      Ack{MessageType::kMeasureDoorPlane, ProcedureState::kReadyToAlign, plane_ack()});
+  add("ack_set_contact_point", 7,
+      Ack{MessageType::kSetContactPoint, ProcedureState::kReadyToEngage, contact_ack()});
+  add("ack_align_base", 8, Ack{MessageType::kAlignBase, ProcedureState::kAligning, EmptyAck{}});
+  add("ack_stop", 10, Ack{MessageType::kStop, ProcedureState::kAligned, EmptyAck{}});
+  ErrorReply error;
+  error.code = ErrorCode::kPointsCollinear;
+  error.offending_type = MessageType::kMeasureDoorPlane;
+  error.field = "points[2]";
+  error.message = "The three plane points lie on one line; pick points spread over the door.";
+  add("error_points_collinear", 5, error);
+  Event fault;
+  fault.kind = EventKind::kFaultLatched;
+  fault.state = ProcedureState::kFault;
+  fault.fault = ErrorCode::kFollowingError;
+  fault.daemon_time_ns = 5123456789ull;
+  fault.detail = "left wheel following error 0.012 rad";
+  add("event_fault_latched", 0, fault);
+  Event finished;
+  finished.kind = EventKind::kMotionFinished;
+  finished.state = ProcedureState::kAligned;
+  finished.daemon_time_ns = 6000000000ull;
+  finished.detail = "base aligned";
+  add("event_motion_finished", 0, finished);
+  Status status;
+  status.state = ProcedureState::kReadyToEngage;
+  status.latched_fault = ErrorCode::kOk;
+  status.restored_from_disk = true;
+  status.controller_connected = true;
+  status.session_count = 2;
+  status.has_width = true;
+  status.width = width_ack();
+  status.has_handle = true;
+  status.handle = handle_ack();
+  status.has_plane = true;
+  status.plane = plane_ack();
+  status.has_contact = true;
+  status.contact = contact_ack();
+  status.base_yaw_odometry_rad = 0.05236;
+  status.card = DriverState::kActive;
+  status.arm = DriverState::kActive;
+  status.arm_state = ArmState::kIdle;
+  status.loop = loop_stats();
+  add("status", 14, status);
+  Telemetry telemetry;
+  telemetry.daemon_time_ns = 5500000000ull;
+  telemetry.state = ProcedureState::kAligning;
+  telemetry.moving = true;
+  telemetry.left_wheel_rad = -0.0912;
+  telemetry.right_wheel_rad = 0.0913;
+  telemetry.left_counts = -1451;
+  telemetry.right_counts = 1453;
+  telemetry.base_yaw_odometry_rad = 0.0261;
+  telemetry.arm_state = ArmState::kIdle;
+  telemetry.loop = loop_stats();
+  add("telemetry", 0, telemetry);
+  return s;
+}
+
+}  // namespace ajar::protocol::samples

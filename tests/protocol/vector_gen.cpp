@@ -1,0 +1,288 @@
+// Regenerates the golden vectors: ajar_protocol_vector_gen tests/conformance/vectors
+// Valid vectors are the encoded samples (samples.hpp); invalid ones patch a valid frame (and,
+// unless the CRC is the point, recompute its CRC). The committed .vec files are the source of
+// truth: only regenerate when the protocol deliberately changes, and review the diff.
+#include <bit>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "ajar/protocol/vectors.hpp"
+#include "samples.hpp"
+
+namespace {
+
+using ajar::ErrorCode;
+using namespace ajar::protocol;
+using Bytes = std::vector<std::uint8_t>;
+
+Bytes encode_sample(const std::string& name) {
+  for (const auto& s : samples::all()) {
+    if (s.name == name) {
+      Bytes out;
+      if (!encode_append(s.envelope, out)) throw std::runtime_error("cannot encode " + name);
+      return out;
+    }
+  }
+  throw std::runtime_error("no sample " + name);
+}
+
+void put_u16(Bytes& b, std::size_t at, std::uint16_t v) {
+  b[at] = static_cast<std::uint8_t>(v);
+  b[at + 1] = static_cast<std::uint8_t>(v >> 8);
+}
+void put_u32(Bytes& b, std::size_t at, std::uint32_t v) {
+  for (std::size_t i = 0; i < 4; ++i)
+    b[at + i] = static_cast<std::uint8_t>(v >> (8 * i));
+}
+// Sets the payload length from the buffer size and recomputes the CRC.
+void refresh(Bytes& b) {
+  put_u32(b, 14, static_cast<std::uint32_t>(b.size() - kHeaderSize));
+  Bytes covered(b.begin(), b.begin() + 18);
+  covered.insert(covered.end(), b.begin() + static_cast<std::ptrdiff_t>(kHeaderSize), b.end());
+  put_u32(b, 18, crc32c(covered));
+}
+void put_f64(Bytes& b, std::size_t at, double v) {
+  const auto u = std::bit_cast<std::uint64_t>(v);
+  for (std::size_t i = 0; i < 8; ++i)
+    b[at + i] = static_cast<std::uint8_t>(u >> (8 * i));
+}
+
+struct Written {
+  GoldenVector vector;
+  std::string comment;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::cerr << "usage: ajar_protocol_vector_gen OUTPUT_DIR\n";
+    return 2;
+  }
+  const std::string dir = argv[1];
+  std::vector<Written> out;
+
+  for (const auto& s : samples::all()) {
+    GoldenVector v;
+    v.name = s.name;
+    v.direction = is_request(type_of(s.envelope.message)) ? GoldenVector::Direction::kHostToDaemon
+                                                          : GoldenVector::Direction::kDaemonToHost;
+    v.bytes = encode_sample(s.name);
+    out.push_back({v, std::string(to_string(type_of(s.envelope.message))) + ", request id " +
+                          std::to_string(s.envelope.request_id) + ". Decodes and re-encodes " +
+                          "byte-exact."});
+  }
+
+  // A newer minor version may append fields: v1.0 decoders ignore the tail.
+  {
+    GoldenVector v;
+    v.name = "newer_minor_appended_field";
+    v.roundtrip = false;
+    v.bytes = encode_sample("ping");
+    v.bytes[5] = 3;  // version 1.3
+    for (const std::uint8_t x : Bytes{0xDE, 0xAD, 0xBE, 0xEF})
+      v.bytes.push_back(x);
+    refresh(v.bytes);
+    out.push_back({v,
+                   "Ping sent by a v1.3 peer with 4 appended payload bytes: accepted, tail "
+                   "ignored.\nRe-encoding gives the v1.0 frame (roundtrip: no)."});
+  }
+
+  const auto bad = [&out](std::string name, std::string base, ErrorCode code, bool framing_lost,
+                          std::string field, const std::function<void(Bytes&)>& patch,
+                          std::string comment) {
+    GoldenVector v;
+    v.name = std::move(name);
+    v.expect_ok = false;
+    v.expected_error = code;
+    v.framing_lost = framing_lost;
+    v.field = std::move(field);
+    v.bytes = encode_sample(base);
+    patch(v.bytes);
+    for (const auto& s : samples::all()) {
+      if (s.name == base) {
+        v.direction = is_request(type_of(s.envelope.message))
+                          ? GoldenVector::Direction::kHostToDaemon
+                          : GoldenVector::Direction::kDaemonToHost;
+      }
+    }
+    out.push_back({v, std::move(comment)});
+  };
+  constexpr std::size_t P = kHeaderSize;  // payload offset
+
+  bad(
+      "bad_magic", "ping", ErrorCode::kBadMagic, true, "header.magic", [](Bytes& b) { b[3] = 'X'; },
+      "Magic \"AJAX\" instead of \"AJAR\": framing lost, close.");
+  bad(
+      "unsupported_version", "ping", ErrorCode::kUnsupportedVersion, true, "header.version_major",
+      [](Bytes& b) {
+        b[4] = 2;
+        refresh(b);
+      },
+      "Major version 2: reply UNSUPPORTED_VERSION, then close.");
+  bad(
+      "payload_too_large", "ping", ErrorCode::kPayloadTooLarge, true, "header.payload_length",
+      [](Bytes& b) {
+        b.resize(kHeaderSize);
+        put_u32(b, 14, 1025);
+      },
+      "Header announces 1025 payload bytes (max 1024): refused before reading the payload;\n"
+      "framing lost. The vector is the header only.");
+  bad(
+      "crc_mismatch", "measure_door_width", ErrorCode::kCrcMismatch, false, "header.crc",
+      [](Bytes& b) { b[P + 3] ^= 0x01; }, "One payload bit flipped; the CRC no longer matches.");
+  bad(
+      "crc_mismatch_header", "ping", ErrorCode::kCrcMismatch, false, "header.crc",
+      [](Bytes& b) { b[10] ^= 0x80; }, "Request id bit flipped: the CRC covers the header too.");
+  bad(
+      "bad_payload_length_short", "ping", ErrorCode::kBadPayloadLength, false,
+      "header.payload_length",
+      [](Bytes& b) {
+        b.pop_back();
+        refresh(b);
+      },
+      "Ping with a 7-byte payload (needs 8).");
+  bad(
+      "bad_payload_length_long", "stop", ErrorCode::kBadPayloadLength, false,
+      "header.payload_length",
+      [](Bytes& b) {
+        b.push_back(0);
+        refresh(b);
+      },
+      "Stop with a 1-byte payload (needs 0; only a newer minor may append).");
+  bad(
+      "bad_payload_length_plane", "measure_door_plane_3", ErrorCode::kBadPayloadLength, false,
+      "header.payload_length",
+      [](Bytes& b) {
+        b[P] = 4;  // count says 4 points, payload holds 3
+        refresh(b);
+      },
+      "MeasureDoorPlane with count 4 but three points of payload.");
+  bad(
+      "unknown_message_type", "stop", ErrorCode::kUnknownMessageType, false, "header.type",
+      [](Bytes& b) {
+        put_u16(b, 6, 0x0199);
+        refresh(b);
+      },
+      "Type 0x0199 is not defined in v1: reply UNKNOWN_MESSAGE_TYPE, session continues.");
+  bad(
+      "unknown_flags", "ping", ErrorCode::kUnknownFlags, false, "header.flags",
+      [](Bytes& b) {
+        put_u16(b, 8, 0x8001);
+        refresh(b);
+      },
+      "Reserved flag bit 15 set: refused with UNKNOWN_FLAGS, not executed, session continues.");
+  bad(
+      "invalid_enum_plane_frame", "measure_door_plane_3", ErrorCode::kInvalidEnumValue, false,
+      "points[2].frame",
+      [](Bytes& b) {
+        b[P + 1 + 2 * 25] = 7;
+        refresh(b);
+      },
+      "Third plane point names frame 7 (only 0 camera, 1 base exist).");
+  bad(
+      "invalid_enum_hello_role", "hello_controller", ErrorCode::kInvalidEnumValue, false,
+      "requested_role",
+      [](Bytes& b) {
+        b[P + 2] = 2;
+        refresh(b);
+      },
+      "Hello asks for role 2.");
+  bad(
+      "invalid_enum_bool", "reset", ErrorCode::kInvalidEnumValue, false, "clear_parameters",
+      [](Bytes& b) {
+        b[P] = 2;
+        refresh(b);
+      },
+      "Booleans are 0 or 1.");
+  bad(
+      "invalid_enum_ack_acknowledged", "ack_align_base", ErrorCode::kInvalidEnumValue, false,
+      "acknowledged",
+      [](Bytes& b) {
+        put_u16(b, P, 0x0201);
+        refresh(b);
+      },
+      "Ack acknowledging a Welcome (not a request type).");
+  bad(
+      "non_finite_nan", "measure_door_width", ErrorCode::kNonFiniteNumber, false, "p2.z",
+      [](Bytes& b) {
+        put_f64(b, P + 25 + 1 + 16, std::numeric_limits<double>::quiet_NaN());
+        refresh(b);
+      },
+      "P2's z (depth) is NaN.");
+  bad(
+      "non_finite_infinity", "subscribe", ErrorCode::kNonFiniteNumber, false, "telemetry_rate_hz",
+      [](Bytes& b) {
+        put_u32(b, P, 0x7F800000);
+        refresh(b);
+      },
+      "Subscribe at +infinity Hz.");
+  bad(
+      "bad_count_low", "measure_door_plane_3", ErrorCode::kBadCount, false, "count",
+      [](Bytes& b) {
+        b[P] = 2;
+        b.resize(P + 1 + 2 * 25);
+        refresh(b);
+      },
+      "Door plane with 2 points (3..16).");
+  bad(
+      "bad_count_high", "measure_door_plane_16", ErrorCode::kBadCount, false, "count",
+      [](Bytes& b) {
+        b[P] = 17;
+        refresh(b);
+      },
+      "Door plane with count 17 (3..16).");
+  bad(
+      "bad_string_too_long", "hello_controller", ErrorCode::kBadString, false, "client_name",
+      [](Bytes& b) {
+        b[P + 12] = 33;
+        refresh(b);
+      },
+      "client_name length 33 (capacity 32).");
+  bad(
+      "bad_string_padding", "hello_controller", ErrorCode::kBadString, false, "client_name",
+      [](Bytes& b) {
+        b[P + 12 + 1 + 31] = 'x';
+        refresh(b);
+      },
+      "Bytes after client_name's length must be zero.");
+  bad(
+      "bad_string_utf8", "error_points_collinear", ErrorCode::kBadString, false, "message",
+      [](Bytes& b) {
+        b[P + 4 + 33 + 1] = 0xC3;
+        b[P + 4 + 33 + 2] = 0x28;
+        refresh(b);
+      },
+      "Error.message starting with an invalid UTF-8 sequence (C3 28).");
+  bad(
+      "bad_string_control", "hello_controller", ErrorCode::kBadString, false, "client_name",
+      [](Bytes& b) {
+        b[P + 12 + 1 + 4] = '\n';
+        refresh(b);
+      },
+      "Control characters (U+0000..U+001F, U+007F) are not allowed in strings.");
+
+  int failures = 0;
+  for (const auto& w : out) {
+    const auto check = check_vector(w.vector);
+    if (!check.ok()) {
+      std::cerr << "self-check failed: " << check.error().message << "\n";
+      ++failures;
+    }
+    const std::string path = dir + "/" + w.vector.name + ".vec";
+    std::ofstream f(path, std::ios::binary | std::ios::trunc);
+    f << format_vector(w.vector, w.comment);
+    if (!f) {
+      std::cerr << "cannot write " << path << "\n";
+      return 1;
+    }
+  }
+  std::cout << "wrote " << out.size() << " vectors to " << dir << "\n";
+  return failures == 0 ? 0 : 1;
+}
