@@ -54,7 +54,9 @@ std::string parse_points(std::span<const std::string> words, core::Frame frame,
   return {};
 }
 
-CommandParse fail(std::string message) { return CommandParse{std::nullopt, std::move(message)}; }
+CommandParse fail(std::string message) {
+  return CommandParse{std::nullopt, std::move(message)};
+}
 
 }  // namespace
 
@@ -92,8 +94,9 @@ commands:
   reset [--clear]                       clear a latched fault; --clear also discards the procedure
   sleep S                               (script mode) pause S seconds, keeping the session alive
   conformance [--vectors DIR]           hold the daemon to the protocol; ends "N passed, N failed"
-  simulate SCENARIO.yaml [--trace FILE] [--seeds N] [--seed S] [--config AJARD.yaml]
-                                        rehearse the whole procedure on a simulated door
+  simulate SCENARIO.yaml [--trace FILE] [--seeds N] [--seed S] [--plane-points N]
+           [--config AJARD.yaml]        rehearse the whole procedure on a simulated door
+                                        (camera->base from AJARD.yaml, else the paper's)
 
 measure, contact, align, engage, reset and script mode take the controller role; a one-shot
 'align --no-wait' disconnects during the motion, which the deadman stops: use it in script mode.
@@ -107,7 +110,8 @@ std::vector<std::string> split_line(const std::string& line) {
   std::vector<std::string> words;
   std::istringstream in(line.substr(0, line.find('#')));
   std::string word;
-  while (in >> word) words.push_back(word);
+  while (in >> word)
+    words.push_back(word);
   return words;
 }
 
@@ -215,8 +219,8 @@ CommandParse parse_command(std::span<const std::string> words_in, core::Frame fr
       if (rest[i] == "-n" && i + 1 < rest.size() && parse_int(rest[i + 1], c.count) &&
           c.count > 0 && c.count <= 1000000) {
         ++i;
-      } else if (rest[i] == "-i" && i + 1 < rest.size() && parse_double(rest[i + 1], c.interval_s) &&
-                 c.interval_s >= 0) {
+      } else if (rest[i] == "-i" && i + 1 < rest.size() &&
+                 parse_double(rest[i + 1], c.interval_s) && c.interval_s >= 0) {
         ++i;
       } else {
         return fail("ping takes [-n COUNT] [-i SECONDS], got '" + rest[i] + "'");

@@ -39,7 +39,8 @@ std::optional<Endpoint> parse_endpoint(std::string_view text) {
   }
   if (host.empty() || port_text.empty()) return std::nullopt;
   unsigned port = 0;
-  const auto [end, ec] = std::from_chars(port_text.data(), port_text.data() + port_text.size(), port);
+  const auto [end, ec] =
+      std::from_chars(port_text.data(), port_text.data() + port_text.size(), port);
   if (ec != std::errc{} || end != port_text.data() + port_text.size() || port == 0 ||
       port > 65535) {
     return std::nullopt;
@@ -150,33 +151,33 @@ struct Client::Impl {
   }
 
   void start_read(const std::shared_ptr<tcp::socket>& sock) {
-    sock->async_read_some(asio::buffer(read_buffer), [this, sock](boost::system::error_code ec,
-                                                                   std::size_t n) {
-      if (sock != socket) return;  // a stale connection
-      if (ec) {
-        on_closed(ec == asio::error::eof ? "connection closed by the daemon"
-                                         : "connection lost: " + ec.message());
-        return;
-      }
-      std::span<const std::uint8_t> in(read_buffer.data(), n);
-      while (!in.empty()) {
-        protocol::StreamDecoder::Outcome outcome;
-        const std::size_t used = decoder.feed(in, outcome);
-        in = in.subspan(used);
-        if (outcome.kind == protocol::StreamDecoder::Kind::kMessage) {
-          dispatch(std::move(outcome.envelope));
-        } else if (outcome.kind == protocol::StreamDecoder::Kind::kError) {
-          if (outcome.error.framing_lost) {
-            on_closed("undecodable data from the daemon (" +
-                      std::string(ajar::to_string(outcome.error.code)) + ")");
+    sock->async_read_some(
+        asio::buffer(read_buffer), [this, sock](boost::system::error_code ec, std::size_t n) {
+          if (sock != socket) return;  // a stale connection
+          if (ec) {
+            on_closed(ec == asio::error::eof ? "connection closed by the daemon"
+                                             : "connection lost: " + ec.message());
             return;
           }
-        } else if (used == 0) {
-          break;
-        }
-      }
-      start_read(sock);
-    });
+          std::span<const std::uint8_t> in(read_buffer.data(), n);
+          while (!in.empty()) {
+            protocol::StreamDecoder::Outcome outcome;
+            const std::size_t used = decoder.feed(in, outcome);
+            in = in.subspan(used);
+            if (outcome.kind == protocol::StreamDecoder::Kind::kMessage) {
+              dispatch(std::move(outcome.envelope));
+            } else if (outcome.kind == protocol::StreamDecoder::Kind::kError) {
+              if (outcome.error.framing_lost) {
+                on_closed("undecodable data from the daemon (" +
+                          std::string(ajar::to_string(outcome.error.code)) + ")");
+                return;
+              }
+            } else if (used == 0) {
+              break;
+            }
+          }
+          start_read(sock);
+        });
   }
 
   void write(std::vector<std::uint8_t> bytes) {
@@ -288,7 +289,7 @@ std::string Client::connect(const Endpoint& endpoint, Milliseconds timeout) {
     resolver->async_resolve(
         endpoint.host, std::to_string(endpoint.port),
         [impl, sock, timer, resolver, done, promise, where](boost::system::error_code ec,
-                                                           tcp::resolver::results_type results) {
+                                                            tcp::resolver::results_type results) {
           if (*done) return;
           if (ec) {
             *done = true;
@@ -401,10 +402,9 @@ Response Client::request(const protocol::Message& message, Milliseconds timeout,
     }
   }
   response.outcome = Outcome::kTimeout;
-  response.transport_error = "no reply to " + std::string(protocol::to_string(
-                                                  protocol::type_of(message))) +
-                             " within " + std::to_string(timeout.count()) + " ms (" +
-                             std::to_string(response.attempts) + " attempts)";
+  response.transport_error =
+      "no reply to " + std::string(protocol::to_string(protocol::type_of(message))) + " within " +
+      std::to_string(timeout.count()) + " ms (" + std::to_string(response.attempts) + " attempts)";
   return response;
 }
 
@@ -437,8 +437,8 @@ std::uint32_t Client::next_request_id() {
 
 bool Client::send_raw(std::span<const std::uint8_t> bytes) {
   if (!connected()) return false;
-  asio::post(impl_->io, [impl = impl_.get(), data = std::vector<std::uint8_t>(
-                                                 bytes.begin(), bytes.end())]() mutable {
+  asio::post(impl_->io, [impl = impl_.get(),
+                         data = std::vector<std::uint8_t>(bytes.begin(), bytes.end())]() mutable {
     impl->write(std::move(data));
   });
   return true;

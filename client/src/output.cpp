@@ -19,7 +19,9 @@ std::string fixed(double value, int digits, bool sign = false) {
   return buffer;
 }
 
-std::string m(double v) { return fixed(v, 4) + " m"; }
+std::string m(double v) {
+  return fixed(v, 4) + " m";
+}
 std::string rad(double v) {
   std::string t = fixed(v, 5, true);
   t += " rad (";
@@ -65,7 +67,9 @@ std::string range(float lo, float hi) {
   return out;
 }
 
-std::string state_name(protocol::ProcedureState s) { return std::string(protocol::to_string(s)); }
+std::string state_name(protocol::ProcedureState s) {
+  return std::string(protocol::to_string(s));
+}
 
 }  // namespace
 
@@ -76,7 +80,8 @@ JsonObject error_object(std::string_view code, std::string_view field, std::stri
 }
 
 JsonObject error_object(const protocol::ErrorReply& error) {
-  JsonObject o = error_object(ajar::to_string(error.code), error.field.view(), error.message.view());
+  JsonObject o =
+      error_object(ajar::to_string(error.code), error.field.view(), error.message.view());
   o.add("number", static_cast<unsigned>(error.code));
   return o;
 }
@@ -210,8 +215,8 @@ std::string status_text(const protocol::Status& s) {
          "\n";
   }
   if (s.has_handle) {
-    t += "handle length:    " + m(s.handle.length_m) + ", " +
-         core::to_string(s.handle.direction) + "\n";
+    t += "handle length:    " + m(s.handle.length_m) + ", " + core::to_string(s.handle.direction) +
+         "\n";
   }
   if (s.has_plane) {
     t += "yaw deviation:    " + rad(s.plane.yaw_deviation_rad) + " from " +
@@ -284,8 +289,8 @@ JsonObject event_object(const protocol::Event& e) {
 }
 
 std::string event_text(const protocol::Event& e) {
-  std::string t = "event " + std::string(protocol::to_string(e.kind)) + ": state " +
-                  state_name(e.state);
+  std::string t =
+      "event " + std::string(protocol::to_string(e.kind)) + ": state " + state_name(e.state);
   if (e.fault != ErrorCode::kOk) t += ", fault " + std::string(ajar::to_string(e.fault));
   if (e.detail.length > 0) t += ": " + std::string(e.detail.view());
   return t;
@@ -310,11 +315,11 @@ std::string telemetry_text(const protocol::Telemetry& tm) {
   std::snprintf(buffer, sizeof buffer,
                 "t=%.3f s %s%s wheels L %+.5f R %+.5f rad (%lld / %lld counts) yaw %+.5f rad, "
                 "loop %.0f Hz p99 jitter %u ns",
-                static_cast<double>(tm.daemon_time_ns) * 1e-9,
-                state_name(tm.state).c_str(), tm.moving ? " moving" : "", tm.left_wheel_rad,
-                tm.right_wheel_rad, static_cast<long long>(tm.left_counts),
-                static_cast<long long>(tm.right_counts), tm.base_yaw_odometry_rad,
-                static_cast<double>(tm.loop.rate_hz), tm.loop.jitter_p99_ns);
+                static_cast<double>(tm.daemon_time_ns) * 1e-9, state_name(tm.state).c_str(),
+                tm.moving ? " moving" : "", tm.left_wheel_rad, tm.right_wheel_rad,
+                static_cast<long long>(tm.left_counts), static_cast<long long>(tm.right_counts),
+                tm.base_yaw_odometry_rad, static_cast<double>(tm.loop.rate_hz),
+                tm.loop.jitter_p99_ns);
   return buffer;
 }
 

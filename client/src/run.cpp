@@ -4,6 +4,7 @@
 #include <fstream>
 #include <iostream>
 #include <mutex>
+#include <numbers>
 #include <thread>
 
 #include "ajar/client/cli.hpp"
@@ -19,7 +20,9 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 std::atomic<bool> g_interrupted{false};
-extern "C" void on_interrupt(int) { g_interrupted.store(true); }
+extern "C" void on_interrupt(int) {
+  g_interrupted.store(true);
+}
 
 Milliseconds seconds_to_ms(double s) {
   return Milliseconds{static_cast<std::int64_t>(std::llround(s * 1000.0))};
@@ -68,9 +71,9 @@ class Session {
       print_error("connect", kDisconnectedCode, why);
       return kExitConnection;
     }
-    const Response r = client_.hello(controller ? protocol::Role::kController
-                                                : protocol::Role::kObserver,
-                                     controller && options_.take_over);
+    const Response r =
+        client_.hello(controller ? protocol::Role::kController : protocol::Role::kObserver,
+                      controller && options_.take_over);
     if (!r.ok()) {
       print(response_object("hello", r), response_text("hello", r));
       return exit_code(r);
@@ -143,8 +146,7 @@ class Session {
               .count());
       const auto start = Clock::now();
       const Response r = client_.request(p);
-      const double rtt_ms =
-          std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+      const double rtt_ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
       if (!r.ok()) {
         print(response_object("ping", r), response_text("ping", r));
         last_failure = exit_code(r);
@@ -165,15 +167,15 @@ class Session {
     JsonObject o;
     o.add("type", "ping_stats").add("command", "ping").add("ok", !rtts_ms.empty());
     o.add("sent", c.count).add("received", static_cast<int>(rtts_ms.size()));
-    std::string text = std::to_string(rtts_ms.size()) + "/" + std::to_string(c.count) +
-                       " replies";
+    std::string text = std::to_string(rtts_ms.size()) + "/" + std::to_string(c.count) + " replies";
     if (!rtts_ms.empty()) {
       std::sort(rtts_ms.begin(), rtts_ms.end());
       double sum = 0;
-      for (double v : rtts_ms) sum += v;
+      for (double v : rtts_ms)
+        sum += v;
       // Nearest-rank percentile.
-      const auto rank = static_cast<std::size_t>(
-          std::ceil(0.99 * static_cast<double>(rtts_ms.size())));
+      const auto rank =
+          static_cast<std::size_t>(std::ceil(0.99 * static_cast<double>(rtts_ms.size())));
       const double p99 = rtts_ms[std::clamp<std::size_t>(rank, 1, rtts_ms.size()) - 1];
       const double avg = sum / static_cast<double>(rtts_ms.size());
       o.add("min_ms", rtts_ms.front()).add("avg_ms", avg).add("max_ms", rtts_ms.back());
@@ -230,13 +232,20 @@ class Session {
       return exit_code(ack);
     }
     client_.set_heartbeat(Milliseconds{100});
-    const auto busy = align ? protocol::ProcedureState::kAligning
-                            : protocol::ProcedureState::kEngaging;
+    const auto busy =
+        align ? protocol::ProcedureState::kAligning : protocol::ProcedureState::kEngaging;
     const auto deadline = Clock::now() + seconds_to_ms(c.wait_timeout_s);
     protocol::Status last = start;
     bool finished = false;
     int rc = kExitOk;
     while (Clock::now() < deadline) {
+      if (g_interrupted.load()) {
+        // Ctrl-C while the robot moves: stop it rather than leave it to the deadman.
+        const Response stop = client_.request(protocol::Stop{});
+        print(response_object("stop", stop), "interrupted: " + response_text("stop", stop));
+        rc = kExitRefused;
+        break;
+      }
       const Response r = client_.request(protocol::GetStatus{});
       if (!r.ok()) {
         print(response_object(c.name, r), response_text(c.name, r));
@@ -254,8 +263,8 @@ class Session {
     show_events_ = false;
     if (rc != kExitOk) return rc;
 
-    const auto goal = align ? protocol::ProcedureState::kAligned
-                            : protocol::ProcedureState::kEngaged;
+    const auto goal =
+        align ? protocol::ProcedureState::kAligned : protocol::ProcedureState::kEngaged;
     const bool ok = finished && last.state == goal;
     JsonObject o;
     o.add("type", align ? "align_result" : "engage_result").add("command", c.name).add("ok", ok);
@@ -263,7 +272,8 @@ class Session {
     std::string text = c.name + ": " + (ok ? "done" : "NOT done") + ", state " +
                        std::string(protocol::to_string(last.state));
     if (align) {
-      const double turned = last.base_yaw_odometry_rad - start.base_yaw_odometry_rad;
+      const double turned = std::remainder(last.base_yaw_odometry_rad - start.base_yaw_odometry_rad,
+                                           2 * std::numbers::pi);
       o.add("base_yaw_before_rad", start.base_yaw_odometry_rad)
           .add("base_yaw_after_rad", last.base_yaw_odometry_rad)
           .add("yaw_turned_rad", turned);
@@ -289,10 +299,10 @@ class Session {
                              ? std::string(ajar::to_string(last.latched_fault))
                              : (finished ? std::string("WRONG_STATE") : std::string(kTimeoutCode));
       const std::string message =
-          finished ? "the " + c.name + " ended in state " +
-                         std::string(protocol::to_string(last.state))
-                   : "still " + std::string(protocol::to_string(busy)) + " after " +
-                         std::to_string(c.wait_timeout_s) + " s";
+          finished
+              ? "the " + c.name + " ended in state " + std::string(protocol::to_string(last.state))
+              : "still " + std::string(protocol::to_string(busy)) + " after " +
+                    std::to_string(c.wait_timeout_s) + " s";
       o.add("error", error_object(code, "", message));
       text += "\n  " + code + ": " + message;
     }

@@ -41,7 +41,8 @@ struct YamlReader {
       const auto key = kv.first.as<std::string>();
       if (!allowed.contains(key)) {
         std::string list;
-        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        for (const auto& a : allowed)
+          list += (list.empty() ? "" : ", ") + a;
         fail(where.empty() ? key : where + "." + key, "unknown key (allowed: " + list + ")");
       }
     }
@@ -71,18 +72,26 @@ struct YamlReader {
 
 double rms(const std::vector<double>& v) {
   double s = 0;
-  for (double x : v) s += x * x;
+  for (double x : v)
+    s += x * x;
   return v.empty() ? 0 : std::sqrt(s / static_cast<double>(v.size()));
 }
 double mean_abs(const std::vector<double>& v) {
   double s = 0;
-  for (double x : v) s += std::abs(x);
+  for (double x : v)
+    s += std::abs(x);
   return v.empty() ? 0 : s / static_cast<double>(v.size());
 }
 double max_abs(const std::vector<double>& v) {
   double s = 0;
-  for (double x : v) s = std::max(s, std::abs(x));
+  for (double x : v)
+    s = std::max(s, std::abs(x));
   return s;
+}
+
+// An angle difference in (-pi, pi] (odometry may wrap).
+double wrap(double angle_rad) {
+  return std::remainder(angle_rad, 2 * std::numbers::pi);
 }
 
 std::string fixed(double value, int digits, bool sign = false) {
@@ -106,14 +115,16 @@ Scenario load_scenario(const std::string& path) {
     throw std::runtime_error(path + ": cannot read the scenario: " + e.what());
   }
   Scenario s;
-  r.check_keys(root, "", {"name", "description", "door", "sensor", "operator", "run",
-                          "tolerances", "expect"});
+  r.check_keys(
+      root, "",
+      {"name", "description", "door", "sensor", "operator", "run", "tolerances", "expect"});
   s.name = root["name"] ? root["name"].as<std::string>() : path;
   if (root["description"]) s.description = root["description"].as<std::string>();
   const auto door = root["door"];
   if (!door) r.fail("door", "missing");
-  r.check_keys(door, "door", {"hinge", "width_m", "height_m", "bottom_z_m", "distance_m", "yaw_deg",
-                              "yaw_rad", "lateral_offset_m", "handle"});
+  r.check_keys(door, "door",
+               {"hinge", "width_m", "height_m", "bottom_z_m", "distance_m", "yaw_deg", "yaw_rad",
+                "lateral_offset_m", "handle"});
   if (door["hinge"]) {
     const auto hinge = door["hinge"].as<std::string>();
     if (hinge == "left") {
@@ -167,7 +178,8 @@ Scenario load_scenario(const std::string& path) {
               10);
   }
   if (const auto tol = root["tolerances"]) {
-    r.check_keys(tol, "tolerances", {"width_m", "handle_length_m", "residual_yaw_rad", "contact_m"});
+    r.check_keys(tol, "tolerances",
+                 {"width_m", "handle_length_m", "residual_yaw_rad", "contact_m"});
     r.number(tol["width_m"], "tolerances.width_m", s.width_tolerance_m, 0, 1);
     r.number(tol["handle_length_m"], "tolerances.handle_length_m", s.handle_tolerance_m, 0, 1);
     r.number(tol["residual_yaw_rad"], "tolerances.residual_yaw_rad", s.residual_yaw_tolerance_rad,
@@ -225,20 +237,22 @@ core::Vec3 SimWorld::door_point(double lateral_m, double z_m, double proud_m) co
 }
 
 namespace {
-double hinge_sign(const Scenario& s) { return s.hinge == Scenario::Hinge::kLeft ? 1.0 : -1.0; }
+double hinge_sign(const Scenario& s) {
+  return s.hinge == Scenario::Hinge::kLeft ? 1.0 : -1.0;
+}
 }  // namespace
 
 core::Vec3 SimWorld::hinge_edge_point() const {
   const double h = hinge_sign(scenario_);
-  const double lat = scenario_.lateral_offset_m + h * (scenario_.door_width_m / 2 -
-                                                       scenario_.edge_inset_m);
+  const double lat =
+      scenario_.lateral_offset_m + h * (scenario_.door_width_m / 2 - scenario_.edge_inset_m);
   return door_point(lat, scenario_.width_pick_height_m);
 }
 
 core::Vec3 SimWorld::moving_edge_point() const {
   const double h = hinge_sign(scenario_);
-  const double lat = scenario_.lateral_offset_m - h * (scenario_.door_width_m / 2 -
-                                                       scenario_.edge_inset_m);
+  const double lat =
+      scenario_.lateral_offset_m - h * (scenario_.door_width_m / 2 - scenario_.edge_inset_m);
   return door_point(lat, scenario_.width_pick_height_m);
 }
 
@@ -299,8 +313,7 @@ core::Vec3 SimWorld::pick(const core::Vec3& world_point, double base_yaw_rad) {
   const double u = f * p.x() / p.z() + scenario_.pixel_noise_px * unit(rng_);
   const double v = f * p.y() / p.z() + scenario_.pixel_noise_px * unit(rng_);
   const core::Vec3 ray(u / f, v / f, 1.0);
-  const core::Vec3 n_base =
-      Eigen::AngleAxisd(-base_yaw_rad, core::Vec3::UnitZ()) * door_normal();
+  const core::Vec3 n_base = Eigen::AngleAxisd(-base_yaw_rad, core::Vec3::UnitZ()) * door_normal();
   const core::Vec3 n_cam = camera_to_base_.linear().transpose() * n_base;
   core::Vec3 picked = p;
   const double denom = n_cam.dot(ray);
@@ -335,9 +348,9 @@ struct TraceRow {
 
 struct RunResult {
   std::uint64_t seed = 0;
-  bool completed = false;          // every step answered as expected
-  std::string failure;             // first reason the run failed
-  std::vector<std::string> missed; // tolerances missed
+  bool completed = false;           // every step answered as expected
+  std::string failure;              // first reason the run failed
+  std::vector<std::string> missed;  // tolerances missed
   double true_width_m = 0, measured_width_m = 0;
   std::string direction, expected_direction;
   double true_handle_m = 0, measured_handle_m = 0;
@@ -376,7 +389,7 @@ class Rehearsal {
       has_telemetry_ = true;
       if (recording_) {
         TraceRow row = row_now("telemetry", std::string(protocol::to_string(t.state)));
-        row.base_yaw_rad = t.base_yaw_odometry_rad - yaw0_;
+        row.base_yaw_rad = wrap(t.base_yaw_odometry_rad - yaw0_);
         row.true_yaw_error_rad = world_.true_yaw_error_rad(row.base_yaw_rad);
         row.left_wheel_rad = t.left_wheel_rad;
         row.right_wheel_rad = t.right_wheel_rad;
@@ -432,7 +445,9 @@ class Rehearsal {
     result_.cmd_left_counts = first->left_counts;
     result_.cmd_right_counts = first->right_counts;
 
-    // 4. Align, re-measure, until the daemon keeps the alignment.
+    // 4. Align, re-measure, until the daemon keeps the alignment. Encoder angles are reported as
+    // the change over the alignment(s) (the encoders count since the daemon started).
+    const auto encoders_before = fresh_telemetry();
     bool aligned = false;
     for (int i = 0; i < scenario_.max_align_iterations && !aligned; ++i) {
       ++result_.align_iterations;
@@ -448,10 +463,9 @@ class Rehearsal {
                       " alignment(s)",
                   false);
     }
-    {
-      std::lock_guard lock(telemetry_mutex_);
-      result_.enc_left_rad = last_telemetry_.left_wheel_rad;
-      result_.enc_right_rad = last_telemetry_.right_wheel_rad;
+    if (const auto encoders_after = fresh_telemetry(); encoders_before && encoders_after) {
+      result_.enc_left_rad = encoders_after->left_wheel_rad - encoders_before->left_wheel_rad;
+      result_.enc_right_rad = encoders_after->right_wheel_rad - encoders_before->right_wheel_rad;
     }
     // 5. Contact point, from the aligned pose.
     {
@@ -490,13 +504,32 @@ class Rehearsal {
 
   void take_trace() {
     std::lock_guard lock(telemetry_mutex_);
-    for (auto& r : telemetry_rows_) trace_.push_back(r);
+    for (auto& r : telemetry_rows_)
+      trace_.push_back(r);
     telemetry_rows_.clear();
   }
 
   bool connection_failed() const { return connection_failed_; }
 
  private:
+  // A telemetry sample taken after this call (waits up to 1 s for it).
+  std::optional<protocol::Telemetry> fresh_telemetry() {
+    std::uint64_t seen = 0;
+    {
+      std::lock_guard lock(telemetry_mutex_);
+      seen = has_telemetry_ ? last_telemetry_.daemon_time_ns : 0;
+    }
+    const auto deadline = Clock::now() + Milliseconds{1000};
+    while (Clock::now() < deadline) {
+      {
+        std::lock_guard lock(telemetry_mutex_);
+        if (has_telemetry_ && last_telemetry_.daemon_time_ns > seen) return last_telemetry_;
+      }
+      std::this_thread::sleep_for(Milliseconds{5});
+    }
+    return std::nullopt;
+  }
+
   RunResult fail(std::string why, bool connection) {
     if (result_.failure.empty()) result_.failure = std::move(why);
     connection_failed_ = connection_failed_ || connection;
@@ -524,7 +557,7 @@ class Rehearsal {
     if (!expect_reply("status", r)) return false;
     const auto& s = *r.get<protocol::Status>();
     if (first) yaw0_ = s.base_yaw_odometry_rad;
-    base_yaw_ = s.base_yaw_odometry_rad - yaw0_;
+    base_yaw_ = wrap(s.base_yaw_odometry_rad - yaw0_);
     last_state_ = s.state;
     return true;
   }
@@ -534,7 +567,8 @@ class Rehearsal {
     protocol::MeasureDoorPlane m;
     const auto points = world_.plane_points(scenario_.plane_points);
     m.count = static_cast<std::uint8_t>(points.size());
-    for (std::size_t i = 0; i < points.size(); ++i) m.points[i] = camera(points[i]);
+    for (std::size_t i = 0; i < points.size(); ++i)
+      m.points[i] = camera(points[i]);
     const Response r = client_->request(m);
     if (!expect_reply(step, r)) return std::nullopt;
     const auto plane = std::get<protocol::PlaneAck>(r.get<protocol::Ack>()->body);
@@ -567,7 +601,7 @@ class Rehearsal {
       const Response r = client_->request(protocol::GetStatus{});
       if (!expect_reply("status", r)) break;
       const auto& s = *r.get<protocol::Status>();
-      base_yaw_ = s.base_yaw_odometry_rad - yaw0_;
+      base_yaw_ = wrap(s.base_yaw_odometry_rad - yaw0_);
       last_state_ = s.state;
       if (s.state != busy) {
         if (s.latched_fault != ErrorCode::kOk) {
@@ -655,7 +689,9 @@ class Rehearsal {
   std::vector<TraceRow> telemetry_rows_;
 };
 
-std::string csv_number(double v) { return std::isfinite(v) ? json_number(v) : ""; }
+std::string csv_number(double v) {
+  return std::isfinite(v) ? json_number(v) : "";
+}
 
 std::string csv_text(const std::string& s) {
   if (s.find_first_of(",\"\n") == std::string::npos) return s;
@@ -718,8 +754,8 @@ JsonObject report_json(const Scenario& s, const RunResult& r) {
 
 std::string report_text(const Scenario& s, const RunResult& r) {
   std::string t = "scenario " + s.name + " (seed " + std::to_string(r.seed) + ", " +
-                  std::to_string(s.plane_points) + " plane points): " +
-                  (r.ok() ? "PASS" : "FAIL") + "\n";
+                  std::to_string(s.plane_points) + " plane points): " + (r.ok() ? "PASS" : "FAIL") +
+                  "\n";
   if (!r.failure.empty()) t += "  failed: " + r.failure + "\n";
   t += "  door width     true " + fixed(r.true_width_m, 4) + " m, measured " +
        fixed(r.measured_width_m, 4) + " m (error " +
@@ -734,7 +770,7 @@ std::string report_text(const Scenario& s, const RunResult& r) {
        " m)\n";
   t += "  wheel angles   commanded L " + fixed(r.cmd_left_rad, 5, true) + " R " +
        fixed(r.cmd_right_rad, 5, true) + " rad (" + std::to_string(r.cmd_left_counts) + " / " +
-       std::to_string(r.cmd_right_counts) + " counts), encoders L " +
+       std::to_string(r.cmd_right_counts) + " counts), encoders over the alignment(s) L " +
        fixed(r.enc_left_rad, 5, true) + " R " + fixed(r.enc_right_rad, 5, true) + " rad\n";
   t += "  yaw after      true " + fixed(r.yaw_after_true_rad, 5, true) + " rad (tolerance " +
        fixed(s.residual_yaw_tolerance_rad, 4) + "), measured " +
@@ -743,7 +779,8 @@ std::string report_text(const Scenario& s, const RunResult& r) {
   t += "  contact        error " + fixed(r.contact_error_m, 4) + " m, reach margin " +
        fixed(r.reach_margin_m, 4) + " m\n";
   t += "  final state    " + (r.final_state.empty() ? std::string("-") : r.final_state);
-  for (const auto& m : r.missed) t += "\n  MISSED: " + m;
+  for (const auto& m : r.missed)
+    t += "\n  MISSED: " + m;
   return t;
 }
 
@@ -753,13 +790,15 @@ int run_simulate(const Command& command, const GlobalOptions& options, std::ostr
                  std::ostream& err) {
   std::string scenario_path, trace_path, config_path;
   int seeds = 1;
+  int plane_points = 0;  // 0: the scenario's
   std::optional<std::uint64_t> seed;
   for (std::size_t i = 0; i < command.args.size(); ++i) {
     const std::string& a = command.args[i];
     auto value = [&]() -> const std::string* {
       return i + 1 < command.args.size() ? &command.args[++i] : nullptr;
     };
-    if (a == "--trace" || a == "--config" || a == "--seeds" || a == "--seed") {
+    if (a == "--trace" || a == "--config" || a == "--seeds" || a == "--seed" ||
+        a == "--plane-points") {
       const std::string* v = value();
       if (!v) {
         err << "ajarctl: simulate: " << a << " needs a value\n";
@@ -772,11 +811,18 @@ int run_simulate(const Command& command, const GlobalOptions& options, std::ostr
       } else {
         unsigned long long n = 0;
         const auto [p, ec] = std::from_chars(v->data(), v->data() + v->size(), n);
-        if (ec != std::errc{} || p != v->data() + v->size() || (a == "--seeds" && (n < 1 || n > 100000))) {
+        if (ec != std::errc{} || p != v->data() + v->size() ||
+            (a == "--seeds" && (n < 1 || n > 100000))) {
           err << "ajarctl: simulate: " << a << " wants a whole number, got '" << *v << "'\n";
           return kExitUsage;
         }
-        if (a == "--seeds") {
+        if (a == "--plane-points" && (n < 3 || n > 16)) {
+          err << "ajarctl: simulate: --plane-points wants 3..16, got '" << *v << "'\n";
+          return kExitUsage;
+        }
+        if (a == "--plane-points") {
+          plane_points = static_cast<int>(n);
+        } else if (a == "--seeds") {
           seeds = static_cast<int>(n);
         } else {
           seed = n;
@@ -804,6 +850,7 @@ int run_simulate(const Command& command, const GlobalOptions& options, std::ostr
     return kExitUsage;
   }
   if (seed) scenario.seed = *seed;
+  if (plane_points != 0) scenario.plane_points = plane_points;
 
   std::vector<TraceRow> trace;
   std::vector<double> yaw_before_error, yaw_after;
@@ -816,7 +863,9 @@ int run_simulate(const Command& command, const GlobalOptions& options, std::ostr
     const RunResult result = rehearsal.run();
     rehearsal.take_trace();
     if (result.ok()) ++passed;
-    if (result.completed) {
+    // Every run that got as far as an alignment counts in the statistics (also one that the
+    // daemon never accepted as aligned).
+    if (result.align_iterations > 0) {
       yaw_before_error.push_back(result.yaw_before_measured_rad - result.yaw_before_true_rad);
       yaw_after.push_back(result.yaw_after_true_rad);
     }
@@ -826,8 +875,8 @@ int run_simulate(const Command& command, const GlobalOptions& options, std::ostr
       out << report_text(run_scenario, result) << '\n';
     } else {
       out << "seed " << run_scenario.seed << ": " << (result.ok() ? "PASS" : "FAIL")
-          << " yaw measured-true " << fixed(result.yaw_before_measured_rad -
-                                               result.yaw_before_true_rad, 5, true)
+          << " yaw measured-true "
+          << fixed(result.yaw_before_measured_rad - result.yaw_before_true_rad, 5, true)
           << " rad, residual yaw after alignment " << fixed(result.yaw_after_true_rad, 5, true)
           << " rad" << (result.failure.empty() ? "" : " (" + result.failure + ")") << '\n';
     }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <future>
 #include <numbers>
 
 #include "ajar/core/geometry.hpp"
@@ -79,20 +80,19 @@ void ControlLoop::bring_down() noexcept {
 std::vector<std::string> ControlLoop::start_thread() {
   if (thread_.joinable()) return {};
   exit_requested_.store(false);
-  std::vector<std::string> warnings;
-  std::atomic<bool> ready{false};
+  std::promise<std::vector<std::string>> warnings;
+  auto ready = warnings.get_future();
   const RealtimeRequest request{settings_.realtime, settings_.priority, settings_.lock_memory};
   last_cycle_end_ns_.store(monotonic_now_ns());
-  thread_ = std::thread([this, request, &warnings, &ready] {
-    warnings = apply_realtime(request);
+  thread_ = std::thread([this, request, promise = std::move(warnings)]() mutable {
+    auto refused = apply_realtime(request);
     const std::int64_t first = monotonic_now_ns() + period_ns_;
-    ready.store(true, std::memory_order_release);
-    ready.notify_one();
+    promise.set_value(std::move(refused));
     thread_main(first);
   });
-  ready.wait(false, std::memory_order_acquire);
+  auto result = ready.get();
   thread_running_.store(true, std::memory_order_release);
-  return warnings;
+  return result;
 }
 
 void ControlLoop::stop_thread() noexcept {
@@ -205,6 +205,7 @@ void ControlLoop::handle_requests(std::int64_t now_ns) noexcept {
     }
     if (s) {
       fault_ = ErrorCode::kOk;
+      read_axes();  // supervise what the card says now, not what it said before the recovery
       report({LoopReportKind::kRecovered, ErrorCode::kOk, 0, 0});
     } else {
       const ErrorCode code = s.error().code;
@@ -244,6 +245,7 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   if (previous_cycle_ns_ >= 0) statistics_.record_period(now_ns - previous_cycle_ns_);
   previous_cycle_ns_ = now_ns;
 
+  read_axes();  // first: odometry and a move's start position come from before any new command
   handle_requests(now_ns);
   MoveCommand move;
   while (commands_.pop(move)) {
@@ -263,39 +265,44 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   published_.store(snapshot_);
 }
 
-void ControlLoop::supervise(std::int64_t now_ns) noexcept {
-  drivers::AxisStatus status[2];
-  bool answered = true;
-  ErrorCode read_error = ErrorCode::kOk;
+void ControlLoop::read_axes() noexcept {
+  answered_ = true;
+  read_error_ = ErrorCode::kOk;
   for (int i = 0; i < 2; ++i) {
     auto r = card_->axis_status(axes_[i]);
     if (r) {
-      status[i] = *r;
+      status_[i] = *r;
     } else {
-      answered = false;
-      read_error = r.error().code;
+      answered_ = false;
+      read_error_ = r.error().code;
     }
   }
-  if (answered) {
+  if (answered_) {
     if (!have_origin_) {
-      origin_counts_[0] = status[0].encoder_position_counts;
-      origin_counts_[1] = status[1].encoder_position_counts;
+      origin_counts_[0] = status_[0].encoder_position_counts;
+      origin_counts_[1] = status_[1].encoder_position_counts;
       have_origin_ = true;
     }
-    snapshot_.left_counts = status[0].encoder_position_counts;
-    snapshot_.right_counts = status[1].encoder_position_counts;
-    snapshot_.left_wheel_rad = core::counts_to_wheel_rad(
-        status[0].encoder_position_counts - origin_counts_[0], settings_.base.left, settings_.base);
+    snapshot_.left_counts = status_[0].encoder_position_counts;
+    snapshot_.right_counts = status_[1].encoder_position_counts;
+    snapshot_.left_wheel_rad =
+        core::counts_to_wheel_rad(status_[0].encoder_position_counts - origin_counts_[0],
+                                  settings_.base.left, settings_.base);
     snapshot_.right_wheel_rad =
-        core::counts_to_wheel_rad(status[1].encoder_position_counts - origin_counts_[1],
+        core::counts_to_wheel_rad(status_[1].encoder_position_counts - origin_counts_[1],
                                   settings_.base.right, settings_.base);
     snapshot_.base_yaw_rad = core::base_yaw_from_wheels_rad(
         snapshot_.left_wheel_rad, snapshot_.right_wheel_rad, settings_.base);
-    snapshot_.moving = status[0].moving || status[1].moving;
-    snapshot_profile_counts_[0] = status[0].profile_position_counts;
-    snapshot_profile_counts_[1] = status[1].profile_position_counts;
+    snapshot_.moving = status_[0].moving || status_[1].moving;
+    snapshot_profile_counts_[0] = status_[0].profile_position_counts;
+    snapshot_profile_counts_[1] = status_[1].profile_position_counts;
   }
+}
 
+void ControlLoop::supervise(std::int64_t now_ns) noexcept {
+  const drivers::AxisStatus* status = status_;
+  const bool answered = answered_;
+  const ErrorCode read_error = read_error_;
   const bool silent = now_ns - heartbeat_ns_.load(std::memory_order_acquire) > deadman_ns_;
   switch (motion_) {
     case Motion::kMoving: {

@@ -52,6 +52,7 @@ class Runner {
   int run() {
     try {
       engine_ = options_.make_engine ? options_.make_engine(config_) : make_engine(config_);
+      // The server installs the engine's event sink: before engine.start().
       server_ = std::make_unique<Server>(io_, *engine_, ServerOptions::from(config_.network));
       port_ = server_->listen();
       engine_->start();

@@ -21,18 +21,6 @@ Clock::duration seconds(double s) {
   return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
 }
 
-// The engine's event sink setter, when the engine interface has one (engine.hpp is owned by the
-// engine; the template keeps this file compiling whichever way it is spelled).
-template <typename E>
-bool install_event_sink(E& engine, Engine::EventSink sink) {
-  if constexpr (requires { engine.set_event_sink(sink); }) {
-    engine.set_event_sink(std::move(sink));
-    return true;
-  } else {
-    return false;
-  }
-}
-
 std::string endpoint_text(const tcp::endpoint& e) {
   const auto address = e.address();
   return (address.is_v6() ? "[" + address.to_string() + "]" : address.to_string()) + ":" +
@@ -141,7 +129,10 @@ struct Server::Impl {
 };
 
 Server::Server(asio::io_context& io, Engine& engine, ServerOptions options)
-    : impl_(std::make_unique<Impl>(io, engine, std::move(options))) {}
+    : impl_(std::make_unique<Impl>(io, engine, std::move(options))) {
+  // Before engine.start(): the engine wants its sink set first.
+  engine.set_event_sink([&hub = impl_->hub](const protocol::Event& e) { hub.on_event(e); });
+}
 
 Server::~Server() = default;
 
@@ -174,10 +165,6 @@ void Server::start() {
   auto& d = *impl_;
   if (d.started) return;
   d.started = true;
-  if (!install_event_sink(d.engine,
-                          [&hub = d.hub](const protocol::Event& e) { hub.on_event(e); })) {
-    spdlog::error("this engine has no event sink: events are not sent to sessions");
-  }
   d.accept();
   d.next_poll = Clock::now();
   d.schedule_poll();
@@ -192,7 +179,7 @@ void Server::stop() {
   d.poll_timer.cancel();
   if (d.retry_timer) d.retry_timer->cancel();
   d.hub.close_all("daemon shutting down");
-  install_event_sink(d.engine, [](const protocol::Event&) {});
+  d.engine.set_event_sink([](const protocol::Event&) {});
 }
 
 std::uint16_t Server::port() const noexcept {

@@ -69,9 +69,16 @@ std::string SessionHub::describe(const SessionState& s) const {
 }
 
 void SessionHub::reply(SessionState& s, std::uint32_t request_id, protocol::Message message) {
-  if (auto frame = encode_frame(protocol::Envelope{request_id, 0, std::move(message)})) {
-    s.link->send(std::move(frame));
+  const MessageType type = protocol::type_of(message);
+  auto frame = encode_frame(protocol::Envelope{request_id, 0, std::move(message)});
+  if (!frame) {  // a bug (e.g. an Ack body that does not match): the client still gets an answer
+    protocol::ErrorReply error;
+    error.code = ErrorCode::kInternal;
+    error.offending_type = type;
+    error.message = "the daemon could not encode its reply";
+    frame = encode_frame(protocol::Envelope{request_id, 0, error});
   }
+  if (frame) s.link->send(std::move(frame));
 }
 
 void SessionHub::refuse(SessionState& s, const protocol::Envelope& envelope, ErrorCode code,
@@ -185,6 +192,18 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
   s.client_instance_id = hello.client_instance_id;
   s.client_name = std::string(hello.client_name.view());
 
+  std::string old_name;
+  if (demoted) {
+    // Stop what the old controller set moving before anyone else commands (DEADMAN if moving).
+    auto old = sessions_.find(*demoted);
+    old_name = "session " + std::to_string(*demoted);
+    if (old != sessions_.end()) {
+      old->second.role = protocol::Role::kObserver;
+      old_name = describe(old->second);
+    }
+    engine_.controller_lost();
+  }
+
   protocol::Welcome welcome = engine_.welcome_template();
   welcome.granted_role = s.role;
   welcome.session_id = s.link->id();
@@ -193,18 +212,8 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
                protocol::to_string(s.role), s.client_instance_id);
 
   if (s.role != protocol::Role::kController) return;
-  if (demoted) {
-    auto old = sessions_.find(*demoted);
-    std::string old_name = "session " + std::to_string(*demoted);
-    if (old != sessions_.end()) {
-      old->second.role = protocol::Role::kObserver;
-      old_name = describe(old->second);
-    }
-    engine_.controller_lost();  // stops motion the old controller started (DEADMAN if moving)
-    announce_controller(describe(s) + " took control from " + old_name);
-  } else {
-    announce_controller(describe(s) + " is the controller");
-  }
+  announce_controller(demoted ? describe(s) + " took control from " + old_name
+                              : describe(s) + " is the controller");
 }
 
 void SessionHub::handle_subscribe(SessionState& s, const protocol::Envelope& envelope) {

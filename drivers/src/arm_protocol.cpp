@@ -147,16 +147,14 @@ const char* to_string(RejectReason r) noexcept {
 }
 
 std::uint16_t crc16_ccitt(std::string_view bytes) noexcept {
-  std::uint16_t crc = 0xFFFF;
+  unsigned crc = 0xFFFFU;  // arithmetic in unsigned int, kept to 16 bits
   for (const char ch : bytes) {
-    crc = static_cast<std::uint16_t>(
-        crc ^ (static_cast<std::uint16_t>(static_cast<unsigned char>(ch)) << 8U));
+    crc ^= static_cast<unsigned>(static_cast<unsigned char>(ch)) << 8U;
     for (int bit = 0; bit < 8; ++bit) {
-      crc = (crc & 0x8000U) != 0 ? static_cast<std::uint16_t>((crc << 1U) ^ 0x1021U)
-                                 : static_cast<std::uint16_t>(crc << 1U);
+      crc = (crc & 0x8000U) != 0 ? ((crc << 1U) ^ 0x1021U) & 0xFFFFU : (crc << 1U) & 0xFFFFU;
     }
   }
-  return crc;
+  return static_cast<std::uint16_t>(crc);
 }
 
 Result<std::string> encode(const Message& m) {
@@ -229,11 +227,11 @@ Result<Message> decode(std::string_view line) {
   if (star == std::string_view::npos || line.size() - star != 5) {
     return bad(ErrorCode::kBadPayloadLength, "crc", "no '*' followed by four hex digits");
   }
-  std::uint16_t crc_sent = 0;
+  unsigned crc_sent = 0;
   for (std::size_t i = star + 1; i < line.size(); ++i) {
     const auto d = hex_digit(line[i]);
     if (!d) return bad(ErrorCode::kBadPayloadLength, "crc", "not upper-case hex");
-    crc_sent = static_cast<std::uint16_t>((crc_sent << 4U) | static_cast<unsigned>(*d));
+    crc_sent = (crc_sent << 4U) | static_cast<unsigned>(*d);
   }
   const std::string_view body = line.substr(1, star - 1);
   if (crc16_ccitt(body) != crc_sent) return bad(ErrorCode::kCrcMismatch, "crc", "CRC mismatch");

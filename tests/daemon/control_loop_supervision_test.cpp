@@ -184,7 +184,7 @@ TEST_F(ControlLoopTest, DeadmanStopsASilentControllersMotion) {
   const int silent_cycles = static_cast<int>(settings.deadman_timeout_s / 0.002);
   run(silent_cycles - 2, /*heartbeat=*/false);
   EXPECT_TRUE(reports().empty());
-  run(4, /*heartbeat=*/false);
+  run(10, /*heartbeat=*/false);
   const auto rs = reports();
   EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kDeadman));
   EXPECT_TRUE(has(rs, LoopReportKind::kMotionStopped, ErrorCode::kDeadman));
@@ -221,6 +221,7 @@ TEST_F(ControlLoopTest, EmergencyStopReachesTheCardInTheNextCycle) {
   EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }), 0);
   run(1);
   EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }), 1);
+  run(2);
   const auto rs = reports();
   EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kEmergencyStopped));
   EXPECT_TRUE(has(rs, LoopReportKind::kMotionStopped, ErrorCode::kEmergencyStopped));
@@ -309,11 +310,16 @@ TEST_F(ControlLoopTest, ThreadRunsAndHealthFollowsTheLoop) {
   EXPECT_TRUE(wait_for([&] { return !loop->healthy(monotonic_now_ns()); }));
   card->set_block_status(false);
   EXPECT_TRUE(wait_for([&] { return loop->healthy(monotonic_now_ns()); }));
+  loop->heartbeat(monotonic_now_ns() + 3'600 * 1000 * kMs);  // no deadman in this test
   ASSERT_TRUE(loop->post_move({1, 100, -100}));
+  bool finished = false;
   EXPECT_TRUE(wait_for([&] {
     LoopReport r;
-    return loop->pop_report(r) && r.kind == LoopReportKind::kMotionFinished;
+    while (loop->pop_report(r))
+      finished = finished || r.kind == LoopReportKind::kMotionFinished;
+    return finished;
   }));
+
   loop->stop_thread();
   EXPECT_FALSE(loop->healthy(monotonic_now_ns()));
   loop->bring_down();

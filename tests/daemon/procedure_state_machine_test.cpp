@@ -36,7 +36,9 @@ template <typename T>
 void expect_error(const Result<T>& r, ErrorCode code, const std::string& field = "") {
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, code) << to_string(r.error().code) << ": " << r.error().message;
-  if (!field.empty()) EXPECT_EQ(r.error().field, field);
+  if (!field.empty()) {
+    EXPECT_EQ(r.error().field, field);
+  }
 }
 
 TEST_F(ProcedureTest, WalksThePaperProcedureInOrder) {

@@ -62,10 +62,11 @@ TEST_F(SessionRules, HelloWithAnotherMajorVersionIsRefused) {
 TEST_F(SessionRules, ObserverCommandsAreRefusedWithoutReachingTheEngine) {
   TestClient c(server_.port());
   c.hello(Role::kObserver);
+  protocol::MeasureDoorPlane plane;
+  plane.count = 3;
   for (protocol::Message m :
        {protocol::Message{protocol::MeasureDoorWidth{}},
-        protocol::Message{protocol::MeasureHandle{}},
-        protocol::Message{protocol::MeasureDoorPlane{}},
+        protocol::Message{protocol::MeasureHandle{}}, protocol::Message{plane},
         protocol::Message{protocol::SetContactPoint{}}, protocol::Message{protocol::AlignBase{}},
         protocol::Message{protocol::Engage{}}, protocol::Message{protocol::Reset{}}}) {
     const auto reply = c.request(m);

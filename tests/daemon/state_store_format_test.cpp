@@ -55,7 +55,7 @@ TEST(StateFormat, RoundTripsBitIdentically) {
   expect_same(decoded->width->p2_moving_edge, r.width->p2_moving_edge);
   expect_same(decoded->handle->p2_free_end, r.handle->p2_free_end);
   ASSERT_EQ(decoded->plane->count, 3);
-  for (int i = 0; i < 3; ++i)
+  for (std::size_t i = 0; i < 3; ++i)
     expect_same(decoded->plane->points[i], r.plane->points[i]);
   expect_same(decoded->contact->contact, r.contact->contact);
   EXPECT_TRUE(decoded->aligned);

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdint>
 #include <optional>
+#include <ostream>
 #include <span>
 #include <string>
 #include <vector>
@@ -21,6 +22,13 @@
 
 #include "ajar/protocol/codec.hpp"
 
+namespace ajar {
+// Readable error codes in gtest failure messages.
+inline void PrintTo(ErrorCode code, std::ostream* os) {
+  *os << to_string(code);
+}
+}  // namespace ajar
+
 namespace ajar::test {
 
 using namespace std::chrono_literals;
@@ -30,7 +38,10 @@ namespace asio = boost::asio;
 inline std::vector<std::uint8_t> frame_of(const protocol::Message& message,
                                           std::uint32_t request_id, std::uint16_t flags = 0) {
   std::vector<std::uint8_t> bytes;
-  protocol::encode_append(protocol::Envelope{request_id, flags, message}, bytes);
+  const bool encoded =
+      protocol::encode_append(protocol::Envelope{request_id, flags, message}, bytes);
+  EXPECT_TRUE(encoded) << "test bug: cannot encode "
+                       << protocol::to_string(protocol::type_of(message));
   return bytes;
 }
 

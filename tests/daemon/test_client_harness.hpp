@@ -21,14 +21,17 @@
 
 namespace ajar::test {
 
-// Runs a Server on its own I/O thread. The engine must be started before and shut down after.
+// Runs a Server on its own I/O thread, as ajard does: the server is built (installing the event
+// sink), listens, engine.start(), serving; stop() stops the server and shuts the engine down on
+// the I/O thread, then joins it.
 class ServerThread {
  public:
-  ServerThread(daemon::Engine& engine, daemon::ServerOptions options) {
+  ServerThread(daemon::Engine& engine, daemon::ServerOptions options) : engine_(engine) {
     options.bind_address = "127.0.0.1";
     options.port = 0;
     server_ = std::make_unique<daemon::Server>(io_, engine, std::move(options));
     port_ = server_->listen();
+    engine_.start();
     server_->start();
     thread_ = std::thread([this] { io_.run(); });
   }
@@ -36,7 +39,10 @@ class ServerThread {
 
   void stop() {
     if (!thread_.joinable()) return;
-    boost::asio::post(io_, [this] { server_->stop(); });
+    boost::asio::post(io_, [this] {
+      server_->stop();
+      engine_.shutdown();
+    });
     // Sessions linger at most SessionOptions::linger after the graceful close.
     thread_.join();
   }
@@ -57,6 +63,7 @@ class ServerThread {
   }
 
  private:
+  daemon::Engine& engine_;
   boost::asio::io_context io_{1};
   std::unique_ptr<daemon::Server> server_;
   std::uint16_t port_ = 0;
@@ -80,7 +87,20 @@ class FakeEngine final : public daemon::Engine {
     protocol::Ack ack;
     ack.acknowledged = protocol::type_of(request);
     ack.state = protocol::ProcedureState::kAwaitingHandle;
-    ack.body = protocol::EmptyAck{};
+    switch (ack.acknowledged) {  // the body the wire format expects for each request
+      case protocol::MessageType::kMeasureDoorWidth:
+      case protocol::MessageType::kMeasureHandle:
+        ack.body = protocol::SpanAck{};
+        break;
+      case protocol::MessageType::kMeasureDoorPlane:
+        ack.body = protocol::PlaneAck{};
+        break;
+      case protocol::MessageType::kSetContactPoint:
+        ack.body = protocol::ContactAck{};
+        break;
+      default:
+        ack.body = protocol::EmptyAck{};
+    }
     return ack;
   }
   void controller_heartbeat() noexcept override { ++heartbeats_; }
@@ -115,8 +135,7 @@ class FakeEngine final : public daemon::Engine {
   }
   bool control_loop_healthy() const noexcept override { return true; }
 
-  // Event sink (installed by the server when the engine interface offers it).
-  void set_event_sink(EventSink sink) { sink_ = std::move(sink); }
+  void set_event_sink(EventSink sink) override { sink_ = std::move(sink); }
   // Queues an event to be emitted from the next poll() (on the I/O thread).
   void emit(const protocol::Event& event) {
     std::lock_guard lock(mutex_);

@@ -19,22 +19,22 @@ inline constexpr int kExitUsage = 2;       // bad command line
 inline constexpr int kExitConnection = 3;  // cannot connect, connection lost, timeout
 
 struct GlobalOptions {
-  Endpoint endpoint;                       // --connect HOST:PORT (default 127.0.0.1:7450)
-  bool json = false;                       // --json
+  Endpoint endpoint;                         // --connect HOST:PORT (default 127.0.0.1:7450)
+  bool json = false;                         // --json
   core::Frame frame = core::Frame::kCamera;  // --frame camera|base
-  double timeout_s = 3.0;                  // --timeout S (per request attempt)
-  int retries = 1;                         // --retries N (same request id)
-  bool keep = false;                       // --keep: read commands from stdin after COMMAND
-  bool keep_going = false;                 // --keep-going: script mode continues after a failure
-  bool take_over = false;                  // --take-over: take control from another controller
-  bool help = false;                       // --help / -h
-  bool version = false;                    // --version
+  double timeout_s = 3.0;                    // --timeout S (per request attempt)
+  int retries = 1;                           // --retries N (same request id)
+  bool keep = false;                         // --keep: read commands from stdin after COMMAND
+  bool keep_going = false;                   // --keep-going: script mode continues after a failure
+  bool take_over = false;                    // --take-over: take control from another controller
+  bool help = false;                         // --help / -h
+  bool version = false;                      // --version
 };
 
 struct ParsedArgs {
   GlobalOptions options;
-  std::vector<std::string> command;        // COMMAND and its arguments
-  std::string error;                       // non-empty: usage error
+  std::vector<std::string> command;  // COMMAND and its arguments
+  std::string error;                 // non-empty: usage error
 };
 
 // Parses the global options; stops at the first word that is not a global option.
@@ -43,24 +43,33 @@ ParsedArgs parse_global_options(std::span<const std::string> args);
 // One command (from the command line, or one line in script mode).
 struct Command {
   enum class Kind {
-    kPing, kStatus, kWatch, kRequest, kAlign, kEngage, kConformance, kSimulate, kScript, kSleep,
+    kPing,
+    kStatus,
+    kWatch,
+    kRequest,
+    kAlign,
+    kEngage,
+    kConformance,
+    kSimulate,
+    kScript,
+    kSleep,
   };
   Kind kind = Kind::kStatus;
-  std::string name;                 // "measure_width", "contact", "align", ...
-  protocol::Message request;        // kRequest, kAlign, kEngage
+  std::string name;           // "measure_width", "contact", "align", ...
+  protocol::Message request;  // kRequest, kAlign, kEngage
   bool needs_controller = false;
-  bool wait = true;                 // align / engage: wait for the outcome (--no-wait)
-  double wait_timeout_s = 120;      // align / engage: --wait-timeout S
-  int count = 4;                    // ping -n N
-  double interval_s = 0;            // ping -i S
-  double duration_s = 0;            // watch --duration S (0: until interrupted); sleep S
-  double rate_hz = 10;              // watch --rate HZ
-  std::vector<std::string> args;    // conformance / simulate / script: their own arguments
+  bool wait = true;               // align / engage: wait for the outcome (--no-wait)
+  double wait_timeout_s = 120;    // align / engage: --wait-timeout S
+  int count = 4;                  // ping -n N
+  double interval_s = 0;          // ping -i S
+  double duration_s = 0;          // watch --duration S (0: until interrupted); sleep S
+  double rate_hz = 10;            // watch --rate HZ
+  std::vector<std::string> args;  // conformance / simulate / script: their own arguments
 };
 
 struct CommandParse {
   std::optional<Command> command;
-  std::string error;                // non-empty: usage error
+  std::string error;  // non-empty: usage error
 };
 
 // Parses COMMAND ARGS... Points are in `frame` unless the command says --frame itself.

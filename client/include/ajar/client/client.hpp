@@ -1,5 +1,5 @@
-// Host-side client of ajard: one TCP connection, the Hello handshake, request/reply with request ids
-// and timeouts, events and telemetry callbacks, and a heartbeat. Linkable by a GUI.
+// Host-side client of ajard: one TCP connection, the Hello handshake, request/reply with request
+// ids and timeouts, events and telemetry callbacks, and a heartbeat. Linkable by a GUI.
 //
 // Threading contract:
 //  - Every public method is thread-safe and synchronous (it blocks the calling thread until done or
@@ -7,7 +7,8 @@
 //  - Event, telemetry and disconnect callbacks run ON THE I/O THREAD. They must return quickly and
 //    must not call blocking Client methods (request, hello, connect, close): that would deadlock
 //    until the call times out. Copy the value and hand it to your own thread (e.g. post to the GUI
-//    event loop). Set the callbacks before connect(); setting them later is allowed (mutex-guarded).
+//    event loop). Set the callbacks before connect(); setting them later is allowed
+//    (mutex-guarded).
 //  - The Client must not be destroyed from inside one of its callbacks.
 //
 // Retries: a request that times out is re-sent with the SAME request id (flag kFlagRetransmit); the
@@ -51,22 +52,24 @@ std::string_view to_string(Outcome outcome) noexcept;
 
 struct Response {
   Outcome outcome = Outcome::kDisconnected;
-  protocol::Message reply;          // kReply / kRefused: the reply message as received
-  protocol::ErrorReply error;       // kRefused: a copy of the ErrorReply
-  std::string transport_error;      // kTimeout / kDisconnected: what happened, for people
-  std::uint32_t request_id = 0;     // the id the request travelled with
-  int attempts = 0;                 // frames sent (1 + retries used)
-  Milliseconds round_trip{0};       // send of the last attempt -> reply
+  protocol::Message reply;       // kReply / kRefused: the reply message as received
+  protocol::ErrorReply error;    // kRefused: a copy of the ErrorReply
+  std::string transport_error;   // kTimeout / kDisconnected: what happened, for people
+  std::uint32_t request_id = 0;  // the id the request travelled with
+  int attempts = 0;              // frames sent (1 + retries used)
+  Milliseconds round_trip{0};    // send of the last attempt -> reply
   bool ok() const { return outcome == Outcome::kReply; }
   template <typename T>
-  const T* get() const { return std::get_if<T>(&reply); }
+  const T* get() const {
+    return std::get_if<T>(&reply);
+  }
 };
 
 struct ClientOptions {
   Milliseconds connect_timeout{3000};
-  Milliseconds request_timeout{3000};   // per attempt
-  int retries = 1;                      // re-sends after the first attempt, same request id
-  std::uint64_t client_instance_id = 0; // 0: random per Client object
+  Milliseconds request_timeout{3000};    // per attempt
+  int retries = 1;                       // re-sends after the first attempt, same request id
+  std::uint64_t client_instance_id = 0;  // 0: random per Client object
   std::string client_name = "ajarctl";
 };
 

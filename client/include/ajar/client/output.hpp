@@ -1,5 +1,5 @@
-// ajarctl's output: every reply, event and telemetry sample as one JSON line (--json) or as text for
-// people. The JSON fields are documented in docs/ajarctl.md; every object has "type" and, for
+// ajarctl's output: every reply, event and telemetry sample as one JSON line (--json) or as text
+// for people. The JSON fields are documented in docs/ajarctl.md; every object has "type" and, for
 // replies, "command" and "ok".
 #pragma once
 

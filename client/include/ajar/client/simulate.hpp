@@ -1,7 +1,7 @@
 // ajarctl simulate: a closed-loop rehearsal of the whole door procedure against ajard on simulated
 // hardware. The scenario (config/scenarios/*.yaml, docs/simulation.md) places a door in the world;
-// the simulated operator picks points in the CAMERA frame, with sensor noise, from the robot pose the
-// daemon's odometry reports; the robot turns in place about the base origin.
+// the simulated operator picks points in the CAMERA frame, with sensor noise, from the robot pose
+// the daemon's odometry reports; the robot turns in place about the base origin.
 //
 // World frame: the base frame at the start of the run (odometry yaw y0). The base origin never
 // moves; the base's yaw in the world is odometry - y0.
@@ -28,26 +28,26 @@ struct Scenario {
   // Door (world frame = base frame at the start).
   enum class Hinge { kLeft, kRight } hinge = Hinge::kLeft;  // as the robot sees the door
   double door_width_m = 0.9;
-  double door_height_m = 2.0;       // the door leaf's extent upward from door_bottom_z_m
-  double door_bottom_z_m = -0.6;    // base-frame z of the floor line of the door
-  double distance_m = 1.0;          // turning centre -> door plane, along the door normal
-  double yaw_rad = 0.1;             // CCW turn that squares the robot up (door normal direction)
-  double lateral_offset_m = 0;      // door centre left (+) of the foot of the normal
+  double door_height_m = 2.0;     // the door leaf's extent upward from door_bottom_z_m
+  double door_bottom_z_m = -0.6;  // base-frame z of the floor line of the door
+  double distance_m = 1.0;        // turning centre -> door plane, along the door normal
+  double yaw_rad = 0.1;           // CCW turn that squares the robot up (door normal direction)
+  double lateral_offset_m = 0;    // door centre left (+) of the foot of the normal
   double handle_axis_from_edge_m = 0.07;  // handle axis, measured in from the moving edge
   double handle_length_m = 0.12;
-  double handle_height_m = 0.3;     // base-frame z of the handle
-  double handle_offset_m = 0.06;    // handle stands this far proud of the door, toward the robot
-  double width_pick_height_m = 0.3; // base-frame z where the operator picks the door edges
+  double handle_height_m = 0.3;      // base-frame z of the handle
+  double handle_offset_m = 0.06;     // handle stands this far proud of the door, toward the robot
+  double width_pick_height_m = 0.3;  // base-frame z where the operator picks the door edges
   // Sensor (camera frame): depth noise sigma = depth_noise_at_1m_m * depth^2; pixel-picking error
   // sigma in pixels; focal length (pixels) to turn pixels into rays.
   double depth_noise_at_1m_m = 0.0015;
   double pixel_noise_px = 1.0;
   double focal_length_px = 570.0;
-  double edge_inset_m = 0.0;        // operator picks this far inside each door edge
+  double edge_inset_m = 0.0;  // operator picks this far inside each door edge
   // Run.
   std::uint64_t seed = 1;
   int plane_points = 3;
-  int max_align_iterations = 3;     // align, re-measure, until the daemon says aligned
+  int max_align_iterations = 3;  // align, re-measure, until the daemon says aligned
   // Tolerances (a run fails when one is missed).
   double width_tolerance_m = 0.02;
   double handle_tolerance_m = 0.02;
@@ -74,7 +74,7 @@ class SimWorld {
   // `count` points on the door leaf, spread so that they are never collinear (deterministic layout
   // plus random jitter).
   std::vector<core::Vec3> plane_points(int count);
-  core::Vec3 door_normal() const;    // unit, world frame, pointing from the door toward the robot
+  core::Vec3 door_normal() const;  // unit, world frame, pointing from the door toward the robot
 
   // What the operator's pick of `world_point` gives in the camera frame when the base has turned
   // by `base_yaw_rad` in the world: pixel error moves the ray, the ray is re-intersected with the
@@ -99,7 +99,9 @@ class SimWorld {
 // std::runtime_error naming the file when missing or malformed.
 Eigen::Matrix4d camera_to_base_from_config(const std::string& path);
 
-// ajarctl simulate SCENARIO.yaml [--trace FILE] [--seeds N] [--seed S] [--config AJARD.yaml]
+// ajarctl simulate SCENARIO.yaml [--trace FILE] [--seeds N] [--seed S] [--plane-points N]
+//                  [--config AJARD.yaml]
+// --seeds N runs seeds S..S+N-1 and prints a summary (residual yaw statistics).
 int run_simulate(const Command& command, const GlobalOptions& options, std::ostream& out,
                  std::ostream& err);
 

@@ -22,7 +22,7 @@ enum class ErrorCode : std::uint16_t {
   kUnknownMessageType = 105,   // message type not known to this version
   kInvalidEnumValue = 106,     // an enum field holds a value outside its table
   kNonFiniteNumber = 107,      // NaN or infinity in a numeric field
-  kUnknownFlags = 108,         // reserved flag bits set (reported, message still processed)
+  kUnknownFlags = 108,         // reserved flag bits set: frame refused, not executed; session continues
   kBadString = 109,            // string field too long or not UTF-8 printable
   kBadCount = 110,             // element count outside the allowed range (e.g. plane points 3..16)
 

@@ -137,6 +137,7 @@ class ControlLoop {
   void latch(ErrorCode code, int axis) noexcept;
   void finish(LoopReportKind kind, ErrorCode code) noexcept;
   void report(const LoopReport& r) noexcept;
+  void read_axes() noexcept;
   void supervise(std::int64_t now_ns) noexcept;
 
   std::unique_ptr<drivers::ManagedMotionCard> card_;
@@ -171,6 +172,9 @@ class ControlLoop {
   std::int64_t target_counts_[2] = {0, 0};
   std::int64_t snapshot_profile_counts_[2] = {0, 0};  // last profile positions read
   bool seen_moving_ = false;
+  drivers::AxisStatus status_[2];  // read at the start of this cycle
+  bool answered_ = false;
+  ErrorCode read_error_ = ErrorCode::kOk;
   ErrorCode fault_ = ErrorCode::kOk;
   ErrorCode stop_reason_ = ErrorCode::kOk;
   bool have_origin_ = false;

@@ -1,6 +1,6 @@
 // SeqLock<T>: one writer publishes a trivially copyable value; any number of readers take
 // consistent copies without locks. The writer never waits; a reader retries while a write is in
-// progress. The value is stored as relaxed atomic words (not plain memory) so that the reader's
+// progress. The value is stored as atomic words (not plain memory) so that the reader's
 // speculative copy is not a data race (ThreadSanitizer-clean by construction).
 #pragma once
 
@@ -27,9 +27,10 @@ class SeqLock {
     std::memcpy(buffer.data(), &value, sizeof(T));
     const std::uint64_t seq = sequence_.load(std::memory_order_relaxed);
     sequence_.store(seq + 1, std::memory_order_relaxed);
-    std::atomic_thread_fence(std::memory_order_release);
+    // Release on every word, no fences (GCC TSan does not support atomic_thread_fence): a reader
+    // that sees any new word also sees the odd sequence stored before it, and retries.
     for (std::size_t i = 0; i < kWords; ++i)
-      words_[i].store(buffer[i], std::memory_order_relaxed);
+      words_[i].store(buffer[i], std::memory_order_release);
     sequence_.store(seq + 2, std::memory_order_release);
   }
 
@@ -40,8 +41,7 @@ class SeqLock {
       const std::uint64_t before = sequence_.load(std::memory_order_acquire);
       if ((before & 1U) != 0) continue;
       for (std::size_t i = 0; i < kWords; ++i)
-        buffer[i] = words_[i].load(std::memory_order_relaxed);
-      std::atomic_thread_fence(std::memory_order_acquire);
+        buffer[i] = words_[i].load(std::memory_order_acquire);
       if (sequence_.load(std::memory_order_relaxed) == before) break;
     }
     T value;

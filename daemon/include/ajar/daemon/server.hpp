@@ -4,6 +4,7 @@
 // every `poll_period` on a steady timer; engine events fan out to every session.
 //
 // Lifecycle, all on the I/O thread (the thread running `io`):
+//   constructor installs the engine's event sink (so: before engine.start());
 //   listen()  binds and listens (throws StartupError naming the address);
 //   start()   accepts and polls (call after engine.start());
 //   stop()    stops accepting and polling, closes every session gracefully. Idempotent.
@@ -48,7 +49,7 @@ class Server {
 
   // Binds and listens. Returns the bound port. Throws StartupError.
   std::uint16_t listen();
-  // Installs the engine's event sink, starts accepting and the poll timer.
+  // Starts accepting and the poll timer.
   void start();
   void stop();
 

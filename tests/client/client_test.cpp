@@ -1,0 +1,364 @@
+// The client library against an in-test fake daemon (Asio on 127.0.0.1 port 0): handshake,
+// request ids, retries with the same id, refusals, events/telemetry callbacks, heartbeat,
+// disconnects and reconnects. No timing is asserted: waits are bounded, outcomes are checked.
+#include <utility>  // before Asio
+
+#include <atomic>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+#include <boost/asio.hpp>
+#include <gtest/gtest.h>
+
+#include "ajar/client/client.hpp"
+
+namespace ajar::client {
+namespace {
+
+namespace asio = boost::asio;
+using tcp = asio::ip::tcp;
+using protocol::MessageType;
+
+class FakeDaemon {
+ public:
+  using Handler = std::function<std::vector<protocol::Envelope>(const protocol::Envelope&)>;
+
+  explicit FakeDaemon(Handler handler)
+      : handler_(std::move(handler)),
+        acceptor_(io_, tcp::endpoint(asio::ip::make_address("127.0.0.1"), 0)) {
+    port_ = acceptor_.local_endpoint().port();
+    accept();
+    thread_ = std::thread([this] { io_.run(); });
+  }
+  ~FakeDaemon() {
+    asio::post(io_, [this] {
+      boost::system::error_code ignored;
+      acceptor_.close(ignored);
+      for (auto& c : connections_)
+        c->socket.close(ignored);
+      io_.stop();
+    });
+    thread_.join();
+  }
+
+  std::uint16_t port() const { return port_; }
+  Endpoint endpoint() const { return Endpoint{"127.0.0.1", port_}; }
+
+  std::vector<protocol::Envelope> received() const {
+    std::lock_guard lock(mutex_);
+    return received_;
+  }
+  std::size_t count(MessageType type) const {
+    std::size_t n = 0;
+    for (const auto& e : received())
+      if (protocol::type_of(e.message) == type) ++n;
+    return n;
+  }
+  // Waits (bounded) until `pred(received())` holds.
+  bool wait_for(const std::function<bool(const std::vector<protocol::Envelope>&)>& pred) {
+    std::unique_lock lock(mutex_);
+    return changed_.wait_for(lock, std::chrono::seconds(10), [&] { return pred(received_); });
+  }
+  // Sends a frame to every connection.
+  void push(const protocol::Envelope& e) {
+    asio::post(io_, [this, e] {
+      for (auto& c : connections_)
+        write(*c, {e});
+    });
+  }
+  void close_all() {
+    asio::post(io_, [this] {
+      boost::system::error_code ignored;
+      for (auto& c : connections_)
+        c->socket.close(ignored);
+      connections_.clear();
+    });
+  }
+
+ private:
+  struct Connection {
+    explicit Connection(tcp::socket s) : socket(std::move(s)) {}
+    tcp::socket socket;
+    protocol::StreamDecoder decoder;
+    std::array<std::uint8_t, 4096> buffer{};
+  };
+
+  void accept() {
+    acceptor_.async_accept([this](boost::system::error_code ec, tcp::socket socket) {
+      if (ec) return;
+      auto c = std::make_shared<Connection>(std::move(socket));
+      connections_.push_back(c);
+      read(c);
+      accept();
+    });
+  }
+
+  void read(const std::shared_ptr<Connection>& c) {
+    c->socket.async_read_some(asio::buffer(c->buffer),
+                              [this, c](boost::system::error_code ec, std::size_t n) {
+                                if (ec) return;
+                                std::span<const std::uint8_t> in(c->buffer.data(), n);
+                                while (!in.empty()) {
+                                  protocol::StreamDecoder::Outcome out;
+                                  in = in.subspan(c->decoder.feed(in, out));
+                                  if (out.kind != protocol::StreamDecoder::Kind::kMessage) continue;
+                                  {
+                                    std::lock_guard lock(mutex_);
+                                    received_.push_back(out.envelope);
+                                  }
+                                  changed_.notify_all();
+                                  write(*c, handler_(out.envelope));
+                                }
+                                read(c);
+                              });
+  }
+
+  static void write(Connection& c, const std::vector<protocol::Envelope>& frames) {
+    std::vector<std::uint8_t> bytes;
+    for (const auto& f : frames)
+      ASSERT_TRUE(protocol::encode_append(f, bytes));
+    boost::system::error_code ignored;
+    if (!bytes.empty()) asio::write(c.socket, asio::buffer(bytes), ignored);
+  }
+
+  Handler handler_;
+  asio::io_context io_;
+  tcp::acceptor acceptor_;
+  std::uint16_t port_ = 0;
+  std::vector<std::shared_ptr<Connection>> connections_;
+  std::thread thread_;
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  std::vector<protocol::Envelope> received_;
+};
+
+// A well-behaved daemon: Welcome, Pong, Status, Ack.
+std::vector<protocol::Envelope> polite(const protocol::Envelope& e) {
+  const auto type = protocol::type_of(e.message);
+  switch (type) {
+    case MessageType::kHello: {
+      protocol::Welcome w;
+      w.granted_role = std::get<protocol::Hello>(e.message).requested_role;
+      w.deadman_timeout_s = 0.5f;
+      return {{e.request_id, 0, w}};
+    }
+    case MessageType::kPing:
+      return {
+          {e.request_id, 0, protocol::Pong{std::get<protocol::Ping>(e.message).client_time_ns, 1}}};
+    case MessageType::kGetStatus:
+      return {{e.request_id, 0, protocol::Status{}}};
+    default:
+      return {
+          {e.request_id, 0,
+           protocol::Ack{type, protocol::ProcedureState::kAwaitingWidth, protocol::EmptyAck{}}}};
+  }
+}
+
+ClientOptions fast_options() {
+  ClientOptions o;
+  o.request_timeout = Milliseconds{300};
+  o.connect_timeout = Milliseconds{3000};
+  o.retries = 0;
+  return o;
+}
+
+TEST(Client, HelloCarriesRoleInstanceIdAndName) {
+  FakeDaemon daemon(polite);
+  ClientOptions o = fast_options();
+  o.client_instance_id = 0xABCDEF;
+  o.client_name = "door-gui 2.3";
+  Client c(o);
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  EXPECT_TRUE(c.connected());
+  const Response r = c.hello(protocol::Role::kController, true);
+  ASSERT_TRUE(r.ok()) << r.transport_error;
+  ASSERT_TRUE(c.welcome());
+  EXPECT_EQ(c.welcome()->granted_role, protocol::Role::kController);
+  const auto got = daemon.received();
+  ASSERT_EQ(got.size(), 1u);
+  const auto& hello = std::get<protocol::Hello>(got[0].message);
+  EXPECT_EQ(hello.client_instance_id, 0xABCDEFu);
+  EXPECT_EQ(hello.client_name.view(), "door-gui 2.3");
+  EXPECT_TRUE(hello.take_over);
+  EXPECT_EQ(hello.requested_role, protocol::Role::kController);
+}
+
+TEST(Client, RequestsGetIncreasingIdsAndTheirOwnReplies) {
+  FakeDaemon daemon(polite);
+  Client c(fast_options());
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  const Response a = c.request(protocol::Ping{11});
+  const Response b = c.request(protocol::GetStatus{});
+  ASSERT_TRUE(a.get<protocol::Pong>());
+  EXPECT_EQ(a.get<protocol::Pong>()->client_time_ns, 11u);
+  EXPECT_TRUE(b.get<protocol::Status>());
+  EXPECT_GT(b.request_id, a.request_id);
+  EXPECT_NE(a.request_id, 0u);
+  EXPECT_EQ(a.attempts, 1);
+}
+
+TEST(Client, TimeoutIsRetriedWithTheSameIdAndTheRetransmitFlag) {
+  std::atomic<int> pings{0};
+  FakeDaemon daemon([&](const protocol::Envelope& e) -> std::vector<protocol::Envelope> {
+    if (std::holds_alternative<protocol::Ping>(e.message) && pings.fetch_add(1) == 0) return {};
+    return polite(e);
+  });
+  Client c(fast_options());
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  const Response r = c.request(protocol::Ping{5}, Milliseconds{300}, 2);
+  ASSERT_TRUE(r.ok()) << r.transport_error;
+  EXPECT_EQ(r.attempts, 2);
+  const auto got = daemon.received();
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0].request_id, got[1].request_id);
+  EXPECT_EQ(got[0].flags, protocol::kFlagNone);
+  EXPECT_EQ(got[1].flags, protocol::kFlagRetransmit);
+}
+
+TEST(Client, NoReplyAfterAllRetriesIsATimeout) {
+  FakeDaemon daemon([](const protocol::Envelope&) { return std::vector<protocol::Envelope>{}; });
+  Client c(fast_options());
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  const Response r = c.request(protocol::GetStatus{}, Milliseconds{100}, 1);
+  EXPECT_EQ(r.outcome, Outcome::kTimeout);
+  EXPECT_EQ(r.attempts, 2);
+  EXPECT_FALSE(r.transport_error.empty());
+}
+
+TEST(Client, ErrorReplyIsARefusalWithItsCodeAndField) {
+  FakeDaemon daemon([](const protocol::Envelope& e) {
+    protocol::ErrorReply err;
+    err.code = ErrorCode::kNotController;
+    err.offending_type = protocol::type_of(e.message);
+    err.field = "role";
+    return std::vector<protocol::Envelope>{{e.request_id, 0, err}};
+  });
+  Client c(fast_options());
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  const Response r = c.request(protocol::AlignBase{});
+  EXPECT_EQ(r.outcome, Outcome::kRefused);
+  EXPECT_EQ(r.error.code, ErrorCode::kNotController);
+  EXPECT_EQ(r.error.field.view(), "role");
+  EXPECT_FALSE(r.ok());
+}
+
+TEST(Client, EventsAndTelemetryReachTheCallbacksNotTheReplies) {
+  FakeDaemon daemon([](const protocol::Envelope& e) {
+    auto replies = polite(e);
+    if (std::holds_alternative<protocol::Subscribe>(e.message)) {
+      protocol::Event ev;
+      ev.kind = protocol::EventKind::kMotionFinished;
+      protocol::Telemetry t;
+      t.left_counts = 42;
+      replies.insert(replies.begin(), {{0, 0, ev}, {0, 0, t}});
+    }
+    return replies;
+  });
+  Client c(fast_options());
+  std::mutex m;
+  std::condition_variable cv;
+  int events = 0, samples = 0;
+  std::int64_t counts = 0;
+  c.on_event([&](const protocol::Event& e) {
+    std::lock_guard lock(m);
+    events += e.kind == protocol::EventKind::kMotionFinished ? 1 : 0;
+    cv.notify_all();
+  });
+  c.on_telemetry([&](const protocol::Telemetry& t) {
+    std::lock_guard lock(m);
+    ++samples;
+    counts = t.left_counts;
+    cv.notify_all();
+  });
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  const Response r = c.request(protocol::Subscribe{10.0f});
+  ASSERT_TRUE(r.get<protocol::Ack>());  // the reply, not the Event that came first
+  std::unique_lock lock(m);
+  ASSERT_TRUE(
+      cv.wait_for(lock, std::chrono::seconds(10), [&] { return events == 1 && samples == 1; }));
+  EXPECT_EQ(counts, 42);
+}
+
+TEST(Client, HeartbeatSendsPingsAndSwallowsTheirPongs) {
+  FakeDaemon daemon(polite);
+  Client c(fast_options());
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  c.set_heartbeat(Milliseconds{10});
+  EXPECT_TRUE(daemon.wait_for([](const auto& got) { return got.size() >= 3; }));
+  c.set_heartbeat(Milliseconds{0});
+  for (const auto& e : daemon.received())
+    EXPECT_TRUE(std::holds_alternative<protocol::Ping>(e.message));
+  EXPECT_FALSE(c.wait_reply(std::nullopt, Milliseconds{50}));  // no stray Pong queued
+  EXPECT_TRUE(c.request(protocol::GetStatus{}).get<protocol::Status>());
+}
+
+TEST(Client, ADroppedConnectionIsReportedAndReconnectKeepsTheInstance) {
+  FakeDaemon daemon(polite);
+  Client c(fast_options());
+  std::atomic<int> drops{0};
+  c.on_disconnect([&](const std::string&) { ++drops; });
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.hello(protocol::Role::kObserver).ok());
+  const std::uint32_t first_id = c.request(protocol::Ping{}).request_id;
+  daemon.close_all();
+  EXPECT_TRUE(c.wait_closed(Milliseconds{10000}));
+  EXPECT_FALSE(c.connected());
+  EXPECT_EQ(c.request(protocol::Ping{}).outcome, Outcome::kDisconnected);
+  // The callback runs on the I/O thread right after the state changed: wait for it (bounded).
+  for (int i = 0; i < 1000 && drops.load() == 0; ++i)
+    std::this_thread::sleep_for(Milliseconds{10});
+  EXPECT_EQ(drops.load(), 1);
+
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.hello(protocol::Role::kObserver).ok());
+  const Response again = c.request(protocol::Ping{});
+  ASSERT_TRUE(again.ok());
+  EXPECT_GT(again.request_id, first_id);
+  std::vector<std::uint64_t> ids;
+  for (const auto& e : daemon.received()) {
+    if (const auto* h = std::get_if<protocol::Hello>(&e.message))
+      ids.push_back(h->client_instance_id);
+  }
+  ASSERT_EQ(ids.size(), 2u);
+  EXPECT_EQ(ids[0], ids[1]);
+  EXPECT_NE(ids[0], 0u);
+}
+
+TEST(Client, ConnectionRefusedIsReported) {
+  std::uint16_t port = 0;
+  {
+    asio::io_context io;
+    tcp::acceptor a(io, tcp::endpoint(asio::ip::make_address("127.0.0.1"), 0));
+    port = a.local_endpoint().port();
+  }
+  Client c(fast_options());
+  EXPECT_NE(c.connect(Endpoint{"127.0.0.1", port}), "");
+  EXPECT_FALSE(c.connected());
+  EXPECT_EQ(c.request(protocol::Ping{}).outcome, Outcome::kDisconnected);
+}
+
+TEST(Client, InstanceIdsAreRandomPerClientUnlessGiven) {
+  Client a(fast_options()), b(fast_options());
+  EXPECT_NE(a.client_instance_id(), 0u);
+  EXPECT_NE(a.client_instance_id(), b.client_instance_id());
+  ClientOptions o;
+  o.client_instance_id = 77;
+  EXPECT_EQ(Client(o).client_instance_id(), 77u);
+}
+
+TEST(Client, RawBytesAndWaitReplyForConformanceWork) {
+  FakeDaemon daemon(polite);
+  Client c(fast_options());
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  std::vector<std::uint8_t> bytes;
+  ASSERT_TRUE(protocol::encode_append({4242, 0, protocol::Ping{3}}, bytes));
+  for (std::uint8_t byte : bytes)
+    ASSERT_TRUE(c.send_raw(std::span<const std::uint8_t>(&byte, 1)));
+  const auto reply = c.wait_reply(4242, Milliseconds{10000});
+  ASSERT_TRUE(reply);
+  EXPECT_TRUE(std::holds_alternative<protocol::Pong>(reply->message));
+}
+
+}  // namespace
+}  // namespace ajar::client

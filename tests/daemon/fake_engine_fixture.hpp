@@ -1,0 +1,124 @@
+// Shared fixture for engine tests: an engine over the fake card and arm, its events, and helpers
+// that poll the engine (as the I/O thread does) until a condition holds. Never asserts timing.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <thread>
+#include <vector>
+
+#include "ajar/daemon/config.hpp"
+#include "ajar/daemon/engine.hpp"
+#include "fake_door.hpp"
+#include "fake_manipulator.hpp"
+#include "fake_motion_card.hpp"
+
+namespace ajar::testing {
+
+class EngineTest : public ::testing::Test {
+ protected:
+  void TearDown() override { engine.reset(); }
+
+  void start() {
+    drivers::DriverSet set;
+    set.card = std::make_unique<FakeMotionCard>(card);
+    set.arm = std::make_unique<FakeManipulator>(arm);
+    engine = daemon::make_engine(config, std::move(set));
+    engine->set_event_sink([this](const protocol::Event& e) { events.push_back(e); });
+    engine->start();
+  }
+  void restart() {
+    engine.reset();
+    card = std::make_shared<FakeCardControl>();
+    arm = std::make_shared<FakeArmControl>();
+    events.clear();
+    start();
+  }
+
+  // A command from the controller (any frame is a heartbeat).
+  protocol::Message send(const protocol::Message& m) {
+    engine->controller_heartbeat();
+    return engine->handle_command(m);
+  }
+
+  template <typename Pred>
+  bool wait_for(Pred pred, std::chrono::seconds limit = std::chrono::seconds(20)) {
+    const auto give_up = std::chrono::steady_clock::now() + limit;
+    for (;;) {
+      engine->poll();
+      if (pred()) return true;
+      if (std::chrono::steady_clock::now() > give_up) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
+  bool wait_for_state(protocol::ProcedureState s) {
+    return wait_for([&] { return engine->status().state == s; });
+  }
+  bool saw_event(protocol::EventKind kind, ErrorCode fault = ErrorCode::kOk) const {
+    for (const auto& e : events) {
+      if (e.kind == kind && (fault == ErrorCode::kOk || e.fault == fault)) return true;
+    }
+    return false;
+  }
+  int move_calls() {
+    return card->with_lock([](FakeCardControl& c) { return c.move_calls; });
+  }
+
+  // Walks the procedure to `target` (one of the resting states or kAligning/kEngaging).
+  void walk_to(protocol::ProcedureState target);
+
+  TempDir tmp;
+  daemon::Config config = test_config(tmp.path());
+  std::shared_ptr<FakeCardControl> card = std::make_shared<FakeCardControl>();
+  std::shared_ptr<FakeArmControl> arm = std::make_shared<FakeArmControl>();
+  std::unique_ptr<daemon::Engine> engine;
+  std::vector<protocol::Event> events;
+};
+
+inline void expect_ack(const protocol::Message& reply, protocol::ProcedureState state) {
+  const auto* ack = std::get_if<protocol::Ack>(&reply);
+  ASSERT_NE(ack, nullptr) << "expected an Ack, got "
+                          << (std::holds_alternative<protocol::ErrorReply>(reply)
+                                  ? std::string(
+                                        std::get<protocol::ErrorReply>(reply).message.view())
+                                  : std::string("another message"));
+  EXPECT_EQ(ack->state, state) << protocol::to_string(ack->state);
+}
+
+inline void expect_refused(const protocol::Message& reply, ErrorCode code,
+                           std::string_view field = {}) {
+  const auto* e = std::get_if<protocol::ErrorReply>(&reply);
+  ASSERT_NE(e, nullptr) << "expected an ErrorReply";
+  EXPECT_EQ(e->code, code) << to_string(e->code) << ": " << e->message.view();
+  if (!field.empty()) {
+    EXPECT_EQ(e->field.view(), field);
+  }
+  EXPECT_GT(e->message.length, 0);
+}
+
+inline void EngineTest::walk_to(protocol::ProcedureState target) {
+  using protocol::ProcedureState;
+  if (target == ProcedureState::kAwaitingWidth) return;
+  expect_ack(send(good_width()), ProcedureState::kAwaitingHandle);
+  if (target == ProcedureState::kAwaitingHandle) return;
+  expect_ack(send(good_handle()), ProcedureState::kAwaitingPlane);
+  if (target == ProcedureState::kAwaitingPlane) return;
+  expect_ack(send(plane_at_yaw(0.1)), ProcedureState::kReadyToAlign);
+  if (target == ProcedureState::kReadyToAlign) return;
+  if (target == ProcedureState::kAligning) {
+    card->with_lock([](FakeCardControl& c) { return c.hold_motion = true; });
+  }
+  expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
+  if (target == ProcedureState::kAligning) return;
+  ASSERT_TRUE(wait_for_state(ProcedureState::kAligned));
+  if (target == ProcedureState::kAligned) return;
+  expect_ack(send(good_contact()), ProcedureState::kReadyToEngage);
+  if (target == ProcedureState::kReadyToEngage) return;
+  expect_ack(send(protocol::Engage{}), ProcedureState::kEngaging);
+  if (target == ProcedureState::kEngaging) return;
+  arm->set_phase(drivers::ArmPhase::kDone);
+  ASSERT_TRUE(wait_for_state(ProcedureState::kEngaged));
+}
+
+}  // namespace ajar::testing

@@ -1,0 +1,215 @@
+// The server's byte-level guarantees over loopback, against a fake engine: malformed frames affect
+// only their own session, max-clients refusal, read deadline, slow readers dropped, frames in any
+// chunking, hundreds of concurrent sessions.
+#include <memory>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "test_client.hpp"
+#include "test_client_harness.hpp"
+
+namespace ajar::test {
+namespace {
+
+using protocol::Role;
+
+daemon::ServerOptions small_options() {
+  daemon::ServerOptions o;
+  o.max_clients = 8;
+  o.session.send_queue_frames = 16;
+  o.session.read_deadline = 300ms;
+  o.session.linger = 500ms;
+  return o;
+}
+
+class ServerIo : public ::testing::Test {
+ protected:
+  FakeEngine engine_;
+  ServerThread server_{engine_, small_options()};
+
+  // A bystander session that must not notice what happens to others.
+  void expect_bystander_fine(TestClient& bystander) {
+    EXPECT_TRUE(std::holds_alternative<protocol::Pong>(bystander.request(protocol::Ping{1})));
+    EXPECT_FALSE(bystander.closed());
+  }
+};
+
+TEST_F(ServerIo, BadCrcIsReportedWithTheRequestIdAndTheSessionContinues) {
+  TestClient bystander(server_.port());
+  bystander.hello(Role::kObserver);
+  TestClient c(server_.port());
+  c.hello(Role::kObserver);
+  auto frame = frame_of(protocol::Ping{5}, 31);
+  frame.back() ^= 0x01;  // payload bit flip
+  c.send_raw(frame);
+  const auto reply = c.reply_to(31);
+  ASSERT_EQ(error_code_of(reply), ErrorCode::kCrcMismatch);
+  EXPECT_EQ(std::get<protocol::ErrorReply>(reply).field.view(), "header.crc");
+  EXPECT_EQ(std::get<protocol::ErrorReply>(reply).offending_type, protocol::MessageType::kPing);
+  EXPECT_TRUE(std::holds_alternative<protocol::Pong>(c.request(protocol::Ping{6})));
+  expect_bystander_fine(bystander);
+}
+
+TEST_F(ServerIo, UnknownMessageTypeIsReportedAndTheSessionContinues) {
+  TestClient bystander(server_.port());
+  bystander.hello(Role::kObserver);
+  TestClient c(server_.port());
+  c.hello(Role::kObserver);
+  auto frame = frame_of(protocol::Ping{5}, 32);
+  put_u16(frame, 6, 0x0999);
+  fix_crc(frame);
+  c.send_raw(frame);
+  const auto reply = c.reply_to(32);
+  ASSERT_EQ(error_code_of(reply), ErrorCode::kUnknownMessageType);
+  EXPECT_EQ(static_cast<std::uint16_t>(std::get<protocol::ErrorReply>(reply).offending_type),
+            0x0999);
+  EXPECT_TRUE(std::holds_alternative<protocol::Pong>(c.request(protocol::Ping{6})));
+  expect_bystander_fine(bystander);
+}
+
+TEST_F(ServerIo, UnknownFlagsAreReported) {
+  TestClient c(server_.port());
+  c.hello(Role::kObserver);
+  c.send_raw(frame_of(protocol::Ping{5}, 33, 0x8000));
+  EXPECT_EQ(error_code_of(c.reply_to(33)), ErrorCode::kUnknownFlags);
+  EXPECT_TRUE(std::holds_alternative<protocol::Pong>(c.request(protocol::Ping{6})));
+}
+
+TEST_F(ServerIo, InvalidFieldsAreReportedWithTheField) {
+  TestClient c(server_.port());
+  c.hello(Role::kController);
+  auto frame = frame_of(protocol::Hello{}, 34);  // role byte at payload offset 2
+  frame[protocol::kHeaderSize + 2] = 9;
+  fix_crc(frame);
+  c.send_raw(frame);
+  const auto reply = c.reply_to(34);
+  ASSERT_EQ(error_code_of(reply), ErrorCode::kInvalidEnumValue);
+  EXPECT_EQ(std::get<protocol::ErrorReply>(reply).field.view(), "requested_role");
+  EXPECT_TRUE(engine_.commands().empty());
+}
+
+TEST_F(ServerIo, BadMagicClosesOnlyThatSessionAfterTheErrorReply) {
+  TestClient bystander(server_.port());
+  bystander.hello(Role::kObserver);
+  TestClient c(server_.port());
+  c.hello(Role::kObserver);
+  auto frame = frame_of(protocol::Ping{5}, 35);
+  frame[0] = 'X';
+  c.send_raw(frame);
+  auto outcome = c.next();
+  ASSERT_TRUE(outcome && outcome->kind == protocol::StreamDecoder::Kind::kMessage);
+  EXPECT_EQ(error_code_of(outcome->envelope.message), ErrorCode::kBadMagic);
+  EXPECT_TRUE(c.wait_closed());
+  expect_bystander_fine(bystander);
+}
+
+TEST_F(ServerIo, OversizePayloadClosesOnlyThatSession) {
+  TestClient bystander(server_.port());
+  bystander.hello(Role::kController);
+  TestClient c(server_.port());
+  c.hello(Role::kObserver);
+  auto frame = frame_of(protocol::Ping{5}, 36);
+  put_u32(frame, 14, 1'000'000);
+  frame.resize(protocol::kHeaderSize);
+  c.send_raw(frame);
+  const auto reply = c.reply_to(36);
+  EXPECT_EQ(error_code_of(reply), ErrorCode::kPayloadTooLarge);
+  EXPECT_TRUE(c.wait_closed());
+  expect_bystander_fine(bystander);
+  EXPECT_TRUE(std::holds_alternative<protocol::Ack>(bystander.request(protocol::AlignBase{})));
+}
+
+TEST_F(ServerIo, FramesArriveInAnyChunking) {
+  TestClient c(server_.port());
+  std::vector<std::uint8_t> bytes = frame_of(hello_as(Role::kObserver), 1);
+  const auto ping = frame_of(protocol::Ping{77}, 2);
+  bytes.insert(bytes.end(), ping.begin(), ping.end());
+  for (std::uint8_t b : bytes) {
+    ASSERT_TRUE(c.send_raw(std::span<const std::uint8_t>(&b, 1)));
+  }
+  EXPECT_TRUE(std::holds_alternative<protocol::Welcome>(c.reply_to(1)));
+  const auto pong = c.reply_to(2);
+  ASSERT_TRUE(std::holds_alternative<protocol::Pong>(pong));
+  EXPECT_EQ(std::get<protocol::Pong>(pong).client_time_ns, 77U);
+}
+
+TEST_F(ServerIo, AHalfSentFrameHitsTheReadDeadline) {
+  TestClient bystander(server_.port());
+  bystander.hello(Role::kObserver);
+  TestClient c(server_.port());
+  c.hello(Role::kObserver);
+  const auto frame = frame_of(protocol::Ping{5}, 37);
+  c.send_raw(std::span<const std::uint8_t>(frame.data(), 10));
+  EXPECT_TRUE(c.wait_closed());
+  expect_bystander_fine(bystander);
+}
+
+TEST_F(ServerIo, TooManyClientsAreRefusedPolitely) {
+  std::vector<std::unique_ptr<TestClient>> clients;
+  for (int i = 0; i < 8; ++i) {
+    clients.push_back(std::make_unique<TestClient>(server_.port()));
+    clients.back()->hello(Role::kObserver);
+  }
+  TestClient extra(server_.port());
+  extra.send(hello_as(Role::kObserver));
+  auto outcome = extra.next();
+  ASSERT_TRUE(outcome && outcome->kind == protocol::StreamDecoder::Kind::kMessage);
+  EXPECT_EQ(error_code_of(outcome->envelope.message), ErrorCode::kTooManyClients);
+  EXPECT_TRUE(extra.wait_closed());
+  expect_bystander_fine(*clients.front());
+  // A place frees up: the next one gets in.
+  clients.pop_back();
+  ASSERT_TRUE(eventually([&] { return server_.session_count() == 7; }));
+  TestClient later(server_.port());
+  EXPECT_EQ(later.hello(Role::kObserver).granted_role, Role::kObserver);
+}
+
+TEST_F(ServerIo, AClientThatStopsReadingIsDroppedWhileOthersContinue) {
+  TestClient bystander(server_.port());
+  bystander.hello(Role::kObserver);
+  ASSERT_TRUE(std::holds_alternative<protocol::Ack>(bystander.request(protocol::Subscribe{100})));
+  TestClient lazy(server_.port(), 4096);
+  lazy.hello(Role::kObserver);
+  // Requests keep coming but replies are never read: the daemon's queue (16 frames) overflows
+  // once the socket buffers are full.
+  const auto request = frame_of(protocol::GetStatus{}, 1);
+  std::vector<std::uint8_t> burst;
+  for (int i = 0; i < 256; ++i)
+    burst.insert(burst.end(), request.begin(), request.end());
+  bool dropped = false;
+  for (int i = 0; i < 20000 && !dropped; ++i)
+    dropped = !lazy.send_raw(burst);
+  EXPECT_TRUE(dropped || eventually([&] { return server_.session_count() == 1; }));
+  EXPECT_TRUE(eventually([&] { return server_.session_count() == 1; }));
+  expect_bystander_fine(bystander);
+  const auto before = bystander.telemetry_count();
+  EXPECT_TRUE(bystander.wait_telemetry(before + 3));
+}
+
+TEST(ServerScale, TwoHundredFiftySixObserversAllGetTelemetryAndEvents) {
+  FakeEngine engine;
+  daemon::ServerOptions options;
+  options.max_clients = 300;
+  ServerThread server(engine, options);
+  std::vector<std::unique_ptr<TestClient>> clients;
+  for (int i = 0; i < 256; ++i) {
+    clients.push_back(std::make_unique<TestClient>(server.port()));
+    clients.back()->hello(Role::kObserver);
+    clients.back()->send(protocol::Subscribe{20});
+  }
+  protocol::Event event;
+  event.kind = protocol::EventKind::kStateChanged;
+  event.state = protocol::ProcedureState::kAligning;
+  engine.emit(event);
+  for (auto& c : clients) {
+    ASSERT_TRUE(c->wait_event(protocol::EventKind::kStateChanged));
+    ASSERT_TRUE(c->wait_telemetry(2));
+  }
+  TestClient status(server.port());
+  status.hello(Role::kObserver);
+  EXPECT_EQ(status.request_as<protocol::Status>(protocol::GetStatus{}).session_count, 257);
+}
+
+}  // namespace
+}  // namespace ajar::test
