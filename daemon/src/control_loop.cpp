@@ -261,7 +261,9 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   snapshot_.fault = fault_;
   snapshot_.card_state = card_->state();
   snapshot_.reports_dropped = reports_dropped_;
-  if (snapshot_.cycles % 50 == 1) snapshot_.statistics = statistics_.summary();
+  if (snapshot_.cycles % 50 == 1) snapshot_.statistics = statistics_.summary();  // O(bins)
+  snapshot_.statistics.cycles = snapshot_.cycles;  // exact every cycle
+  snapshot_.statistics.overruns = statistics_.overruns();
   published_.store(snapshot_);
 }
 

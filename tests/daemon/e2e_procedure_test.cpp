@@ -169,9 +169,13 @@ TEST_P(EndToEnd, RestartRestoresTheParametersAndNothingMoves) {
   EXPECT_FALSE(observer.last_telemetry()->moving);
 }
 
+std::string driver_name(const ::testing::TestParamInfo<drivers::DriverKind>& p) {
+  return kind_name(p.param);
+}
+
 INSTANTIATE_TEST_SUITE_P(Drivers, EndToEnd,
                          ::testing::Values(drivers::DriverKind::kMock, drivers::DriverKind::kSim),
-                         [](const auto& info) { return std::string(kind_name(info.param)); });
+                         driver_name);
 
 // The rest on mock drivers (the network side does not depend on the driver kind).
 class EndToEndMock : public ::testing::Test {

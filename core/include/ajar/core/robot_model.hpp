@@ -32,11 +32,11 @@ struct BaseGeometry {
 // The arm's reachable workspace in the base frame: a spherical shell around the shoulder,
 // clipped by a height band.
 struct ArmWorkspace {
-  Vec3 shoulder_m = Vec3(0.2, 0.0, 0.4);
+  Vec3 shoulder_m = Vec3(0.25, 0.0, 0.3);
   double min_reach_m = 0.15;
-  double max_reach_m = 0.85;
-  double min_z_m = 0.0;
-  double max_z_m = 1.6;
+  double max_reach_m = 1.0;
+  double min_z_m = -0.5;  // the base origin is above the floor: the camera sits at z = -0.22
+  double max_z_m = 1.2;
 };
 
 // Thresholds for degenerate input. All lengths in metres, angles in radians.

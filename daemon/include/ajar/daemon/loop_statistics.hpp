@@ -25,6 +25,7 @@ class LoopStatisticsRecorder {
   protocol::LoopStatistics summary() const noexcept;    // O(kBins)
 
   std::int64_t nominal_period_ns() const noexcept { return nominal_ns_; }
+  std::uint64_t overruns() const noexcept { return overruns_; }
 
  private:
   static std::uint32_t percentile(const std::array<std::uint32_t, kBins>& histogram,
