@@ -673,11 +673,12 @@ class Suite {
             return std::string{};
           });
     check("roles: take_over demotes the old controller and announces control_changed", [&] {
-      auto old_ctl = greeted(Role::kController, true);
-      if (!old_ctl) return std::string("cannot connect");
+      // Declared before the client: its callback may run until the client is destroyed.
       std::mutex m;
       std::condition_variable cv;
       bool seen = false;
+      auto old_ctl = greeted(Role::kController, true);
+      if (!old_ctl) return std::string("cannot connect");
       old_ctl->on_event([&](const protocol::Event& e) {
         if (e.kind == protocol::EventKind::kControlChanged) {
           std::lock_guard lock(m);
@@ -718,6 +719,7 @@ class Suite {
 
   void telemetry() {
     check("telemetry: Subscribe delivers Telemetry; negative rate gets RATE_LIMITED", [&] {
+      std::atomic<int> count{0};  // before the client: its callback may run until it is gone
       auto c = greeted(Role::kObserver);
       if (!c) return std::string("cannot connect");
       if (auto e = want_error(c->request(protocol::Subscribe{-1.0f}), ErrorCode::kRateLimited,
@@ -725,7 +727,6 @@ class Suite {
           !e.empty()) {
         return e;
       }
-      std::atomic<int> count{0};
       c->on_telemetry([&](const protocol::Telemetry&) { ++count; });
       if (auto e = want<protocol::Ack>(c->request(protocol::Subscribe{100.0f})); !e.empty())
         return e;

@@ -6,10 +6,8 @@
 
 namespace ajar::client {
 
-namespace {
-
 // Fixed-point text with `digits` decimals; `sign` forces a leading + on positive values.
-std::string fixed(double value, int digits, bool sign = false) {
+std::string fixed(double value, int digits, bool sign) {
   char buffer[64];
   if (sign) {
     std::snprintf(buffer, sizeof buffer, "%+.*f", digits, value);
@@ -18,6 +16,8 @@ std::string fixed(double value, int digits, bool sign = false) {
   }
   return buffer;
 }
+
+namespace {
 
 std::string m(double v) {
   return fixed(v, 4) + " m";

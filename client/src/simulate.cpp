@@ -94,16 +94,6 @@ double wrap(double angle_rad) {
   return std::remainder(angle_rad, 2 * std::numbers::pi);
 }
 
-std::string fixed(double value, int digits, bool sign = false) {
-  char buffer[64];
-  if (sign) {
-    std::snprintf(buffer, sizeof buffer, "%+.*f", digits, value);
-  } else {
-    std::snprintf(buffer, sizeof buffer, "%.*f", digits, value);
-  }
-  return buffer;
-}
-
 }  // namespace
 
 Scenario load_scenario(const std::string& path) {
@@ -388,7 +378,12 @@ class Rehearsal {
       last_telemetry_ = t;
       has_telemetry_ = true;
       if (recording_) {
-        TraceRow row = row_now("telemetry", std::string(protocol::to_string(t.state)));
+        // Not row_now(): base_yaw_ belongs to the main thread.
+        TraceRow row;
+        row.seed = scenario_.seed;
+        row.t_s = std::chrono::duration<double>(Clock::now() - start_).count();
+        row.step = "telemetry";
+        row.state = std::string(protocol::to_string(t.state));
         row.base_yaw_rad = wrap(t.base_yaw_odometry_rad - yaw0_);
         row.true_yaw_error_rad = world_.true_yaw_error_rad(row.base_yaw_rad);
         row.left_wheel_rad = t.left_wheel_rad;

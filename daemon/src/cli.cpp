@@ -1,6 +1,7 @@
 #include "ajar/daemon/cli.hpp"
 
 #include <charconv>
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <iostream>
@@ -160,6 +161,7 @@ Options take their value as the next argument or after '=' (--listen=127.0.0.1:0
 
 Signals:
   SIGTERM, SIGINT       stop any motion, persist the state, close the sessions, exit 0.
+  SIGPIPE               ignored.
   SIGHUP                re-read the config file and apply logging.level; no other key is
                         reloaded (a change elsewhere is logged as needing a restart); a config
                         that does not load is logged and ignored.
@@ -215,6 +217,8 @@ int ajard_main(int argc, char** argv) {
     return kExitOk;
   }
 
+  // A log line to a closed stderr pipe must not kill the daemon (sockets use MSG_NOSIGNAL anyway).
+  std::signal(SIGPIPE, SIG_IGN);
   init_logging(config.logging);
   RunOptions options;
   options.port_file = cl.port_file;

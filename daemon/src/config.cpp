@@ -357,6 +357,7 @@ void read_drivers(Section s, drivers::DriverSettings& d) {
     c.text("config_file", d.card.card_config_path);
     c.integer("channel", d.card.channel, 0, 15);
     c.integer("poll_timeout_ms", d.card.poll_timeout_ms, 1, 60000);
+    c.integer("axis_count", d.card.axis_count, 1, 8);
     c.finish();
     if (d.kind == DriverKind::kReal && d.card.library_path.empty()) {
       c.fail(c.raw("library"), c.key_path("library"), "is required when drivers.kind is real",
@@ -470,6 +471,14 @@ Config load_config(const std::string& path) {
   top.finish();
 
   // Cross-field checks.
+  for (const auto* wheel : {&c.base.left, &c.base.right}) {
+    if (wheel->card_axis > c.drivers.card.axis_count) {
+      const std::string side = wheel == &c.base.left ? "left_wheel" : "right_wheel";
+      top.fail(root["base"], "base." + side + ".card_axis", "is not an axis of the card",
+               std::to_string(wheel->card_axis),
+               "1.." + std::to_string(c.drivers.card.axis_count) + " (drivers.card.axis_count)");
+    }
+  }
   if (c.limits.max_depth_m <= c.limits.min_depth_m) {
     top.fail(root["limits"], "limits.depth_m", "must be [min, max] with min < max", "", "");
   }
@@ -586,6 +595,7 @@ std::string to_yaml(const Config& c) {
   out << YAML::Key << "config_file" << YAML::Value << d.card.card_config_path;
   out << YAML::Key << "channel" << YAML::Value << d.card.channel;
   out << YAML::Key << "poll_timeout_ms" << YAML::Value << d.card.poll_timeout_ms;
+  out << YAML::Key << "axis_count" << YAML::Value << d.card.axis_count;
   out << YAML::EndMap;
   out << YAML::Key << "arm" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "device" << YAML::Value << d.arm.device;

@@ -224,6 +224,18 @@ void ControlLoop::start_move(const MoveCommand& move, std::int64_t now_ns) noexc
     report({LoopReportKind::kMoveRefused, ErrorCode::kFaultLatched, move.motion_id, 0});
     return;
   }
+  for (int i = 0; answered_ && i < 2; ++i) {  // a drive fault seen this cycle: do not start
+    const drivers::AxisStatus& st = status_[i];
+    const ErrorCode code = st.alarm                                   ? ErrorCode::kAxisAlarm
+                           : st.following_error                       ? ErrorCode::kFollowingError
+                           : (st.positive_limit || st.negative_limit) ? ErrorCode::kLimitHit
+                                                                      : ErrorCode::kOk;
+    if (code != ErrorCode::kOk) {
+      latch(code, axes_[i]);
+      report({LoopReportKind::kMoveRefused, code, move.motion_id, axes_[i]});
+      return;
+    }
+  }
   const drivers::AxisMove moves[2] = {{axes_[0], move.left_counts}, {axes_[1], move.right_counts}};
   motion_id_ = move.motion_id;
   if (auto s = card_->move_relative(moves, profile_); !s) {

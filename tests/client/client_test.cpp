@@ -255,11 +255,12 @@ TEST(Client, EventsAndTelemetryReachTheCallbacksNotTheReplies) {
     }
     return replies;
   });
-  Client c(fast_options());
+  // The callbacks' state is declared before the client, which joins its I/O thread first.
   std::mutex m;
   std::condition_variable cv;
   int events = 0, samples = 0;
   std::int64_t counts = 0;
+  Client c(fast_options());
   c.on_event([&](const protocol::Event& e) {
     std::lock_guard lock(m);
     events += e.kind == protocol::EventKind::kMotionFinished ? 1 : 0;
@@ -295,8 +296,8 @@ TEST(Client, HeartbeatSendsPingsAndSwallowsTheirPongs) {
 
 TEST(Client, ADroppedConnectionIsReportedAndReconnectKeepsTheInstance) {
   FakeDaemon daemon(polite);
-  Client c(fast_options());
   std::atomic<int> drops{0};
+  Client c(fast_options());
   c.on_disconnect([&](const std::string&) { ++drops; });
   ASSERT_EQ(c.connect(daemon.endpoint()), "");
   ASSERT_TRUE(c.hello(protocol::Role::kObserver).ok());

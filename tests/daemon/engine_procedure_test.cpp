@@ -240,6 +240,7 @@ TEST_F(EngineTest, ControllerLostWhileIdleChangesNothing) {
 TEST_F(EngineTest, AxisAlarmDuringAlignmentLatchesUntilReset) {
   start();
   walk_to(ProcedureState::kAligning);
+  ASSERT_TRUE(wait_for([&] { return move_calls() == 1; }));  // the move is running
   card->with_lock(
       [&](FakeCardControl& c) { return c.alarm_axes.insert(config.base.left.card_axis); });
   ASSERT_TRUE(wait_for_state(ProcedureState::kFault));

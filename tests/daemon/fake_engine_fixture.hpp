@@ -42,10 +42,13 @@ class EngineTest : public ::testing::Test {
     return engine->handle_command(m);
   }
 
+  // Polls until pred() holds (false after 20 s). With `alive`, the controller keeps sending
+  // heartbeats meanwhile (otherwise it is silent: the deadman may fire).
   template <typename Pred>
-  bool wait_for(Pred pred, std::chrono::seconds limit = std::chrono::seconds(20)) {
-    const auto give_up = std::chrono::steady_clock::now() + limit;
+  bool wait_for(Pred pred, bool alive = false) {
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
     for (;;) {
+      if (alive) engine->controller_heartbeat();
       engine->poll();
       if (pred()) return true;
       if (std::chrono::steady_clock::now() > give_up) return false;
@@ -110,15 +113,18 @@ inline void EngineTest::walk_to(protocol::ProcedureState target) {
     card->with_lock([](FakeCardControl& c) { return c.hold_motion = true; });
   }
   expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
-  if (target == ProcedureState::kAligning) return;
-  ASSERT_TRUE(wait_for_state(ProcedureState::kAligned));
+  if (target == ProcedureState::kAligning) {
+    ASSERT_TRUE(wait_for([&] { return move_calls() == 1; }));  // the wheels are turning
+    return;
+  }
+  ASSERT_TRUE(wait_for([&] { return engine->status().state == ProcedureState::kAligned; }, true));
   if (target == ProcedureState::kAligned) return;
   expect_ack(send(good_contact()), ProcedureState::kReadyToEngage);
   if (target == ProcedureState::kReadyToEngage) return;
   expect_ack(send(protocol::Engage{}), ProcedureState::kEngaging);
   if (target == ProcedureState::kEngaging) return;
   arm->set_phase(drivers::ArmPhase::kDone);
-  ASSERT_TRUE(wait_for_state(ProcedureState::kEngaged));
+  ASSERT_TRUE(wait_for([&] { return engine->status().state == ProcedureState::kEngaged; }, true));
 }
 
 }  // namespace ajar::testing

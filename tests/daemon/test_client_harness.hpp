@@ -133,7 +133,8 @@ class FakeEngine final : public daemon::Engine {
     w.deadman_timeout_s = 0.5F;
     return w;
   }
-  bool control_loop_healthy() const noexcept override { return true; }
+  bool control_loop_healthy() const noexcept override { return healthy_.load(); }
+  void set_healthy(bool healthy) { healthy_.store(healthy); }
 
   void set_event_sink(EventSink sink) override { sink_ = std::move(sink); }
   // Queues an event to be emitted from the next poll() (on the I/O thread).
@@ -167,6 +168,7 @@ class FakeEngine final : public daemon::Engine {
   std::atomic<int> heartbeats_{0};
   std::atomic<int> controller_lost_{0};
   std::atomic<int> polls_{0};
+  std::atomic<bool> healthy_{true};
 };
 
 // Polls `condition` until true or the deadline; never asserts timing, only eventual truth.

@@ -9,7 +9,9 @@
 //    until the call times out. Copy the value and hand it to your own thread (e.g. post to the GUI
 //    event loop). Set the callbacks before connect(); setting them later is allowed
 //    (mutex-guarded).
-//  - The Client must not be destroyed from inside one of its callbacks.
+//  - The Client must not be destroyed from inside one of its callbacks. Replacing a callback
+//    (on_event(nullptr)) does not wait for a call already running: keep what a callback uses alive
+//    until the Client is destroyed (the destructor joins the I/O thread).
 //
 // Retries: a request that times out is re-sent with the SAME request id (flag kFlagRetransmit); the
 // daemon de-duplicates by (client_instance_id, request id), so a retried command executes once.

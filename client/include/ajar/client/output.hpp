@@ -15,6 +15,9 @@ namespace ajar::client {
 inline constexpr std::string_view kTimeoutCode = "TIMEOUT";
 inline constexpr std::string_view kDisconnectedCode = "DISCONNECTED";
 
+// Fixed-point text with `digits` decimals; `sign` forces a leading + on positive values.
+std::string fixed(double value, int digits, bool sign = false);
+
 JsonObject error_object(std::string_view code, std::string_view field, std::string_view message);
 JsonObject error_object(const protocol::ErrorReply& error);
 

@@ -31,35 +31,35 @@ struct NetworkConfig {
   std::string bind_address = "127.0.0.1";
   std::uint16_t port = 7450;
   int max_clients = 300;
-  int send_queue_frames = 512;       // per session; a client that lets it fill is dropped
-  double read_deadline_s = 10.0;     // a started frame must complete within this
-  double idle_timeout_s = 0;         // 0 = none (observers may stay idle forever)
+  int send_queue_frames = 512;    // per session; a client that lets it fill is dropped
+  double read_deadline_s = 10.0;  // a started frame must complete within this
+  double idle_timeout_s = 0;      // 0 = none (observers may stay idle forever)
 };
 
 struct ControlConfig {
-  double rate_hz = 500;              // control loop rate
-  bool realtime = false;             // try SCHED_FIFO at `priority`; warn and fall back if refused
+  double rate_hz = 500;   // control loop rate
+  bool realtime = false;  // try SCHED_FIFO at `priority`; warn and fall back if refused
   int priority = 80;
-  bool lock_memory = false;          // try mlockall(MCL_CURRENT | MCL_FUTURE)
+  bool lock_memory = false;              // try mlockall(MCL_CURRENT | MCL_FUTURE)
   double motion_timeout_margin_s = 2.0;  // deadline = planned duration * 1.5 + margin
-  double aligned_tolerance_rad = 0.005;  // a re-measured plane within this counts as aligned
+  double aligned_tolerance_rad = 0.01;   // a re-measured plane within this counts as aligned
 };
 
 struct SafetyConfig {
-  double deadman_timeout_s = 0.5;    // controller silent this long during motion -> stop + fault
+  double deadman_timeout_s = 0.5;  // controller silent this long during motion -> stop + fault
 };
 
 struct LoggingConfig {
-  std::string level = "info";        // trace | debug | info | warn | error | critical | off
-  std::string sink = "auto";         // auto (journald under systemd, else stderr) | stderr | journald
+  std::string level = "info";  // trace | debug | info | warn | error | critical | off
+  std::string sink = "auto";   // auto (journald under systemd, else stderr) | stderr | journald
 };
 
 struct StateConfig {
-  std::string directory = "state";   // accepted parameters are persisted here (relative to cwd)
+  std::string directory = "state";  // accepted parameters are persisted here (relative to cwd)
 };
 
 struct Config {
-  std::string source_path;           // the file it was loaded from
+  std::string source_path;  // the file it was loaded from
   NetworkConfig network;
   Eigen::Matrix4d camera_to_base_m = Eigen::Matrix4d::Identity();  // ^B_C T in metres
   core::BaseGeometry base;
