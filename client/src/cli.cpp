@@ -19,6 +19,16 @@ bool parse_double(const std::string& text, double& out) {
   return ec == std::errc{} && ptr == end && std::isfinite(out);
 }
 
+// Durations (s) and rates (Hz) a command accepts: far beyond any use, and small enough that
+// now() + duration cannot overflow std::chrono's nanosecond clock (nor a rate the f32 on the wire).
+constexpr double kMaxSeconds = 1e6;
+constexpr double kMaxRateHz = 1e6;
+
+// A duration in 0..kMaxSeconds (or, with `positive`, in (0, kMaxSeconds]).
+bool parse_seconds(const std::string& text, double& out, bool positive = false) {
+  return parse_double(text, out) && (positive ? out > 0 : out >= 0) && out <= kMaxSeconds;
+}
+
 bool parse_int(const std::string& text, int& out) {
   const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), out);
   return ec == std::errc{} && ptr == text.data() + text.size();
@@ -52,6 +62,14 @@ std::string parse_points(std::span<const std::string> words, core::Frame frame,
     points.push_back(framed(frame, xyz[0], xyz[1], xyz[2]));
   }
   return {};
+}
+
+// The offending argument for a usage message: the option with its value when it has one
+// ("'-i 1e15'"), else the word.
+std::string quoted(std::span<const std::string> words, std::size_t i) {
+  std::string s = "'" + words[i];
+  if (words[i].starts_with('-') && i + 1 < words.size()) s += " " + words[i + 1];
+  return s + "'";
 }
 
 CommandParse fail(std::string message) {
@@ -204,10 +222,11 @@ CommandParse parse_command(std::span<const std::string> words_in, core::Frame fr
       if (opts[i] == "--no-wait") {
         c.wait = false;
       } else if (opts[i] == "--wait-timeout" && i + 1 < opts.size() &&
-                 parse_double(opts[i + 1], c.wait_timeout_s) && c.wait_timeout_s > 0) {
+                 parse_seconds(opts[i + 1], c.wait_timeout_s, true)) {
         ++i;
       } else {
-        return "unexpected argument '" + opts[i] + "' for " + name;
+        return name + " takes [--no-wait] [--wait-timeout S (0 < S <= 1000000)], got " +
+               quoted(opts, i);
       }
     }
     return {};
@@ -220,10 +239,11 @@ CommandParse parse_command(std::span<const std::string> words_in, core::Frame fr
           c.count > 0 && c.count <= 1000000) {
         ++i;
       } else if (rest[i] == "-i" && i + 1 < rest.size() &&
-                 parse_double(rest[i + 1], c.interval_s) && c.interval_s >= 0) {
+                 parse_seconds(rest[i + 1], c.interval_s)) {
         ++i;
       } else {
-        return fail("ping takes [-n COUNT] [-i SECONDS], got '" + rest[i] + "'");
+        return fail("ping takes [-n COUNT (1..1000000)] [-i SECONDS (0..1000000)], got " +
+                    quoted(rest, i));
       }
     }
     c.request = protocol::Ping{};
@@ -239,13 +259,14 @@ CommandParse parse_command(std::span<const std::string> words_in, core::Frame fr
     c.kind = Command::Kind::kWatch;
     for (std::size_t i = 0; i < rest.size(); ++i) {
       if (rest[i] == "--rate" && i + 1 < rest.size() && parse_double(rest[i + 1], c.rate_hz) &&
-          c.rate_hz >= 0) {
+          c.rate_hz >= 0 && c.rate_hz <= kMaxRateHz) {
         ++i;
       } else if (rest[i] == "--duration" && i + 1 < rest.size() &&
-                 parse_double(rest[i + 1], c.duration_s) && c.duration_s >= 0) {
+                 parse_seconds(rest[i + 1], c.duration_s)) {
         ++i;
       } else {
-        return fail("watch takes [--rate HZ] [--duration S], got '" + rest[i] + "'");
+        return fail("watch takes [--rate HZ (0..1000000)] [--duration S (0..1000000)], got " +
+                    quoted(rest, i));
       }
     }
     return {c, {}};
@@ -328,8 +349,8 @@ CommandParse parse_command(std::span<const std::string> words_in, core::Frame fr
     return {c, {}};
   }
   if (name == "sleep") {
-    if (rest.size() != 1 || !parse_double(rest[0], c.duration_s) || c.duration_s < 0) {
-      return fail("sleep wants SECONDS");
+    if (rest.size() != 1 || !parse_seconds(rest[0], c.duration_s)) {
+      return fail("sleep wants SECONDS (0..1000000)");
     }
     c.kind = Command::Kind::kSleep;
     return {c, {}};

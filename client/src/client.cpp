@@ -374,6 +374,23 @@ Response Client::request(const protocol::Message& message, Milliseconds timeout,
   envelope.request_id = next_request_id();
   envelope.message = message;
   response.request_id = envelope.request_id;
+  if (std::vector<std::uint8_t> probe; !protocol::encode_append(envelope, probe)) {
+    // Nothing can be sent (e.g. a MeasureDoorPlane count outside 3..16): refuse here, as the
+    // daemon would, rather than send nothing and report a timeout.
+    const bool plane = std::holds_alternative<protocol::MeasureDoorPlane>(message);
+    response.outcome = Outcome::kRefused;
+    response.error.code = plane ? ErrorCode::kBadCount : ErrorCode::kInternal;
+    response.error.offending_type = protocol::type_of(message);
+    response.error.field.assign(plane ? "count" : "");
+    response.error.message.assign(
+        std::string("not sent: the client cannot encode this ") +
+        std::string(protocol::to_string(protocol::type_of(message))) +
+        (plane ? " (count must be 3..16, got " +
+                     std::to_string(std::get<protocol::MeasureDoorPlane>(message).count) + ")"
+               : " request"));
+    response.reply = response.error;
+    return response;
+  }
   for (int attempt = 0; attempt <= std::max(0, retries); ++attempt) {
     envelope.flags = attempt == 0 ? protocol::kFlagNone : protocol::kFlagRetransmit;
     if (!send_envelope(envelope)) {
@@ -446,7 +463,7 @@ bool Client::send_raw(std::span<const std::uint8_t> bytes) {
 
 bool Client::send_envelope(const protocol::Envelope& envelope) {
   std::vector<std::uint8_t> bytes;
-  protocol::encode_append(envelope, bytes);
+  if (!protocol::encode_append(envelope, bytes)) return false;
   return send_raw(bytes);
 }
 

@@ -136,6 +136,23 @@ TEST(Commands, UsageErrors) {
   }
 }
 
+// Durations become std::chrono deadlines (now + ms, in ns): an absurd value would overflow the
+// clock (undefined behaviour), so the parser refuses it as a usage error. A rate is sent as f32.
+TEST(Commands, DurationsAndRatesAreBounded) {
+  for (auto w :
+       {words({"watch", "--duration", "1e12"}), words({"watch", "--rate", "1e300"}),
+        words({"sleep", "1e300"}), words({"ping", "-i", "1e15"}),
+        words({"align", "--wait-timeout", "1e13"}), words({"engage", "--wait-timeout", "1e300"})}) {
+    const auto p = parse_command(w, core::Frame::kCamera);
+    EXPECT_FALSE(p.command) << w[0] << " " << w.back();
+    EXPECT_FALSE(p.error.empty());
+  }
+  // A day of watching, a long wait and a fast rate stay allowed.
+  EXPECT_TRUE(parse({"watch", "--duration", "86400", "--rate", "1000"}).command);
+  EXPECT_TRUE(parse({"align", "--wait-timeout", "3600"}).command);
+  EXPECT_TRUE(parse({"sleep", "600"}).command);
+}
+
 TEST(Script, SplitsWordsAndDropsComments) {
   EXPECT_EQ(split_line("  measure width 1 2 3  4 5 6 # P1 then P2"),
             words({"measure", "width", "1", "2", "3", "4", "5", "6"}));

@@ -226,6 +226,28 @@ TEST(Client, NoReplyAfterAllRetriesIsATimeout) {
   EXPECT_FALSE(r.transport_error.empty());
 }
 
+// A request the codec cannot encode (here a plane with 2 points) is refused on the spot, naming
+// the field, instead of being "sent" as nothing and reported as a daemon timeout.
+TEST(Client, UnencodableRequestIsRefusedLocallyNotTimedOut) {
+  FakeDaemon daemon(polite);
+  Client c(fast_options());
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  protocol::MeasureDoorPlane plane;
+  plane.count = 2;
+  const Response r = c.request(plane, Milliseconds{100}, 1);
+  EXPECT_EQ(r.outcome, Outcome::kRefused);
+  EXPECT_EQ(r.error.code, ErrorCode::kBadCount);
+  EXPECT_EQ(r.error.field.view(), "count");
+  EXPECT_EQ(r.error.offending_type, MessageType::kMeasureDoorPlane);
+  EXPECT_NE(r.error.message.view().find("not sent"), std::string_view::npos);
+  EXPECT_EQ(r.attempts, 0);
+  // Nothing went out; the session still works.
+  ASSERT_TRUE(c.request(protocol::Ping{1}).ok());
+  EXPECT_EQ(daemon.count(MessageType::kMeasureDoorPlane), 0u);
+  // The low-level sender says so too.
+  EXPECT_FALSE(c.send_envelope(protocol::Envelope{9, 0, plane}));
+}
+
 TEST(Client, ErrorReplyIsARefusalWithItsCodeAndField) {
   FakeDaemon daemon([](const protocol::Envelope& e) {
     protocol::ErrorReply err;

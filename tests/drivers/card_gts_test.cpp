@@ -208,6 +208,29 @@ TEST_F(GtsOverSimulator, OpenLoadsTheCardConfigAndNamesItWhenMissing) {
   rmdir(dir_template);
 }
 
+// An open() that fails after GT_Open succeeded (here GT_LoadConfig) closes the card again: the
+// driver does not report "failed" while holding the card open (the lifecycle wrapper stays
+// unconfigured, so nothing else would ever close it before the driver is destroyed).
+TEST_F(GtsOverSimulator, FailedOpenAfterGtOpenClosesTheCardAgain) {
+  GtsCardSettings s = testing::card_sim_settings();
+  s.card_config_path = "/nonexistent-ajar-dir/gts.cfg";
+  GtsMotionCard card(s);
+  ASSERT_FALSE(card.open().ok());
+  EXPECT_EQ(sim_.call_count("GT_Open"), 1);
+  EXPECT_EQ(sim_.call_count("GT_Close"), 1);
+  const auto st = card.axis_status(1);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().message.find("not open"), std::string::npos) << st.error().message;
+
+  sim_.fail_next_calls("GT_Reset", gts::kCmdNoResponse, 1);
+  GtsMotionCard card2(testing::card_sim_settings());
+  const auto opened = card2.open();
+  ASSERT_FALSE(opened.ok());
+  EXPECT_EQ(opened.error().code, ErrorCode::kCardCommunication);
+  EXPECT_EQ(sim_.call_count("GT_Close"), 2);
+  EXPECT_TRUE(card2.open().ok());  // a retry opens it
+}
+
 TEST_F(GtsOverSimulator, EncoderLagsTheProfileWhileMovingAndMeetsItAtRest) {
   sim_.set_encoder_lag_ms(5);
   auto card = enabled_card();

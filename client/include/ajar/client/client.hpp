@@ -46,7 +46,8 @@ std::optional<Endpoint> parse_endpoint(std::string_view text);
 // What a call came back with.
 enum class Outcome {
   kReply,         // the daemon answered with the expected reply (Ack, Pong, Status, Welcome)
-  kRefused,       // the daemon answered with an ErrorReply (see Response::error)
+  kRefused,       // the daemon answered with an ErrorReply (see Response::error), or the
+                  // request could not be encoded and was not sent (attempts 0; e.g. BAD_COUNT)
   kTimeout,       // no reply within the timeout (after all retries)
   kDisconnected,  // not connected, connection lost or refused
 };
@@ -114,7 +115,8 @@ class Client {
   std::uint64_t client_instance_id() const { return instance_id_; }
   // Writes raw bytes as they are (no framing). False when not connected.
   bool send_raw(std::span<const std::uint8_t> bytes);
-  // Encodes and writes one envelope as it is (no id assignment, no waiting).
+  // Encodes and writes one envelope as it is (no id assignment, no waiting). False when not
+  // connected or when the envelope cannot be encoded (see protocol::encode).
   bool send_envelope(const protocol::Envelope& envelope);
   // Waits for a non-event, non-telemetry frame with `request_id` (any id when nullopt).
   std::optional<protocol::Envelope> wait_reply(std::optional<std::uint32_t> request_id,

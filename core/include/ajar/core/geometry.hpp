@@ -59,9 +59,9 @@ Result<Span> measure_span(const Vec3& p1_base_m, const Vec3& p2_base_m, const To
 // ---- Door plane (eq. 3-4 and least squares) ---------------------------------------------------
 
 struct Plane {
-  Vec3 normal = Vec3::UnitX();        // unit normal, oriented toward the base origin (the robot)
-  Vec3 centroid_m = Vec3::Zero();     // mean of the points
-  double rms_residual_m = 0;          // RMS of point-to-plane distances (0 for three points)
+  Vec3 normal = Vec3::UnitX();     // unit normal, oriented toward the base origin (the robot)
+  Vec3 centroid_m = Vec3::Zero();  // mean of the points
+  double rms_residual_m = 0;       // RMS of point-to-plane distances (0 for three points)
 };
 
 // Exactly three points, normal by cross product (eq. 3-4), then oriented toward the robot.
@@ -131,7 +131,8 @@ Status check_depth(const FramedPoint& p, const CameraToBase& t, const Limits& li
 Status check_door_width(double width_m, const Limits& limits, std::string_view field = "width_m");
 Status check_handle_length(double length_m, const Limits& limits,
                            std::string_view field = "handle_length_m");
-Status check_yaw(double yaw_rad, const Limits& limits, std::string_view field = "yaw_deviation_rad");
+Status check_yaw(double yaw_rad, const Limits& limits,
+                 std::string_view field = "yaw_deviation_rad");
 
 // Ranges are inclusive; a NaN value gives kNonFinite. Messages carry the value and the range, e.g.
 // "door width 40.000 m is outside the allowed range 0.500..2.000 m".

@@ -13,8 +13,8 @@ namespace ajar::core {
 
 // One driving wheel on the GTS4 card.
 struct WheelAxis {
-  int card_axis = 1;    // GTS axis number, counts from 1
-  int polarity = 1;     // +1 or -1: sign that makes positive counts roll the wheel forward
+  int card_axis = 1;  // GTS axis number, counts from 1
+  int polarity = 1;   // +1 or -1: sign that makes positive counts roll the wheel forward
 };
 
 // Differential base (paper, Fig. 7 and eq. 6-7).
@@ -41,11 +41,11 @@ struct ArmWorkspace {
 
 // Thresholds for degenerate input. All lengths in metres, angles in radians.
 struct Tolerances {
-  double min_point_separation_m = 0.01;   // closer points count as duplicates
-  double min_lateral_fraction = 0.5;      // |dy| / |P1P2| below this: not side by side
-  double collinearity = 0.02;             // plane: normalised thickness of the in-plane spread
-  double max_plane_rms_m = 0.02;          // plane fit residual above this is refused
-  double max_door_tilt_rad = 0.35;        // door normal may tilt this far from horizontal
+  double min_point_separation_m = 0.01;  // closer points count as duplicates
+  double min_lateral_fraction = 0.5;     // |dy| / |P1P2| below this: not side by side
+  double collinearity = 0.02;            // plane: normalised thickness of the in-plane spread
+  double max_plane_rms_m = 0.02;         // plane fit residual above this is refused
+  double max_door_tilt_rad = 0.35;       // door normal may tilt this far from horizontal
 };
 
 struct Limits {
@@ -53,7 +53,7 @@ struct Limits {
   double max_door_width_m = 2.0;
   double min_handle_length_m = 0.05;
   double max_handle_length_m = 0.3;
-  double min_depth_m = 0.4;               // sensor's usable depth range (camera z)
+  double min_depth_m = 0.4;  // sensor's usable depth range (camera z)
   double max_depth_m = 4.0;
   double max_yaw_correction_rad = 0.7;
   Tolerances tolerances;

@@ -26,7 +26,7 @@ struct FramedPoint {
 // Direction of rotation of a door or handle (paper, Algorithm 1 and Fig. 5b). Wire values stable.
 enum class RotationDirection : std::uint8_t { kClockwise = 0, kCounterClockwise = 1 };
 
-const char* to_string(Frame frame) noexcept;              // "camera" | "base"
-const char* to_string(RotationDirection dir) noexcept;    // "CW" | "CCW"
+const char* to_string(Frame frame) noexcept;            // "camera" | "base"
+const char* to_string(RotationDirection dir) noexcept;  // "CW" | "CCW"
 
 }  // namespace ajar::core
