@@ -160,19 +160,24 @@ Status GtsMotionCard::check_axes(std::span<const int> axes) const {
 }
 
 Status GtsMotionCard::open() {
+  if (open_) (void)close();  // GT_Open on an open card: start over
   if (auto s = call(api_->open(static_cast<short>(settings_.channel), 1), "GT_Open", 0); !s) {
     return s;
   }
   open_ = true;
-  if (auto s = call(api_->reset(), "GT_Reset", 0); !s) return s;
-  if (!settings_.card_config_path.empty()) {
-    std::string file = settings_.card_config_path;
-    if (auto s = call(api_->load_config(file.data()), "GT_LoadConfig", 0); !s) {
-      return make_error(s.error().code, "card_config_path",
-                        s.error().message + " for " + settings_.card_config_path);
+  Status s = [&]() -> Status {
+    if (auto r = call(api_->reset(), "GT_Reset", 0); !r) return r;
+    if (!settings_.card_config_path.empty()) {
+      std::string file = settings_.card_config_path;
+      if (auto r = call(api_->load_config(file.data()), "GT_LoadConfig", 0); !r) {
+        return make_error(r.error().code, "card_config_path",
+                          r.error().message + " for " + settings_.card_config_path);
+      }
     }
-  }
-  return call(api_->clr_sts(1, static_cast<short>(settings_.axis_count)), "GT_ClrSts", 0);
+    return call(api_->clr_sts(1, static_cast<short>(settings_.axis_count)), "GT_ClrSts", 0);
+  }();
+  if (!s) (void)close();  // failed: do not hold the card open
+  return s;
 }
 
 Status GtsMotionCard::close() {

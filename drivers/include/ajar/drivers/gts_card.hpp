@@ -37,7 +37,8 @@ class GtsMotionCard final : public MotionCard {
   GtsMotionCard& operator=(const GtsMotionCard&) = delete;
 
   // GT_Open(channel, 1), GT_Reset, GT_LoadConfig (when card_config_path is set), GT_ClrSts of all
-  // axes.
+  // axes. When a step after GT_Open fails the card is closed again (GT_Close) and the first
+  // error is returned; opening an open card closes it first.
   Status open() override;
   Status close() override;  // GT_Close
   // GT_AxisOn per axis, then polls GT_GetSts until servo-on (kMotionTimeout after poll_timeout_ms,
