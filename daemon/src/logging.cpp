@@ -72,7 +72,9 @@ bool set_log_level(std::string_view level) {
 
 void shutdown_logging() noexcept {
   try {
-    spdlog::default_logger()->flush();
+    // Keep the logger alive until the logging thread has drained the queue and been joined, so
+    // that it is destroyed on this thread (the worker drops its references inside libspdlog).
+    const auto logger = spdlog::default_logger();
     spdlog::shutdown();
   } catch (...) {
   }
