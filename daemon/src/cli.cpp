@@ -11,10 +11,8 @@
 #include "ajar/daemon/daemon.hpp"
 #include "ajar/daemon/logging.hpp"
 #include "ajar/protocol/messages.hpp"
+#include "ajar/version.hpp"
 
-#ifndef AJAR_VERSION
-#define AJAR_VERSION "0.1.0"
-#endif
 
 namespace ajar::daemon {
 namespace {
@@ -133,7 +131,7 @@ void apply_overrides(const CommandLine& command_line, Config& config) {
 }
 
 std::string version_text() {
-  return std::string("ajard ") + AJAR_VERSION + " (protocol " +
+  return std::string("ajard ") + ajar::kVersion + " (protocol " +
          std::to_string(protocol::kVersionMajor) + "." + std::to_string(protocol::kVersionMinor) +
          ")\n";
 }

@@ -1,8 +1,3 @@
-// GCC 12 warns (-Wtsan) that ThreadSanitizer does not model the fences in Asio's handler
-// invocation; Asio's handlers here run on the one I/O thread, so nothing relies on them.
-#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 12
-#pragma GCC diagnostic ignored "-Wtsan"
-#endif
 #include <utility>  // before Asio (asio issue 944)
 
 #include "ajar/daemon/server.hpp"

@@ -1,10 +1,5 @@
 // run_daemon under a fake systemd: READY=1 once serving (after the port file), WATCHDOG=1 only
 // while the control loop is healthy, STOPPING=1 and exit 0 on SIGTERM.
-// GCC 12 warns (-Wtsan) that ThreadSanitizer does not model the fences in Asio's handler
-// invocation; Asio's handlers here run on the one I/O thread, so nothing relies on them.
-#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 12
-#pragma GCC diagnostic ignored "-Wtsan"
-#endif
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>

@@ -1,11 +1,6 @@
 // The real ajard binary as a subprocess: command line and exit codes, serving on a kernel-chosen
 // port (--listen 127.0.0.1:0 --port-file), SIGTERM exits 0 after persisting, a restart restores the
 // parameters with nothing moving.
-// GCC 12 warns (-Wtsan) that ThreadSanitizer does not model the fences in Asio's handler
-// invocation; Asio's handlers here run on the one I/O thread, so nothing relies on them.
-#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 12
-#pragma GCC diagnostic ignored "-Wtsan"
-#endif
 #include <fstream>
 
 #include <gtest/gtest.h>

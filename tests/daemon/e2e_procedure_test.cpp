@@ -2,11 +2,6 @@
 // simulated drivers. The whole procedure, error paths, deadman on a killed controller, emergency
 // stop, exactly-once across reconnects, restart with restored state, 256 observers, malformed
 // frames and a slow reader next to a working controller.
-// GCC 12 warns (-Wtsan) that ThreadSanitizer does not model the fences in Asio's handler
-// invocation; Asio's handlers here run on the one I/O thread, so nothing relies on them.
-#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 12
-#pragma GCC diagnostic ignored "-Wtsan"
-#endif
 #include <memory>
 
 #include <gtest/gtest.h>

@@ -1,11 +1,6 @@
 // The server's byte-level guarantees over loopback, against a fake engine: malformed frames affect
 // only their own session, max-clients refusal, read deadline, slow readers dropped, frames in any
 // chunking, hundreds of concurrent sessions.
-// GCC 12 warns (-Wtsan) that ThreadSanitizer does not model the fences in Asio's handler
-// invocation; Asio's handlers here run on the one I/O thread, so nothing relies on them.
-#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 12
-#pragma GCC diagnostic ignored "-Wtsan"
-#endif
 #include <memory>
 #include <thread>
 

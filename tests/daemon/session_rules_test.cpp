@@ -1,10 +1,5 @@
 // Session rules over real loopback sockets, against a fake engine: Hello first, roles, take-over,
 // heartbeats, exactly-once, subscriptions, decode errors.
-// GCC 12 warns (-Wtsan) that ThreadSanitizer does not model the fences in Asio's handler
-// invocation; Asio's handlers here run on the one I/O thread, so nothing relies on them.
-#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 12
-#pragma GCC diagnostic ignored "-Wtsan"
-#endif
 #include <cmath>
 #include <limits>
 
