@@ -13,7 +13,6 @@
 #include "ajar/protocol/messages.hpp"
 #include "ajar/version.hpp"
 
-
 namespace ajar::daemon {
 namespace {
 

@@ -1,7 +1,7 @@
-// Manipulator: the 6-DoF arm as the daemon sees it. The real implementation speaks the line protocol
-// of docs/manipulator-serial.md over RS-232 on its own worker thread; every call here returns
-// promptly (it queues work or reads a snapshot) so the control loop is never blocked by the serial
-// line.
+// Manipulator: the 6-DoF arm as the daemon sees it. The real implementation speaks the line
+// protocol of docs/manipulator-serial.md over RS-232 on its own worker thread; every call here
+// returns promptly (it queues work or reads a snapshot) so the control loop is never blocked by the
+// serial line.
 #pragma once
 
 #include <cstdint>
@@ -21,17 +21,17 @@ struct DoorTask {
 };
 
 enum class ArmPhase : std::uint8_t {
-  kDisconnected = 0,   // no link to the arm controller (cable pulled, device missing)
-  kIdle = 1,           // connected, no task
-  kBusy = 2,           // a task was handed off and acknowledged; the arm is working
-  kDone = 3,           // the arm reported the task complete
-  kFault = 4,          // the arm controller reported a fault or refused a task
+  kDisconnected = 0,  // no link to the arm controller (cable pulled, device missing)
+  kIdle = 1,          // connected, no task
+  kBusy = 2,          // a task was handed off and acknowledged; the arm is working
+  kDone = 3,          // the arm reported the task complete
+  kFault = 4,         // the arm controller reported a fault or refused a task
 };
 
 struct ArmStatus {
   ArmPhase phase = ArmPhase::kDisconnected;
-  ErrorCode last_error = ErrorCode::kOk;   // why it is in kFault / kDisconnected
-  std::uint32_t task_id = 0;               // last task handed off (0 = none)
+  ErrorCode last_error = ErrorCode::kOk;  // why it is in kFault / kDisconnected
+  std::uint32_t task_id = 0;              // last task handed off (0 = none)
   std::uint32_t reconnects = 0;
 };
 

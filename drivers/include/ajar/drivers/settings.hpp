@@ -1,5 +1,5 @@
-// Driver selection and settings, filled by the daemon's config loader from the `drivers:` section of
-// the YAML config. Selection is by config, never by #ifdef.
+// Driver selection and settings, filled by the daemon's config loader from the `drivers:` section
+// of the YAML config. Selection is by config, never by #ifdef.
 #pragma once
 
 #include <cstdint>
@@ -10,22 +10,22 @@ namespace ajar::drivers {
 enum class DriverKind : std::uint8_t { kSim, kMock, kReal };
 
 struct GtsCardSettings {
-  std::string library_path;          // real: the vendor's libgts.so; sim: the card simulator
-  std::string card_config_path;      // passed to GT_LoadConfig; empty = skip
-  int channel = 0;                   // GT_Open channel
-  int poll_timeout_ms = 2000;        // deadline for start-up waits (e.g. servo on)
-  int axis_count = 4;                // axes on the card (GTS-400: 4, GTS-800: 8); valid 1..n
+  std::string library_path;      // real: the vendor's libgts.so; sim: the card simulator
+  std::string card_config_path;  // passed to GT_LoadConfig; empty = skip
+  int channel = 0;               // GT_Open channel
+  int poll_timeout_ms = 2000;    // deadline for start-up waits (e.g. servo on)
+  int axis_count = 4;            // axes on the card (GTS-400: 4, GTS-800: 8); valid 1..n
 };
 
 struct SerialArmSettings {
   std::string device = "/dev/ttyS0";
   int baud = 115200;
   int data_bits = 8;
-  char parity = 'N';                 // 'N', 'E' or 'O'
+  char parity = 'N';  // 'N', 'E' or 'O'
   int stop_bits = 1;
-  int ack_timeout_ms = 200;          // per attempt
-  int retries = 3;                   // attempts after the first
-  int reconnect_min_ms = 100;        // reconnect backoff, doubling up to max
+  int ack_timeout_ms = 200;    // per attempt
+  int retries = 3;             // attempts after the first
+  int reconnect_min_ms = 100;  // reconnect backoff, doubling up to max
   int reconnect_max_ms = 5000;
 };
 
@@ -40,10 +40,10 @@ struct MockSettings {
 
 struct DriverSettings {
   DriverKind kind = DriverKind::kSim;
-  GtsCardSettings card;              // used by kReal and kSim (sim: simulator library path)
-  SerialArmSettings arm;             // used by kReal
-  MockSettings mock;                 // used by kMock
-  double sim_speedup = 1.0;          // sim: simulated time runs this much faster than real time
+  GtsCardSettings card;      // used by kReal and kSim (sim: simulator library path)
+  SerialArmSettings arm;     // used by kReal
+  MockSettings mock;         // used by kMock
+  double sim_speedup = 1.0;  // sim: simulated time runs this much faster than real time
 };
 
 }  // namespace ajar::drivers
