@@ -369,26 +369,33 @@ AJAR_SIM_EXPORT short GT_GetSts(short axis, long* pSts, short count, unsigned lo
   });
 }
 
-AJAR_SIM_EXPORT short GT_GetPrfPos(short profile, double* pValue, short count,
-                                   unsigned long* pClock) {
-  return call("GT_GetPrfPos", true, [profile, pValue, count, pClock](Sim& s) -> short {
-    if (!valid_range(profile, count) || pValue == nullptr) return gts::kCmdBadParameter;
+namespace {
+
+// GT_GetPrfPos / GT_GetEncPos: `count` positions from `first` on, rounded to whole pulses.
+template <typename Position>
+short read_positions(const char* name, short first, double* pValue, short count,
+                     unsigned long* pClock, Position position) {
+  return call(name, true, [first, pValue, count, pClock, position](Sim& s) -> short {
+    if (!valid_range(first, count) || pValue == nullptr) return gts::kCmdBadParameter;
     for (int i = 0; i < count; ++i)
-      pValue[i] = std::round(axis_at(s, profile + i).pos);
+      pValue[i] = std::round(position(s, axis_at(s, first + i)));
     if (pClock != nullptr) *pClock = static_cast<unsigned long>(s.now_ms);
     return gts::kCmdSuccess;
   });
 }
 
+}  // namespace
+
+AJAR_SIM_EXPORT short GT_GetPrfPos(short profile, double* pValue, short count,
+                                   unsigned long* pClock) {
+  return read_positions("GT_GetPrfPos", profile, pValue, count, pClock,
+                        [](Sim&, const auto& axis) { return axis.pos; });
+}
+
 AJAR_SIM_EXPORT short GT_GetEncPos(short encoder, double* pValue, short count,
                                    unsigned long* pClock) {
-  return call("GT_GetEncPos", true, [encoder, pValue, count, pClock](Sim& s) -> short {
-    if (!valid_range(encoder, count) || pValue == nullptr) return gts::kCmdBadParameter;
-    for (int i = 0; i < count; ++i)
-      pValue[i] = std::round(s.encoder(axis_at(s, encoder + i)));
-    if (pClock != nullptr) *pClock = static_cast<unsigned long>(s.now_ms);
-    return gts::kCmdSuccess;
-  });
+  return read_positions("GT_GetEncPos", encoder, pValue, count, pClock,
+                        [](Sim& s, const auto& axis) { return s.encoder(axis); });
 }
 
 #ifndef AJAR_SIM_OMIT_GT_STOP  // the test build of a library that lacks a vendor symbol

@@ -117,7 +117,16 @@ TEST_F(EngineTest, StopDuringAlignmentStopsSmoothlyWithoutFault) {
 }
 
 // Stop, EmergencyStop and Reset are accepted in every state.
-class EveryState : public EngineTest, public ::testing::WithParamInterface<ProcedureState> {};
+class EveryState : public EngineTest, public ::testing::WithParamInterface<ProcedureState> {
+ protected:
+  // Where a Stop (or EmergencyStop + Reset) leaves the procedure: an interrupted motion steps
+  // back to before it; every other state stays.
+  static ProcedureState state_after_interruption(ProcedureState s) {
+    if (s == ProcedureState::kAligning) return ProcedureState::kReadyToAlign;
+    if (s == ProcedureState::kEngaging) return ProcedureState::kReadyToEngage;
+    return s;
+  }
+};
 
 TEST_P(EveryState, StopIsAcceptedAndLatchesNothing) {
   start();
@@ -125,14 +134,7 @@ TEST_P(EveryState, StopIsAcceptedAndLatchesNothing) {
   const auto reply = send(protocol::Stop{});
   ASSERT_TRUE(std::holds_alternative<protocol::Ack>(reply));
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kOk);
-  const ProcedureState after = engine->status().state;
-  if (GetParam() == ProcedureState::kAligning) {
-    EXPECT_EQ(after, ProcedureState::kReadyToAlign);
-  } else if (GetParam() == ProcedureState::kEngaging) {
-    EXPECT_EQ(after, ProcedureState::kReadyToEngage);
-  } else {
-    EXPECT_EQ(after, GetParam());
-  }
+  EXPECT_EQ(engine->status().state, state_after_interruption(GetParam()));
 }
 
 TEST_P(EveryState, EmergencyStopLatchesAndResetClears) {
@@ -155,13 +157,7 @@ TEST_P(EveryState, EmergencyStopLatchesAndResetClears) {
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kOk);
   EXPECT_TRUE(saw_event(EventKind::kFaultCleared));
   const ProcedureState after = engine->status().state;
-  if (GetParam() == ProcedureState::kAligning) {
-    EXPECT_EQ(after, ProcedureState::kReadyToAlign);
-  } else if (GetParam() == ProcedureState::kEngaging) {
-    EXPECT_EQ(after, ProcedureState::kReadyToEngage);
-  } else {
-    EXPECT_EQ(after, GetParam());
-  }
+  EXPECT_EQ(after, state_after_interruption(GetParam()));
   // The loop recovered too: a fresh alignment runs (from any state with a plane).
   if (engine->status().has_plane && after == ProcedureState::kReadyToAlign) {
     card->with_lock([](FakeCardControl& c) { return c.hold_motion = false; });
