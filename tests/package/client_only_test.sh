@@ -9,6 +9,7 @@ set -euo pipefail
 src=$(realpath "$1")
 tmp=$(realpath "$2")/package-client-only
 rm -rf "$tmp/prefix" "$tmp/consumer"
+mkdir -p "$tmp"
 launcher=()
 if command -v ccache >/dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
 cmake -S "$src" -B "$tmp/build" -DCMAKE_BUILD_TYPE=Release -DAJAR_CLIENT_ONLY=ON \
