@@ -72,3 +72,8 @@ install(FILES ${PROJECT_BINARY_DIR}/systemd/ajard.service DESTINATION ${AJAR_INS
   COMPONENT Runtime)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/systemd/ DESTINATION ${AJAR_INSTALL_PKGDATADIR}/examples/systemd
   COMPONENT Runtime FILES_MATCHING PATTERN "*.conf")
+
+# bash completion (asks ajarctl itself for the words, so it follows the commands) and man pages.
+install(FILES ${PROJECT_SOURCE_DIR}/client/completion/ajarctl
+  DESTINATION ${CMAKE_INSTALL_DATADIR}/bash-completion/completions COMPONENT Runtime)
+include(${CMAKE_CURRENT_LIST_DIR}/AjarManPages.cmake)

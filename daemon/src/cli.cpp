@@ -137,8 +137,8 @@ std::string version_text() {
 
 std::string help_text() {
   return R"(Usage: ajard --config FILE [--listen ADDR:PORT] [--port-file FILE] [--state-dir DIR]
-       ajard --check-config FILE [--listen ADDR:PORT] [--state-dir DIR]
-       ajard --version | --help
+  or:  ajard --check-config FILE [--listen ADDR:PORT] [--state-dir DIR]
+  or:  ajard --version | --help
 
 ajard is the Ajar door-opening controller daemon: it serves the Ajar wire protocol over TCP and
 drives the mobile base (motion card) and the arm (serial) selected by the config.
