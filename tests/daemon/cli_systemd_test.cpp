@@ -108,7 +108,7 @@ TEST(SystemdUnit, VerifiesAndItsSandboxExposureIsAtMostTwo) {
   std::stringstream text;
   text << in.rdbuf();
   const std::string patched =
-      std::regex_replace(text.str(), std::regex("/usr/bin/ajard"), std::string(AJARD_PATH));
+      std::regex_replace(text.str(), std::regex("/usr/s?bin/ajard"), std::string(AJARD_PATH));
   const std::string copy = dir.path() + "/ajard.service";
   std::ofstream(copy) << patched;
   int status = 0;
