@@ -112,7 +112,9 @@ TEST(SystemdUnit, VerifiesAndItsSandboxExposureIsAtMostTwo) {
   const std::string copy = dir.path() + "/ajard.service";
   std::ofstream(copy) << patched;
   int status = 0;
-  const std::string verify = run("systemd-analyze verify " + copy, &status);
+  // --man=no: the man pages the unit names are checked where they are installed
+  // (tests/package/deb_test.sh verifies the installed unit in full).
+  const std::string verify = run("systemd-analyze verify --man=no " + copy, &status);
   EXPECT_EQ(status, 0) << verify;
 
   const std::string security = run("systemd-analyze security --offline=yes " + unit, &status);
