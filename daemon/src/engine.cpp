@@ -82,13 +82,16 @@ std::string describe(const Error& e) {
 
 class EngineImpl final : public Engine {
  public:
-  EngineImpl(const Config& config, drivers::DriverSet drivers)
+  EngineImpl(const Config& config, drivers::DriverSet drivers, EngineOptions options)
       : config_(config),
+        clock_(options.now_ns ? std::move(options.now_ns) : std::function<std::int64_t()>(
+                                                                  [] { return monotonic_now_ns(); })),
+        manual_loop_(options.manual_loop),
         keepalive_(std::move(drivers.keepalive)),
         procedure_(camera_to_base_or_throw(config), config.limits, config.base,
                    ProcedureLimits{config.control.aligned_tolerance_rad}),
         store_(config.state.directory),
-        start_ns_(monotonic_now_ns()) {
+        start_ns_(clock_()) {
     if (!drivers.card || !drivers.arm) throw StartupError("drivers: card and arm are required");
     const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
     loop_ = std::make_unique<ControlLoop>(
@@ -118,8 +121,10 @@ class EngineImpl final : public Engine {
       throw StartupError("manipulator: " + describe(s.error()));
     }
     restore();
-    for (auto& w : loop_->start_thread())
-      startup_warnings_.push_back(std::move(w));
+    if (!manual_loop_) {
+      for (auto& w : loop_->start_thread())
+        startup_warnings_.push_back(std::move(w));
+    }
     last_state_ = procedure_.state();
     started_ = true;
   }
@@ -136,7 +141,7 @@ class EngineImpl final : public Engine {
       if (procedure_.phase() == Phase::kEngaging) procedure_.engaging_interrupted();
       // Let the wheels come to rest under the loop's supervision (bounded).
       const std::int64_t give_up = monotonic_now_ns() + 5'000'000'000;
-      while (loop_->snapshot().motion_active && monotonic_now_ns() < give_up) {
+      while (!manual_loop_ && loop_->snapshot().motion_active && monotonic_now_ns() < give_up) {
         std::this_thread::sleep_for(std::chrono::milliseconds(1));
       }
       persist();
@@ -155,7 +160,7 @@ class EngineImpl final : public Engine {
     return reply;
   }
 
-  void controller_heartbeat() noexcept override { loop_->heartbeat(monotonic_now_ns()); }
+  void controller_heartbeat() noexcept override { loop_->heartbeat(now_ns()); }
 
   void controller_lost() override {
     drain_reports();
@@ -224,6 +229,14 @@ class EngineImpl final : public Engine {
   }
 
   bool control_loop_healthy() const noexcept override { return loop_->healthy(monotonic_now_ns()); }
+
+  std::uint64_t daemon_time_ns() const noexcept override {
+    return static_cast<std::uint64_t>(now_ns() - start_ns_);
+  }
+
+  void run_loop_cycle() noexcept override {
+    if (manual_loop_) loop_->cycle(now_ns());
+  }
 
   std::vector<std::string> startup_warnings() const override { return startup_warnings_; }
 
@@ -307,7 +320,7 @@ class EngineImpl final : public Engine {
       dirty_ = true;
       return ack(type, protocol::EmptyAck{});
     }
-    loop_->heartbeat(monotonic_now_ns());  // the controller just spoke
+    loop_->heartbeat(now_ns());  // the controller just spoke
     const MoveCommand move{++motion_id_, wheels->left_counts, wheels->right_counts};
     if (!loop_->post_move(move)) {
       return refuse(type, make_error(ErrorCode::kQueueFull, "",
@@ -336,7 +349,7 @@ class EngineImpl final : public Engine {
       return refuse(type, e);
     }
     arm_task_id_ = *id;
-    loop_->heartbeat(monotonic_now_ns());
+    loop_->heartbeat(now_ns());
     loop_->set_arm_moving(true);
     procedure_.engaging_started();
     emit(EventKind::kMotionStarted, ErrorCode::kOk,
@@ -560,11 +573,11 @@ class EngineImpl final : public Engine {
     started_ = false;
   }
 
-  std::uint64_t daemon_time_ns() const {
-    return static_cast<std::uint64_t>(monotonic_now_ns() - start_ns_);
-  }
+  std::int64_t now_ns() const noexcept { return clock_(); }
 
   Config config_;
+  std::function<std::int64_t()> clock_;
+  bool manual_loop_ = false;
   std::shared_ptr<void> keepalive_;  // first: outlives the drivers
   std::unique_ptr<ControlLoop> loop_;
   std::unique_ptr<drivers::ManagedManipulator> arm_;
@@ -590,8 +603,9 @@ class EngineImpl final : public Engine {
 
 }  // namespace
 
-std::unique_ptr<Engine> make_engine(const Config& config, drivers::DriverSet drivers) {
-  return std::make_unique<EngineImpl>(config, std::move(drivers));
+std::unique_ptr<Engine> make_engine(const Config& config, drivers::DriverSet drivers,
+                                    EngineOptions options) {
+  return std::make_unique<EngineImpl>(config, std::move(drivers), std::move(options));
 }
 
 }  // namespace ajar::daemon

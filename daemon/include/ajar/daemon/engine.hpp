@@ -9,6 +9,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -66,6 +67,19 @@ class Engine {
   // cycle within the last few periods). Thread-safe.
   virtual bool control_loop_healthy() const noexcept = 0;
 
+  // The daemon's clock: nanoseconds since the engine was made (CLOCK_MONOTONIC unless a test
+  // injected a clock). Every daemon_time_ns on the wire (Telemetry, Event, Pong) uses it.
+  // Thread-safe. (The default, for engine doubles, is plain CLOCK_MONOTONIC.)
+  virtual std::uint64_t daemon_time_ns() const noexcept {
+    return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                          std::chrono::steady_clock::now().time_since_epoch())
+                                          .count());
+  }
+
+  // Test seam (EngineOptions::manual_loop only): runs one control-loop cycle at the engine's
+  // clock on the calling thread. Without manual_loop it does nothing.
+  virtual void run_loop_cycle() noexcept {}
+
   // Warnings from start() for the network layer to log (the engine never logs): realtime
   // scheduling or mlockall refused, a corrupt/unreadable state file (started clean), a restored
   // state that no longer validates with the current config. Valid after start().
@@ -75,11 +89,19 @@ class Engine {
   virtual std::vector<std::string> take_warnings() { return {}; }
 };
 
+// How an engine is made; the defaults are the daemon's. Tests inject a clock and drive the control
+// loop by hand so that every interleaving of commands and cycles is reproducible.
+struct EngineOptions {
+  std::function<std::int64_t()> now_ns;  // monotonic ns; empty = CLOCK_MONOTONIC
+  bool manual_loop = false;  // start() starts no control thread: call run_loop_cycle()
+};
+
 // Builds the engine for a loaded config (drivers selected by config.drivers.kind). Throws
 // StartupError when the drivers cannot be created (e.g. a vendor library is missing).
 std::unique_ptr<Engine> make_engine(const Config& config);
 // The same over drivers made elsewhere (tests: fakes or mocks). `drivers.card` and `drivers.arm`
 // must be set.
-std::unique_ptr<Engine> make_engine(const Config& config, drivers::DriverSet drivers);
+std::unique_ptr<Engine> make_engine(const Config& config, drivers::DriverSet drivers,
+                                    EngineOptions options = {});
 
 }  // namespace ajar::daemon
