@@ -22,6 +22,18 @@ double counts_per_wheel_rad(const core::BaseGeometry& base) noexcept {
   return base.gear_ratio * base.encoder_counts_per_rev / (2.0 * std::numbers::pi);
 }
 
+// The card's realtime calls as codes. TODO(interface): the MotionCard realtime calls return
+// ErrorCode (drivers change in flight); these two shims go then.
+ErrorCode code(const Status& s) noexcept {
+  return s ? ErrorCode::kOk : s.error().code;
+}
+ErrorCode read_status(drivers::MotionCard& card, int axis, drivers::AxisStatus& out) noexcept {
+  auto r = card.axis_status(axis);
+  if (!r) return r.error().code;
+  out = *r;
+  return ErrorCode::kOk;
+}
+
 }  // namespace
 
 drivers::TrapezoidProfile wheel_profile(const core::BaseGeometry& base) noexcept {
@@ -175,7 +187,7 @@ void ControlLoop::finish(LoopReportKind kind, ErrorCode code) noexcept {
 }
 
 void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
-  if (card_.smooth_stop(axes_) != ErrorCode::kOk) (void)card_.emergency_stop(axes_);
+  if (code(card_.smooth_stop(axes_)) != ErrorCode::kOk) (void)code(card_.emergency_stop(axes_));
   motion_ = Motion::kStopping;
   motion_deadline_ns_ = now_ns + stop_timeout_ns_;
 }
@@ -185,7 +197,7 @@ void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
   const std::uint32_t latches = latch_generation_.load();
   if (const std::uint32_t e = emergency_generation_.load(); e != handled_emergency_) {
     handled_emergency_ = e;
-    (void)card_.emergency_stop(axes_);
+    (void)code(card_.emergency_stop(axes_));
     if (motion_ != Motion::kIdle) {
       stop_reason_ = ErrorCode::kEmergencyStopped;
       motion_ = Motion::kStopping;
@@ -195,13 +207,13 @@ void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
   }
   if (latches != handled_latch_) {
     handled_latch_ = latches;
-    ErrorCode code;
-    while (fault_codes_.pop(code)) {
+    ErrorCode queued = ErrorCode::kOk;
+    while (fault_codes_.pop(queued)) {
       if (motion_ == Motion::kMoving) {
-        stop_reason_ = code;
+        stop_reason_ = queued;
         begin_stop(now_ns);
       }
-      latch(code, 0);
+      latch(queued, 0);
     }
     if (const auto overflow = fault_overflow_code_.exchange(0); overflow != 0) {
       if (motion_ == Motion::kMoving) {
@@ -265,17 +277,19 @@ void ControlLoop::advance_recovery(std::int64_t now_ns) noexcept {
       recovery_ = Recovery::kClear;
       [[fallthrough]];
     case Recovery::kClear:
-      if (const ErrorCode e = card_.clear_faults(axes_); e != ErrorCode::kOk) return latch(e, 0);
+      if (const ErrorCode e = code(card_.clear_faults(axes_)); e != ErrorCode::kOk) return latch(e, 0);
       recovery_ = Recovery::kEnable;
       return;
     case Recovery::kEnable:
-      if (const ErrorCode e = card_.enable_axes(axes_); e != ErrorCode::kOk) return latch(e, 0);
+      if (const ErrorCode e = code(card_.enable_axes(axes_)); e != ErrorCode::kOk) return latch(e, 0);
       recovery_ = Recovery::kPoll;
       return;
     case Recovery::kPoll:
       if (!answered_) return;  // not answering: keep polling until the deadline
-      for (const auto& st : status_) {
-        if (!st.enabled || st.alarm || st.following_error) return;
+      for (int i = 0; i < 2; ++i) {
+        if (status_[i].alarm) return latch(ErrorCode::kAxisAlarm, axes_[i]);
+        if (status_[i].following_error) return latch(ErrorCode::kFollowingError, axes_[i]);
+        if (!status_[i].enabled) return;
       }
       end_recovery(ErrorCode::kOk);
       return;
@@ -301,7 +315,7 @@ void ControlLoop::start_move(const Command& move, std::int64_t now_ns) noexcept 
     }
   }
   const drivers::AxisMove moves[2] = {{axes_[0], move.left_counts}, {axes_[1], move.right_counts}};
-  if (const ErrorCode e = card_.move_relative(moves, profile_); e != ErrorCode::kOk) {
+  if (const ErrorCode e = code(card_.move_relative(moves, profile_)); e != ErrorCode::kOk) {
     latch(e, 0);
     return refuse(e, 0);
   }
@@ -366,7 +380,7 @@ void ControlLoop::read_axes() noexcept {
   answered_ = true;
   read_error_ = ErrorCode::kOk;
   for (int i = 0; i < 2; ++i) {
-    if (const ErrorCode e = card_.axis_status(axes_[i], status_[i]); e != ErrorCode::kOk) {
+    if (const ErrorCode e = read_status(card_, axes_[i], status_[i]); e != ErrorCode::kOk) {
       answered_ = false;
       read_error_ = e;
     }
@@ -437,21 +451,20 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
       if (answered && !status[0].moving && !status[1].moving) {
         finish(LoopReportKind::kMotionStopped, stop_reason_);
       } else if (now_ns > motion_deadline_ns_) {
-        (void)card_.emergency_stop(axes_);
+        (void)code(card_.emergency_stop(axes_));
         latch(ErrorCode::kMotionTimeout, 0);
         finish(LoopReportKind::kMotionStopped, ErrorCode::kMotionTimeout);
       }
       break;
     case Motion::kIdle:
-      if (fault_ == ErrorCode::kOk && recovery_ == Recovery::kNone) {
-        if (arm_moving_.load(std::memory_order_acquire) && silent) {
-          latch(ErrorCode::kDeadman, 0);
-        } else if (answered) {
-          for (int i = 0; i < 2; ++i) {
-            if (status[i].alarm) {
-              latch(ErrorCode::kAxisAlarm, axes_[i]);
-              break;
-            }
+      if (fault_ != ErrorCode::kOk) break;
+      if (arm_moving_.load(std::memory_order_acquire) && silent) {
+        latch(ErrorCode::kDeadman, 0);
+      } else if (answered && recovery_ == Recovery::kNone) {  // a recovery checks alarms itself
+        for (int i = 0; i < 2; ++i) {
+          if (status[i].alarm) {
+            latch(ErrorCode::kAxisAlarm, axes_[i]);
+            break;
           }
         }
       }

@@ -47,6 +47,7 @@ class World {
     config_.state.directory = dir + "/state-" + std::to_string(seed % 8);
     config_.safety.deadman_timeout_s = 0.05;
     config_.control.motion_timeout_margin_s = 0.2;
+    config_.safety.arm_task_timeout_s = 1.0;
     card_.now_ns = &now_;
     card_.tick = &tick_;
     card_.left_axis = config_.base.left.card_axis;
