@@ -22,16 +22,24 @@ double counts_per_wheel_rad(const core::BaseGeometry& base) noexcept {
   return base.gear_ratio * base.encoder_counts_per_rev / (2.0 * std::numbers::pi);
 }
 
-// The card's realtime calls as codes. TODO(interface): the MotionCard realtime calls return
-// ErrorCode (drivers change in flight); these two shims go then.
-ErrorCode code(const Status& s) noexcept {
+// The card's realtime calls as codes, over both shapes of the MotionCard interface (Status /
+// Result returns, or noexcept ErrorCode returns): the interface is changing under this file.
+constexpr ErrorCode code(ErrorCode e) noexcept {
+  return e;
+}
+[[maybe_unused]] ErrorCode code(const Status& s) noexcept {
   return s ? ErrorCode::kOk : s.error().code;
 }
-ErrorCode read_status(drivers::MotionCard& card, int axis, drivers::AxisStatus& out) noexcept {
-  auto r = card.axis_status(axis);
-  if (!r) return r.error().code;
-  out = *r;
-  return ErrorCode::kOk;
+template <typename Card>
+ErrorCode read_status(Card& card, int axis, drivers::AxisStatus& out) noexcept {
+  if constexpr (requires { card.axis_status(axis, out); }) {
+    return card.axis_status(axis, out);
+  } else {
+    auto r = card.axis_status(axis);
+    if (!r) return r.error().code;
+    out = *r;
+    return ErrorCode::kOk;
+  }
 }
 
 }  // namespace
@@ -253,7 +261,6 @@ void ControlLoop::execute(const Command& c, std::int64_t now_ns) noexcept {
       }
       fault_ = ErrorCode::kOk;
       recovery_ = Recovery::kWaitRest;
-      recovery_deadline_ns_ = now_ns + recovery_timeout_ns_ + stop_timeout_ns_;
       advance_recovery(now_ns);
       return;
   }
@@ -265,23 +272,26 @@ void ControlLoop::end_recovery(ErrorCode code) noexcept {
 }
 
 void ControlLoop::advance_recovery(std::int64_t now_ns) noexcept {
-  if (now_ns > recovery_deadline_ns_) {
+  if (recovery_ != Recovery::kWaitRest && now_ns > recovery_deadline_ns_) {
     latch(ErrorCode::kMotionTimeout, 0);  // the servo did not come on in time; ends the recovery
     return;
   }
   switch (recovery_) {
     case Recovery::kNone:
       return;
-    case Recovery::kWaitRest:  // the wheels come to rest under supervision first
+    case Recovery::kWaitRest:  // the wheels come to rest first (a stop has its own deadline)
       if (motion_ != Motion::kIdle) return;
       recovery_ = Recovery::kClear;
+      recovery_deadline_ns_ = now_ns + recovery_timeout_ns_;
       [[fallthrough]];
     case Recovery::kClear:
-      if (const ErrorCode e = code(card_.clear_faults(axes_)); e != ErrorCode::kOk) return latch(e, 0);
+      if (const ErrorCode e = code(card_.clear_faults(axes_)); e != ErrorCode::kOk)
+        return latch(e, 0);
       recovery_ = Recovery::kEnable;
       return;
     case Recovery::kEnable:
-      if (const ErrorCode e = code(card_.enable_axes(axes_)); e != ErrorCode::kOk) return latch(e, 0);
+      if (const ErrorCode e = code(card_.enable_axes(axes_)); e != ErrorCode::kOk)
+        return latch(e, 0);
       recovery_ = Recovery::kPoll;
       return;
     case Recovery::kPoll:

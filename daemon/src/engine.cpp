@@ -86,8 +86,8 @@ class EngineImpl final : public Engine {
  public:
   EngineImpl(const Config& config, drivers::DriverSet drivers, EngineOptions options)
       : config_(config),
-        clock_(options.now_ns ? std::move(options.now_ns) : std::function<std::int64_t()>(
-                                                                  [] { return monotonic_now_ns(); })),
+        clock_(options.now_ns ? std::move(options.now_ns)
+                              : std::function<std::int64_t()>([] { return monotonic_now_ns(); })),
         manual_loop_(options.manual_loop),
         keepalive_(std::move(drivers.keepalive)),
         procedure_(camera_to_base_or_throw(config), config.limits, config.base,
@@ -147,6 +147,7 @@ class EngineImpl final : public Engine {
       if (procedure_.phase() == Phase::kAligning) procedure_.alignment_interrupted();
       if (procedure_.phase() == Phase::kEngaging) procedure_.engaging_interrupted();
       end_arm_motion(EventKind::kMotionStopped, "arm stopped: the daemon is shutting down");
+      if (manual_loop_) loop_->cycle(now_ns());  // a hand-driven loop: the stop reaches the card
       // Let the wheels come to rest under the loop's supervision (bounded).
       const std::int64_t give_up = monotonic_now_ns() + 5'000'000'000;
       while (!manual_loop_ && wheel_motion_ != 0 && monotonic_now_ns() < give_up) {
@@ -354,7 +355,8 @@ class EngineImpl final : public Engine {
     arm_task_id_ = *id;
     arm_motion_ = true;
     arm_seen_busy_ = false;
-    arm_deadline_ns_ = now_ns() + static_cast<std::int64_t>(config_.safety.arm_task_timeout_s * 1e9);
+    arm_deadline_ns_ =
+        now_ns() + static_cast<std::int64_t>(config_.safety.arm_task_timeout_s * 1e9);
     loop_->heartbeat(now_ns());
     loop_->set_arm_moving(true);
     procedure_.engaging_started();
@@ -459,8 +461,9 @@ class EngineImpl final : public Engine {
           procedure_.alignment_not_started();  // the wheels did not turn: the plane still holds
           dirty_ = true;
           emit(EventKind::kMotionStopped, r.code,
-               (r.kind == LoopReportKind::kMoveRefused ? "the move did not start"
-                                                       : "the move was cancelled before it started") +
+               (r.kind == LoopReportKind::kMoveRefused
+                    ? "the move did not start"
+                    : "the move was cancelled before it started") +
                    reason(r.code));
           break;
         case LoopReportKind::kFault:
@@ -531,8 +534,8 @@ class EngineImpl final : public Engine {
   // ---- faults, events, persistence -------------------------------------------------------------
 
   // A fault latches once (the first is the root cause): the procedure's motion phases end, the arm
-  // is told to stop (an open arm task is closed), and the latch is announced once (fault_latched event, and a
-  // warning for the journal through take_warnings()).
+  // is told to stop (an open arm task is closed), and the latch is announced once (fault_latched
+  // event, and a warning for the journal through take_warnings()).
   void latch(ErrorCode code, const std::string& detail) {
     const bool was_clear = procedure_.fault() == ErrorCode::kOk;
     procedure_.latch_fault(code);
@@ -624,7 +627,7 @@ class EngineImpl final : public Engine {
   Config config_;
   std::function<std::int64_t()> clock_;
   bool manual_loop_ = false;
-  std::shared_ptr<void> keepalive_;  // first: outlives the drivers
+  std::shared_ptr<void> keepalive_;                   // first: outlives the drivers
   std::unique_ptr<drivers::ManagedMotionCard> card_;  // outlives the loop that drives it
   std::unique_ptr<ControlLoop> loop_;
   std::unique_ptr<drivers::ManagedManipulator> arm_;

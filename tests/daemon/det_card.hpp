@@ -37,11 +37,13 @@ struct DetCardState {
   double speed_counts_per_ns = 1e-3;
   std::int64_t stop_delay_ns = 6'000'000;
   // Fault menu.
-  int fail_calls = 0;         // the next N calls fail with kCardCommunication
+  int fail_calls = 0;  // the next N calls fail with kCardCommunication
   bool refuse_next_move = false;
   bool stick_next_move = false;
   bool stops_never_rest = false;
-  int enable_delay_reads = 0;  // servo-on shows after this many axis_status reads per axis
+  bool stops_rest_at_once = false;  // for a shut-down under a frozen fake clock
+  int enable_delay_reads = 0;       // servo-on shows after this many axis_status reads per axis
+  bool alarm_persists = false;      // clear_faults() does not clear a drive alarm
   // Observations.
   std::vector<Call> calls;
   std::map<int, Axis> axes;
@@ -127,7 +129,8 @@ class DetCard final : public drivers::MotionCard {
     s_.calls.push_back({DetCardState::Call::kClearFaults, *s_.tick});
     for (int axis : axes) {
       auto& a = s_.axes[axis];
-      a.alarm = a.following_error = a.positive_limit = a.negative_limit = false;
+      if (!s_.alarm_persists) a.alarm = false;
+      a.following_error = a.positive_limit = a.negative_limit = false;
       a.emergency_stopped = false;
     }
     return Ok{};
@@ -171,7 +174,7 @@ class DetCard final : public drivers::MotionCard {
       s_.advance(a);
       if (a.moving && !a.stopping) {
         a.stopping = true;
-        a.rest_at_ns = *s_.now_ns + s_.stop_delay_ns;
+        a.rest_at_ns = *s_.now_ns + (s_.stops_rest_at_once ? 0 : s_.stop_delay_ns);
       }
     }
     return Ok{};

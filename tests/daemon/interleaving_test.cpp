@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "ajar/daemon/config.hpp"
+#include "ajar/daemon/control_loop.hpp"
 #include "ajar/daemon/engine.hpp"
 #include "det_card.hpp"
 #include "fake_door.hpp"
@@ -33,7 +34,7 @@ constexpr std::int64_t kPeriodNs = 2'000'000;  // 500 Hz
 std::string shm_dir() {
   // State files on tmpfs when available: thousands of engines each persist dozens of times.
   std::string pattern = std::filesystem::exists("/dev/shm") ? "/dev/shm/ajar-interleave-XXXXXX"
-                                                             : "/tmp/ajar-interleave-XXXXXX";
+                                                            : "/tmp/ajar-interleave-XXXXXX";
   return ::mkdtemp(pattern.data()) != nullptr ? pattern : std::string("/tmp");
 }
 
@@ -41,8 +42,7 @@ std::string shm_dir() {
 // invariants are checked against.
 class World {
  public:
-  World(std::uint64_t seed, const std::string& dir, bool verbose)
-      : rng_(seed), verbose_(verbose) {
+  World(std::uint64_t seed, const std::string& dir, bool verbose) : rng_(seed), verbose_(verbose) {
     config_ = test_config(dir);
     config_.state.directory = dir + "/state-" + std::to_string(seed % 8);
     config_.safety.deadman_timeout_s = 0.05;
@@ -53,6 +53,8 @@ class World {
     card_.left_axis = config_.base.left.card_axis;
     card_.right_axis = config_.base.right.card_axis;
     card_.enable_delay_reads = static_cast<int>(rng_() % 3);
+    // The wheels at the configured speed: an alignment lasts a hundred cycles or so.
+    card_.speed_counts_per_ns = daemon::wheel_profile(config_.base).velocity_counts_per_ms / 1e6;
     drivers::DriverSet set;
     set.card = std::make_unique<DetCard>(card_);
     set.arm = std::make_unique<FakeManipulator>(arm_);
@@ -223,9 +225,18 @@ class World {
     alive_ = true;
     card_.fail_calls = 0;
     card_.stops_never_rest = false;
-    for (int i = 0; i < 6000 && violation_.empty(); ++i) {
+    // Bounded: every deadline (motion, stop, arm task, recovery) is far shorter.
+    const auto settled = [&] {
+      const auto st = engine_->status().state;
+      return !card_.any_moving() && motion_open_ == 0 && st != ProcedureState::kAligning &&
+             st != ProcedureState::kEngaging;
+    };
+    for (int i = 0; i < 3000 && violation_.empty() && !settled(); ++i)
       cycle(true);
-      if (i == 3000 && engine_->status().latched_fault != ErrorCode::kOk) send(protocol::Reset{});
+    if (engine_->status().latched_fault != ErrorCode::kOk) send(protocol::Reset{});
+    for (int i = 0; i < 1000 && violation_.empty(); ++i) {
+      cycle(true);
+      if (i >= 20 && settled() && engine_->status().card == protocol::DriverState::kActive) break;
     }
     if (!violation_.empty()) return;
     const auto status = engine_->status();
@@ -292,8 +303,10 @@ class World {
         estop_due_ = false;
         bool reached = false;
         for (const auto& c : card_.calls)
-          reached = reached || (c.kind == DetCardState::Call::kEmergencyStop && c.tick > stop_tick_);
-        if (!reached) return fail("an acknowledged EmergencyStop did not reach the card in one period");
+          reached =
+              reached || (c.kind == DetCardState::Call::kEmergencyStop && c.tick > stop_tick_);
+        if (!reached)
+          return fail("an acknowledged EmergencyStop did not reach the card in one period");
       }
       for (auto& [n, a] : card_.axes) {
         card_.advance(a);
@@ -324,7 +337,8 @@ class World {
     }
     const auto [left, right] = allowed_moves_.front();
     allowed_moves_.pop_front();
-    if (left != c.left || right != c.right) return fail("the card moved other counts than accepted");
+    if (left != c.left || right != c.right)
+      return fail("the card moved other counts than accepted");
   }
 
   void on_event(const protocol::Event& e) {

@@ -19,16 +19,17 @@
 //   1. axis status of both wheels (odometry; what supervision and a new move start from);
 //   2. stops: emergency stop (card emergency stop in this cycle), fault stops (smooth stop, latch
 //      the code: the first latched code stays, later ones are still reported), smooth stop;
-//   3. one step of a running recovery (Reset), a state machine advanced once per cycle: wait for the
+//   3. one step of a running recovery (Reset), a state machine advanced once per cycle: wait for
+//   the
 //      wheels to rest, clear faults, enable the axes, then poll their status every cycle until the
 //      servo is on without alarm, or fail at recovery_timeout_s. While it runs the command queue
 //      waits (moves queued behind a Reset start after it); stops still act at once;
 //   4. queued commands, in order (stops re-checked before each): a move is refused (kMoveRefused)
-//      while a fault is latched in the loop or a motion runs, cancelled (kMoveCancelled) when a stop
-//      was posted after it; a recover starts the recovery (step 3);
+//      while a fault is latched in the loop or a motion runs, cancelled (kMoveCancelled) when a
+//      stop was posted after it; a recover starts the recovery (step 3);
 //   5. supervision: card not answering, alarm, following error, limits, deadman, motion deadline
-//      -> smooth stop + latched fault; completion (both axes at rest and in position); end of a stop
-//      (both at rest; a stop overrunning its own deadline becomes an emergency stop);
+//      -> smooth stop + latched fault; completion (both axes at rest and in position); end of a
+//      stop (both at rest; a stop overrunning its own deadline becomes an emergency stop);
 //   6. statistics and the published snapshot (seqlock).
 // Card errors on this path are ErrorCodes only; text is made on the I/O side.
 //
@@ -93,7 +94,7 @@ struct LoopReport {
   LoopReportKind kind = LoopReportKind::kFault;
   ErrorCode code = ErrorCode::kOk;
   std::uint32_t motion_id = 0;
-  int axis = 0;               // the offending axis for axis faults, 0 otherwise
+  int axis = 0;                // the offending axis for axis faults, 0 otherwise
   std::uint32_t sequence = 0;  // kRecovered: its recover; kFault: the last recover taken
 };
 
@@ -106,8 +107,8 @@ struct LoopSnapshot {
   double base_yaw_rad = 0;                         // since start, CCW positive
   bool moving = false;                             // an axis reports profile motion
   bool motion_active = false;                      // a motion (or its stop) is being supervised
-  std::uint32_t last_motion_id = 0;   // the last motion that ended (any terminal report)
-  ErrorCode fault = ErrorCode::kOk;   // latched in the loop
+  std::uint32_t last_motion_id = 0;    // the last motion that ended (any terminal report)
+  ErrorCode fault = ErrorCode::kOk;    // latched in the loop
   std::uint32_t recover_sequence = 0;  // the last recover request taken from the queue
   bool recovering = false;             // that recovery is still running
   // The card as the loop sees it: kFault while the last status read failed or a card fault is

@@ -1,11 +1,12 @@
 // Engine: the daemon's heart below the network. It owns the procedure state machine, the accepted
-// door parameters (persisted), the control loop thread (which owns the motion card) and the arm.
+// door parameters (persisted), the motion card's lifecycle (brought up before the control thread
+// starts, down after it stops), the control loop thread (which drives the card) and the arm.
 // The network layer (server.hpp) owns sessions, roles, request de-duplication and fan-out, and
 // talks to the engine only through this interface, from the single I/O thread.
 //
 // Threading: every method is called from the I/O thread, except where noted. The engine talks to
-// its control thread through a bounded lock-free queue and reads back published snapshots; no call
-// here blocks on the control loop.
+// its control thread through one ordered lock-free command path (docs/control-loop.md) and reads
+// back reports and published snapshots; no call here blocks on the control loop.
 #pragma once
 
 #include <chrono>
@@ -37,7 +38,9 @@ class Engine {
   // Brings the drivers up (init -> configured -> active), restores persisted parameters, and starts
   // the control thread. Throws ajar::daemon::StartupError naming what failed.
   virtual void start() = 0;
-  // Stops motion (smooth), persists, joins the control thread, brings the drivers down. Idempotent.
+  // Stops the wheels (smooth) and the arm and closes every open motion with a motion_stopped event
+  // through the sink (call it before the sessions close), persists, joins the control thread,
+  // brings the drivers down. Idempotent.
   virtual void shutdown() noexcept = 0;
 
   // A command from the controlling session (roles are enforced by the caller). Validates with core,
@@ -93,7 +96,7 @@ class Engine {
 // loop by hand so that every interleaving of commands and cycles is reproducible.
 struct EngineOptions {
   std::function<std::int64_t()> now_ns;  // monotonic ns; empty = CLOCK_MONOTONIC
-  bool manual_loop = false;  // start() starts no control thread: call run_loop_cycle()
+  bool manual_loop = false;              // start() starts no control thread: call run_loop_cycle()
 };
 
 // Builds the engine for a loaded config (drivers selected by config.drivers.kind). Throws
