@@ -22,26 +22,6 @@ double counts_per_wheel_rad(const core::BaseGeometry& base) noexcept {
   return base.gear_ratio * base.encoder_counts_per_rev / (2.0 * std::numbers::pi);
 }
 
-// The card's realtime calls as codes, over both shapes of the MotionCard interface (Status /
-// Result returns, or noexcept ErrorCode returns): the interface is changing under this file.
-constexpr ErrorCode code(ErrorCode e) noexcept {
-  return e;
-}
-[[maybe_unused]] ErrorCode code(const Status& s) noexcept {
-  return s ? ErrorCode::kOk : s.error().code;
-}
-template <typename Card>
-ErrorCode read_status(Card& card, int axis, drivers::AxisStatus& out) noexcept {
-  if constexpr (requires { card.axis_status(axis, out); }) {
-    return card.axis_status(axis, out);
-  } else {
-    auto r = card.axis_status(axis);
-    if (!r) return r.error().code;
-    out = *r;
-    return ErrorCode::kOk;
-  }
-}
-
 }  // namespace
 
 drivers::TrapezoidProfile wheel_profile(const core::BaseGeometry& base) noexcept {
@@ -112,8 +92,10 @@ void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
   std::int64_t deadline = first_deadline_ns;
   while (!exit_requested_.load(std::memory_order_relaxed)) {
     sleep_until_ns(deadline);
-    cycle(monotonic_now_ns());
+    const std::int64_t wake = monotonic_now_ns();
+    cycle(wake);
     const std::int64_t end = monotonic_now_ns();
+    statistics_.record_cycle(deadline, wake, end);
     last_cycle_end_ns_.store(end, std::memory_order_release);
     deadline += period_ns_;
     if (end > deadline) {  // missed at least one deadline: count it, skip to the next free slot
@@ -195,7 +177,7 @@ void ControlLoop::finish(LoopReportKind kind, ErrorCode code) noexcept {
 }
 
 void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
-  if (code(card_.smooth_stop(axes_)) != ErrorCode::kOk) (void)code(card_.emergency_stop(axes_));
+  if ((card_.smooth_stop(axes_)) != ErrorCode::kOk) (void)(card_.emergency_stop(axes_));
   motion_ = Motion::kStopping;
   motion_deadline_ns_ = now_ns + stop_timeout_ns_;
 }
@@ -205,7 +187,7 @@ void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
   const std::uint32_t latches = latch_generation_.load();
   if (const std::uint32_t e = emergency_generation_.load(); e != handled_emergency_) {
     handled_emergency_ = e;
-    (void)code(card_.emergency_stop(axes_));
+    (void)(card_.emergency_stop(axes_));
     if (motion_ != Motion::kIdle) {
       stop_reason_ = ErrorCode::kEmergencyStopped;
       motion_ = Motion::kStopping;
@@ -285,13 +267,11 @@ void ControlLoop::advance_recovery(std::int64_t now_ns) noexcept {
       recovery_deadline_ns_ = now_ns + recovery_timeout_ns_;
       [[fallthrough]];
     case Recovery::kClear:
-      if (const ErrorCode e = code(card_.clear_faults(axes_)); e != ErrorCode::kOk)
-        return latch(e, 0);
+      if (const ErrorCode e = (card_.clear_faults(axes_)); e != ErrorCode::kOk) return latch(e, 0);
       recovery_ = Recovery::kEnable;
       return;
     case Recovery::kEnable:
-      if (const ErrorCode e = code(card_.enable_axes(axes_)); e != ErrorCode::kOk)
-        return latch(e, 0);
+      if (const ErrorCode e = (card_.enable_axes(axes_)); e != ErrorCode::kOk) return latch(e, 0);
       recovery_ = Recovery::kPoll;
       return;
     case Recovery::kPoll:
@@ -325,7 +305,7 @@ void ControlLoop::start_move(const Command& move, std::int64_t now_ns) noexcept 
     }
   }
   const drivers::AxisMove moves[2] = {{axes_[0], move.left_counts}, {axes_[1], move.right_counts}};
-  if (const ErrorCode e = code(card_.move_relative(moves, profile_)); e != ErrorCode::kOk) {
+  if (const ErrorCode e = (card_.move_relative(moves, profile_)); e != ErrorCode::kOk) {
     latch(e, 0);
     return refuse(e, 0);
   }
@@ -341,9 +321,6 @@ void ControlLoop::start_move(const Command& move, std::int64_t now_ns) noexcept 
 }
 
 void ControlLoop::cycle(std::int64_t now_ns) noexcept {
-  if (previous_cycle_ns_ >= 0) statistics_.record_period(now_ns - previous_cycle_ns_);
-  previous_cycle_ns_ = now_ns;
-
   read_axes();  // first: odometry and a move's start position come from before any new command
   handle_stops(now_ns);
   if (recovery_ != Recovery::kNone) advance_recovery(now_ns);
@@ -363,9 +340,6 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   snapshot_.recovering = recovery_ != Recovery::kNone;
   snapshot_.card_state = card_state();
   snapshot_.reports_dropped = reports_dropped_;
-  if (snapshot_.cycles % 50 == 1) snapshot_.statistics = statistics_.summary();  // O(bins)
-  snapshot_.statistics.cycles = snapshot_.cycles;  // exact every cycle
-  snapshot_.statistics.overruns = statistics_.overruns();
   published_.store(snapshot_);
 }
 
@@ -390,7 +364,7 @@ void ControlLoop::read_axes() noexcept {
   answered_ = true;
   read_error_ = ErrorCode::kOk;
   for (int i = 0; i < 2; ++i) {
-    if (const ErrorCode e = read_status(card_, axes_[i], status_[i]); e != ErrorCode::kOk) {
+    if (const ErrorCode e = card_.axis_status(axes_[i], status_[i]); e != ErrorCode::kOk) {
       answered_ = false;
       read_error_ = e;
     }
@@ -461,7 +435,7 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
       if (answered && !status[0].moving && !status[1].moving) {
         finish(LoopReportKind::kMotionStopped, stop_reason_);
       } else if (now_ns > motion_deadline_ns_) {
-        (void)code(card_.emergency_stop(axes_));
+        (void)(card_.emergency_stop(axes_));
         latch(ErrorCode::kMotionTimeout, 0);
         finish(LoopReportKind::kMotionStopped, ErrorCode::kMotionTimeout);
       }

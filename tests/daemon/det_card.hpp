@@ -105,26 +105,26 @@ class DetCard final : public drivers::MotionCard {
 
   Status open() override { return Ok{}; }
   Status close() override { return Ok{}; }
-  Status enable_axes(std::span<const int> axes) override {
+  ErrorCode enable_axes(std::span<const int> axes) noexcept override {
     if (failing()) return comm();
     s_.calls.push_back({DetCardState::Call::kEnable, *s_.tick});
     for (int axis : axes) {
       auto& a = s_.axes[axis];
-      if (a.alarm) return make_error(ErrorCode::kAxisAlarm, "axis", "det card: alarm");
+      if (a.alarm) return ErrorCode::kAxisAlarm;
       if (s_.enable_delay_reads > 0 && !a.enabled) {
         s_.enable_pending[axis] = s_.enable_delay_reads;
       } else {
         a.enabled = true;
       }
     }
-    return Ok{};
+    return ErrorCode::kOk;
   }
-  Status disable_axes(std::span<const int> axes) override {
+  ErrorCode disable_axes(std::span<const int> axes) noexcept override {
     for (int axis : axes)
       s_.axes[axis].enabled = false;
-    return Ok{};
+    return ErrorCode::kOk;
   }
-  Status clear_faults(std::span<const int> axes) override {
+  ErrorCode clear_faults(std::span<const int> axes) noexcept override {
     if (failing()) return comm();
     s_.calls.push_back({DetCardState::Call::kClearFaults, *s_.tick});
     for (int axis : axes) {
@@ -133,10 +133,10 @@ class DetCard final : public drivers::MotionCard {
       a.following_error = a.positive_limit = a.negative_limit = false;
       a.emergency_stopped = false;
     }
-    return Ok{};
+    return ErrorCode::kOk;
   }
-  Status move_relative(std::span<const drivers::AxisMove> moves,
-                       const drivers::TrapezoidProfile&) override {
+  ErrorCode move_relative(std::span<const drivers::AxisMove> moves,
+                          const drivers::TrapezoidProfile&) noexcept override {
     if (failing()) return comm();
     DetCardState::Call call{DetCardState::Call::kMove, *s_.tick};
     for (const auto& m : moves)
@@ -144,13 +144,13 @@ class DetCard final : public drivers::MotionCard {
     s_.calls.push_back(call);
     if (s_.refuse_next_move) {
       s_.refuse_next_move = false;
-      return make_error(ErrorCode::kCardBusy, "", "det card: busy");
+      return ErrorCode::kCardBusy;
     }
     for (const auto& m : moves) {
       auto& a = s_.axes[m.axis];
       s_.advance(a);
       if (!a.enabled || a.alarm || a.following_error) {
-        return make_error(ErrorCode::kDriverError, "", "det card: servo off or faulted");
+        return ErrorCode::kDriverError;  // servo off or faulted
       }
     }
     for (const auto& m : moves) {
@@ -164,9 +164,9 @@ class DetCard final : public drivers::MotionCard {
       a.move_tick = *s_.tick;
     }
     s_.stick_next_move = false;
-    return Ok{};
+    return ErrorCode::kOk;
   }
-  Status smooth_stop(std::span<const int> axes) override {
+  ErrorCode smooth_stop(std::span<const int> axes) noexcept override {
     if (failing()) return comm();
     s_.calls.push_back({DetCardState::Call::kSmoothStop, *s_.tick});
     for (int axis : axes) {
@@ -177,9 +177,9 @@ class DetCard final : public drivers::MotionCard {
         a.rest_at_ns = *s_.now_ns + (s_.stops_rest_at_once ? 0 : s_.stop_delay_ns);
       }
     }
-    return Ok{};
+    return ErrorCode::kOk;
   }
-  Status emergency_stop(std::span<const int> axes) override {
+  ErrorCode emergency_stop(std::span<const int> axes) noexcept override {
     // An emergency stop works even when the card is "not answering" for other calls: the
     // invariant under test is that the loop issues it, which the log records.
     s_.calls.push_back({DetCardState::Call::kEmergencyStop, *s_.tick});
@@ -188,9 +188,9 @@ class DetCard final : public drivers::MotionCard {
       s_.halt(a);
       a.emergency_stopped = true;
     }
-    return Ok{};
+    return ErrorCode::kOk;
   }
-  Result<drivers::AxisStatus> axis_status(int axis) override {
+  ErrorCode axis_status(int axis, drivers::AxisStatus& st) noexcept override {
     if (failing()) return comm();
     auto& a = s_.axes[axis];
     s_.advance(a);
@@ -200,7 +200,7 @@ class DetCard final : public drivers::MotionCard {
         s_.enable_pending.erase(it);
       }
     }
-    drivers::AxisStatus st;
+    st = drivers::AxisStatus{};
     st.enabled = a.enabled;
     st.moving = a.moving;
     st.in_position = !a.moving && a.position == a.target;
@@ -212,7 +212,7 @@ class DetCard final : public drivers::MotionCard {
     st.smooth_stopped = a.stopping;
     st.profile_position_counts = std::llround(a.moving ? a.target : a.position);
     st.encoder_position_counts = std::llround(a.position);
-    return st;
+    return ErrorCode::kOk;
   }
 
  private:
@@ -221,7 +221,7 @@ class DetCard final : public drivers::MotionCard {
     --s_.fail_calls;
     return true;
   }
-  static Error comm() { return make_error(ErrorCode::kCardCommunication, "", "det card: silent"); }
+  static ErrorCode comm() { return ErrorCode::kCardCommunication; }
 
   DetCardState& s_;
 };

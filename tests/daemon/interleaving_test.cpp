@@ -1,7 +1,7 @@
 // Randomized interleavings of the engine and its control loop on a fake clock: commands arrive in
 // batches between two loop cycles (as if several frames came in one read), with Stop, EmergencyStop
 // and Reset at random points, duplicates, controller loss and take-over, silence (deadman), card
-// faults at random cycles (DetCard's menu) and arm outcomes (done, fault, disconnect, a controller
+// faults at random cycles (DetCard's menu), a slow state store, and arm outcomes (done, fault, disconnect, a controller
 // that resets mid-task). The loop runs by hand (EngineOptions::manual_loop), so a seed replays
 // exactly. After every command and every cycle the invariants below are checked.
 //
@@ -48,6 +48,8 @@ class World {
     config_.safety.deadman_timeout_s = 0.05;
     config_.control.motion_timeout_margin_s = 0.2;
     config_.safety.arm_task_timeout_s = 1.0;
+    // A slow state store on some seeds: saves lag behind (writer thread); nothing may wait on it.
+    if (seed % 5 == 0) config_.state.debug_write_delay_ms = static_cast<int>(1 + seed % 3);
     card_.now_ns = &now_;
     card_.tick = &tick_;
     card_.left_axis = config_.base.left.card_axis;

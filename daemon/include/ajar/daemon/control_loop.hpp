@@ -30,7 +30,8 @@
 //   5. supervision: card not answering, alarm, following error, limits, deadman, motion deadline
 //      -> smooth stop + latched fault; completion (both axes at rest and in position); end of a
 //      stop (both at rest; a stop overrunning its own deadline becomes an emergency stop);
-//   6. statistics and the published snapshot (seqlock).
+//   6. the published snapshot (seqlock). The thread then records the cycle's timing (deadline,
+//      wake-up, end) in statistics(): readable from any other thread.
 // Card errors on this path are ErrorCodes only; text is made on the I/O side.
 //
 // Reports (motion finished/stopped, move refused/cancelled, fault, recovered) go back through a
@@ -115,7 +116,6 @@ struct LoopSnapshot {
   // latched, kActive while both wheel axes report servo on, else kInactive.
   drivers::LifecycleState card_state = drivers::LifecycleState::kInactive;
   std::uint64_t reports_dropped = 0;
-  protocol::LoopStatistics statistics;
 };
 
 // Trapezoid profile for the wheels from the base's wheel speed/acceleration limits (rad/s,
@@ -156,6 +156,9 @@ class ControlLoop {
   // ---- any thread ----
   void heartbeat(std::int64_t now_ns) noexcept;  // the controller is alive
   LoopSnapshot snapshot() const noexcept { return published_.load(); }
+  // The loop's timing (wake-up latency, execution time, period); see loop_statistics.hpp.
+  LoopStatisticsRecorder& statistics() noexcept { return statistics_; }
+  const LoopStatisticsRecorder& statistics() const noexcept { return statistics_; }
   // True while the thread completes cycles: the last one ended within max(10 periods, 20 ms).
   bool healthy(std::int64_t now_ns) const noexcept;
 
@@ -233,7 +236,6 @@ class ControlLoop {
   std::int64_t recovery_deadline_ns_ = 0;
   bool have_origin_ = false;
   std::int64_t origin_counts_[2] = {0, 0};
-  std::int64_t previous_cycle_ns_ = -1;
   std::uint64_t reports_dropped_ = 0;
   LoopStatisticsRecorder statistics_;
   LoopSnapshot snapshot_;
