@@ -313,6 +313,7 @@ TEST_F(EngineTest, WelcomeAndHealth) {
   EXPECT_EQ(w.loop_rate_hz, 250.0F);
   EXPECT_EQ(w.max_door_width_m, static_cast<float>(config.limits.max_door_width_m));
   EXPECT_GT(w.daemon_version.length, 0);
+  EXPECT_EQ(w.driver_kind, protocol::DriverKind::kMock);  // config.drivers.kind
   EXPECT_TRUE(wait_for([&] { return engine->control_loop_healthy(); }));
   // Ping, GetStatus and Subscribe are the session hub's: the engine refuses them.
   expect_refused(send(protocol::Ping{42}), ErrorCode::kWrongState);
