@@ -18,6 +18,7 @@
 
 #include "ajar/daemon/cli.hpp"
 #include "ajar/daemon/logging.hpp"
+#include "ajar/daemon/realtime.hpp"
 #include "ajar/daemon/server.hpp"
 #include "ajar/daemon/systemd_notify.hpp"
 #include "ajar/drivers/factory.hpp"
@@ -60,6 +61,10 @@ class Runner {
       engine_->start();
       for (const auto& w : engine_->startup_warnings())
         spdlog::warn("{}", w);
+      spdlog::info("realtime: {}",
+                   describe_realtime({config_.control.realtime, config_.control.priority,
+                                      config_.control.lock_memory},
+                                     realtime_granted()));
       server_->start();
       if (!options_.port_file.empty()) {
         write_file_atomically(options_.port_file, std::to_string(port_) + "\n");

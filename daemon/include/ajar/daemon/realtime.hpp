@@ -21,7 +21,21 @@ struct RealtimeRequest {
 
 // Applies what is requested to the calling thread/process. Returns one warning per refused item,
 // e.g. "control.realtime: SCHED_FIFO priority 80 refused (Operation not permitted); running with
-// normal scheduling". Empty when everything was granted (or nothing requested).
+// normal scheduling". Empty when everything was granted (or nothing requested). Records what the
+// thread really got (read back from the kernel) for realtime_granted().
 std::vector<std::string> apply_realtime(const RealtimeRequest& request);
+
+// What the last apply_realtime() obtained: the calling (control) thread's policy and priority as
+// the kernel reports them, and whether mlockall succeeded. Before any call: SCHED_OTHER, unlocked.
+struct RealtimeGranted {
+  int policy = 0;  // SCHED_OTHER, SCHED_FIFO, SCHED_RR (<sched.h>)
+  int priority = 0;
+  bool memory_locked = false;
+};
+RealtimeGranted realtime_granted() noexcept;
+// One line for the start-up log, e.g. "control thread SCHED_FIFO priority 80; memory locked
+// (mlockall, 9.8 MiB resident locked)" or "control thread SCHED_OTHER (control.realtime: false);
+// memory not locked (control.lock_memory: false)". Reads /proc/self/status for the locked size.
+std::string describe_realtime(const RealtimeRequest& requested, const RealtimeGranted& granted);
 
 }  // namespace ajar::daemon
