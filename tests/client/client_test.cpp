@@ -414,8 +414,8 @@ TEST(Ajarctl, AlignWaitTimeoutSendsStopAndWaitsForItsAck) {
     const auto type = protocol::type_of(e.message);
     if (type == MessageType::kGetStatus) {
       protocol::Status status;
-      status.state = stopped ? protocol::ProcedureState::kReadyToAlign
-                             : protocol::ProcedureState::kAligning;
+      status.state =
+          stopped ? protocol::ProcedureState::kReadyToAlign : protocol::ProcedureState::kAligning;
       return {{e.request_id, 0, status}};
     }
     if (type == MessageType::kStop) stopped = true;
