@@ -52,6 +52,8 @@ class Runner {
 
   int run() {
     try {
+      prepare_process({config_.control.realtime, config_.control.priority,
+                       config_.control.lock_memory});  // before the engine starts threads
       engine_ = options_.make_engine ? options_.make_engine(config_) : make_engine(config_);
       // The server installs the engine's event sink: before engine.start().
       server_ = std::make_unique<Server>(io_, *engine_, ServerOptions::from(config_.network));
