@@ -93,7 +93,8 @@ class EngineImpl final : public Engine {
     if (!drivers.card || !drivers.arm) throw StartupError("drivers: card and arm are required");
     const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
     loop_ = std::make_unique<ControlLoop>(
-        std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes),
+        std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
+                                                     config.drivers.card.poll_timeout_ms),
         loop_settings(config));
     arm_ = std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm));
   }

@@ -5,7 +5,8 @@
 // a bare fan-out server (one thread writing the same Telemetry frame to 256 sockets every 10 ms),
 // sessions dropped, the daemon's CPU. Footprint: RSS idle, after one procedure, with 256 sessions;
 // exec -> serving (spawn until a Hello is answered), median of several starts.
-// With --fifo the daemons run with control.realtime (SCHED_FIFO) and lock_memory.
+// With --fifo the daemons run with control.realtime (SCHED_FIFO) and lock_memory; with
+// --no-controller the controller stays connected but idle (to tell its commands' cost apart).
 #include <netinet/in.h>
 #include <sys/epoll.h>
 #include <sys/socket.h>
@@ -192,11 +193,13 @@ class BareFanout {
 int main(int argc, char** argv) {
   using namespace ajar::bench;
   using namespace ajar::protocol;
-  bool fifo = false;
+  bool fifo = false, with_controller = true;
   std::vector<char*> rest;
   for (int i = 0; i < argc; ++i) {
     if (std::string(argv[i]) == "--fifo")
       fifo = true;
+    else if (std::string(argv[i]) == "--no-controller")  // diagnosis: observers only
+      with_controller = false;
     else
       rest.push_back(argv[i]);
   }
@@ -274,7 +277,7 @@ int main(int argc, char** argv) {
     const std::int64_t t0 = now_ns();
     std::thread ctl([&] {
       double yaw = 0.05;
-      while (!stop) {
+      while (!stop && with_controller) {
         if (align_once(controller, yaw)) ++aligned;
         yaw = -yaw;
       }
