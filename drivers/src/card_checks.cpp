@@ -71,6 +71,35 @@ ErrorCode check_move(std::span<const AxisMove> moves, const TrapezoidProfile& pr
   return ErrorCode::kOk;
 }
 
+ErrorCode check_jog(std::span<const AxisVelocity> axes, const JogProfile& profile, int axis_count,
+                    CardFailure& failure) noexcept {
+  constexpr const char* kCall = "jog";
+  if (axes.empty()) return fail(failure, ErrorCode::kCardBadParameter, kCall, 0, "no axis to jog");
+  unsigned long long seen = 0;
+  for (const AxisVelocity& a : axes) {
+    if (const auto e = check_next_axis(a.axis, axis_count, seen, kCall, failure);
+        e != ErrorCode::kOk) {
+      return e;
+    }
+    if (!std::isfinite(a.velocity_counts_per_ms)) {
+      return fail(failure, ErrorCode::kCardBadParameter, kCall, a.axis,
+                  "velocity_counts_per_ms must be finite");
+    }
+  }
+  if (!positive(profile.acceleration_counts_per_ms2)) {
+    return fail(failure, ErrorCode::kCardBadParameter, kCall, 0,
+                "acceleration_counts_per_ms2 must be finite and > 0");
+  }
+  if (!positive(profile.deceleration_counts_per_ms2)) {
+    return fail(failure, ErrorCode::kCardBadParameter, kCall, 0,
+                "deceleration_counts_per_ms2 must be finite and > 0");
+  }
+  if (!(profile.smooth >= 0 && profile.smooth < 1)) {
+    return fail(failure, ErrorCode::kCardBadParameter, kCall, 0, "smooth must be within [0, 1)");
+  }
+  return ErrorCode::kOk;
+}
+
 ErrorCode check_can_move(const AxisStatus& st, int axis, std::int64_t direction, const char* call,
                          CardFailure& failure) noexcept {
   if (st.alarm) return fail(failure, ErrorCode::kAxisAlarm, call, axis, "drive alarm");

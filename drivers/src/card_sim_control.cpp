@@ -32,6 +32,10 @@ GtsSimControl::GtsSimControl(const std::string& library_path) {
   try {
     reset = resolve<AjarSim_Reset_t>(handle_, "AjarSim_Reset", library_path);
     set_time_scale = resolve<AjarSim_SetTimeScale_t>(handle_, "AjarSim_SetTimeScale", library_path);
+    set_manual_clock =
+        resolve<AjarSim_SetManualClock_t>(handle_, "AjarSim_SetManualClock", library_path);
+    advance_clock_ns =
+        resolve<AjarSim_AdvanceClockNs_t>(handle_, "AjarSim_AdvanceClockNs", library_path);
     inject_fault_raw = resolve<AjarSim_InjectFault_t>(handle_, "AjarSim_InjectFault", library_path);
     fail_next_calls =
         resolve<AjarSim_FailNextCalls_t>(handle_, "AjarSim_FailNextCalls", library_path);

@@ -2,6 +2,7 @@
 
 #include <dlfcn.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -78,6 +79,8 @@ struct GtsMotionCard::Api {
   gts::GT_AxisOff_t axis_off;
   gts::GT_PrfTrap_t prf_trap;
   gts::GT_SetTrapPrm_t set_trap_prm;
+  gts::GT_PrfJog_t prf_jog;
+  gts::GT_SetJogPrm_t set_jog_prm;
   gts::GT_SetPos_t set_pos;
   gts::GT_SetVel_t set_vel;
   gts::GT_Update_t update;
@@ -112,6 +115,8 @@ GtsMotionCard::GtsMotionCard(GtsCardSettings settings) : settings_(std::move(set
         resolve<gts::GT_AxisOff_t>(handle_, "GT_AxisOff", path),
         resolve<gts::GT_PrfTrap_t>(handle_, "GT_PrfTrap", path),
         resolve<gts::GT_SetTrapPrm_t>(handle_, "GT_SetTrapPrm", path),
+        resolve<gts::GT_PrfJog_t>(handle_, "GT_PrfJog", path),
+        resolve<gts::GT_SetJogPrm_t>(handle_, "GT_SetJogPrm", path),
         resolve<gts::GT_SetPos_t>(handle_, "GT_SetPos", path),
         resolve<gts::GT_SetVel_t>(handle_, "GT_SetVel", path),
         resolve<gts::GT_Update_t>(handle_, "GT_Update", path),
@@ -157,6 +162,7 @@ Status GtsMotionCard::open() {
     return s;
   }
   open_ = true;
+  std::fill(std::begin(jog_mode_), std::end(jog_mode_), false);  // GT_Reset: no profile mode
   Status s = [&]() -> Status {
     if (auto r = start_up_call(api_->reset(), "GT_Reset"); !r) return r;
     if (!settings_.card_config_path.empty()) {
@@ -252,6 +258,7 @@ ErrorCode GtsMotionCard::move_relative(std::span<const AxisMove> moves,
     if (const auto e = call(api_->prf_trap(axis), "GT_PrfTrap", m.axis); e != ErrorCode::kOk) {
       return e;
     }
+    jog_mode_[m.axis] = false;
     if (const auto e = call(api_->set_trap_prm(axis, &prm), "GT_SetTrapPrm", m.axis);
         e != ErrorCode::kOk) {
       return e;
@@ -277,6 +284,51 @@ ErrorCode GtsMotionCard::move_relative(std::span<const AxisMove> moves,
       return e;
     }
     mask |= gts::axis_mask(m.axis);
+  }
+  return call(api_->update(mask), "GT_Update", 0);
+}
+
+ErrorCode GtsMotionCard::jog(std::span<const AxisVelocity> axes,
+                             const JogProfile& profile) noexcept {
+  if (const auto e = check_open("jog"); e != ErrorCode::kOk) return e;
+  if (const auto e = card::check_jog(axes, profile, settings_.axis_count, last_);
+      e != ErrorCode::kOk) {
+    return e;
+  }
+  for (const AxisVelocity& v : axes) {  // refuse with a named error before anything is commanded
+    long sts = 0;
+    if (const auto e =
+            call(api_->get_sts(static_cast<short>(v.axis), &sts, 1, nullptr), "GT_GetSts", v.axis);
+        e != ErrorCode::kOk) {
+      return e;
+    }
+    const std::int64_t direction =
+        v.velocity_counts_per_ms > 0 ? 1 : (v.velocity_counts_per_ms < 0 ? -1 : 0);
+    if (const auto e = card::check_can_move(decode_status(sts), v.axis, direction, "jog", last_);
+        e != ErrorCode::kOk) {
+      return e;
+    }
+  }
+  gts::TJogPrm prm{profile.acceleration_counts_per_ms2, profile.deceleration_counts_per_ms2,
+                   profile.smooth};
+  long mask = 0;
+  for (const AxisVelocity& v : axes) {
+    const auto axis = static_cast<short>(v.axis);
+    if (!jog_mode_[v.axis]) {
+      if (const auto e = call(api_->prf_jog(axis), "GT_PrfJog", v.axis); e != ErrorCode::kOk) {
+        return e;
+      }
+      jog_mode_[v.axis] = true;
+    }
+    if (const auto e = call(api_->set_jog_prm(axis, &prm), "GT_SetJogPrm", v.axis);
+        e != ErrorCode::kOk) {
+      return e;
+    }
+    if (const auto e = call(api_->set_vel(axis, v.velocity_counts_per_ms), "GT_SetVel", v.axis);
+        e != ErrorCode::kOk) {
+      return e;
+    }
+    mask |= gts::axis_mask(v.axis);
   }
   return call(api_->update(mask), "GT_Update", 0);
 }

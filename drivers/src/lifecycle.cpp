@@ -267,6 +267,12 @@ ErrorCode ManagedMotionCard::move_relative(std::span<const AxisMove> moves,
   return track(impl_->move_relative(moves, profile));
 }
 
+ErrorCode ManagedMotionCard::jog(std::span<const AxisVelocity> axes,
+                                 const JogProfile& profile) noexcept {
+  if (state_ != LifecycleState::kActive) return refuse("jog");
+  return track(impl_->jog(axes, profile));
+}
+
 ErrorCode ManagedMotionCard::smooth_stop(std::span<const int> axes) noexcept {
   return track(impl_->smooth_stop(axes));
 }

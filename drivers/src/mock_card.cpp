@@ -17,68 +17,57 @@ MockMotionCard::MockMotionCard(MockFault fault, int slow_ms, double time_scale, 
       axis_count_(std::clamp(axis_count, 1, 32)),
       axes_(static_cast<std::size_t>(axis_count_)) {}
 
-double MockMotionCard::now_ms() const noexcept {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - epoch_)
-             .count() *
-         time_scale_;
+std::int64_t MockMotionCard::now_ns() const noexcept {
+  if (manual_clock_) return manual_ns_;
+  const auto real_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                           std::chrono::steady_clock::now() - epoch_)
+                           .count();
+  return base_ns_ + std::llround(static_cast<double>(real_ns) * time_scale_);
 }
 
-MockMotionCard::Segment MockMotionCard::plan(double t0_ms, double p0, double v0, double vmax,
-                                             double acc, double dec, double distance,
-                                             int dir) noexcept {
-  Segment s;
-  s.t0_ms = t0_ms;
-  s.p0 = p0;
-  s.v0 = std::min(v0, vmax);
-  s.acc = acc;
-  s.dec = dec;
-  s.distance = distance;
-  s.dir = dir;
-  const double d_acc = (vmax * vmax - s.v0 * s.v0) / (2 * acc);
-  const double d_dec = vmax * vmax / (2 * dec);
-  if (d_acc + d_dec <= distance) {
-    s.vpeak = vmax;
-    s.t_cruise = (distance - d_acc - d_dec) / vmax;
-  } else {
-    s.vpeak = std::sqrt(
-        std::max(s.v0 * s.v0, (2 * acc * dec * distance + dec * s.v0 * s.v0) / (acc + dec)));
-    s.t_cruise = 0;
-  }
-  s.t_acc = (s.vpeak - s.v0) / acc;
-  s.t_dec = s.vpeak / dec;
-  return s;
+void MockMotionCard::set_manual_clock(bool manual) noexcept {
+  const std::int64_t now = now_ns();
+  manual_clock_ = manual;
+  manual_ns_ = now;
+  base_ns_ = now;
+  epoch_ = std::chrono::steady_clock::now();
 }
 
-double MockMotionCard::sample(Axis& a, double* speed) noexcept {
-  *speed = 0;
+void MockMotionCard::advance_clock_ns(std::int64_t ns) noexcept {
+  if (manual_clock_ && ns > 0) manual_ns_ += ns;
+}
+
+double MockMotionCard::sample(Axis& a, double* velocity) noexcept {
+  *velocity = 0;
   if (!a.moving || a.stuck) return a.rest_position;
-  const Segment& s = a.segment;
-  const double t = now_ms() - s.t0_ms;
-  double dist = 0;
-  if (t < s.t_acc) {
-    dist = s.v0 * t + s.acc * t * t / 2;
-    *speed = s.v0 + s.acc * t;
-  } else if (t < s.t_acc + s.t_cruise) {
-    dist = s.v0 * s.t_acc + s.acc * s.t_acc * s.t_acc / 2 + s.vpeak * (t - s.t_acc);
-    *speed = s.vpeak;
-  } else if (t < s.t_acc + s.t_cruise + s.t_dec) {
-    const double tau = t - s.t_acc - s.t_cruise;
-    dist = s.v0 * s.t_acc + s.acc * s.t_acc * s.t_acc / 2 + s.vpeak * s.t_cruise + s.vpeak * tau -
-           s.dec * tau * tau / 2;
-    *speed = s.vpeak - s.dec * tau;
-  } else {
+  const profile::Sample s = profile::sample(a.motion, now_ns());
+  if (s.done) {
     a.moving = false;
-    a.rest_position = s.p0 + s.dir * s.distance;
-    return a.rest_position;
+    a.rest_position = s.position;
+    return s.position;
   }
-  return s.p0 + s.dir * std::min(dist, s.distance);
+  *velocity = s.velocity;
+  return s.position;
 }
 
 void MockMotionCard::halt(Axis& a) noexcept {
-  double speed = 0;
-  a.rest_position = std::round(sample(a, &speed));
+  double velocity = 0;
+  a.rest_position = std::round(sample(a, &velocity));
   a.moving = false;
   a.stuck = false;
+}
+
+ErrorCode MockMotionCard::check_can_move(int n, double direction, const char* call) noexcept {
+  const Axis& a = axis(n);
+  AxisStatus st;
+  st.enabled = a.enabled;
+  st.alarm = a.alarm;
+  st.following_error = a.following_error;
+  st.positive_limit = a.positive_limit;
+  st.negative_limit = a.negative_limit;
+  st.emergency_stopped = a.emergency_stopped;
+  const std::int64_t sign = direction > 0 ? 1 : (direction < 0 ? -1 : 0);
+  return card::check_can_move(st, n, sign, call, last_);
 }
 
 ErrorCode MockMotionCard::enter(const char* call, bool realtime) noexcept {
@@ -123,7 +112,7 @@ void MockMotionCard::inject_following_error(int axis) {
 void MockMotionCard::inject_limit(int axis, bool positive) {
   if (axis < 1 || axis > axis_count_) return;
   Axis& a = axes_[static_cast<std::size_t>(axis - 1)];
-  if (a.moving && (a.segment.dir > 0) == positive) halt(a);
+  if (a.moving && (a.direction > 0) == positive) halt(a);
   (positive ? a.positive_limit : a.negative_limit) = true;
 }
 
@@ -187,31 +176,68 @@ ErrorCode MockMotionCard::move_relative(std::span<const AxisMove> moves,
   AJAR_MOCK_TRY(check_open("move_relative"));
   AJAR_MOCK_TRY(card::check_move(moves, profile, axis_count_, last_));
   for (const AxisMove& m : moves) {
-    const Axis& a = axis(m.axis);
-    AxisStatus st;
-    st.enabled = a.enabled;
-    st.alarm = a.alarm;
-    st.following_error = a.following_error;
-    st.positive_limit = a.positive_limit;
-    st.negative_limit = a.negative_limit;
-    st.emergency_stopped = a.emergency_stopped;
-    AJAR_MOCK_TRY(card::check_can_move(st, m.axis, m.distance_counts, "move_relative", last_));
+    AJAR_MOCK_TRY(check_can_move(m.axis, static_cast<double>(m.distance_counts), "move_relative"));
+    double velocity = 0;
+    Axis& a = axis(m.axis);
+    (void)sample(a, &velocity);
+    if (a.moving && a.jogging) {  // like the card: no mode change while the axis moves
+      return fail(last_, ErrorCode::kDriverError, "move_relative", m.axis,
+                  "axis is jogging: stop it first");
+    }
   }
-  const double t0 = now_ms();
+  const std::int64_t t0 = now_ns();
   for (const AxisMove& m : moves) {
     Axis& a = axis(m.axis);
-    double speed = 0;
-    const double here = sample(a, &speed);
+    double velocity = 0;
+    const double here = sample(a, &velocity);
     const double goal = std::round(here) + static_cast<double>(m.distance_counts);
-    const int dir = goal >= here ? 1 : -1;
-    if (a.moving && a.segment.dir != dir) speed = 0;
     a.smooth_stopped = false;
     a.stuck = fault_ == MockFault::kStuck;
+    a.jogging = false;
+    a.stop_dec = profile.deceleration_counts_per_ms2;
+    a.direction = goal >= here ? 1 : -1;
     a.rest_position = here;
-    a.moving = a.stuck || goal != here;
-    a.segment =
-        plan(t0, here, speed, profile.velocity_counts_per_ms, profile.acceleration_counts_per_ms2,
-             profile.deceleration_counts_per_ms2, std::fabs(goal - here), dir);
+    a.motion = profile::plan_trap(t0, here, velocity, goal, profile.velocity_counts_per_ms,
+                                  profile.acceleration_counts_per_ms2,
+                                  profile.deceleration_counts_per_ms2);
+    a.moving = true;
+    if (!a.stuck) (void)sample(a, &velocity);  // nothing to do: ends here
+  }
+  return ErrorCode::kOk;
+}
+
+ErrorCode MockMotionCard::jog(std::span<const AxisVelocity> axes,
+                              const JogProfile& profile) noexcept {
+  AJAR_MOCK_TRY(enter("jog", true));
+  AJAR_MOCK_TRY(check_open("jog"));
+  AJAR_MOCK_TRY(card::check_jog(axes, profile, axis_count_, last_));
+  for (const AxisVelocity& v : axes) {
+    AJAR_MOCK_TRY(check_can_move(v.axis, v.velocity_counts_per_ms, "jog"));
+    double velocity = 0;
+    Axis& a = axis(v.axis);
+    (void)sample(a, &velocity);
+    if (a.moving && !a.jogging) {  // like the card: no mode change while the axis moves
+      return fail(last_, ErrorCode::kDriverError, "jog", v.axis,
+                  "axis runs a trapezoidal move: stop it first");
+    }
+  }
+  const std::int64_t t0 = now_ns();
+  for (const AxisVelocity& v : axes) {
+    Axis& a = axis(v.axis);
+    double velocity = 0;
+    const double here = sample(a, &velocity);
+    a.smooth_stopped = false;
+    a.stuck = fault_ == MockFault::kStuck && v.velocity_counts_per_ms != 0;
+    a.jogging = true;
+    a.stop_dec = profile.deceleration_counts_per_ms2;
+    a.direction = v.velocity_counts_per_ms != 0 ? profile::sign(v.velocity_counts_per_ms)
+                                                : profile::sign(velocity);
+    a.rest_position = here;
+    a.motion =
+        profile::plan_jog(t0, here, velocity, v.velocity_counts_per_ms,
+                          profile.acceleration_counts_per_ms2, profile.deceleration_counts_per_ms2);
+    a.moving = true;
+    if (!a.stuck) (void)sample(a, &velocity);  // nothing to do: ends here
   }
   return ErrorCode::kOk;
 }
@@ -219,7 +245,7 @@ ErrorCode MockMotionCard::move_relative(std::span<const AxisMove> moves,
 ErrorCode MockMotionCard::smooth_stop(std::span<const int> axes) noexcept {
   AJAR_MOCK_TRY(enter("smooth_stop", true));
   AJAR_MOCK_TRY(check_open("smooth_stop"));
-  const double t0 = now_ms();
+  const std::int64_t t0 = now_ns();
   for (const int n : axes) {
     if (n < 1 || n > axis_count_) continue;
     Axis& a = axis(n);
@@ -229,11 +255,11 @@ ErrorCode MockMotionCard::smooth_stop(std::span<const int> axes) noexcept {
       halt(a);
       continue;
     }
-    double speed = 0;
-    const double here = sample(a, &speed);
+    double velocity = 0;
+    const double here = sample(a, &velocity);
     if (!a.moving) continue;
-    const double dec = a.segment.dec;
-    a.segment = plan(t0, here, speed, speed, dec, dec, speed * speed / (2 * dec), a.segment.dir);
+    a.motion = profile::plan_stop(t0, here, velocity, a.stop_dec);
+    (void)sample(a, &velocity);
   }
   return check_axes(axes, "smooth_stop");
 }

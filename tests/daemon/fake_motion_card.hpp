@@ -37,11 +37,14 @@ struct FakeCardControl {
   // Observations.
   int opens = 0;
   int move_calls = 0;
+  int jog_calls = 0;
   int smooth_stops = 0;
   int emergency_stops = 0;
   int clear_faults_calls = 0;
   std::vector<drivers::AxisMove> last_moves;
   drivers::TrapezoidProfile last_profile;
+  std::vector<drivers::AxisVelocity> last_jog;
+  drivers::JogProfile last_jog_profile;
   std::map<int, Axis> axes;
 
   template <typename F>
@@ -95,6 +98,28 @@ class FakeMotionCard final : public drivers::MotionCard {
       a.moving = true;
       a.remaining = c_->status_reads_per_move;
       a.stop_in = -1;
+    }
+    return ErrorCode::kOk;
+  }
+  // A jog holds its velocity until a stop or a jog to 0 (which rests after 2 status reads); the
+  // position does not advance (tests observe what was commanded).
+  ErrorCode jog(std::span<const drivers::AxisVelocity> axes,
+                const drivers::JogProfile& profile) noexcept override {
+    std::lock_guard lock(c_->mutex);
+    ++c_->jog_calls;
+    c_->last_jog.assign(axes.begin(), axes.end());
+    c_->last_jog_profile = profile;
+    if (c_->fail_move) return ErrorCode::kCardBadParameter;
+    for (const auto& v : axes) {
+      auto& a = c_->axes[v.axis];
+      a.target = a.position;
+      if (v.velocity_counts_per_ms != 0) {
+        a.moving = true;
+        a.remaining = 1 << 30;
+        a.stop_in = -1;
+      } else if (a.moving && a.stop_in < 0) {
+        a.stop_in = 2;
+      }
     }
     return ErrorCode::kOk;
   }

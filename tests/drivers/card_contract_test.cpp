@@ -35,6 +35,8 @@ struct MockMaker {
   void alarm(int axis) { raw->inject_alarm(axis); }
   void following_error(int axis) { raw->inject_following_error(axis); }
   void limit(int axis, bool positive) { raw->inject_limit(axis, positive); }
+  void manual_clock() { raw->set_manual_clock(true); }
+  void advance_ms(double ms) { raw->advance_clock_ns(std::llround(ms * 1e6)); }
 };
 
 struct SimMaker {
@@ -50,6 +52,8 @@ struct SimMaker {
   void limit(int axis, bool positive) {
     sim->inject_fault(axis, positive ? SimFault::kPositiveLimit : SimFault::kNegativeLimit);
   }
+  void manual_clock() { sim->set_manual_clock(1); }
+  void advance_ms(double ms) { sim->advance_clock_ns(std::llround(ms * 1e6)); }
 };
 
 template <typename Inner>
@@ -304,6 +308,170 @@ TYPED_TEST(MotionCardContract, CloseThenReopen) {
   EXPECT_FALSE(status_of(*this->card_, 1).has_value());
   ASSERT_TRUE(this->card_->open().ok());
   EXPECT_TRUE(status_of(*this->card_, 1).has_value());
+}
+
+// --- velocity mode (jog) ---------------------------------------------------------------------
+// On a manual clock: positions are checked against the closed-form ramp (1 count of rounding).
+
+constexpr JogProfile kJog{0.01, 0.02, 0};  // 2 counts/ms reached in 200 ms, shed in 100 ms
+
+template <typename Maker>
+class JogContract : public MotionCardContract<Maker> {
+ protected:
+  void SetUp() override {
+    MotionCardContract<Maker>::SetUp();
+    this->open_and_enable();
+    this->maker_.manual_clock();
+  }
+  ErrorCode jog(double left, double right, const JogProfile& p = kJog) {
+    const AxisVelocity v[] = {{1, left}, {2, right}};
+    return this->card_->jog(v, p);
+  }
+  void advance_ms(double ms) { this->maker_.advance_ms(ms); }
+  double position(int axis) {
+    return static_cast<double>(this->status(axis).profile_position_counts);
+  }
+  // Jogs both wheels (+2, -2 counts/ms) until they cruise: at 300 ms, +-400 counts.
+  void cruise() {
+    ASSERT_EQ(jog(2, -2), ErrorCode::kOk) << failure_text(*this->card_);
+    advance_ms(300);
+    ASSERT_NEAR(position(1), 400, 1);
+    ASSERT_NEAR(position(2), -400, 1);
+  }
+};
+TYPED_TEST_SUITE(JogContract, Implementations, ImplementationNames);
+
+TYPED_TEST(JogContract, RampRespectsTheAccelerationThenHoldsTheVelocity) {
+  ASSERT_EQ(this->jog(2, -2), ErrorCode::kOk) << failure_text(*this->card_);
+  this->advance_ms(100);  // accelerating: 0.5 * 0.01 * 100^2
+  EXPECT_NEAR(this->position(1), 50, 1);
+  EXPECT_NEAR(this->position(2), -50, 1);
+  EXPECT_TRUE(this->status(1).moving);
+  this->advance_ms(100);  // 2 counts/ms reached
+  EXPECT_NEAR(this->position(1), 200, 1);
+  this->advance_ms(1000);  // held: 2 counts/ms for 1 s
+  EXPECT_NEAR(this->position(1), 2200, 1);
+  EXPECT_NEAR(this->position(2), -2200, 1);
+  EXPECT_TRUE(this->status(2).moving);
+  EXPECT_FALSE(this->status(1).in_position);
+}
+
+TYPED_TEST(JogContract, ANewVelocityRampsFromTheCurrentOne) {
+  this->cruise();
+  ASSERT_EQ(this->jog(3, -1), ErrorCode::kOk);  // left speeds up, right slows down
+  this->advance_ms(50);
+  EXPECT_NEAR(this->position(1), 400 + 2 * 50 + 0.5 * 0.01 * 50 * 50, 1);
+  EXPECT_NEAR(this->position(2), -400 - (2 * 50 - 0.5 * 0.02 * 50 * 50), 1);
+  this->advance_ms(1000);  // left at 3 after 100 ms, right at 1 after 50 ms
+  EXPECT_NEAR(this->position(1), 400 + 250 + 3 * 950, 1);
+  EXPECT_NEAR(this->position(2), -400 - 75 - 1 * 1000, 1);
+}
+
+TYPED_TEST(JogContract, ZeroVelocityDeceleratesToRest) {
+  this->cruise();
+  ASSERT_EQ(this->jog(0, 0), ErrorCode::kOk);
+  this->advance_ms(50);  // 2 counts/ms shed at 0.02 counts/ms^2: 100 ms, 100 counts
+  EXPECT_NEAR(this->position(1), 400 + 75, 1);
+  EXPECT_TRUE(this->status(1).moving);
+  this->advance_ms(51);
+  const AxisStatus left = this->status(1);
+  const AxisStatus right = this->status(2);
+  EXPECT_FALSE(left.moving);
+  EXPECT_FALSE(right.moving);
+  EXPECT_NEAR(static_cast<double>(left.profile_position_counts), 500, 1);
+  EXPECT_NEAR(static_cast<double>(right.profile_position_counts), -500, 1);
+  this->advance_ms(1000);  // stays at rest
+  EXPECT_NEAR(this->position(1), 500, 1);
+  EXPECT_FALSE(left.emergency_stopped);
+}
+
+TYPED_TEST(JogContract, AReversalPassesThroughRestAtTheDeceleration) {
+  this->cruise();
+  ASSERT_EQ(this->jog(-2, 2), ErrorCode::kOk);
+  this->advance_ms(100);  // decelerated to rest: +100 counts
+  EXPECT_NEAR(this->position(1), 500, 1);
+  this->advance_ms(200);  // accelerated to -2: -200 counts
+  EXPECT_NEAR(this->position(1), 300, 1);
+  EXPECT_NEAR(this->position(2), -300, 1);
+}
+
+TYPED_TEST(JogContract, SmoothStopEndsAJogAlongItsDeceleration) {
+  this->cruise();
+  ASSERT_EQ(this->card_->smooth_stop(kWheels), ErrorCode::kOk);
+  this->advance_ms(101);
+  const AxisStatus st = this->status(1);
+  EXPECT_FALSE(st.moving);
+  EXPECT_TRUE(st.smooth_stopped);
+  EXPECT_FALSE(st.emergency_stopped);
+  EXPECT_NEAR(static_cast<double>(st.profile_position_counts), 500, 1);
+  EXPECT_NEAR(this->position(2), -500, 1);
+  this->advance_ms(1000);
+  EXPECT_NEAR(this->position(1), 500, 1);
+  EXPECT_EQ(this->jog(1, 1), ErrorCode::kOk);  // a smooth stop does not block the next jog
+}
+
+TYPED_TEST(JogContract, EmergencyStopEndsAJogAtOnceAndLatches) {
+  this->cruise();
+  ASSERT_EQ(this->card_->emergency_stop(kWheels), ErrorCode::kOk);
+  const AxisStatus st = this->status(1);
+  EXPECT_FALSE(st.moving);
+  EXPECT_TRUE(st.emergency_stopped);
+  this->advance_ms(1000);
+  EXPECT_NEAR(this->position(1), 400, 1);
+  EXPECT_EQ(this->jog(1, 1), ErrorCode::kEmergencyStopped);
+  EXPECT_NEAR(this->position(1), 400, 1);
+  ASSERT_EQ(this->card_->clear_faults(kWheels), ErrorCode::kOk);
+  ASSERT_EQ(this->jog(1, 1), ErrorCode::kOk);
+  this->advance_ms(200);
+  EXPECT_GT(this->position(1), 400);
+}
+
+TYPED_TEST(JogContract, JogAndTrapezoidDoNotMixWhileMoving) {
+  this->cruise();
+  const AxisMove moves[] = {{1, 100}};
+  EXPECT_EQ(this->card_->move_relative(moves, TrapezoidProfile{}), ErrorCode::kDriverError);
+  EXPECT_EQ(this->card_->last_failure().axis, 1);
+  ASSERT_EQ(this->card_->smooth_stop(kWheels), ErrorCode::kOk);
+  this->advance_ms(200);
+  const double rest = this->position(1);
+  ASSERT_EQ(this->card_->move_relative(moves, TrapezoidProfile{10, 1, 1, 0}), ErrorCode::kOk);
+  EXPECT_EQ(this->jog(1, 1), ErrorCode::kDriverError);  // the move runs
+  this->advance_ms(1000);
+  EXPECT_EQ(this->position(1), rest + 100);
+  EXPECT_EQ(this->jog(1, 1), ErrorCode::kOk);  // at rest: the mode may change
+}
+
+TYPED_TEST(JogContract, BadParametersAreRefusedAndNothingMoves) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const auto expect_bad = [&](std::span<const AxisVelocity> v, const JogProfile& p) {
+    EXPECT_EQ(this->card_->jog(v, p), ErrorCode::kCardBadParameter) << failure_text(*this->card_);
+  };
+  const AxisVelocity ok[] = {{1, 1}};
+  const AxisVelocity axis0[] = {{0, 1}};
+  const AxisVelocity twice[] = {{1, 1}, {1, 1}};
+  const AxisVelocity not_finite[] = {{1, nan}};
+  expect_bad({}, kJog);
+  expect_bad(axis0, kJog);
+  expect_bad(twice, kJog);
+  expect_bad(not_finite, kJog);
+  expect_bad(ok, JogProfile{0, 0.1, 0});
+  expect_bad(ok, JogProfile{0.1, nan, 0});
+  expect_bad(ok, JogProfile{0.1, 0.1, 1.0});
+  expect_bad(ok, JogProfile{0.1, 0.1, -0.1});
+  this->advance_ms(100);
+  EXPECT_FALSE(this->status(1).moving);
+  EXPECT_EQ(this->position(1), 0);
+}
+
+TYPED_TEST(JogContract, LimitsAndAlarmsRefuseAJogIntoThem) {
+  this->maker_.limit(1, false);
+  EXPECT_EQ(this->jog(-1, 0), ErrorCode::kLimitHit);
+  EXPECT_EQ(this->card_->last_failure().axis, 1);
+  ASSERT_EQ(this->jog(1, 0), ErrorCode::kOk);  // away from the limit
+  this->advance_ms(100);
+  EXPECT_GT(this->position(1), 0);
+  this->maker_.alarm(2);
+  EXPECT_EQ(this->jog(1, 1), ErrorCode::kAxisAlarm);
 }
 
 }  // namespace

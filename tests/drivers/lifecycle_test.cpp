@@ -206,6 +206,9 @@ TEST(ManagedCardOpen, AFailedConfigureStaysUnconfigured) {
     ErrorCode move_relative(std::span<const AxisMove>, const TrapezoidProfile&) noexcept override {
       return ErrorCode::kOk;
     }
+    ErrorCode jog(std::span<const AxisVelocity>, const JogProfile&) noexcept override {
+      return ErrorCode::kOk;
+    }
     ErrorCode smooth_stop(std::span<const int>) noexcept override { return ErrorCode::kOk; }
     ErrorCode emergency_stop(std::span<const int>) noexcept override { return ErrorCode::kOk; }
     ErrorCode axis_status(int, AxisStatus&) noexcept override { return ErrorCode::kOk; }

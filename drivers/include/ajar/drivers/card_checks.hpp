@@ -25,6 +25,11 @@ ErrorCode check_axes(std::span<const int> axes, int axis_count, const char* call
 ErrorCode check_move(std::span<const AxisMove> moves, const TrapezoidProfile& profile,
                      int axis_count, CardFailure& failure) noexcept;
 
+// axes non-empty with valid, distinct axes and finite velocities; acceleration and deceleration
+// finite and > 0; smooth within 0 <= smooth < 1. Else kCardBadParameter naming the field.
+ErrorCode check_jog(std::span<const AxisVelocity> axes, const JogProfile& profile, int axis_count,
+                    CardFailure& failure) noexcept;
+
 // Whether an axis in this state may start a motion in `direction` (sign: > 0 positive, < 0
 // negative, 0 none): kAxisAlarm, kFollowingError, kLimitHit (limit active in the direction of
 // the motion), kEmergencyStopped (latched until faults are cleared), kDriverError (servo off).

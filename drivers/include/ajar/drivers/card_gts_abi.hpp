@@ -22,6 +22,14 @@ struct TTrapPrm {
   short smoothTime;
 };
 
+// GT_SetJogPrm's parameter block (gts.h TJogPrm): acc/dec in pulses/ms^2 (speeding up / slowing
+// down), smooth the jog smoothing coefficient (0 <= smooth < 1; 0 = none).
+struct TJogPrm {
+  double acc;
+  double dec;
+  double smooth;
+};
+
 // Function types, one per vendor call (the defaults of gts.h are passed explicitly by the driver).
 using GT_Open_t = short (*)(short channel, short param);
 using GT_Close_t = short (*)();
@@ -32,7 +40,12 @@ using GT_AxisOn_t = short (*)(short axis);
 using GT_AxisOff_t = short (*)(short axis);
 using GT_PrfTrap_t = short (*)(short profile);
 using GT_SetTrapPrm_t = short (*)(short profile, TTrapPrm* pPrm);
+// Velocity (jog) mode: GT_PrfJog selects it; GT_SetVel's velocity is then signed (the sign is the
+// direction); GT_Update(mask) starts the new velocities of the axes in the mask together.
+using GT_PrfJog_t = short (*)(short profile);
+using GT_SetJogPrm_t = short (*)(short profile, TJogPrm* pPrm);
 using GT_SetPos_t = short (*)(short profile, long pos);
+// Trap mode: the cruise velocity (> 0); jog mode: the target velocity (signed).
 using GT_SetVel_t = short (*)(short profile, double vel);
 using GT_Update_t = short (*)(long mask);
 using GT_GetSts_t = short (*)(short axis, long* pSts, short count, unsigned long* pClock);

@@ -54,8 +54,12 @@ class GtsMotionCard final : public MotionCard {
   // then one GT_Update(mask) so that the axes start together.
   ErrorCode move_relative(std::span<const AxisMove> moves,
                           const TrapezoidProfile& profile) noexcept override;
-  // GT_Stop(mask, 0). An empty list is a no-op; invalid axes are reported after the valid ones
-  // were stopped.
+  // Status check per axis (like move_relative); then per axis GT_PrfJog (unless the driver put the
+  // axis in jog mode already: the card refuses a mode change while the axis moves),
+  // GT_SetJogPrm, GT_SetVel(signed velocity); then one GT_Update(mask).
+  ErrorCode jog(std::span<const AxisVelocity> axes, const JogProfile& profile) noexcept override;
+  // GT_Stop(mask, 0): the card decelerates along the mode's deceleration. An empty list is a no-op;
+  // invalid axes are reported after the valid ones were stopped.
   ErrorCode smooth_stop(std::span<const int> axes) noexcept override;
   ErrorCode emergency_stop(std::span<const int> axes) noexcept override;  // GT_Stop(mask, mask)
   // GT_GetSts, GT_GetPrfPos, GT_GetEncPos.
@@ -75,6 +79,7 @@ class GtsMotionCard final : public MotionCard {
   void* handle_ = nullptr;
   std::unique_ptr<Api> api_;
   bool open_ = false;
+  bool jog_mode_[9] = {};  // per axis 1..8: the driver selected jog mode (GT_PrfJog) last
   CardFailure last_;
 };
 

@@ -4,8 +4,11 @@
 // and inject faults. Load it with GtsSimControl (dlopen of the same file the driver loads: the
 // dynamic loader hands both the same instance, so both see one simulated card).
 //
-// Simulated time = the monotonic clock scaled by the time scale, advanced lazily on every call (no
-// thread). All AjarSim_* and GT_* calls are serialised by one mutex inside the simulator.
+// Simulated time (integer nanoseconds) = the monotonic clock scaled by the time scale, or a manual
+// clock that only AjarSim_AdvanceClockNs moves; brought up to date on every call (no thread).
+// Motion is evaluated in closed form at that time, so the call rate does not change a trajectory.
+// All AjarSim_* and GT_* calls are serialised by one mutex inside the simulator; none lets an
+// exception out.
 #pragma once
 
 #include <string>
@@ -27,6 +30,11 @@ extern "C" {
 using AjarSim_Reset_t = void (*)();
 // Simulated time runs `scale` times faster than the monotonic clock (> 0).
 using AjarSim_SetTimeScale_t = void (*)(double scale);
+// manual != 0: simulated time stands still except through AjarSim_AdvanceClockNs (deterministic
+// tests); 0: back to the scaled monotonic clock, continuing from the current simulated time.
+using AjarSim_SetManualClock_t = void (*)(int manual);
+// Manual clock only: moves simulated time forward by `ns` (> 0).
+using AjarSim_AdvanceClockNs_t = void (*)(long long ns);
 // Latches a fault on an axis (1..8); SimFault values.
 using AjarSim_InjectFault_t = void (*)(short axis, int fault);
 // The next `count` calls of `function` (e.g. "GT_GetSts"; nullptr or "*" = any GT_* call) return
@@ -56,6 +64,8 @@ class GtsSimControl {
 
   AjarSim_Reset_t reset = nullptr;
   AjarSim_SetTimeScale_t set_time_scale = nullptr;
+  AjarSim_SetManualClock_t set_manual_clock = nullptr;
+  AjarSim_AdvanceClockNs_t advance_clock_ns = nullptr;
   AjarSim_InjectFault_t inject_fault_raw = nullptr;
   AjarSim_FailNextCalls_t fail_next_calls = nullptr;
   AjarSim_SetCallDelayUs_t set_call_delay_us = nullptr;

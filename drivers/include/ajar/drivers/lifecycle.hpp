@@ -5,8 +5,8 @@
 //        ^------------------------cleanup()-----------------'
 //   any state --(an error from the implementation)--> fault --recover()--> unconfigured/inactive
 //
-// Motion calls (move_relative, hand_off, ...) are refused unless active: with kDriverNotActive when
-// unconfigured or inactive; a card in kFault refuses with the code that latched the fault (the
+// Motion calls (move_relative, jog, hand_off, ...) are refused unless active: with kDriverNotActive
+// when unconfigured or inactive; a card in kFault refuses with the code that latched the fault (the
 // root cause, e.g. kCardCommunication), so that a caller which latches what it is told reports
 // why the card is unusable rather than that it is. Stops (smooth_stop, emergency_stop, stop) are
 // always passed through: stopping is never refused.
@@ -88,6 +88,7 @@ class ManagedMotionCard final : public MotionCard {
   ErrorCode clear_faults(std::span<const int> axes) noexcept override;
   ErrorCode move_relative(std::span<const AxisMove> moves,
                           const TrapezoidProfile& profile) noexcept override;
+  ErrorCode jog(std::span<const AxisVelocity> axes, const JogProfile& profile) noexcept override;
   ErrorCode smooth_stop(std::span<const int> axes) noexcept override;
   ErrorCode emergency_stop(std::span<const int> axes) noexcept override;
   ErrorCode axis_status(int axis, AxisStatus& out) noexcept override;

@@ -1,7 +1,8 @@
 // MockMotionCard: the in-process MotionCard double for daemon tests and rehearsals. It behaves like
 // the GTS driver over the card simulator (same checks, same error codes, see gts_card.hpp) and
-// simulates trapezoidal motion analytically against the steady clock (scaled by time_scale), so a
-// control loop polling axis_status() sees moves complete after their simulated duration.
+// computes trapezoidal moves and jogs in closed form (motion_profile.hpp, the simulator's model)
+// against the steady clock (scaled by time_scale) or a manual test clock, so a control loop
+// polling axis_status() sees moves complete after their simulated duration.
 //
 // Fault menu (MockFault, settings.hpp):
 //   kOff          normal behaviour
@@ -21,6 +22,7 @@
 #include <vector>
 
 #include "ajar/drivers/motion_card.hpp"
+#include "ajar/drivers/motion_profile.hpp"
 #include "ajar/drivers/settings.hpp"
 
 namespace ajar::drivers {
@@ -38,6 +40,10 @@ class MockMotionCard final : public MotionCard {
   void inject_limit(int axis, bool positive);
   // Calls made so far (all of them).
   std::uint64_t calls() const noexcept { return calls_; }
+  // Test clock: manual = simulated time stands still except through advance_clock_ns();
+  // otherwise the steady clock x time_scale (continuing from the current simulated time).
+  void set_manual_clock(bool manual) noexcept;
+  void advance_clock_ns(std::int64_t ns) noexcept;
 
   Status open() override;
   Status close() override;
@@ -47,44 +53,45 @@ class MockMotionCard final : public MotionCard {
   ErrorCode clear_faults(std::span<const int> axes) noexcept override;
   ErrorCode move_relative(std::span<const AxisMove> moves,
                           const TrapezoidProfile& profile) noexcept override;
+  ErrorCode jog(std::span<const AxisVelocity> axes, const JogProfile& profile) noexcept override;
   ErrorCode smooth_stop(std::span<const int> axes) noexcept override;
   ErrorCode emergency_stop(std::span<const int> axes) noexcept override;
   ErrorCode axis_status(int axis, AxisStatus& out) noexcept override;
   CardFailure last_failure() const noexcept override { return last_; }
 
  private:
-  // One trapezoidal segment: from p0 at t0 with speed v0, towards p0 + dir * distance.
-  struct Segment {
-    double t0_ms = 0, p0 = 0, v0 = 0, vpeak = 0, acc = 1, dec = 1, distance = 0;
-    double t_acc = 0, t_cruise = 0, t_dec = 0;
-    int dir = 1;
-  };
   struct Axis {
     bool enabled = false, alarm = false, following_error = false;
     bool positive_limit = false, negative_limit = false;
     bool smooth_stopped = false, emergency_stopped = false;
     bool moving = false, stuck = false;
-    double rest_position = 0;
-    Segment segment;
+    bool jogging = false;      // the current motion is a jog (velocity mode)
+    double stop_dec = 0.1;     // the deceleration of the current motion (smooth stop)
+    double direction = 1;      // of the current (or last) motion, for limits
+    double rest_position = 0;  // while not moving
+    profile::Motion motion;
   };
 
-  double now_ms() const noexcept;
-  // Samples the segment at now; finishes motion that has ended. Returns position, sets speed.
-  double sample(Axis& a, double* speed) noexcept;
+  std::int64_t now_ns() const noexcept;
+  // Samples the motion at now; finishes motion that has ended. Returns position, sets velocity.
+  double sample(Axis& a, double* velocity) noexcept;
   void halt(Axis& a) noexcept;
+  // The state check before a move or jog of axis n in `direction` (sign).
+  ErrorCode check_can_move(int n, double direction, const char* call) noexcept;
   // Counts the call, applies kSlow, and (realtime calls) kErrorCode / kIntermittent.
   ErrorCode enter(const char* call, bool realtime) noexcept;
   ErrorCode check_open(const char* call) noexcept;
   ErrorCode check_axes(std::span<const int> axes, const char* call) noexcept;
   Axis& axis(int n) noexcept { return axes_[static_cast<std::size_t>(n - 1)]; }
-  static Segment plan(double t0_ms, double p0, double v0, double vmax, double acc, double dec,
-                      double distance, int dir) noexcept;
 
   MockFault fault_;
   int slow_ms_;
   double time_scale_;
   int axis_count_;
   std::chrono::steady_clock::time_point epoch_ = std::chrono::steady_clock::now();
+  std::int64_t base_ns_ = 0;  // simulated time at epoch_
+  bool manual_clock_ = false;
+  std::int64_t manual_ns_ = 0;
   bool open_ = false;
   std::uint64_t calls_ = 0;
   std::uint64_t fault_calls_ = 0;

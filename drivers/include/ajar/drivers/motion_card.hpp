@@ -52,6 +52,18 @@ struct TrapezoidProfile {
   double smooth_time_ms = 0;  // GTS smoothTime, 0..50
 };
 
+// One axis of a velocity-mode (jog) command.
+struct AxisVelocity {
+  int axis = 1;
+  double velocity_counts_per_ms = 0;  // signed: the sign is the direction; 0 = come to rest
+};
+
+struct JogProfile {
+  double acceleration_counts_per_ms2 = 0.1;  // while speeding up
+  double deceleration_counts_per_ms2 = 0.1;  // while slowing down (also towards 0 on a reversal)
+  double smooth = 0;                         // GTS jog smoothing coefficient, 0 <= smooth < 1
+};
+
 // The detail of a failed realtime call, without text. `call` and `what` point to string literals
 // (static storage: safe to copy into a report and read on another thread).
 struct CardFailure {
@@ -88,7 +100,15 @@ class MotionCard {
   // Trapezoidal relative move; all axes start together (one GT_Update with the axis mask).
   virtual ErrorCode move_relative(std::span<const AxisMove> moves,
                                   const TrapezoidProfile& profile) noexcept = 0;
-  // Decelerates the axes to rest along the profile's deceleration.
+  // Velocity mode (jog): each axis ramps from its current velocity to its target velocity
+  // (speeding up at the acceleration, slowing down at the deceleration, through rest on a
+  // reversal) and holds it until the next jog() or a stop; a velocity of 0 decelerates to rest.
+  // The axes are updated together (one GT_Update). Refused before anything is commanded like
+  // move_relative (kCardBadParameter for bad input, kAxisAlarm, kFollowingError, kLimitHit into
+  // an active limit, kEmergencyStopped, kDriverError servo off), and with kDriverError while an
+  // axis runs a trapezoidal move (stop it first); move_relative likewise refuses a jogging axis.
+  virtual ErrorCode jog(std::span<const AxisVelocity> axes, const JogProfile& profile) noexcept = 0;
+  // Decelerates the axes to rest along the deceleration of their motion (trap or jog).
   virtual ErrorCode smooth_stop(std::span<const int> axes) noexcept = 0;
   // Stops the axes at once (GTS emergency stop option).
   virtual ErrorCode emergency_stop(std::span<const int> axes) noexcept = 0;
