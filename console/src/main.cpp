@@ -134,7 +134,12 @@ Args parse(int argc, char** argv) {
       usage_error("unknown option " + o);
     }
   }
-  if (a.scenario.empty()) a.scenario = default_path("config/scenarios/console-door.yaml");
+  if (a.scenario.empty()) {
+    a.scenario = default_path("config/scenarios/console-door.yaml");
+    if (!std::filesystem::exists(a.scenario)) {
+      a.scenario = default_path("examples/scenarios/console-door.yaml");  // installed
+    }
+  }
   if (!std::filesystem::exists(std::filesystem::path(a.options.web_dir) / "index.html")) {
     a.options.web_dir = default_path("console/web");
   }
@@ -204,6 +209,12 @@ int main(int argc, char** argv) {
         std::cerr << "ajar-console: " << error << "\n";
         return 2;
       }
+    }
+    const auto& lh = a.options.listen_host;
+    if (lh.rfind("127.", 0) != 0 && lh != "::1") {
+      std::cerr << "ajar-console: warning: listening on " << lh
+                << " exposes the robot's controls without authentication to that network; "
+                   "prefer 127.0.0.1 and an SSH tunnel (docs/console.md)\n";
     }
     ajar::console::ConsoleServer server(a.options, std::move(source), sim);
     const auto port = server.listen();

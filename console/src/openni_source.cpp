@@ -123,9 +123,11 @@ class OpenNiSource final : public FrameSource {
     const auto* mm = static_cast<const std::uint8_t*>(depth_frame.getData());
     for (int y = 0; y < kHeight; ++y) {
       std::memcpy(out.rgb.data() + static_cast<std::size_t>(y) * kWidth * 3,
-                  rgb + static_cast<std::size_t>(y) * static_cast<std::size_t>(colour_frame.getStrideInBytes()),
+                  rgb + static_cast<std::size_t>(y) *
+                            static_cast<std::size_t>(colour_frame.getStrideInBytes()),
                   static_cast<std::size_t>(kWidth) * 3);
-      const auto* row = mm + static_cast<std::size_t>(y) * static_cast<std::size_t>(depth_frame.getStrideInBytes());
+      const auto* row = mm + static_cast<std::size_t>(y) *
+                                 static_cast<std::size_t>(depth_frame.getStrideInBytes());
       for (int x = 0; x < kWidth; ++x) {
         std::uint16_t v = 0;
         std::memcpy(&v, row + static_cast<std::size_t>(x) * 2, 2);

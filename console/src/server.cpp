@@ -123,8 +123,10 @@ std::string response_json(const client::Response& r) {
     o.add("ok", true);
     if (const auto* ack = r.get<protocol::Ack>()) {
       o.add("state", protocol::to_string(ack->state));
-      if (const auto* s = std::get_if<protocol::SpanAck>(&ack->body)) o.add_raw("values", span_json(*s));
-      if (const auto* p = std::get_if<protocol::PlaneAck>(&ack->body)) o.add_raw("values", plane_json(*p));
+      if (const auto* s = std::get_if<protocol::SpanAck>(&ack->body))
+        o.add_raw("values", span_json(*s));
+      if (const auto* p = std::get_if<protocol::PlaneAck>(&ack->body))
+        o.add_raw("values", plane_json(*p));
       if (const auto* c = std::get_if<protocol::ContactAck>(&ack->body)) {
         o.add_raw("values", contact_json(*c));
       }
@@ -209,10 +211,12 @@ Rgb8Image colourise_depth(const Frame& f) {
     std::array<double, 3> c{255, 0, 255};
     if (d > 0) {
       const double x = std::clamp((d - 0.4) / 3.6, 0.0, 1.0);
-      c = {255 * std::clamp(1.5 - 3 * x, 0.0, 1.0), 255 * std::clamp(1.5 - std::abs(3 * x - 1.5), 0.0, 1.0),
+      c = {255 * std::clamp(1.5 - 3 * x, 0.0, 1.0),
+           255 * std::clamp(1.5 - std::abs(3 * x - 1.5), 0.0, 1.0),
            255 * std::clamp(3 * x - 1.5, 0.0, 1.0)};
     }
-    for (std::size_t ch = 0; ch < 3; ++ch) img.rgb[i * 3 + ch] = static_cast<std::uint8_t>(c[ch]);
+    for (std::size_t ch = 0; ch < 3; ++ch)
+      img.rgb[i * 3 + ch] = static_cast<std::uint8_t>(c[ch]);
   }
   return img;
 }
@@ -293,8 +297,7 @@ class Worker {
 };
 
 struct WsSession {
-  explicit WsSession(tcp::socket socket)
-      : ws(std::move(socket)), wake(ws.get_executor()) {}
+  explicit WsSession(tcp::socket socket) : ws(std::move(socket)), wake(ws.get_executor()) {}
   websocket::stream<tcp::socket> ws;
   asio::steady_timer wake;
   struct Outgoing {
@@ -321,8 +324,8 @@ std::string content_type(const std::string& name) {
 bool safe_file_name(const std::string& name) {
   if (name.empty() || name[0] == '.') return false;
   return std::all_of(name.begin(), name.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-           c == '.' || c == '-' || c == '_';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' ||
+           c == '-' || c == '_';
   });
 }
 
@@ -391,8 +394,10 @@ struct ConsoleServer::Impl {
   void add_log(const std::string& text) {
     const std::string entry = now_hms() + "  " + text;
     log.push_back(entry);
-    while (log.size() > 200) log.pop_front();
-    broadcast_text(JsonObject().add("type", "log").add_raw("entries", json_array({json_string(entry)})).str());
+    while (log.size() > 200)
+      log.pop_front();
+    broadcast_text(
+        JsonObject().add("type", "log").add_raw("entries", json_array({json_string(entry)})).str());
   }
 
   // ---- Snapshot -------------------------------------------------------------------------------
@@ -402,7 +407,10 @@ struct ConsoleServer::Impl {
       std::vector<std::string> items;
       for (const auto& p : picks[s]) {
         JsonObject j;
-        j.add("u", p.u_px).add("v", p.v_px).add("camera_m", p.camera_m).add("from_window", p.from_window);
+        j.add("u", p.u_px)
+            .add("v", p.v_px)
+            .add("camera_m", p.camera_m)
+            .add("from_window", p.from_window);
         if (camera_to_base) j.add("base_m", camera_to_base->to_base(p.camera_m));
         items.push_back(j.str());
       }
@@ -448,14 +456,17 @@ struct ConsoleServer::Impl {
       std::vector<std::string> m;
       const Eigen::Matrix4d t = camera_to_base->isometry().matrix();
       for (int r = 0; r < 4; ++r) {
-        for (int c = 0; c < 4; ++c) m.push_back(json_number(t(r, c)));
+        for (int c = 0; c < 4; ++c)
+          m.push_back(json_number(t(r, c)));
       }
       o.add_raw("camera_to_base", json_array(m));
     } else {
       o.add_raw("camera_to_base", "null");
     }
     JsonObject src;
-    src.add("describe", source->describe()).add("error", source_error).add("simulated", sim != nullptr);
+    src.add("describe", source->describe())
+        .add("error", source_error)
+        .add("simulated", sim != nullptr);
     if (!frames.empty()) {
       src.add("width_px", frames.back()->frame.intrinsics.width_px)
           .add("height_px", frames.back()->frame.intrinsics.height_px)
@@ -476,7 +487,7 @@ struct ConsoleServer::Impl {
   // ---- Sending to pages ------------------------------------------------------------------------
   void enqueue(const std::shared_ptr<WsSession>& s, bool binary,
                std::shared_ptr<const std::string> data) {
-    if (s->closed) return;
+    if (s->closed || !data) return;
     if (binary) {
       if (s->frames_queued >= 2) return;  // a slow page skips frames, never text
       ++s->frames_queued;
@@ -486,7 +497,8 @@ struct ConsoleServer::Impl {
   }
   void broadcast_text(const std::string& text) {
     const auto data = std::make_shared<const std::string>(text);
-    for (const auto& s : sessions) enqueue(s, false, data);
+    for (const auto& s : sessions)
+      enqueue(s, false, data);
   }
   void mark_dirty() { state_dirty = true; }
 
@@ -563,7 +575,8 @@ struct ConsoleServer::Impl {
       error_code ec;
       http::request_parser<http::string_body> parser;
       parser.body_limit(4096);
-      co_await http::async_read(socket, buffer, parser, asio::redirect_error(asio::use_awaitable, ec));
+      co_await http::async_read(socket, buffer, parser,
+                                asio::redirect_error(asio::use_awaitable, ec));
       if (ec) co_return;
       req = parser.release();
       if (!host_allowed(req)) {
@@ -631,7 +644,8 @@ struct ConsoleServer::Impl {
       s->queue.pop_front();
       if (m.binary) --s->frames_queued;
       s->ws.binary(m.binary);
-      co_await s->ws.async_write(asio::buffer(*m.data), asio::redirect_error(asio::use_awaitable, ec));
+      co_await s->ws.async_write(asio::buffer(*m.data),
+                                 asio::redirect_error(asio::use_awaitable, ec));
       if (ec) {
         s->closed = true;
         break;
@@ -644,7 +658,8 @@ struct ConsoleServer::Impl {
     any_page = true;
     enqueue(s, false, std::make_shared<const std::string>(snapshot()));
     std::vector<std::string> entries;
-    for (const auto& e : log) entries.push_back(json_string(e));
+    for (const auto& e : log)
+      entries.push_back(json_string(e));
     enqueue(s, false,
             std::make_shared<const std::string>(
                 JsonObject().add("type", "log").add_raw("entries", json_array(entries)).str()));
@@ -732,8 +747,7 @@ struct ConsoleServer::Impl {
       mark_dirty();
     } else if (op == "send") {
       send_step(s);
-    } else if (op == "align" || op == "engage" || op == "reset" || op == "stop" ||
-               op == "estop") {
+    } else if (op == "align" || op == "engage" || op == "reset" || op == "stop" || op == "estop") {
       command(op, m->flag("clear").value_or(false));
     } else if (op == "take_over") {
       add_log("taking over control");
@@ -771,7 +785,10 @@ struct ConsoleServer::Impl {
       o.add("ok", false).add("field", p.error().field).add("message", p.error().message);
       return reply(s, o.str());
     }
-    o.add("ok", true).add("camera_m", p->camera_m).add("depth_m", p->depth_m).add("from_window", p->from_window);
+    o.add("ok", true)
+        .add("camera_m", p->camera_m)
+        .add("depth_m", p->depth_m)
+        .add("from_window", p->from_window);
     if (camera_to_base) o.add("base_m", camera_to_base->to_base(p->camera_m));
     reply(s, o.str());
   }
@@ -859,7 +876,8 @@ struct ConsoleServer::Impl {
         }
         protocol::MeasureDoorPlane plane;
         plane.count = static_cast<std::uint8_t>(list.size());
-        for (std::size_t i = 0; i < list.size(); ++i) plane.points[i] = framed(list[i]);
+        for (std::size_t i = 0; i < list.size(); ++i)
+          plane.points[i] = framed(list[i]);
         msg = plane;
         break;
       }
@@ -867,7 +885,8 @@ struct ConsoleServer::Impl {
         if (list.size() != 1) return notice(s, "contact: pick the contact point on the handle");
         msg = protocol::SetContactPoint{framed(list[0])};
         break;
-      case kStepCount: return;
+      case kStepCount:
+        return;
     }
     add_log(std::string("sending ") + std::string(protocol::to_string(protocol::type_of(msg))));
     worker->post([this, step, msg] {
@@ -906,8 +925,10 @@ struct ConsoleServer::Impl {
             std::string(protocol::to_string(protocol::type_of(msg))) +
             (clear ? " (clear parameters)" : ""));
     if (clear) {
-      for (auto& l : picks) l.clear();
-      for (auto& r : results) r.clear();
+      for (auto& l : picks)
+        l.clear();
+      for (auto& r : results)
+        r.clear();
       active = kWidth;
       mark_dirty();
     }
@@ -924,11 +945,13 @@ struct ConsoleServer::Impl {
     (urgent ? stop_worker : worker)->post(std::move(job));
   }
 
-  // ---- Heartbeat (deadman) gating and overlay ----------------------------------------------------
+  // ---- Heartbeat (deadman) gating and overlay
+  // ----------------------------------------------------
   void update_heartbeat() {
     const auto now = Clock::now();
     bool alive = false;
-    for (const auto& s : sessions) alive = alive || (now - s->last_alive < kPageAliveTimeout);
+    for (const auto& s : sessions)
+      alive = alive || (now - s->last_alive < kPageAliveTimeout);
     if (alive != heartbeat_on) {
       heartbeat_on = alive;
       std::chrono::milliseconds interval{0};
@@ -944,7 +967,8 @@ struct ConsoleServer::Impl {
   }
   void update_overlay() {
     bool want = false;
-    for (const auto& s : sessions) want = want || s->overlay;
+    for (const auto& s : sessions)
+      want = want || s->overlay;
     overlay_wanted = want;
   }
 
@@ -1026,7 +1050,8 @@ struct ConsoleServer::Impl {
   // ---- Frames (frame thread) -------------------------------------------------------------------
   void frame_loop() {
     const double rate = std::clamp(source->rate_hz(), 0.5, 60.0);
-    const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
+    const auto period =
+        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate));
     auto next = Clock::now();
     std::string last_error;
     while (!stopping) {
@@ -1042,7 +1067,8 @@ struct ConsoleServer::Impl {
         if (any_page) {
           const auto& k = entry->frame.intrinsics;
           entry->colour = frame_message(
-              1, entry->frame.sequence, encode_png_rgb8(Rgb8Image{k.width_px, k.height_px, entry->frame.rgb}, 1));
+              1, entry->frame.sequence,
+              encode_png_rgb8(Rgb8Image{k.width_px, k.height_px, entry->frame.rgb}, 1));
           if (overlay_wanted) {
             entry->depth = frame_message(2, entry->frame.sequence,
                                          encode_png_rgb8(colourise_depth(entry->frame), 1));
@@ -1050,7 +1076,8 @@ struct ConsoleServer::Impl {
         }
         on_io([this, entry] {
           frames.push_back(entry);
-          while (frames.size() > 6) frames.pop_front();
+          while (frames.size() > 6)
+            frames.pop_front();
           if (!source_error.empty()) {
             source_error.clear();
             mark_dirty();
@@ -1112,7 +1139,8 @@ std::uint16_t ConsoleServer::listen() {
   auto& d = *impl_;
   error_code ec;
   const auto address = asio::ip::make_address(d.options.listen_host, ec);
-  if (ec) throw std::runtime_error("--listen: '" + d.options.listen_host + "' is not an IP address");
+  if (ec)
+    throw std::runtime_error("--listen: '" + d.options.listen_host + "' is not an IP address");
   const tcp::endpoint ep(address, d.options.listen_port);
   d.acceptor.open(ep.protocol(), ec);
   if (!ec) d.acceptor.set_option(asio::socket_base::reuse_address(true), ec);

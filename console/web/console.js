@@ -278,6 +278,37 @@ $('btn-clear').onclick = () => send({ op: 'clear' });
 
 // ---- Command region --------------------------------------------------------------------------------
 
+// Jog: while a jog button or an arrow key is held the page sends a Drive request every 100 ms (the
+// daemon stops the base when they stop coming: the drive command timeout); releasing sends zero.
+const JOG = { fwd: [1, 0], back: [-1, 0], left: [0, 1], right: [0, -1] };
+const KEY_JOG = { ArrowUp: 'fwd', ArrowDown: 'back', ArrowLeft: 'left', ArrowRight: 'right' };
+let jogHeld = null;
+function jogStart(dir) {
+  if (!state || !state.features.drive || jogHeld === dir) return;
+  jogHeld = dir;
+  jogSend();
+}
+function jogSend() {
+  if (!jogHeld) return;
+  const m = state.model || {};
+  const [l, a] = JOG[jogHeld];
+  send({ op: 'drive', linear: l * 0.5 * (m.max_linear_speed_m_s || 0), angular: a * 0.5 * (m.max_angular_speed_rad_s || 0) });
+}
+function jogStop() {
+  if (!jogHeld) return;
+  jogHeld = null;
+  send({ op: 'drive', linear: 0, angular: 0 });
+}
+setInterval(jogSend, 100);
+document.querySelectorAll('[data-jog]').forEach((b) => {
+  b.addEventListener('mousedown', () => jogStart(b.dataset.jog));
+  b.addEventListener('mouseup', jogStop);
+  b.addEventListener('mouseleave', jogStop);
+});
+window.addEventListener('keyup', (ev) => { if (KEY_JOG[ev.key]) jogStop(); });
+window.addEventListener('blur', jogStop);
+$('btn-approach').onclick = () => send({ op: 'approach', standoff_m: Number($('standoff').value) });
+
 $('btn-align').onclick = () => send({ op: 'align' });
 $('btn-engage').onclick = () => send({ op: 'engage' });
 $('btn-stop').onclick = () => send({ op: 'stop' });
@@ -288,6 +319,7 @@ $('btn-take-over').onclick = () => send({ op: 'take_over' });
 window.addEventListener('keydown', (ev) => {
   if (ev.key === 'Escape') { ev.preventDefault(); send({ op: 'estop' }); }
   else if (ev.key === ' ' && ev.target === document.body) { ev.preventDefault(); send({ op: 'stop' }); }
+  else if (KEY_JOG[ev.key] && ev.target === document.body) { ev.preventDefault(); jogStart(KEY_JOG[ev.key]); }
 });
 
 function updateConn() {
@@ -310,7 +342,7 @@ function updateState() {
   $('fault-box').classList.toggle('latched', fault !== 'OK');
   $('deadman-text').textContent = state.connection.heartbeat ? 'fed by this page' : 'not fed';
   // Approach and jog need protocol 1.1 and the daemon's driving support.
-  $('drive-row').hidden = !(w && w.version_minor >= 1 && state.features.drive);
+  $('drive-box').hidden = !(w && w.version_minor >= 1 && state.features.drive);
   const se = $('source-error');
   se.hidden = !state.source.error;
   se.textContent = state.source.error ? 'camera: ' + state.source.error : '';

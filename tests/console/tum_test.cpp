@@ -55,8 +55,8 @@ TEST(Png, Gray16RoundTripKeepsEveryValue) {
   EXPECT_FALSE(read_png_rgb8((dir.path / "missing.png").string(), rgb, error));
   EXPECT_NE(error.find("missing.png"), std::string::npos);
   // A colour PNG is not a depth image.
-  ASSERT_TRUE(write_file((dir.path / "c.png").string(),
-                         encode_png_rgb8(Rgb8Image{1, 1, {1, 2, 3}}), error));
+  ASSERT_TRUE(write_file((dir.path / "c.png").string(), encode_png_rgb8(Rgb8Image{1, 1, {1, 2, 3}}),
+                         error));
   EXPECT_FALSE(read_png_gray16((dir.path / "c.png").string(), back, error));
   EXPECT_NE(error.find("16-bit"), std::string::npos) << error;
 }

@@ -6,7 +6,7 @@
 // stem, and the floor at the door's bottom. Sensor model (structured light, Xtion class):
 //   - depth noise: Gaussian with sigma = depth_noise_at_1m_m * z^2;
 //   - quantisation: depth rounded to 1 mm (the 16-bit millimetre stream);
-//   - holes: outside [0.45, 4.5] m, nothing hit, and about half of the handle's front face (the
+//   - holes: outside [0.45, 4.5] m, nothing hit, and 40 % of the handle's front face (the
 //     specular metal returns no pattern).
 // Deterministic per (seed, frame sequence).
 #pragma once
@@ -29,7 +29,7 @@ struct SensorModel {
   double depth_step_m = 0.001;  // quantisation; 0: none
   double min_range_m = 0.45;
   double max_range_m = 4.5;
-  double handle_hole_fraction = 0.55;  // of the handle's front face
+  double handle_hole_fraction = 0.4;  // of the handle's front face
 };
 
 // What the operator should click, as world points (from client::SimWorld, the simulator's truth).

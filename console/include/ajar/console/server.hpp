@@ -27,10 +27,10 @@ class SimulatedSource;
 inline constexpr std::chrono::milliseconds kPageAliveTimeout{1500};
 
 struct ConsoleOptions {
-  client::Endpoint daemon;                 // ajard to connect to
-  std::string listen_host = "127.0.0.1";   // the page's address; loopback by default
-  std::uint16_t listen_port = 8080;        // 0: any free port
-  std::string web_dir;                     // index.html, console.js, console.css
+  client::Endpoint daemon;                // ajard to connect to
+  std::string listen_host = "127.0.0.1";  // the page's address; loopback by default
+  std::uint16_t listen_port = 8080;       // 0: any free port
+  std::string web_dir;                    // index.html, console.js, console.css
   protocol::Role role = protocol::Role::kController;
   bool take_over = false;
   float telemetry_rate_hz = 20;
@@ -40,8 +40,7 @@ class ConsoleServer {
  public:
   // `sim` (may be null) is the same object as `source` when the source is the simulated camera: it
   // receives the daemon's camera calibration and serves /api/sim/landmarks.
-  ConsoleServer(ConsoleOptions options, std::unique_ptr<FrameSource> source,
-                SimulatedSource* sim);
+  ConsoleServer(ConsoleOptions options, std::unique_ptr<FrameSource> source, SimulatedSource* sim);
   ~ConsoleServer();
   ConsoleServer(const ConsoleServer&) = delete;
   ConsoleServer& operator=(const ConsoleServer&) = delete;
