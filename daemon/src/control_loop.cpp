@@ -105,8 +105,10 @@ void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
   std::int64_t deadline = first_deadline_ns;
   while (!exit_requested_.load(std::memory_order_relaxed)) {
     sleep_until_ns(deadline);
-    cycle(monotonic_now_ns());
+    const std::int64_t wake = monotonic_now_ns();
+    cycle(wake);
     const std::int64_t end = monotonic_now_ns();
+    statistics_.record_cycle(deadline, wake, end);
     last_cycle_end_ns_.store(end, std::memory_order_release);
     deadline += period_ns_;
     if (end > deadline) {  // missed at least one deadline: count it, skip to the next free slot
@@ -164,7 +166,7 @@ void ControlLoop::finish(LoopReportKind kind, ErrorCode code) noexcept {
 }
 
 void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
-  if (!card_->smooth_stop(axes_)) (void)card_->emergency_stop(axes_);
+  if (card_->smooth_stop(axes_) != ErrorCode::kOk) (void)card_->emergency_stop(axes_);
   motion_ = Motion::kStopping;
   motion_deadline_ns_ = now_ns + stop_timeout_ns_;
 }
@@ -200,8 +202,9 @@ void ControlLoop::handle_requests(std::int64_t now_ns) noexcept {
     if (s && card_->state() == drivers::LifecycleState::kInactive) {
       s = card_->activate();
     } else if (s && card_->state() == drivers::LifecycleState::kActive) {
-      s = card_->clear_faults(axes_);
-      if (s) s = card_->enable_axes(axes_);
+      ErrorCode e = card_->clear_faults(axes_);
+      if (e == ErrorCode::kOk) e = card_->enable_axes(axes_);
+      if (e != ErrorCode::kOk) s = make_error(e, "", "");
     }
     if (s) {
       fault_ = ErrorCode::kOk;
@@ -238,9 +241,9 @@ void ControlLoop::start_move(const MoveCommand& move, std::int64_t now_ns) noexc
   }
   const drivers::AxisMove moves[2] = {{axes_[0], move.left_counts}, {axes_[1], move.right_counts}};
   motion_id_ = move.motion_id;
-  if (auto s = card_->move_relative(moves, profile_); !s) {
-    latch(s.error().code, 0);
-    report({LoopReportKind::kMoveRefused, s.error().code, move.motion_id, 0});
+  if (const ErrorCode e = card_->move_relative(moves, profile_); e != ErrorCode::kOk) {
+    latch(e, 0);
+    report({LoopReportKind::kMoveRefused, e, move.motion_id, 0});
     return;
   }
   target_counts_[0] = snapshot_profile_counts_[0] + move.left_counts;
@@ -254,9 +257,6 @@ void ControlLoop::start_move(const MoveCommand& move, std::int64_t now_ns) noexc
 }
 
 void ControlLoop::cycle(std::int64_t now_ns) noexcept {
-  if (previous_cycle_ns_ >= 0) statistics_.record_period(now_ns - previous_cycle_ns_);
-  previous_cycle_ns_ = now_ns;
-
   read_axes();  // first: odometry and a move's start position come from before any new command
   handle_requests(now_ns);
   MoveCommand move;
@@ -273,9 +273,6 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   snapshot_.fault = fault_;
   snapshot_.card_state = card_->state();
   snapshot_.reports_dropped = reports_dropped_;
-  if (snapshot_.cycles % 50 == 1) snapshot_.statistics = statistics_.summary();  // O(bins)
-  snapshot_.statistics.cycles = snapshot_.cycles;  // exact every cycle
-  snapshot_.statistics.overruns = statistics_.overruns();
   published_.store(snapshot_);
 }
 
@@ -283,12 +280,9 @@ void ControlLoop::read_axes() noexcept {
   answered_ = true;
   read_error_ = ErrorCode::kOk;
   for (int i = 0; i < 2; ++i) {
-    auto r = card_->axis_status(axes_[i]);
-    if (r) {
-      status_[i] = *r;
-    } else {
+    if (const ErrorCode e = card_->axis_status(axes_[i], status_[i]); e != ErrorCode::kOk) {
       answered_ = false;
-      read_error_ = r.error().code;
+      read_error_ = e;
     }
   }
   if (answered_) {

@@ -93,7 +93,8 @@ class EngineImpl final : public Engine {
     if (!drivers.card || !drivers.arm) throw StartupError("drivers: card and arm are required");
     const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
     loop_ = std::make_unique<ControlLoop>(
-        std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes),
+        std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
+                                                     config.drivers.card.poll_timeout_ms),
         loop_settings(config));
     arm_ = std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm));
   }
@@ -196,7 +197,7 @@ class EngineImpl final : public Engine {
     s.card = to_wire(snap.card_state);
     s.arm = to_wire(arm_->state());
     s.arm_state = to_wire(arm_->status().phase);
-    s.loop = snap.statistics;
+    s.loop = loop_->statistics().summary();
     return s;
   }
 
@@ -212,7 +213,7 @@ class EngineImpl final : public Engine {
     t.right_counts = snap.right_counts;
     t.base_yaw_odometry_rad = snap.base_yaw_rad;
     t.arm_state = to_wire(arm_->status().phase);
-    t.loop = snap.statistics;
+    t.loop = loop_->statistics().summary();
     return t;
   }
 
