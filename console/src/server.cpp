@@ -188,6 +188,16 @@ std::string telemetry_json(const protocol::Telemetry& t) {
       .add("left_counts", static_cast<std::int64_t>(t.left_counts))
       .add("right_counts", static_cast<std::int64_t>(t.right_counts))
       .add("base_yaw_odometry_rad", t.base_yaw_odometry_rad)
+      .add("odometry_x_m", t.odometry_x_m)
+      .add("odometry_y_m", t.odometry_y_m)
+      .add("door_has_distance", t.door.has_distance)
+      .add("door_distance_m", t.door.distance_m)
+      .add("door_has_yaw", t.door.has_yaw)
+      .add("door_yaw_rad", t.door.yaw_rad)
+      .add("plane_stale", t.staleness.plane)
+      .add("contact_stale", t.staleness.contact)
+      .add("commanded_linear_m_s", t.commanded_linear_m_s)
+      .add("commanded_angular_rad_s", t.commanded_angular_rad_s)
       .add("arm_state", protocol::to_string(t.arm_state))
       .add_raw("loop", loop_json(t.loop))
       .str();
@@ -361,6 +371,7 @@ struct ConsoleServer::Impl {
   std::optional<protocol::Welcome> welcome;
   std::optional<protocol::Status> status;
   std::optional<core::CameraToBase> camera_to_base;  // from the daemon (RobotModel)
+  std::optional<protocol::RobotModel> model;         // protocol 1.1: GetRobotModel
   std::array<std::vector<Pick>, kStepCount> picks;
   std::array<std::string, kStepCount> results;  // JSON, empty when nothing sent yet
   std::string last_command;                     // JSON of the last command's reply
@@ -383,6 +394,10 @@ struct ConsoleServer::Impl {
   Clock::time_point next_connect_attempt{};
   std::unique_ptr<Worker> worker;       // connect, measurements, commands
   std::unique_ptr<Worker> stop_worker;  // Stop and EmergencyStop only
+  // Jog: the newest Drive the page asked for; one job at a time carries the latest to ajard.
+  std::mutex drive_mutex;
+  protocol::Drive pending_drive;
+  bool drive_queued = false;
 
   // ---------------------------------------------------------------------------------------------
   // Posting to the Asio thread.
@@ -446,7 +461,8 @@ struct ConsoleServer::Impl {
           .add("max_door_width_m", welcome->max_door_width_m)
           .add("min_handle_length_m", welcome->min_handle_length_m)
           .add("max_handle_length_m", welcome->max_handle_length_m)
-          .add("max_yaw_correction_rad", welcome->max_yaw_correction_rad);
+          .add("max_yaw_correction_rad", welcome->max_yaw_correction_rad)
+          .add("driver_kind", protocol::to_string(welcome->driver_kind));
       o.add("welcome", w);
     } else {
       o.add_raw("welcome", "null");
@@ -474,9 +490,25 @@ struct ConsoleServer::Impl {
     }
     o.add("source", src);
     // Drive/Approach arrive with protocol 1.1 and the driving work; until then: no such buttons.
+    // Approach and jog: protocol 1.1 and a daemon that drives (a drive command timeout in its
+    // model).
     JsonObject features;
-    features.add("drive", false);
+    features.add("drive", welcome && welcome->version_minor >= 1 && model &&
+                              model->drive_command_timeout_s > 0);
     o.add("features", features);
+    if (model) {
+      JsonObject m;
+      m.add("max_linear_speed_m_s", model->max_linear_speed_m_s)
+          .add("max_angular_speed_rad_s", model->max_angular_speed_rad_s)
+          .add("drive_command_timeout_s", model->drive_command_timeout_s)
+          .add("approach_min_standoff_m", model->approach_min_standoff_m)
+          .add("min_depth_m", model->min_depth_m)
+          .add("max_depth_m", model->max_depth_m)
+          .add("aligned_tolerance_rad", model->aligned_tolerance_rad);
+      o.add("model", m);
+    } else {
+      o.add_raw("model", "null");
+    }
     o.add("active_step", kStepNames[active]);
     o.add_raw("picks", picks_json());
     o.add_raw("results", results_json());
@@ -749,6 +781,23 @@ struct ConsoleServer::Impl {
       send_step(s);
     } else if (op == "align" || op == "engage" || op == "reset" || op == "stop" || op == "estop") {
       command(op, m->flag("clear").value_or(false));
+    } else if (op == "drive") {
+      drive(s, *m);
+    } else if (op == "approach") {
+      const auto standoff = m->number("standoff_m");
+      if (!standoff) return notice(s, "approach: standoff_m needed");
+      add_log("sending Approach to " + json_number(*standoff) + " m");
+      const protocol::Message msg = protocol::Approach{*standoff};
+      worker->post([this, msg] {
+        const auto r = client.request(msg);
+        const auto json = response_json(r);
+        on_io([this, json, r] {
+          last_command = JsonObject().add("op", "approach").add_raw("reply", json).str();
+          log_response("approach", r);
+          mark_dirty();
+        });
+        refresh_status();
+      });
     } else if (op == "take_over") {
       add_log("taking over control");
       worker->post([this] {
@@ -767,6 +816,33 @@ struct ConsoleServer::Impl {
     } else {
       notice(s, "PAGE_MESSAGE: unknown op '" + op + "'");
     }
+  }
+
+  // Jog: coalesced, so a slow daemon never sees a backlog of old velocities.
+  void drive(const std::shared_ptr<WsSession>& s, const PageMessage& m) {
+    const auto linear = m.number("linear");
+    const auto angular = m.number("angular");
+    if (!linear || !angular) return notice(s, "drive: linear and angular needed");
+    bool post = false;
+    {
+      const std::lock_guard lock(drive_mutex);
+      pending_drive = protocol::Drive{*linear, *angular};
+      post = !drive_queued;
+      drive_queued = true;
+    }
+    if (!post) return;
+    worker->post([this] {
+      protocol::Drive d;
+      {
+        const std::lock_guard lock(drive_mutex);
+        d = pending_drive;
+        drive_queued = false;
+      }
+      const auto r = client.request(d, std::chrono::milliseconds(300), 0);
+      if (!r.ok()) {
+        on_io([this, r] { log_response("drive", r); });
+      }
+    });
   }
 
   void hover(const std::shared_ptr<WsSession>& s, const PageMessage& m) {
@@ -1030,6 +1106,15 @@ struct ConsoleServer::Impl {
     }
     const auto w = *client.welcome();
     client.request(protocol::Subscribe{options.telemetry_rate_hz});
+    if (w.version_minor >= 1) {
+      const auto rm = client.request(protocol::GetRobotModel{});
+      if (const auto* m = rm.get<protocol::RobotModel>()) {
+        const protocol::RobotModel copy = *m;
+        on_io([this, copy] { set_model(copy); });
+      } else {
+        on_io([this, rm] { log_response("GetRobotModel", rm); });
+      }
+    }
     on_io([this, w] {
       welcome = w;
       daemon_connected = true;
@@ -1041,6 +1126,25 @@ struct ConsoleServer::Impl {
       mark_dirty();
     });
     refresh_status();
+  }
+
+  // The daemon's calibration: base-frame coordinates on the page and the simulated camera's mount.
+  void set_model(const protocol::RobotModel& m) {
+    Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 4; ++c)
+        t(r, c) = m.camera_to_base[static_cast<std::size_t>(r * 4 + c)];
+    }
+    auto checked = core::CameraToBase::from_matrix(t);
+    if (!checked) {
+      add_log("ajard's camera_to_base refused: " + checked.error().message);
+      return;
+    }
+    camera_to_base = *checked;
+    model = m;
+    if (sim != nullptr) sim->set_camera_to_base(t);
+    add_log("calibration from ajard: camera -> base (eq. 1)");
+    mark_dirty();
   }
 
   void idle() {
@@ -1106,6 +1210,8 @@ struct ConsoleServer::Impl {
   void on_telemetry(const protocol::Telemetry& t) {
     {
       const std::lock_guard lock(pose_mutex);
+      pose.x_m = t.odometry_x_m;
+      pose.y_m = t.odometry_y_m;
       pose.yaw_rad = t.base_yaw_odometry_rad;
     }
     const std::string json = telemetry_json(t);

@@ -327,7 +327,7 @@ function updateConn() {
   const page = ws && ws.readyState === WebSocket.OPEN;
   const daemon = page && state && state.connection.connected;
   el.className = 'pill ' + (daemon ? 'ok' : page ? 'partial' : '');
-  $('conn-text').textContent = !page ? 'console unreachable' : daemon ? `ajard ${state.connection.daemon}` : `ajard: ${state ? state.connection.message : '…'}`;
+  $('conn-text').textContent = !page ? 'console unreachable' : daemon ? `ajard ${state.connection.daemon}` + (state.welcome && state.welcome.driver_kind ? ` (${state.welcome.driver_kind})` : '') : `ajard: ${state ? state.connection.message : '…'}`;
 }
 
 function updateState() {
@@ -362,6 +362,13 @@ function onTelemetry(t) {
   if (samples.length > 400) samples.shift();
   if (state && state.status) state.status.state = t.state;
   $('state').textContent = t.state;
+  // Distance to the door and the yaw still to correct, from the daemon (protocol 1.1, needs a plane).
+  if (t.door_has_distance !== undefined) {
+    $('live-door').textContent = t.door_has_distance
+      ? `${t.door_distance_m.toFixed(3)} m to the door plane` + (t.door_has_yaw ? `, yaw to square ${deg(t.door_yaw_rad)}` : '') +
+        (t.plane_stale ? '  — plane STALE: measure it again' : '')
+      : 'no door plane measured yet';
+  }
   $('telemetry-text').textContent = `wheels L ${t.left_wheel_rad.toFixed(3)} R ${t.right_wheel_rad.toFixed(3)} rad · counts ${t.left_counts} / ${t.right_counts} · yaw ${deg(t.base_yaw_odometry_rad)} · ${t.moving ? 'MOVING' : 'still'} · loop ${t.loop.rate_hz.toFixed(0)} Hz, overruns ${t.loop.overruns}`;
   if (samples.length % 2 === 0) drawPlots();
 }

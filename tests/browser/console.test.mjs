@@ -141,6 +141,12 @@ test('operator console: the whole procedure by pointing at the simulated camera'
     await page.waitForFunction(() => document.getElementById('live-cz').textContent !== '—');
     const cz = Number(await page.textContent('#live-cz'));
     assert.ok(Math.abs(cz - L.points.leaf_low_left.camera_m[2]) < 0.02, `hover depth ${cz}`);
+    // Base frame (eq. 1) with the calibration the daemon reports (RobotModel, protocol 1.1).
+    await page.waitForFunction(() => /^[-+][0-9.]+$/.test(document.getElementById('live-bx').textContent));
+    const bx = Number(await page.textContent('#live-bx'));
+    const by = Number(await page.textContent('#live-by'));
+    assert.ok(Math.hypot(bx - L.points.leaf_low_left.base_m[0], by - L.points.leaf_low_left.base_m[1]) < 0.03,
+      `hover base (${bx}, ${by}) vs truth ${L.points.leaf_low_left.base_m}`);
 
     say('width refused');
     // 1. Width. First a mistake: P1 and P2 on the same spot -> refused, the field named and the
