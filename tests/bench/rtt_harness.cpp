@@ -68,8 +68,9 @@ std::int64_t ping_once(Conn& c) {
   return t1 - t0;
 }
 
-void report(const std::string& what, const Quantiles& q, const Quantiles& base,
-            const std::string& base_name, const std::string& target) {
+void report(const std::string& what, const ajar::bench::Quantiles& q,
+            const ajar::bench::Quantiles& base, const std::string& base_name,
+            const std::string& target) {
   row(what + " p50", q.p50 / 1e3, "us", base.p50 / 1e3, "", "vs " + base_name);
   row(what + " p99", q.p99 / 1e3, "us", base.p99 / 1e3, target, "vs " + base_name);
   row(what + " p99.9", q.p999 / 1e3, "us", base.p999 / 1e3, "", "vs " + base_name);
