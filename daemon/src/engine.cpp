@@ -94,7 +94,8 @@ class EngineImpl final : public Engine {
     if (!drivers.card || !drivers.arm) throw StartupError("drivers: card and arm are required");
     const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
     loop_ = std::make_unique<ControlLoop>(
-        std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes),
+        std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
+                                                     config.drivers.card.poll_timeout_ms),
         loop_settings(config));
     arm_ = std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm));
   }
@@ -198,6 +199,8 @@ class EngineImpl final : public Engine {
     s.arm = to_wire(arm_->state());
     s.arm_state = to_wire(arm_->status().phase);
     s.loop = loop_->statistics().summary();
+    s.timing = loop_->statistics().timing(monotonic_now_ns());
+    s.realtime = to_wire(realtime_granted());
     return s;
   }
 
@@ -214,6 +217,7 @@ class EngineImpl final : public Engine {
     t.base_yaw_odometry_rad = snap.base_yaw_rad;
     t.arm_state = to_wire(arm_->status().phase);
     t.loop = loop_->statistics().summary();
+    t.timing = loop_->statistics().timing(monotonic_now_ns());
     return t;
   }
 
@@ -288,8 +292,8 @@ class EngineImpl final : public Engine {
                                          ": this daemon does not drive the base yet"));
     }
     if (type == MessageType::kResetLoopStatistics) {
-      return refuse(type, make_error(ErrorCode::kNotSupported, "",
-                                     "this daemon cannot reset its loop statistics yet"));
+      loop_->statistics().reset(monotonic_now_ns());
+      return ack(type, protocol::EmptyAck{});
     }
     return refuse(type, make_error(ErrorCode::kWrongState, "", "not a command for the procedure"));
   }

@@ -131,8 +131,12 @@ std::uint64_t LoopStatisticsRecorder::span_of(Quantity q, const Copy* base,
         *targets[next++] = value_of(b);
     }
   }
-  // The maximum: the top of the highest bucket (exact below 4 us), never above the exact maximum.
-  out.max_ns = std::min(exact_max, clamp_u32(bucket_low(highest) + bucket_width(highest) - 1));
+  // The maximum: the top of the highest bucket (exact below 4 us), never above the exact maximum;
+  // in the open-ended last bucket, the exact maximum since start (an upper bound after a reset).
+  out.max_ns =
+      highest == kBuckets - 1
+          ? exact_max
+          : std::min(exact_max, clamp_u32(bucket_low(highest) + bucket_width(highest) - 1));
   while (next < 3)  // counts read while the loop kept recording: the tail is the maximum
     *targets[next++] = out.max_ns;
   return total;

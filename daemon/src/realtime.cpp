@@ -46,12 +46,12 @@ std::string policy_name(int policy) {
   }
 }
 
-// VmLck of /proc/self/status in kB; -1 when unreadable.
-long locked_kb() {
+// VmRSS of /proc/self/status in kB (all of it is locked after mlockall); -1 when unreadable.
+long resident_kb() {
   std::ifstream status("/proc/self/status");
   std::string line;
   while (std::getline(status, line)) {
-    if (line.rfind("VmLck:", 0) == 0) return std::strtol(line.c_str() + 6, nullptr, 10);
+    if (line.rfind("VmRSS:", 0) == 0) return std::strtol(line.c_str() + 6, nullptr, 10);
   }
   return -1;
 }
@@ -70,6 +70,19 @@ void sleep_until_ns(std::int64_t deadline_ns) noexcept {
   ts.tv_nsec = static_cast<long>(deadline_ns % kNsPerS);
   while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
   }
+}
+
+void prepare_process(const RealtimeRequest& request) noexcept {
+  if (!request.lock_memory) return;
+  pthread_attr_t attr;
+  if (pthread_getattr_default_np(&attr) != 0) return;
+  std::size_t current = 0;
+  pthread_attr_getstacksize(&attr, &current);
+  if (current > kLockedThreadStackBytes) {
+    pthread_attr_setstacksize(&attr, kLockedThreadStackBytes);
+    pthread_setattr_default_np(&attr);
+  }
+  pthread_attr_destroy(&attr);
 }
 
 std::vector<std::string> apply_realtime(const RealtimeRequest& request) {
@@ -115,6 +128,16 @@ RealtimeGranted realtime_granted() noexcept {
   return {g_policy.load(), g_priority.load(), g_memory_locked.load()};
 }
 
+protocol::RealtimeState to_wire(const RealtimeGranted& granted) noexcept {
+  protocol::RealtimeState r;
+  r.policy = granted.policy == SCHED_FIFO ? protocol::SchedulingPolicy::kFifo
+             : granted.policy == SCHED_RR ? protocol::SchedulingPolicy::kRoundRobin
+                                          : protocol::SchedulingPolicy::kOther;
+  r.priority = static_cast<std::uint8_t>(std::clamp(granted.priority, 0, 99));
+  r.memory_locked = granted.memory_locked;
+  return r;
+}
+
 std::string describe_realtime(const RealtimeRequest& requested, const RealtimeGranted& granted) {
   std::ostringstream out;
   out << "control thread " << policy_name(granted.policy);
@@ -127,8 +150,8 @@ std::string describe_realtime(const RealtimeRequest& requested, const RealtimeGr
   out << "; memory ";
   if (granted.memory_locked) {
     char size[32];
-    std::snprintf(size, sizeof size, "%.1f", static_cast<double>(locked_kb()) / 1024.0);
-    out << "locked (mlockall, " << size << " MiB locked now)";
+    std::snprintf(size, sizeof size, "%.1f", static_cast<double>(resident_kb()) / 1024.0);
+    out << "locked (mlockall; " << size << " MiB resident now)";
   } else {
     out << "not locked"
         << (requested.lock_memory ? " (mlockall refused)" : " (control.lock_memory: false)");

@@ -78,10 +78,13 @@ inline Quantiles quantiles(std::vector<std::int64_t> v) {
 inline void row(const std::string& figure, double value, const std::string& unit,
                 std::optional<double> baseline = std::nullopt, const std::string& target = "",
                 const std::string& note = "") {
+  const auto format = [](char* out, std::size_t size, double x) {
+    std::snprintf(out, size, std::abs(x) >= 1000 ? "%.0f" : "%.3g", x);
+  };
   char v[64], b[64] = "", r[64] = "";
-  std::snprintf(v, sizeof v, "%.4g", value);
+  format(v, sizeof v, value);
   if (baseline) {
-    std::snprintf(b, sizeof b, "%.4g", *baseline);
+    format(b, sizeof b, *baseline);
     if (*baseline > 0) std::snprintf(r, sizeof r, "%.2fx", value / *baseline);
   }
   std::printf("ROW|%s|%s|%s|%s|%s|%s|%s\n", figure.c_str(), v, unit.c_str(), b, r, target.c_str(),

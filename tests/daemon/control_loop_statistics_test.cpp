@@ -149,6 +149,18 @@ TEST(LoopStatistics, PercentilesMatchASortedReferenceWithinOneBucket) {
   EXPECT_EQ(t.all.latency.max_ns, static_cast<std::uint32_t>(latencies.back()));
 }
 
+TEST(LoopStatistics, AStallBeyondTheHistogramIsReportedExactly) {
+  R r(500);
+  std::int64_t d = kS;
+  for (int i = 0; i < 10; ++i, d += 2'000'000)
+    r.record_cycle(d, d + 10'000, d + 20'000);
+  r.record_cycle(d, d + 400'000'000, d + 400'010'000);  // a 400 ms stall: beyond 2^28 ns
+  const auto t = r.timing(d + kS);
+  EXPECT_EQ(t.all.latency.max_ns, 400'000'000U);
+  EXPECT_EQ(t.all.period.max_ns, 401'990'000U);  // from the previous wake-up, 10 us late
+  EXPECT_EQ(r.summary().period_max_ns, 401'990'000U);
+}
+
 TEST(LoopStatistics, EmptyIsZero) {
   R r(1000);
   const auto s = r.summary();

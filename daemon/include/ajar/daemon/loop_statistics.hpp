@@ -7,7 +7,8 @@
 // Each goes into an HDR-style log-linear histogram of kSubBuckets buckets per power of two: exact
 // below 4.096 us, buckets at most 1 us wide up to 4.19 ms (so every loop rate >= 240 Hz has 1 us
 // resolution on all three), 0.05 % relative width above; values >= 2^28 ns (268 ms) share the last
-// bucket. A percentile is reported as its bucket's midpoint, never above the exact maximum.
+// bucket (reported as the exact maximum since start). A percentile is reported as its bucket's
+// midpoint, never above the exact maximum.
 //
 // Writer: the control thread calls record_cycle() once per cycle (O(1): two relaxed atomic
 // increments per quantity, no allocation, no lock) — the histograms ARE the published state,
@@ -34,19 +35,11 @@
 
 namespace ajar::daemon {
 
-// The shape of protocol 1.1's LoopTiming (docs/protocol.md), in ns.
-struct TimingQuantiles {
-  std::uint32_t p50_ns = 0, p99_ns = 0, p999_ns = 0, max_ns = 0;
-};
-struct TimingSpan {
-  std::uint64_t samples = 0;  // cycles measured
-  TimingQuantiles latency, execution, period;
-};
-struct TimingSummary {
-  float window_s = 0;  // length of `recent`
-  TimingSpan all;      // since start or the last reset
-  TimingSpan recent;   // the last window_s seconds
-};
+// Protocol 1.1's LoopTiming (docs/protocol.md), in ns: window_s, all (since start or the last
+// reset), recent (the last window_s seconds).
+using TimingQuantiles = protocol::Quantiles;
+using TimingSpan = protocol::TimingWindow;
+using TimingSummary = protocol::LoopTiming;
 
 class LoopStatisticsRecorder {
  public:

@@ -2,9 +2,12 @@
 // mlockall with graceful fallback (a refusal becomes a warning string; nothing here logs).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include "ajar/protocol/messages.hpp"
 
 namespace ajar::daemon {
 
@@ -18,6 +21,12 @@ struct RealtimeRequest {
   int priority = 80;
   bool lock_memory = false;  // mlockall(MCL_CURRENT | MCL_FUTURE) and pre-fault the stack
 };
+
+// Call once at start, before any thread is created: when memory is to be locked, new threads get
+// kLockedThreadStackBytes of stack instead of glibc's default (RLIMIT_STACK, 8 MiB): mlockall
+// populates and locks every thread's whole stack, which would cost 8 MiB of RAM per thread.
+inline constexpr std::size_t kLockedThreadStackBytes = 1024 * 1024;
+void prepare_process(const RealtimeRequest& request) noexcept;
 
 // Applies what is requested to the calling thread/process. Returns one warning per refused item,
 // e.g. "control.realtime: SCHED_FIFO priority 80 refused (Operation not permitted); running with
@@ -33,9 +42,11 @@ struct RealtimeGranted {
   bool memory_locked = false;
 };
 RealtimeGranted realtime_granted() noexcept;
+// The same, as Status reports it.
+protocol::RealtimeState to_wire(const RealtimeGranted& granted) noexcept;
 // One line for the start-up log, e.g. "control thread SCHED_FIFO priority 80; memory locked
-// (mlockall, 9.8 MiB resident locked)" or "control thread SCHED_OTHER (control.realtime: false);
-// memory not locked (control.lock_memory: false)". Reads /proc/self/status for the locked size.
+// (mlockall; 28.1 MiB resident now)" or "control thread SCHED_OTHER (control.realtime: false);
+// memory not locked (control.lock_memory: false)". Reads /proc/self/status for the resident size.
 std::string describe_realtime(const RealtimeRequest& requested, const RealtimeGranted& granted);
 
 }  // namespace ajar::daemon
