@@ -269,15 +269,15 @@ struct LoopStatistics {
 };
 
 // 1.1: percentiles of one loop quantity, in ns, saturating at 2^32 - 1.
-struct Percentiles {
+struct Quantiles {
   std::uint32_t p50_ns = 0, p99_ns = 0, p999_ns = 0, max_ns = 0;
 };
 // 1.1: the loop's timing over one span of cycles.
 struct TimingWindow {
   std::uint64_t samples = 0;  // cycles measured
-  Percentiles latency;        // wake-up latency: actual wake-up - deadline
-  Percentiles execution;      // cycle execution time: wake-up to the end of the cycle's work
-  Percentiles period;         // wake-up to wake-up
+  Quantiles latency;          // wake-up latency: actual wake-up - deadline
+  Quantiles execution;        // cycle execution time: wake-up to the end of the cycle's work
+  Quantiles period;           // wake-up to wake-up
 };
 // 1.1: loop timing since start (or since ResetLoopStatistics) and over the recent window.
 struct LoopTiming {
