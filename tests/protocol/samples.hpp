@@ -2,10 +2,12 @@
 // round-trip tests and the benchmark. Values are realistic and use every byte of their fields.
 #pragma once
 
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "ajar/core/measurements.hpp"
 #include "ajar/protocol/codec.hpp"
 
 namespace ajar::protocol::samples {
@@ -66,17 +68,29 @@ void fill_motion(T& m) {
   m.timing = loop_timing();
 }
 
+inline core::BaseGeometry sample_base();
+inline core::Limits sample_limits();
+inline const core::CameraToBase& sample_transform();
+
+// The RobotModel of the robot the samples are measured on (what ajard would send for it), with
+// example values for the 1.1 drive/approach/staleness limits.
 inline RobotModel robot_model() {
   RobotModel r;
-  r.camera_to_base = {0, 0, 1, 0.08, -1, 0, 0, 0.0, 0, -1, 0, -0.22};
-  r.wheel_radius_m = 0.1;
-  r.turning_radius_m = 0.3;
-  r.encoder_counts_per_rev = 10000;
-  r.gear_ratio = 50;
-  r.left = {1, 1};
-  r.right = {2, -1};
-  r.max_wheel_speed_rad_s = 1.0;
-  r.max_wheel_accel_rad_s2 = 2.0;
+  const Eigen::Matrix4d t = sample_transform().isometry().matrix();
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 4; ++col)
+      r.camera_to_base[static_cast<std::size_t>(row * 4 + col)] = t(row, col);
+  }
+  const core::BaseGeometry b = sample_base();
+  r.wheel_radius_m = b.wheel_radius_m;
+  r.turning_radius_m = b.turning_radius_m;
+  r.encoder_counts_per_rev = b.encoder_counts_per_rev;
+  r.gear_ratio = b.gear_ratio;
+  r.left = {static_cast<std::uint8_t>(b.left.card_axis), static_cast<std::int8_t>(b.left.polarity)};
+  r.right = {static_cast<std::uint8_t>(b.right.card_axis),
+             static_cast<std::int8_t>(b.right.polarity)};
+  r.max_wheel_speed_rad_s = b.max_wheel_speed_rad_s;
+  r.max_wheel_accel_rad_s2 = b.max_wheel_accel_rad_s2;
   r.max_linear_speed_m_s = 0.3;
   r.max_angular_speed_rad_s = 0.5;
   r.max_linear_accel_m_s2 = 0.4;
@@ -87,50 +101,105 @@ inline RobotModel robot_model() {
   r.approach_min_standoff_m = 0.5;
   r.stale_travel_m = 0.05;
   r.stale_yaw_rad = 0.02;
-  r.arm_shoulder_m = core::Vec3(0.25, 0.0, 0.3);
-  r.arm_min_reach_m = 0.15;
-  r.arm_max_reach_m = 1.0;
-  r.arm_min_z_m = -0.5;
-  r.arm_max_z_m = 1.2;
-  r.min_depth_m = 0.4;
-  r.max_depth_m = 4.0;
-  r.min_door_width_m = 0.5;
-  r.max_door_width_m = 2.0;
-  r.min_handle_length_m = 0.05;
-  r.max_handle_length_m = 0.3;
-  r.max_yaw_correction_rad = 0.7;
+  const core::Limits l = sample_limits();
+  r.arm_shoulder_m = l.arm.shoulder_m;
+  r.arm_min_reach_m = l.arm.min_reach_m;
+  r.arm_max_reach_m = l.arm.max_reach_m;
+  r.arm_min_z_m = l.arm.min_z_m;
+  r.arm_max_z_m = l.arm.max_z_m;
+  r.min_depth_m = l.min_depth_m;
+  r.max_depth_m = l.max_depth_m;
+  r.min_door_width_m = l.min_door_width_m;
+  r.max_door_width_m = l.max_door_width_m;
+  r.min_handle_length_m = l.min_handle_length_m;
+  r.max_handle_length_m = l.max_handle_length_m;
+  r.max_yaw_correction_rad = l.max_yaw_correction_rad;
   r.aligned_tolerance_rad = 0.01;
-  r.min_point_separation_m = 0.01;
-  r.min_lateral_fraction = 0.5;
-  r.collinearity = 0.02;
-  r.max_plane_rms_m = 0.02;
-  r.max_door_tilt_rad = 0.35;
+  r.min_point_separation_m = l.tolerances.min_point_separation_m;
+  r.min_lateral_fraction = l.tolerances.min_lateral_fraction;
+  r.collinearity = l.tolerances.collinearity;
+  r.max_plane_rms_m = l.tolerances.max_plane_rms_m;
+  r.max_door_tilt_rad = l.tolerances.max_door_tilt_rad;
   return r;
 }
 
+// The robot the samples are measured on: the paper's camera->base transform and the default base
+// geometry and limits (core/robot_model.hpp); robot_model() reports exactly these.
+inline const core::CameraToBase& sample_transform() {
+  static const core::CameraToBase t =
+      core::CameraToBase::from_matrix(core::paper_camera_to_base_m()).value();
+  return t;
+}
+inline core::Limits sample_limits() {
+  return core::Limits{};
+}
+inline core::BaseGeometry sample_base() {
+  return core::BaseGeometry{};
+}
+
+// The requests of the golden vectors; their Acks below are computed from them through core, as the
+// daemon computes them (so the ack_* vectors are worked examples of docs/geometry.md).
+inline MeasureDoorWidth width_request() {
+  return {camera_point(-0.452, 0.118, 1.634), camera_point(0.463, 0.121, 1.702)};
+}
+inline MeasureHandle handle_request() {
+  return {camera_point(0.31, -0.05, 1.2), camera_point(0.42, -0.045, 1.21)};
+}
+inline MeasureDoorPlane plane3_request() {
+  MeasureDoorPlane plane3;
+  plane3.count = 3;
+  plane3.points[0] = camera_point(-0.4, -0.3, 1.6);
+  plane3.points[1] = camera_point(0.4, -0.3, 1.65);
+  plane3.points[2] = camera_point(0.0, 0.35, 1.62);
+  return plane3;
+}
+inline SetContactPoint contact_request() {
+  return {camera_point(0.015, -0.72, 1.0)};
+}
+
+template <typename T>
+T value_or_throw(Result<T> r, const char* what) {
+  if (!r) throw std::runtime_error(std::string(what) + ": " + r.error().message);
+  return std::move(r).value();
+}
+inline SpanAck span_ack(const core::SpanMeasurement& m) {
+  return {m.span.length_m, m.span.direction, m.p1_base_m, m.p2_base_m};
+}
 inline SpanAck width_ack() {
-  return {0.9152, core::RotationDirection::kCounterClockwise, core::Vec3(1.21, 0.43, 0.02),
-          core::Vec3(1.23, -0.485, 0.05)};
+  const auto r = width_request();
+  return span_ack(value_or_throw(
+      core::measure_door_width(r.p1_hinge, r.p2_moving_edge, sample_transform(), sample_limits()),
+      "width sample"));
 }
 inline SpanAck handle_ack() {
-  return {0.125, core::RotationDirection::kClockwise, core::Vec3(1.02, 0.31, 0.95),
-          core::Vec3(1.03, 0.185, 0.94)};
+  const auto r = handle_request();
+  return span_ack(value_or_throw(
+      core::measure_handle(r.p1_axis, r.p2_free_end, sample_transform(), sample_limits()),
+      "handle sample"));
 }
 inline PlaneAck plane_ack() {
+  const auto r = plane3_request();
+  const auto m = value_or_throw(
+      core::measure_door_plane(std::span<const core::FramedPoint>(r.points.data(), r.count),
+                               sample_transform(), sample_limits(), sample_base()),
+      "plane sample");
   PlaneAck p;
-  p.normal = core::Vec3(-0.9986295347545738, 0.052335956242943835, 0.0);
-  p.yaw_deviation_rad = 0.05235987755982989;
-  p.left_wheel_rad = -0.1832595714594046;
-  p.right_wheel_rad = 0.1832595714594046;
-  p.left_counts = -2916;
-  p.right_counts = 2916;
-  p.residual_yaw_rad = 1.2e-5;
-  p.rms_residual_m = 0.0021;
-  p.point_count = 4;
+  p.normal = m.plane.normal;
+  p.yaw_deviation_rad = m.yaw_deviation_rad;
+  p.left_wheel_rad = m.wheels.left_wheel_rad;
+  p.right_wheel_rad = m.wheels.right_wheel_rad;
+  p.left_counts = m.wheels.left_counts;
+  p.right_counts = m.wheels.right_counts;
+  p.residual_yaw_rad = m.wheels.residual_yaw_rad;
+  p.rms_residual_m = m.plane.rms_residual_m;
+  p.point_count = static_cast<std::uint8_t>(m.point_count);
   return p;
 }
 inline ContactAck contact_ack() {
-  return {core::Vec3(0.98, 0.28, 0.93), 0.085};
+  const auto m = value_or_throw(
+      core::measure_contact_point(contact_request().contact, sample_transform(), sample_limits()),
+      "contact sample");
+  return {m.contact_base_m, m.reach_margin_m};
 }
 
 inline std::vector<Sample> all() {
@@ -154,16 +223,9 @@ inline std::vector<Sample> all() {
   add("hello_take_over", 1, take_over);
   add("ping", 2, Ping{1700000000123456789ull});
   add("ping_retransmit", 2, Ping{1700000000123456789ull}, kFlagRetransmit);
-  add("measure_door_width", 3,
-      MeasureDoorWidth{camera_point(-0.452, 0.118, 1.634), camera_point(0.463, 0.121, 1.702)});
-  add("measure_handle", 4,
-      MeasureHandle{camera_point(0.31, -0.05, 1.2), base_point(1.03, 0.185, 0.94)});
-  MeasureDoorPlane plane3;
-  plane3.count = 3;
-  plane3.points[0] = camera_point(-0.4, -0.3, 1.6);
-  plane3.points[1] = camera_point(0.4, -0.3, 1.65);
-  plane3.points[2] = camera_point(0.0, 0.35, 1.62);
-  add("measure_door_plane_3", 5, plane3);
+  add("measure_door_width", 3, width_request());
+  add("measure_handle", 4, handle_request());
+  add("measure_door_plane_3", 5, plane3_request());
   MeasureDoorPlane plane16;
   plane16.count = 16;
   for (std::size_t i = 0; i < 16; ++i) {
@@ -172,7 +234,7 @@ inline std::vector<Sample> all() {
     plane16.points[i] = i == 15 ? base_point(1.5, 0.1, 1.1) : camera_point(u, v, 1.6 + 0.05 * u);
   }
   add("measure_door_plane_16", 6, plane16);
-  add("set_contact_point", 7, SetContactPoint{camera_point(0.28, 0.02, 1.18)});
+  add("set_contact_point", 7, contact_request());
   add("align_base", 8, AlignBase{});
   add("engage", 9, Engage{});
   add("stop", 10, Stop{});
