@@ -218,6 +218,8 @@ class EngineImpl final : public Engine {
     s.arm = to_wire(arm_->state());
     s.arm_state = to_wire(arm_->status().phase);
     s.loop = loop_->statistics().summary();
+    s.timing = loop_->statistics().timing(monotonic_now_ns());
+    s.realtime = to_wire(realtime_granted());
     return s;
   }
 
@@ -234,6 +236,7 @@ class EngineImpl final : public Engine {
     t.base_yaw_odometry_rad = snap.base_yaw_rad;
     t.arm_state = to_wire(arm_->status().phase);
     t.loop = loop_->statistics().summary();
+    t.timing = loop_->statistics().timing(monotonic_now_ns());
     return t;
   }
 
@@ -306,8 +309,8 @@ class EngineImpl final : public Engine {
                                          ": this daemon does not drive the base yet"));
     }
     if (type == MessageType::kResetLoopStatistics) {
-      return refuse(type, make_error(ErrorCode::kNotSupported, "",
-                                     "this daemon cannot reset its loop statistics yet"));
+      loop_->statistics().reset(monotonic_now_ns());
+      return ack(type, protocol::EmptyAck{});
     }
     return refuse(type, make_error(ErrorCode::kWrongState, "", "not a command for the procedure"));
   }
