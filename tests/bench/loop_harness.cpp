@@ -48,11 +48,10 @@ void run(const daemon::Config& base_config, bool fifo, double seconds) {
   s.deadman_timeout_s = config.safety.deadman_timeout_s;
   s.motion_timeout_margin_s = config.control.motion_timeout_margin_s;
   s.base = config.base;
-  // Lifecycle outside the loop, as in the engine: configure and activate, then hand the loop the
-  // active card.
   drivers::ManagedMotionCard card(std::move(set.card), axes);
-  if (auto st = card.configure(); !st) fail("card configure: " + st.error().message);
-  if (auto st = card.activate(); !st) fail("card activate: " + st.error().message);
+  Status up = card.configure();
+  if (up) up = card.activate();
+  if (!up) fail("card bring-up: " + up.error().message);
   daemon::ControlLoop loop(card, s);
 
   daemon::LoopStatisticsRecorder reference(config.control.rate_hz);
