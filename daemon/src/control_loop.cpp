@@ -236,7 +236,9 @@ void ControlLoop::execute(const Command& c, std::int64_t now_ns) noexcept {
     case CommandKind::kRecover:
       if (recovery_ != Recovery::kNone) end_recovery(ErrorCode::kOk);  // cannot happen: queue waits
       recover_sequence_ = c.id;
-      if (c.latch_stamp != handled_latch_) {  // an emergency or fault stop was posted after it
+      // An emergency or fault stop posted after it, handled or not yet (read live: a stop posted
+      // while this cycle runs must not be cleared by the recovery it followed).
+      if (c.latch_stamp != latch_generation_.load()) {
         report({LoopReportKind::kRecovered,
                 fault_ != ErrorCode::kOk ? fault_ : ErrorCode::kEmergencyStopped, 0, 0, c.id});
         return;
@@ -318,6 +320,10 @@ void ControlLoop::start_move(const Command& move, std::int64_t now_ns) noexcept 
   const double planned = std::max(planned_duration_s(move.left_counts, profile_),
                                   planned_duration_s(move.right_counts, profile_));
   motion_deadline_ns_ = now_ns + seconds_to_ns(planned * 1.5 + settings_.motion_timeout_margin_s);
+  // A stop posted while the card took the move (vendor calls take time) acts in this cycle.
+  if (stop_generation_.load() != handled_stop_ ||
+      emergency_generation_.load() != handled_emergency_)
+    handle_stops(now_ns);
 }
 
 void ControlLoop::cycle(std::int64_t now_ns) noexcept {

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -145,6 +146,7 @@ class EngineImpl final : public Engine {
     try {
       drain_reports();
       stop_reason_ = "the daemon is shutting down";
+      cancel_held_move(ErrorCode::kOk);
       loop_->request_stop();
       (void)arm_->stop();
       loop_->set_arm_moving(false);
@@ -188,11 +190,23 @@ class EngineImpl final : public Engine {
   void controller_lost() override {
     drain_reports();
     const Phase phase = procedure_.phase();
+    cancel_held_move(ErrorCode::kDeadman);
     if (phase == Phase::kAligning || phase == Phase::kEngaging) {
       loop_->request_fault_stop(ErrorCode::kDeadman);
       (void)arm_->stop();
       latch(ErrorCode::kDeadman, "the controller went away during motion: stopped");
     }
+    flush();
+  }
+
+  void begin_read_batch() override { in_read_batch_ = true; }
+
+  void end_read_batch() override {
+    in_read_batch_ = false;
+    if (!held_move_) return;
+    const MoveCommand move = *held_move_;
+    held_move_.reset();
+    if (!loop_->post_move(move)) close_unstarted_move(move.motion_id, ErrorCode::kQueueFull, false);
     flush();
   }
 
@@ -354,7 +368,9 @@ class EngineImpl final : public Engine {
     }
     loop_->heartbeat(now_ns());  // the controller just spoke
     const MoveCommand move{++motion_id_, wheels->left_counts, wheels->right_counts};
-    if (!loop_->post_move(move)) {
+    if (in_read_batch_) {
+      held_move_ = move;  // handed to the loop at the end of this read, unless a stop cancels it
+    } else if (!loop_->post_move(move)) {
       return refuse(type, make_error(ErrorCode::kQueueFull, "",
                                      "control loop command queue full: retry later"));
     }
@@ -395,6 +411,7 @@ class EngineImpl final : public Engine {
   }
 
   void stop_motion() {
+    cancel_held_move(ErrorCode::kOk);
     loop_->request_stop();
     (void)arm_->stop();
     loop_->set_arm_moving(false);
@@ -410,6 +427,7 @@ class EngineImpl final : public Engine {
   }
 
   protocol::Message emergency_stop(MessageType type) {
+    cancel_held_move(ErrorCode::kEmergencyStopped);
     loop_->request_emergency_stop();
     (void)arm_->stop();
     latch(ErrorCode::kEmergencyStopped, "emergency stop: wheels and arm stopped");
@@ -484,15 +502,7 @@ class EngineImpl final : public Engine {
           break;
         case LoopReportKind::kMoveRefused:
         case LoopReportKind::kMoveCancelled:
-          if (r.motion_id != wheel_motion_) break;
-          wheel_motion_ = 0;
-          procedure_.alignment_not_started();  // the wheels did not turn: the plane still holds
-          dirty_ = true;
-          emit(EventKind::kMotionStopped, r.code,
-               (r.kind == LoopReportKind::kMoveRefused
-                    ? "the move did not start"
-                    : "the move was cancelled before it started") +
-                   reason(r.code));
+          close_unstarted_move(r.motion_id, r.code, r.kind == LoopReportKind::kMoveCancelled);
           break;
         case LoopReportKind::kFault:
           if (r.sequence != recover_sequence_) break;  // latched before our last Reset cleared it
@@ -505,6 +515,25 @@ class EngineImpl final : public Engine {
           break;
       }
     }
+  }
+
+  // A wheel motion that never turned a wheel (refused or cancelled): the plane still holds.
+  void close_unstarted_move(std::uint32_t motion_id, ErrorCode code, bool cancelled) {
+    if (motion_id != wheel_motion_) return;
+    wheel_motion_ = 0;
+    procedure_.alignment_not_started();  // also after a stop interrupted it: nothing turned
+    dirty_ = true;
+    emit(EventKind::kMotionStopped, code,
+         (cancelled ? "the move was cancelled before it started" : "the move did not start") +
+             reason(code));
+  }
+
+  // A move held for the end of this read is dropped: no wheel has turned.
+  void cancel_held_move(ErrorCode code) {
+    if (!held_move_) return;
+    const std::uint32_t id = held_move_->motion_id;
+    held_move_.reset();
+    close_unstarted_move(id, code, true);
   }
 
   std::string reason(ErrorCode code) const {
@@ -672,6 +701,8 @@ class EngineImpl final : public Engine {
   bool dirty_ = false;
   std::uint32_t motion_id_ = 0;
   std::uint32_t wheel_motion_ = 0;  // the announced wheel motion the loop has not ended (0: none)
+  bool in_read_batch_ = false;
+  std::optional<MoveCommand> held_move_;  // accepted in this read, not yet handed to the loop
   std::uint32_t arm_task_id_ = 0;
   bool arm_motion_ = false;  // an announced arm task not yet ended
   bool arm_seen_busy_ = false;

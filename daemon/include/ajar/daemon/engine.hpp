@@ -58,6 +58,14 @@ class Engine {
   // at once and kDeadman latches.
   virtual void controller_lost() = 0;
 
+  // The frames of one read from a socket (several frames can arrive in one TCP segment). Wheel
+  // motion accepted between begin_read_batch() and end_read_batch() is handed to the control loop
+  // only at end_read_batch(), so a Stop, EmergencyStop, Reset or controller loss later in the same
+  // read cancels it before any wheel turns (the motion is closed by motion_stopped "cancelled
+  // before it started"). Outside a batch, motion is handed to the loop at once. Not nested.
+  virtual void begin_read_batch() {}
+  virtual void end_read_batch() {}
+
   // Called periodically (at least every few ms) on the I/O thread: drains control-loop reports,
   // emits events, persists changes.
   virtual void poll() = 0;

@@ -72,6 +72,9 @@ class SessionHandler {
   virtual void on_message(SessionLink& link, const protocol::Envelope& envelope) = 0;
   virtual void on_decode_error(SessionLink& link, const protocol::DecodeError& error) = 0;
   virtual void on_closed(SessionLink& link, std::string_view reason) = 0;
+  // Around the frames decoded from one read (several frames can arrive in one TCP segment).
+  virtual void on_read_begin(SessionLink& link) { (void)link; }
+  virtual void on_read_end(SessionLink& link) { (void)link; }
 
  protected:
   ~SessionHandler() = default;
@@ -172,7 +175,11 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
       return;
     }
     last_read_ = Clock::now();
-    if (state_ == State::kOpen) process(std::span<const std::uint8_t>(read_buffer_.data(), n));
+    if (state_ == State::kOpen) {
+      if (handler_ != nullptr) handler_->on_read_begin(*this);
+      process(std::span<const std::uint8_t>(read_buffer_.data(), n));
+      if (handler_ != nullptr) handler_->on_read_end(*this);
+    }
     if (state_ == State::kClosed) return;
     read_more();  // also while closing: discard input until the peer closes (graceful close)
     arm_timer();

@@ -75,6 +75,10 @@ class SessionHub final : public SessionHandler {
   void on_open(SessionLink& link) override;
   void on_message(SessionLink& link, const protocol::Envelope& envelope) override;
   void on_decode_error(SessionLink& link, const protocol::DecodeError& error) override;
+  // One read's frames are one engine batch: motion they start waits for the end of the read, so
+  // a Stop later in the same read cancels it before any wheel turns (Engine::begin_read_batch).
+  void on_read_begin(SessionLink&) override { engine_.begin_read_batch(); }
+  void on_read_end(SessionLink&) override { engine_.end_read_batch(); }
   void on_closed(SessionLink& link, std::string_view reason) override;
 
   // Engine events (wire this as the engine's EventSink).
