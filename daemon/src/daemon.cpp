@@ -149,6 +149,10 @@ class Runner {
         set_log_level(fresh.logging.level);
         spdlog::warn("SIGHUP: logging.level is now {}", fresh.logging.level);
       }
+      if (fresh.network.tls.enabled && config_.network.tls.enabled) {
+        server_->reload_tls(fresh.network.tls);  // CRL, deny list, identities (tls.hpp)
+        config_.network.tls = fresh.network.tls;
+      }
       Config compare = fresh;
       compare.logging.level = config_.logging.level;
       config_.logging.level = fresh.logging.level;
@@ -156,7 +160,7 @@ class Runner {
       if (to_yaml(compare) != to_yaml(current)) {
         spdlog::warn(
             "SIGHUP: the config file changed in keys that are not reloaded (only logging.level "
-            "is); restart ajard to apply them");
+            "and network.tls are); restart ajard to apply them");
       } else {
         spdlog::info("SIGHUP: config reloaded");
       }

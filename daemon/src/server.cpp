@@ -9,6 +9,7 @@
 
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/session_hub.hpp"
+#include "ajar/daemon/tls.hpp"
 
 namespace ajar::daemon {
 namespace {
@@ -38,6 +39,8 @@ ServerOptions ServerOptions::from(const NetworkConfig& network) {
       static_cast<std::size_t>(std::max(network.send_queue_frames, 1));
   options.session.read_deadline = seconds(network.read_deadline_s);
   options.session.idle_timeout = seconds(network.idle_timeout_s);
+  options.tls = network.tls;
+  options.insecure_plaintext = network.insecure_plaintext;
   return options;
 }
 
@@ -75,7 +78,23 @@ struct Server::Impl {
     const auto remote = socket.remote_endpoint(ec);
     const std::string peer = ec ? std::string("unknown peer") : endpoint_text(remote);
     const std::uint64_t id = ++last_session_id;
-    if (hub.session_count() >= static_cast<std::size_t>(std::max(options.max_clients, 0))) {
+    const auto max_clients = static_cast<std::size_t>(std::max(options.max_clients, 0));
+    if (tls) {  // handshakes in progress count against max_clients
+      if (hub.session_count() + tls->pending() >= max_clients &&
+          !tls->drop_oldest("dropped unfinished: max_clients reached")) {
+        spdlog::warn("refused {}: {} clients connected (network.max_clients)", peer,
+                     hub.session_count());
+        return;  // no frame before the handshake: the socket just closes
+      }
+      tls->handshake(std::move(socket), peer, [this, id, peer](TlsStream stream, PeerAccess a) {
+        if (stopped) return;
+        std::make_shared<TlsSession>(std::move(stream), id, peer, &hub, options.session,
+                                     std::move(a))
+            ->start();
+      });
+      return;
+    }
+    if (hub.session_count() >= max_clients) {
       spdlog::warn("refused {}: {} clients connected (network.max_clients)", peer,
                    hub.session_count());
       protocol::ErrorReply error;
@@ -121,6 +140,7 @@ struct Server::Impl {
   asio::steady_timer poll_timer;
   std::unique_ptr<asio::steady_timer> retry_timer;
   SessionHub hub;
+  std::unique_ptr<TlsAcceptor> tls;  // null: plaintext
   Clock::time_point next_poll{};
   std::uint64_t last_session_id = 0;
   std::uint16_t bound_port = 0;
@@ -144,6 +164,17 @@ std::uint16_t Server::listen() {
   if (ec)
     throw StartupError("network.bind_address: '" + d.options.bind_address +
                        "' is not an IP address");
+  if (d.options.tls.enabled) {
+    if (!d.tls) d.tls = std::make_unique<TlsAcceptor>(d.options.tls);
+  } else if (!address.is_loopback()) {
+    if (!d.options.insecure_plaintext)
+      throw StartupError("network.bind_address: plaintext on " + d.options.bind_address +
+                         " is refused: enable network.tls or set network.insecure_plaintext");
+    spdlog::warn(
+        "INSECURE: plaintext on {} (network.insecure_plaintext): anyone who reaches this port "
+        "can command the robot; enable network.tls (docs/security.md)",
+        d.options.bind_address);
+  }
   const tcp::endpoint endpoint(address, d.options.port);
   auto fail = [&](const char* what) {
     throw StartupError("cannot listen on " + where + ": " + what + ": " + ec.message());
@@ -157,7 +188,8 @@ std::uint16_t Server::listen() {
   d.acceptor.listen(asio::socket_base::max_listen_connections, ec);
   if (ec) fail("listen");
   d.bound_port = d.acceptor.local_endpoint(ec).port();
-  spdlog::info("listening on {}", endpoint_text(tcp::endpoint(address, d.bound_port)));
+  spdlog::info("listening on {} ({})", endpoint_text(tcp::endpoint(address, d.bound_port)),
+               d.tls ? "mutual TLS 1.3" : "plaintext");
   return d.bound_port;
 }
 
@@ -170,12 +202,20 @@ void Server::start() {
   d.schedule_poll();
 }
 
+void Server::reload_tls(const TlsConfig& tls) {
+  auto& d = *impl_;
+  if (!d.tls) return;
+  d.tls->reload(tls);
+  d.options.tls = tls;
+}
+
 void Server::stop() {
   auto& d = *impl_;
   if (d.stopped) return;
   d.stopped = true;
   boost::system::error_code ignored;
   d.acceptor.close(ignored);
+  if (d.tls) d.tls->close_all();
   d.poll_timer.cancel();
   if (d.retry_timer) d.retry_timer->cancel();
   d.hub.close_all("daemon shutting down");

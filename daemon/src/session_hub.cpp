@@ -59,7 +59,8 @@ void SessionHub::on_open(SessionLink& link) {
   SessionState state;
   state.link = &link;
   sessions_[link.id()] = std::move(state);
-  spdlog::info("session {} opened from {} ({} sessions)", link.id(), link.peer(), sessions_.size());
+  spdlog::info("session {} opened from {} as {} ({} sessions)", link.id(), link.peer(),
+               link.access().identity, sessions_.size());
 }
 
 std::string SessionHub::describe(const SessionState& s) const {
@@ -127,7 +128,13 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
     handle_hello(s, envelope);
     return;
   }
-  if (is_stop(type)) {  // from any session, greeted or not: stopping is never refused here
+  if (is_stop(type)) {  // from any session, greeted or not, unless its certificate may not stop
+    if (!link.access().may_stop) {
+      refuse(s, envelope, ErrorCode::kNotController, "",
+             "identity " + link.access().identity +
+                 " may not stop the robot (network.tls.identities: may_stop false)");
+      return;
+    }
     spdlog::info("{}: {}", describe(s), protocol::to_string(type));
     reply(s, envelope.request_id, call_engine(envelope.message));
     return;
@@ -177,6 +184,12 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
   }
   std::optional<std::uint64_t> demoted;
   if (hello.requested_role == protocol::Role::kController) {
+    if (!s.link->access().may_control) {
+      refuse(s, envelope, ErrorCode::kNotController, "requested_role",
+             "identity " + s.link->access().identity +
+                 " may only observe (network.tls.identities); ask for the observer role");
+      return;
+    }
     if (controller_ && !hello.take_over) {
       refuse(s, envelope, ErrorCode::kControllerBusy, "take_over",
              describe(sessions_.at(*controller_)) +

@@ -5,9 +5,13 @@
 //
 // Lifecycle, all on the I/O thread (the thread running `io`):
 //   constructor installs the engine's event sink (so: before engine.start());
-//   listen()  binds and listens (throws StartupError naming the address);
+//   listen()  loads TLS (tls.enabled, see tls.hpp), binds and listens (throws StartupError naming
+//             the address or the TLS file);
 //   start()   accepts and polls (call after engine.start());
 //   stop()    stops accepting and polling, closes every session gracefully. Idempotent.
+// With TLS, every accepted socket first goes through the TLS handshake (tls.hpp); handshakes in
+// progress count against max_clients (when full, the oldest unfinished handshake is dropped, else
+// the connection is closed: a refusal frame cannot be sent before the handshake).
 // The engine must outlive the server.
 #pragma once
 
@@ -16,6 +20,7 @@
 #include <memory>
 #include <string>
 
+#include "ajar/daemon/config.hpp"
 #include "ajar/daemon/engine.hpp"
 #include "ajar/daemon/request_ledger.hpp"
 #include "ajar/daemon/session.hpp"
@@ -26,7 +31,6 @@ class io_context;
 
 namespace ajar::daemon {
 
-struct NetworkConfig;
 class SessionHub;
 
 struct ServerOptions {
@@ -36,6 +40,8 @@ struct ServerOptions {
   SessionOptions session;
   RequestLedger::Limits ledger;
   std::chrono::steady_clock::duration poll_period = std::chrono::milliseconds(2);
+  TlsConfig tls;                    // tls.enabled: mutual TLS 1.3 on every connection
+  bool insecure_plaintext = false;  // plaintext off loopback: warned at listen()
 
   static ServerOptions from(const NetworkConfig& network);
 };
@@ -51,6 +57,9 @@ class Server {
   std::uint16_t listen();
   // Starts accepting and the poll timer.
   void start();
+  // Re-reads the TLS policy files (SIGHUP): CRL, deny list, identities. Throws StartupError
+  // (the running policy stays). Nothing to do without TLS.
+  void reload_tls(const TlsConfig& tls);
   void stop();
 
   std::uint16_t port() const noexcept;
