@@ -19,10 +19,6 @@
 #include "ajar/client/output.hpp"
 #include "ajar/protocol/vectors.hpp"
 
-#ifndef AJAR_DEFAULT_VECTORS_DIR
-#define AJAR_DEFAULT_VECTORS_DIR "tests/conformance/vectors"
-#endif
-
 namespace ajar::client {
 
 namespace {
@@ -1100,11 +1096,7 @@ class Suite {
 
 int run_conformance(const Command& command, const GlobalOptions& options, std::ostream& out,
                     std::ostream& err) {
-  std::string vectors = AJAR_DEFAULT_VECTORS_DIR;
-  if (!std::filesystem::is_directory(vectors) &&
-      std::filesystem::is_directory("tests/conformance/vectors")) {
-    vectors = "tests/conformance/vectors";
-  }
+  std::string vectors = default_vectors_dir();
   for (std::size_t i = 0; i < command.args.size(); ++i) {
     if (command.args[i] == "--vectors" && i + 1 < command.args.size()) {
       vectors = command.args[++i];

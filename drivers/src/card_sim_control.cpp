@@ -1,5 +1,9 @@
 #include <dlfcn.h>
 
+#include <filesystem>
+#include <system_error>
+
+#include "ajar/install_paths.hpp"
 #include "ajar/drivers/factory.hpp"
 #include "ajar/drivers/gts_sim_control.hpp"
 
@@ -55,11 +59,14 @@ void GtsSimControl::inject_fault(int axis, SimFault fault) const {
 }
 
 std::string default_card_simulator_path() {
-#ifdef AJAR_CARDSIM_DEFAULT_PATH
-  return AJAR_CARDSIM_DEFAULT_PATH;
-#else
-  return {};
+  const auto installed =
+      install::beside_executable(install::kSbinToPkgLib, install::kCardSimulatorFile);
+  std::error_code ec;
+  if (!installed.empty() && std::filesystem::exists(installed, ec)) return installed.string();
+#ifdef AJAR_CARDSIM_BUILD_PATH
+  if (std::filesystem::exists(AJAR_CARDSIM_BUILD_PATH, ec)) return AJAR_CARDSIM_BUILD_PATH;
 #endif
+  return installed.string();
 }
 
 }  // namespace ajar::drivers

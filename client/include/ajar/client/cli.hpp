@@ -80,6 +80,11 @@ std::vector<std::string> split_line(const std::string& line);
 
 std::string usage();
 
+// Where `ajarctl conformance` reads the golden vectors without --vectors: DATADIR/ajar/vectors of
+// the install ajarctl runs from (found relative to the executable), else this source tree's
+// tests/conformance/vectors (build tree), else ./tests/conformance/vectors.
+std::string default_vectors_dir();
+
 // The whole of ajarctl. `in` feeds script mode.
 int run_ajarctl(std::span<const std::string> args, std::istream& in, std::ostream& out,
                 std::ostream& err);

@@ -71,7 +71,10 @@ class GtsSimControl {
   void* handle_ = nullptr;
 };
 
-// The simulator library built with this tree (empty if the build did not define it).
+// The card simulator library for drivers.kind sim with an empty drivers.card.library_path: the
+// installed one (LIBDIR/ajar/libajar_gts_sim.so, found relative to the running ajard, so an install
+// tree may be moved), else the one built with this tree (development); if neither exists, the
+// installed path (start-up then fails naming it).
 std::string default_card_simulator_path();
 
 }  // namespace ajar::drivers
