@@ -331,6 +331,7 @@ void read_network(Section s, NetworkConfig& c) {
   s.integer("send_queue_frames", c.send_queue_frames, 8, 65536);
   s.number("read_deadline_s", c.read_deadline_s, 0.1, 3600, " s");
   s.number("idle_timeout_s", c.idle_timeout_s, 0, 86400, " s (0 = none)");
+  s.number("hello_timeout_s", c.hello_timeout_s, 0, 3600, " s (0 = none)");
   s.boolean("insecure_plaintext", c.insecure_plaintext);
   read_tls(s.section("tls"), c.tls);
   s.finish();
@@ -653,6 +654,7 @@ std::string to_yaml(const Config& c) {
   out << YAML::Key << "send_queue_frames" << YAML::Value << c.network.send_queue_frames;
   out << YAML::Key << "read_deadline_s" << YAML::Value << c.network.read_deadline_s;
   out << YAML::Key << "idle_timeout_s" << YAML::Value << c.network.idle_timeout_s;
+  out << YAML::Key << "hello_timeout_s" << YAML::Value << c.network.hello_timeout_s;
   out << YAML::Key << "insecure_plaintext" << YAML::Value << c.network.insecure_plaintext;
   {
     const auto& t = c.network.tls;

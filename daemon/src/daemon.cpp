@@ -54,7 +54,9 @@ class Runner {
       engine_ = options_.make_engine ? options_.make_engine(config_) : make_engine(config_);
       // The server installs the engine's event sink: before engine.start().
       server_ = std::make_unique<Server>(io_, *engine_, ServerOptions::from(config_.network));
-      port_ = server_->listen();
+      // Bound (a busy port fails here, before any driver is activated) but not listening: a connect
+      // is refused until the engine serves.
+      port_ = server_->bind();
       engine_->start();
       for (const auto& w : engine_->startup_warnings())
         spdlog::warn("{}", w);
@@ -112,8 +114,14 @@ class Runner {
     spdlog::info("{}: shutting down (stopping motion, persisting state)", why);
     notifier_.stopping(std::string("stopping (") + why + ")");
     stopping_ = true;
-    server_->stop();
+    // Order: no new connections; the engine stops the motion (its motion_stopped event still
+    // reaches every session) and flushes the state; then held replies go out and every session is
+    // closed after its queued frames are written.
+    server_->stop_accepting();
     engine_->shutdown();
+    for (const auto& w : engine_->take_warnings())
+      spdlog::warn("{}", w);
+    server_->stop();
     boost::system::error_code ignored;
     signals_.cancel(ignored);
     watchdog_timer_.cancel();

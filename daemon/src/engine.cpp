@@ -87,7 +87,8 @@ class EngineImpl final : public Engine {
         keepalive_(std::move(drivers.keepalive)),
         procedure_(camera_to_base_or_throw(config), config.limits, config.base,
                    ProcedureLimits{config.control.aligned_tolerance_rad}),
-        store_(config.state.directory),
+        store_(config.state.directory,
+               StateStore::Options{std::chrono::milliseconds(config.state.debug_write_delay_ms)}),
         start_ns_(monotonic_now_ns()) {
     if (!drivers.card || !drivers.arm) throw StartupError("drivers: card and arm are required");
     const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
@@ -118,6 +119,7 @@ class EngineImpl final : public Engine {
       throw StartupError("manipulator: " + describe(s.error()));
     }
     restore();
+    store_.start();
     for (auto& w : loop_->start_thread())
       startup_warnings_.push_back(std::move(w));
     last_state_ = procedure_.state();
@@ -140,6 +142,10 @@ class EngineImpl final : public Engine {
         std::this_thread::sleep_for(std::chrono::milliseconds(1));
       }
       persist();
+      if (!store_.flush(std::chrono::seconds(5))) {
+        warnings_.push_back("state not persisted: the state store did not finish within 5 s");
+      }
+      store_.stop();
     } catch (...) {  // shutting down: nothing sensible to do but carry on
     }
     loop_->stop_thread();
@@ -230,8 +236,13 @@ class EngineImpl final : public Engine {
   std::vector<std::string> take_warnings() override {
     std::vector<std::string> w;
     w.swap(warnings_);
+    for (auto& e : store_.take_errors())
+      w.push_back("state not persisted: " + e);
     return w;
   }
+
+  std::uint64_t accepted_generation() const noexcept override { return store_.submitted(); }
+  std::uint64_t settled_generation() const noexcept override { return store_.settled(); }
 
  private:
   // ---- commands --------------------------------------------------------------------------------
@@ -522,42 +533,44 @@ class EngineImpl final : public Engine {
     }
   }
 
+  // Hands the record to the state store's writer thread (never waits on the disk). Failures come
+  // back through take_warnings().
   void persist() {
     if (!started_) return;
-    if (auto s = store_.save(procedure_.record()); !s) {
-      if (s.error().message != last_persist_error_) {
-        last_persist_error_ = s.error().message;
-        warnings_.push_back("state not persisted: " + s.error().message);
-      }
-    } else {
-      last_persist_error_.clear();
-    }
+    store_.submit(procedure_.record());
   }
 
+  // Before the writer thread starts. A file that cannot be read, decoded or validated is moved
+  // aside (ajard.state.rejected-<time>) and the procedure starts clean; both are startup warnings.
   void restore() {
     auto loaded = store_.load();
     if (!loaded) {
-      startup_warnings_.push_back("state file unreadable, starting with a clean procedure: " +
-                                  loaded.error().message);
-      std::error_code ec;
-      std::filesystem::rename(store_.path(), store_.path() + ".corrupt", ec);
-      if (!ec)
-        startup_warnings_.push_back("kept the unreadable state file as " + store_.path() +
-                                    ".corrupt");
+      reject_state_file("state file rejected, starting with a clean procedure: " +
+                        loaded.error().message);
       return;
     }
     if (!loaded->found) return;
     if (auto s = procedure_.restore(loaded->record); !s) {
-      startup_warnings_.push_back("state file " + store_.path() +
-                                  " no longer validates with this config, starting with a clean "
-                                  "procedure: " +
-                                  describe(s.error()));
+      reject_state_file("state file " + store_.path() +
+                        " rejected: it no longer validates with this config, starting with a "
+                        "clean procedure: " +
+                        describe(s.error()));
       return;
     }
     restored_ = true;
-    started_ = true;  // persist() needs it; start() sets it for good right after
-    persist();        // the normalised record (aligning -> ready to align, ...)
-    started_ = false;
+    // The normalised record (aligning -> ready to align, ...), written before anything is served.
+    if (auto s = store_.save(procedure_.record()); !s) {
+      startup_warnings_.push_back("state not persisted: " + s.error().message);
+    }
+  }
+
+  void reject_state_file(std::string warning) {
+    startup_warnings_.push_back(std::move(warning));
+    if (!std::filesystem::exists(store_.path())) return;
+    auto kept = store_.reject_current_file();
+    startup_warnings_.push_back(kept ? "kept the rejected state file as " + *kept
+                                     : "could not keep the rejected state file: " +
+                                           kept.error().message);
   }
 
   std::uint64_t daemon_time_ns() const {
@@ -585,7 +598,6 @@ class EngineImpl final : public Engine {
   ProcedureState last_state_ = ProcedureState::kAwaitingWidth;
   std::vector<std::string> startup_warnings_;
   std::vector<std::string> warnings_;
-  std::string last_persist_error_;
 };
 
 }  // namespace

@@ -39,6 +39,7 @@ ServerOptions ServerOptions::from(const NetworkConfig& network) {
       static_cast<std::size_t>(std::max(network.send_queue_frames, 1));
   options.session.read_deadline = seconds(network.read_deadline_s);
   options.session.idle_timeout = seconds(network.idle_timeout_s);
+  options.hello_timeout = seconds(network.hello_timeout_s);
   options.tls = network.tls;
   options.insecure_plaintext = network.insecure_plaintext;
   return options;
@@ -51,18 +52,18 @@ struct Server::Impl {
         options(std::move(opts)),
         acceptor(io),
         poll_timer(io),
-        hub(eng, options.ledger) {}
+        hub(eng, SessionHub::Options{options.ledger, options.hello_timeout}) {}
 
   void accept() {
     acceptor.async_accept([this](const boost::system::error_code& ec, tcp::socket socket) {
-      if (stopped) return;
+      if (!accepting) return;
       if (ec) {
         if (ec != asio::error::operation_aborted) {
           spdlog::warn("accept failed: {}", ec.message());
           // Out of file descriptors and the like: try again shortly rather than spin.
           retry_timer = std::make_unique<asio::steady_timer>(io, std::chrono::milliseconds(100));
           retry_timer->async_wait([this](const boost::system::error_code& wait_ec) {
-            if (!wait_ec && !stopped) accept();
+            if (!wait_ec && accepting) accept();
           });
         }
         return;
@@ -78,36 +79,53 @@ struct Server::Impl {
     const auto remote = socket.remote_endpoint(ec);
     const std::string peer = ec ? std::string("unknown peer") : endpoint_text(remote);
     const std::uint64_t id = ++last_session_id;
-    const auto max_clients = static_cast<std::size_t>(std::max(options.max_clients, 0));
-    if (tls) {  // handshakes in progress count against max_clients
-      if (hub.session_count() + tls->pending() >= max_clients &&
-          !tls->drop_oldest("dropped unfinished: max_clients reached")) {
-        spdlog::warn("refused {}: {} clients connected (network.max_clients)", peer,
-                     hub.session_count());
-        return;  // no frame before the handshake: the socket just closes
-      }
+    if (tls) {
+      const auto limit = static_cast<std::size_t>(std::max(options.max_clients, 0));
+      if (hub.session_count() + tls->pending() >= limit)
+        tls->drop_oldest("dropped unfinished: max_clients reached");
       tls->handshake(std::move(socket), peer, [this, id, peer](TlsStream stream, PeerAccess a) {
-        if (stopped) return;
-        std::make_shared<TlsSession>(std::move(stream), id, peer, &hub, options.session,
-                                     std::move(a))
-            ->start();
+        if (!accepting) return;
+        start_session<TlsStream>(std::move(stream), id, peer, std::move(a));
       });
       return;
     }
-    if (hub.session_count() >= max_clients) {
-      spdlog::warn("refused {}: {} clients connected (network.max_clients)", peer,
-                   hub.session_count());
-      protocol::ErrorReply error;
-      error.code = ErrorCode::kTooManyClients;
-      error.offending_type = protocol::MessageType::kHello;
-      error.message.assign("too many clients (" + std::to_string(options.max_clients) +
-                           "); try again later");
-      auto session =
-          std::make_shared<TcpSession>(std::move(socket), id, peer, nullptr, options.session);
-      session->refuse(encode_frame(protocol::Envelope{0, 0, error}), "too many clients");
+    start_session<tcp::socket>(std::move(socket), id, peer, PeerAccess{});
+  }
+
+  template <typename Stream>
+  void start_session(Stream stream, std::uint64_t id, const std::string& peer, PeerAccess access) {
+    if (!has_room()) {
+      refuse(std::move(stream), id, peer, std::move(access));
       return;
     }
-    std::make_shared<TcpSession>(std::move(socket), id, peer, &hub, options.session)->start();
+    std::make_shared<Session<Stream>>(std::move(stream), id, peer, &hub, options.session,
+                                      std::move(access))
+        ->start();
+  }
+
+  // A newcomer is always read: at max_clients the hub closes an idle session to make room.
+  bool has_room() {
+    const auto limit = static_cast<std::size_t>(std::max(options.max_clients, 0));
+    return hub.session_count() < limit || hub.make_room();
+  }
+
+  // Nothing to evict (only the controller): TOO_MANY_CLIENTS, but the newcomer's first frames are
+  // still read for refused_read_window, so its Stop/EmergencyStop is executed.
+  template <typename Stream>
+  void refuse(Stream stream, std::uint64_t id, const std::string& peer, PeerAccess access) {
+    spdlog::warn(
+        "refused {}: {} clients connected (network.max_clients); its Stop and "
+        "EmergencyStop are still executed",
+        peer, hub.session_count());
+    protocol::ErrorReply error;
+    error.code = ErrorCode::kTooManyClients;
+    error.offending_type = protocol::MessageType::kHello;
+    error.message.assign("too many clients (" + std::to_string(options.max_clients) +
+                         "); try again later");
+    auto session = std::make_shared<Session<Stream>>(
+        std::move(stream), id, peer, &hub.refusal_handler(), options.session, std::move(access));
+    session->refuse(encode_frame(protocol::Envelope{0, 0, error}), "too many clients",
+                    options.refused_read_window);
   }
 
   void schedule_poll() {
@@ -116,7 +134,7 @@ struct Server::Impl {
     if (next_poll < now) next_poll = now + options.poll_period;  // fell behind: do not burst
     poll_timer.expires_at(next_poll);
     poll_timer.async_wait([this](const boost::system::error_code& ec) {
-      if (ec || stopped) return;
+      if (ec || !accepting) return;
       poll();
       schedule_poll();
     });
@@ -144,7 +162,9 @@ struct Server::Impl {
   Clock::time_point next_poll{};
   std::uint64_t last_session_id = 0;
   std::uint16_t bound_port = 0;
+  std::string where;
   bool started = false;
+  bool accepting = false;
   bool stopped = false;
 };
 
@@ -156,7 +176,7 @@ Server::Server(asio::io_context& io, Engine& engine, ServerOptions options)
 
 Server::~Server() = default;
 
-std::uint16_t Server::listen() {
+std::uint16_t Server::bind() {
   auto& d = *impl_;
   const std::string where = d.options.bind_address + ":" + std::to_string(d.options.port);
   boost::system::error_code ec;
@@ -185,11 +205,8 @@ std::uint16_t Server::listen() {
   if (ec) fail("SO_REUSEADDR");
   d.acceptor.bind(endpoint, ec);
   if (ec) fail("bind");
-  d.acceptor.listen(asio::socket_base::max_listen_connections, ec);
-  if (ec) fail("listen");
   d.bound_port = d.acceptor.local_endpoint(ec).port();
-  spdlog::info("listening on {} ({})", endpoint_text(tcp::endpoint(address, d.bound_port)),
-               d.tls ? "mutual TLS 1.3" : "plaintext");
+  d.where = endpoint_text(tcp::endpoint(address, d.bound_port));
   return d.bound_port;
 }
 
@@ -197,9 +214,24 @@ void Server::start() {
   auto& d = *impl_;
   if (d.started) return;
   d.started = true;
+  boost::system::error_code ec;
+  d.acceptor.listen(asio::socket_base::max_listen_connections, ec);
+  if (ec) throw StartupError("cannot listen on " + d.where + ": listen: " + ec.message());
+  spdlog::info("listening on {} ({})", d.where, d.tls ? "mutual TLS 1.3" : "plaintext");
+  d.accepting = true;
   d.accept();
   d.next_poll = Clock::now();
   d.schedule_poll();
+}
+
+void Server::stop_accepting() {
+  auto& d = *impl_;
+  d.accepting = false;
+  boost::system::error_code ignored;
+  d.acceptor.close(ignored);
+  if (d.tls) d.tls->close_all();
+  d.poll_timer.cancel();
+  if (d.retry_timer) d.retry_timer->cancel();
 }
 
 void Server::reload_tls(const TlsConfig& tls) {
@@ -212,12 +244,9 @@ void Server::reload_tls(const TlsConfig& tls) {
 void Server::stop() {
   auto& d = *impl_;
   if (d.stopped) return;
+  stop_accepting();
   d.stopped = true;
-  boost::system::error_code ignored;
-  d.acceptor.close(ignored);
-  if (d.tls) d.tls->close_all();
-  d.poll_timer.cancel();
-  if (d.retry_timer) d.retry_timer->cancel();
+  d.hub.release_all();
   d.hub.close_all("daemon shutting down");
   d.engine.set_event_sink([](const protocol::Event&) {});
 }

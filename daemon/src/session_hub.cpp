@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <exception>
 #include <limits>
 
@@ -52,12 +53,22 @@ SharedFrame encode_frame(const protocol::Envelope& envelope) {
       buffer.begin(), buffer.begin() + static_cast<long>(size));
 }
 
-SessionHub::SessionHub(Engine& engine, RequestLedger::Limits ledger_limits)
-    : engine_(engine), ledger_(ledger_limits) {}
+namespace {
+std::string seconds_text(SessionHub::Clock::duration d) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%g s", std::chrono::duration<double>(d).count());
+  return text;
+}
+}  // namespace
+
+SessionHub::SessionHub(Engine& engine, Options options)
+    : engine_(engine), options_(options), ledger_(options.ledger) {}
 
 void SessionHub::on_open(SessionLink& link) {
   SessionState state;
   state.link = &link;
+  state.opened = Clock::now();
+  state.last_activity = state.opened;
   sessions_[link.id()] = std::move(state);
   spdlog::info("session {} opened from {} as {} ({} sessions)", link.id(), link.peer(),
                link.access().identity, sessions_.size());
@@ -69,7 +80,24 @@ std::string SessionHub::describe(const SessionState& s) const {
   return text;
 }
 
-void SessionHub::reply(SessionState& s, std::uint32_t request_id, protocol::Message message) {
+void SessionHub::reply(SessionState& s, std::uint32_t request_id, protocol::Message message,
+                       std::uint64_t generation) {
+  if (!s.held.empty() || generation > engine_.settled_generation()) {
+    s.held.push_back(HeldReply{request_id, std::move(message), generation});
+    return;
+  }
+  send_reply(s, request_id, std::move(message));
+}
+
+void SessionHub::release_settled(SessionState& s, std::uint64_t settled) {
+  while (!s.held.empty() && s.held.front().generation <= settled) {
+    HeldReply r = std::move(s.held.front());
+    s.held.pop_front();
+    send_reply(s, r.request_id, std::move(r.message));
+  }
+}
+
+void SessionHub::send_reply(SessionState& s, std::uint32_t request_id, protocol::Message message) {
   const MessageType type = protocol::type_of(message);
   auto frame = encode_frame(protocol::Envelope{request_id, 0, std::move(message)});
   if (!frame) {  // a bug (e.g. an Ack body that does not match): the client still gets an answer
@@ -117,6 +145,7 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
   if (it == sessions_.end()) return;
   SessionState& s = it->second;
   if (controller_ == link.id()) engine_.controller_heartbeat();
+  s.last_activity = Clock::now();
 
   const MessageType type = protocol::type_of(envelope.message);
   if (!protocol::is_request(type)) {
@@ -282,18 +311,21 @@ void SessionHub::handle_command(SessionState& s, const protocol::Envelope& envel
             ledger_.find(s.client_instance_id, envelope.request_id, type)) {
       spdlog::info("{}: {} request {} is a repeat: original reply sent again, not executed",
                    describe(s), protocol::to_string(type), envelope.request_id);
-      reply(s, envelope.request_id, *recorded);
+      // The original may still be waiting for its save: the repeat waits as long.
+      reply(s, envelope.request_id, *recorded, engine_.accepted_generation());
       return;
     }
   }
   spdlog::debug("{}: {} request {}", describe(s), protocol::to_string(type), envelope.request_id);
+  const std::uint64_t before = engine_.accepted_generation();
   protocol::Message answer = call_engine(envelope.message);
+  const std::uint64_t after = engine_.accepted_generation();
   const auto* error = std::get_if<protocol::ErrorReply>(&answer);
   const bool executed_or_refused = error == nullptr || error->code != ErrorCode::kQueueFull;
   if (deduplicate && executed_or_refused) {
     ledger_.record(s.client_instance_id, envelope.request_id, type, answer);
   }
-  reply(s, envelope.request_id, std::move(answer));
+  reply(s, envelope.request_id, std::move(answer), after > before ? after : 0);
 }
 
 void SessionHub::on_decode_error(SessionLink& link, const protocol::DecodeError& error) {
@@ -301,6 +333,7 @@ void SessionHub::on_decode_error(SessionLink& link, const protocol::DecodeError&
   if (it == sessions_.end()) return;
   SessionState& s = it->second;
   if (controller_ == link.id()) engine_.controller_heartbeat();
+  s.last_activity = Clock::now();
   protocol::ErrorReply reply_body;
   reply_body.code = error.code;
   reply_body.offending_type = static_cast<MessageType>(error.type);
@@ -334,8 +367,23 @@ void SessionHub::on_event(const protocol::Event& event) {
 }
 
 void SessionHub::tick(Clock::time_point now) {
+  const std::uint64_t settled = engine_.settled_generation();
   SharedFrame frame;
   for (auto& [id, s] : sessions_) {
+    release_settled(s, settled);
+    if (!s.greeted && !s.closing && options_.hello_timeout > Clock::duration::zero() &&
+        now - s.opened >= options_.hello_timeout) {
+      const std::string why = "no Hello within " + seconds_text(options_.hello_timeout) +
+                              " (network.hello_timeout_s): closing";
+      protocol::ErrorReply error;
+      error.code = ErrorCode::kHelloRequired;
+      error.offending_type = MessageType::kHello;
+      error.message.assign(why);
+      send_reply(s, 0, error);
+      s.closing = true;
+      s.link->close_after_flush(why);
+      continue;
+    }
     if (s.telemetry_period == Clock::duration::zero() || now < s.next_telemetry) continue;
     if (!frame) frame = encode_frame(protocol::Envelope{0, 0, engine_.telemetry()});
     if (!frame) return;
@@ -343,6 +391,59 @@ void SessionHub::tick(Clock::time_point now) {
     s.next_telemetry += s.telemetry_period;
     if (s.next_telemetry < now)
       s.next_telemetry = now + s.telemetry_period;  // no bursts after a stall
+  }
+}
+
+void SessionHub::release_all() {
+  for (auto& [id, s] : sessions_)
+    release_settled(s, std::numeric_limits<std::uint64_t>::max());
+}
+
+bool SessionHub::make_room() {
+  auto victim = sessions_.end();
+  for (int pass = 0; pass < 2 && victim == sessions_.end(); ++pass) {
+    for (auto it = sessions_.begin(); it != sessions_.end(); ++it) {
+      const SessionState& s = it->second;
+      if (s.closing || controller_ == it->first) continue;
+      if (pass == 0 && s.greeted) continue;  // un-greeted sessions go first
+      if (victim == sessions_.end() || s.last_activity < victim->second.last_activity) victim = it;
+    }
+  }
+  if (victim == sessions_.end()) return false;
+  SessionState& s = victim->second;
+  const std::string why = std::string("the session table is full: closing this ") +
+                          (s.greeted ? "observer" : "un-greeted session") +
+                          " (idle the longest) to make room for a new connection";
+  spdlog::warn("{} from {}: {}", describe(s), s.link->peer(), why);
+  protocol::ErrorReply error;
+  error.code = ErrorCode::kTooManyClients;
+  error.offending_type = MessageType::kHello;
+  error.message.assign(why);
+  release_settled(s, std::numeric_limits<std::uint64_t>::max());
+  send_reply(s, 0, error);
+  s.link->close_after_flush("evicted: session table full");
+  sessions_.erase(victim);
+  return true;
+}
+
+void SessionHub::RefusalHandler::on_message(SessionLink& link, const protocol::Envelope& envelope) {
+  const MessageType type = protocol::type_of(envelope.message);
+  protocol::Message answer;
+  if (is_stop(type) && link.access().may_stop) {  // no table state may refuse a stop
+    spdlog::warn("refused connection {} from {}: {} executed", link.id(), link.peer(),
+                 protocol::to_string(type));
+    answer = hub_.call_engine(envelope.message);
+  } else {
+    protocol::ErrorReply error;
+    error.code = ErrorCode::kTooManyClients;
+    error.offending_type = type;
+    error.message.assign(
+        "too many clients: only Stop and EmergencyStop are executed on this "
+        "connection; it will be closed");
+    answer = error;
+  }
+  if (auto frame = encode_frame(protocol::Envelope{envelope.request_id, 0, std::move(answer)})) {
+    link.send(std::move(frame));
   }
 }
 

@@ -5,10 +5,13 @@
 
 #include <cerrno>
 #include <charconv>
+#include <cmath>
+#include <ctime>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <vector>
 
@@ -74,9 +77,17 @@ class Tokens {
   std::vector<std::string> tokens_;
 };
 
+// Finite numbers only: "nan", "inf" and out-of-range values are refused.
 bool parse_double(const std::string& s, double& v) {
   const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
-  return r.ec == std::errc() && r.ptr == s.data() + s.size();
+  return r.ec == std::errc() && r.ptr == s.data() + s.size() && std::isfinite(v);
+}
+
+// A latched fault as the engine latches it: kOk, or a known driver/motion fault (5xx).
+bool is_restorable_fault(long long code) {
+  if (code == 0) return true;
+  if (code < 500 || code > 599) return false;
+  return to_string(static_cast<ErrorCode>(code)) != "UNKNOWN";
 }
 
 bool parse_int(const std::string& s, long long& v) {
@@ -164,6 +175,7 @@ Result<ProcedureRecord> decode_state(const std::string& text) {
   std::string line;
   int line_number = 0;
   bool have_header = false;
+  std::set<std::string> seen;
   while (std::getline(in, line)) {
     ++line_number;
     const Tokens t(line);
@@ -181,6 +193,7 @@ Result<ProcedureRecord> decode_state(const std::string& text) {
       continue;
     }
     const std::string& key = t[0];
+    if (!seen.insert(key).second) return fail("'" + key + "' appears twice");
     if (key == "phase" && t.size() == 2) {
       if (t[1] == "idle")
         r.phase = Phase::kIdle;
@@ -197,7 +210,9 @@ Result<ProcedureRecord> decode_state(const std::string& text) {
       (key == "aligned" ? r.aligned : r.plane_consumed) = t[1] == "1";
     } else if (key == "fault" && t.size() == 2) {
       long long code = 0;
-      if (!parse_int(t[1], code) || code < 0 || code > 0xFFFF) return fail("bad fault code");
+      if (!parse_int(t[1], code) || !is_restorable_fault(code)) {
+        return fail("fault code '" + t[1] + "' is not a fault the daemon latches");
+      }
       r.fault = static_cast<ErrorCode>(code);
     } else if (key == "width" && t.size() == 9) {
       protocol::MeasureDoorWidth m;
@@ -213,7 +228,8 @@ Result<ProcedureRecord> decode_state(const std::string& text) {
       r.handle = m;
     } else if (key == "plane" && t.size() >= 2) {
       long long n = 0;
-      if (!parse_int(t[1], n) || n < 0 || n > static_cast<long long>(protocol::kMaxPlanePoints) ||
+      if (!parse_int(t[1], n) || n < static_cast<long long>(protocol::kMinPlanePoints) ||
+          n > static_cast<long long>(protocol::kMaxPlanePoints) ||
           t.size() != 2 + 4 * static_cast<std::size_t>(n)) {
         return fail("bad plane point count");
       }
@@ -232,11 +248,18 @@ Result<ProcedureRecord> decode_state(const std::string& text) {
     }
   }
   if (!have_header) return bad("empty file");
+  for (const char* required : {"phase", "aligned", "plane_consumed", "fault"}) {
+    if (seen.count(required) == 0) return bad(std::string("line '") + required + "' missing");
+  }
   return r;
 }
 
-StateStore::StateStore(std::string directory)
-    : directory_(std::move(directory)), path_(directory_ + "/ajard.state") {}
+StateStore::StateStore(std::string directory, Options options)
+    : directory_(std::move(directory)), path_(directory_ + "/ajard.state"), options_(options) {}
+
+StateStore::~StateStore() {
+  stop();
+}
 
 void StateStore::prepare() const {
   std::error_code ec;
@@ -267,9 +290,32 @@ Result<StateStore::Loaded> StateStore::load() const {
   return loaded;
 }
 
+Result<std::string> StateStore::reject_current_file() const {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char stamp[32];
+  std::strftime(stamp, sizeof(stamp), "%Y%m%dT%H%M%SZ", &utc);
+  std::string target = path_ + ".rejected-" + stamp;
+  for (int n = 1; std::filesystem::exists(target) && n < 1000; ++n) {
+    target = path_ + ".rejected-" + stamp + "-" + std::to_string(n);
+  }
+  std::error_code ec;
+  std::filesystem::rename(path_, target, ec);
+  if (ec) return bad("cannot move '" + path_ + "' to '" + target + "': " + ec.message());
+  return target;
+}
+
 Status StateStore::save(const ProcedureRecord& record) const {
   const std::string text = encode_state(record);
   const std::string tmp = path_ + ".tmp";
+  // Every failure after the open removes the temporary file: no stray .tmp is left behind.
+  const auto fail = [&](const std::string& what, int fd) {
+    const std::string why = errno_text();
+    if (fd >= 0) ::close(fd);
+    ::unlink(tmp.c_str());
+    return bad(what + " '" + tmp + "': " + why);
+  };
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
   if (fd < 0) return bad("cannot create '" + tmp + "': " + errno_text());
   std::size_t written = 0;
@@ -277,28 +323,91 @@ Status StateStore::save(const ProcedureRecord& record) const {
     const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
     if (n < 0) {
       if (errno == EINTR) continue;
-      const std::string why = errno_text();
-      ::close(fd);
-      return bad("cannot write '" + tmp + "': " + why);
+      return fail("cannot write", fd);
     }
     written += static_cast<std::size_t>(n);
   }
-  if (::fsync(fd) != 0) {
-    const std::string why = errno_text();
-    ::close(fd);
-    return bad("cannot fsync '" + tmp + "': " + why);
-  }
-  ::close(fd);
+  if (options_.debug_write_delay.count() > 0)
+    std::this_thread::sleep_for(options_.debug_write_delay);
+  if (::fsync(fd) != 0) return fail("cannot fsync", fd);
+  if (::close(fd) != 0) return fail("cannot close", -1);
   if (::rename(tmp.c_str(), path_.c_str()) != 0) {
-    return bad("cannot rename '" + tmp + "' to '" + path_ + "': " + errno_text());
+    const std::string why = errno_text();
+    ::unlink(tmp.c_str());
+    return bad("cannot rename '" + tmp + "' to '" + path_ + "': " + why);
   }
   const int dir = ::open(directory_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (dir < 0) return bad("cannot open directory '" + directory_ + "': " + errno_text());
   const int rc = ::fsync(dir);
   const std::string why = rc != 0 ? errno_text() : std::string();
-  ::close(dir);
+  const int closed = ::close(dir);
   if (rc != 0) return bad("cannot fsync directory '" + directory_ + "': " + why);
+  if (closed != 0) return bad("cannot close directory '" + directory_ + "': " + errno_text());
   return Ok{};
+}
+
+void StateStore::start() {
+  std::lock_guard lock(mutex_);
+  if (writer_.joinable() || stopping_) return;
+  writer_ = std::thread([this] { run(); });
+}
+
+std::uint64_t StateStore::submit(ProcedureRecord record) {
+  std::uint64_t generation = 0;
+  {
+    std::lock_guard lock(mutex_);
+    generation = submitted_.load(std::memory_order_relaxed) + 1;
+    pending_ = std::move(record);
+    pending_generation_ = generation;
+    submitted_.store(generation, std::memory_order_release);
+  }
+  wake_.notify_one();
+  return generation;
+}
+
+void StateStore::run() {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    wake_.wait(lock, [&] { return pending_.has_value() || stopping_; });
+    if (!pending_) return;  // stopping with nothing left to write
+    ProcedureRecord record = std::move(*pending_);
+    pending_.reset();
+    const std::uint64_t generation = pending_generation_;
+    lock.unlock();
+    const Status saved = save(record);
+    lock.lock();
+    if (!saved) {
+      if (saved.error().message != last_error_) errors_.push_back(saved.error().message);
+      last_error_ = saved.error().message;
+    } else {
+      last_error_.clear();
+    }
+    settled_.store(generation, std::memory_order_release);
+    settled_cv_.notify_all();
+  }
+}
+
+bool StateStore::flush(std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mutex_);
+  if (!writer_.joinable()) return settled() >= submitted();
+  return settled_cv_.wait_for(lock, timeout, [&] { return settled() >= submitted(); });
+}
+
+std::vector<std::string> StateStore::take_errors() {
+  std::lock_guard lock(mutex_);
+  std::vector<std::string> out;
+  out.swap(errors_);
+  return out;
+}
+
+void StateStore::stop() {
+  {
+    std::lock_guard lock(mutex_);
+    if (!writer_.joinable()) return;
+    stopping_ = true;  // the writer finishes the pending record first, then returns
+  }
+  wake_.notify_one();
+  writer_.join();
 }
 
 }  // namespace ajar::daemon

@@ -23,6 +23,11 @@ daemon::ServerOptions small_options() {
   return o;
 }
 
+void expect_pong(TestClient& c) {
+  EXPECT_TRUE(std::holds_alternative<protocol::Pong>(c.request(protocol::Ping{1})));
+  EXPECT_FALSE(c.closed());
+}
+
 class ServerIo : public ::testing::Test {
  protected:
   FakeEngine engine_;
@@ -142,27 +147,97 @@ TEST_F(ServerIo, AHalfSentFrameHitsTheReadDeadline) {
   const auto frame = frame_of(protocol::Ping{5}, 37);
   c.send_raw(std::span<const std::uint8_t>(frame.data(), 10));
   EXPECT_TRUE(c.wait_closed());
+  // Not silently: an Error naming the deadline came first.
+  ASSERT_EQ(c.others().size(), 1U);
+  const auto& error = c.others().front().message;
+  ASSERT_EQ(error_code_of(error), ErrorCode::kBadPayloadLength);
+  EXPECT_EQ(std::get<protocol::ErrorReply>(error).field.view(), "read_deadline_s");
+  EXPECT_NE(std::get<protocol::ErrorReply>(error).message.view().find("10 bytes"),
+            std::string_view::npos);
   expect_bystander_fine(bystander);
 }
 
-TEST_F(ServerIo, TooManyClientsAreRefusedPolitely) {
+// A full table makes room: the observer idle the longest is closed (never the controller) and
+// the newcomer is served.
+TEST_F(ServerIo, AFullTableClosesTheIdlestObserverForANewcomer) {
   std::vector<std::unique_ptr<TestClient>> clients;
   for (int i = 0; i < 8; ++i) {
     clients.push_back(std::make_unique<TestClient>(server_.port()));
-    clients.back()->hello(Role::kObserver);
+    clients.back()->hello(i == 0 ? Role::kController : Role::kObserver);
   }
+  for (std::size_t i = 2; i < clients.size(); ++i)  // everybody but clients[1] speaks again
+    expect_bystander_fine(*clients[i]);
+  expect_bystander_fine(*clients[0]);
   TestClient extra(server_.port());
-  extra.send(hello_as(Role::kObserver));
-  auto outcome = extra.next();
-  ASSERT_TRUE(outcome && outcome->kind == protocol::StreamDecoder::Kind::kMessage);
-  EXPECT_EQ(error_code_of(outcome->envelope.message), ErrorCode::kTooManyClients);
-  EXPECT_TRUE(extra.wait_closed());
-  expect_bystander_fine(*clients.front());
-  // A place frees up: the next one gets in.
-  clients.pop_back();
-  ASSERT_TRUE(eventually([&] { return server_.session_count() == 7; }));
-  TestClient later(server_.port());
-  EXPECT_EQ(later.hello(Role::kObserver).granted_role, Role::kObserver);
+  EXPECT_EQ(extra.hello(Role::kObserver).granted_role, Role::kObserver);
+  EXPECT_TRUE(clients[1]->wait_closed());
+  ASSERT_EQ(clients[1]->others().size(), 1U);
+  EXPECT_EQ(error_code_of(clients[1]->others().front().message), ErrorCode::kTooManyClients);
+  EXPECT_TRUE(std::holds_alternative<protocol::Ack>(clients[0]->request(protocol::AlignBase{})));
+  EXPECT_EQ(server_.session_count(), 8U);
+}
+
+// Sockets that never say Hello go first, before any greeted observer.
+TEST_F(ServerIo, NeverGreetedSocketsAreClosedBeforeObservers) {
+  TestClient observer(server_.port());
+  observer.hello(Role::kObserver);
+  std::vector<std::unique_ptr<TestClient>> silent;
+  for (int i = 0; i < 7; ++i)
+    silent.push_back(std::make_unique<TestClient>(server_.port()));
+  ASSERT_TRUE(eventually([&] { return server_.session_count() == 8; }));
+  std::vector<std::unique_ptr<TestClient>> newcomers;
+  for (int i = 0; i < 7; ++i) {
+    newcomers.push_back(std::make_unique<TestClient>(server_.port()));
+    EXPECT_EQ(newcomers.back()->hello(Role::kObserver).granted_role, Role::kObserver);
+  }
+  for (auto& c : silent)
+    EXPECT_TRUE(c->wait_closed());
+  expect_bystander_fine(observer);
+}
+
+// Nothing to close (max_clients 1, held by the controller): the newcomer is refused, but its
+// EmergencyStop is executed and acknowledged before the connection closes.
+TEST(ServerRefusal, ARefusedConnectionsEmergencyStopIsExecuted) {
+  FakeEngine engine;
+  daemon::ServerOptions options = small_options();
+  options.max_clients = 1;
+  ServerThread server(engine, options);
+  TestClient controller(server.port());
+  controller.hello(Role::kController);
+  TestClient refused(server.port());
+  auto bytes = frame_of(hello_as(Role::kObserver), 1);
+  const auto stop = frame_of(protocol::EmergencyStop{}, 2);
+  const auto ping = frame_of(protocol::Ping{}, 3);
+  bytes.insert(bytes.end(), stop.begin(), stop.end());
+  bytes.insert(bytes.end(), ping.begin(), ping.end());
+  refused.send_raw(bytes);
+  EXPECT_EQ(error_code_of(refused.reply_to(1)), ErrorCode::kTooManyClients);
+  const auto ack = refused.reply_to(2);
+  ASSERT_TRUE(std::holds_alternative<protocol::Ack>(ack)) << TestClient::describe(ack);
+  EXPECT_EQ(std::get<protocol::Ack>(ack).acknowledged, protocol::MessageType::kEmergencyStop);
+  EXPECT_EQ(error_code_of(refused.reply_to(3)), ErrorCode::kTooManyClients);
+  EXPECT_TRUE(refused.wait_closed());
+  EXPECT_EQ(engine.count(protocol::MessageType::kEmergencyStop), 1U);
+  EXPECT_EQ(engine.count(protocol::MessageType::kPing), 0U);
+  expect_pong(controller);
+}
+
+TEST(ServerHello, AnUngreetedSocketIsClosedAtTheHelloDeadlineWithAnError) {
+  FakeEngine engine;
+  daemon::ServerOptions options = small_options();
+  options.hello_timeout = 200ms;
+  ServerThread server(engine, options);
+  TestClient greeted(server.port());
+  greeted.hello(Role::kObserver);
+  TestClient silent(server.port());
+  EXPECT_TRUE(silent.wait_closed());
+  ASSERT_EQ(silent.others().size(), 1U);
+  const auto& error = silent.others().front().message;
+  ASSERT_EQ(error_code_of(error), ErrorCode::kHelloRequired);
+  EXPECT_NE(std::get<protocol::ErrorReply>(error).message.view().find("hello_timeout_s"),
+            std::string_view::npos);
+  expect_pong(greeted);  // a greeted session has no such deadline
+  EXPECT_FALSE(greeted.closed());
 }
 
 TEST_F(ServerIo, AClientThatStopsReadingIsDroppedWhileOthersContinue) {

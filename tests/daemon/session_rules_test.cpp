@@ -318,5 +318,46 @@ TEST_F(SessionRules, AHostMessageTypeFromTheHostIsRefused) {
   EXPECT_EQ(error_code_of(reply), ErrorCode::kUnknownMessageType);
 }
 
+// Durable Acks: a command's Ack waits until its save settled; the session's later replies queue
+// behind it (request order), its Stop is executed at once; other sessions are not delayed.
+TEST_F(SessionRules, AHeldAckKeepsRequestOrderAndDelaysOnlyItsSession) {
+  engine_.persisting(true);
+  TestClient controller(server_.port());
+  controller.hello(Role::kController);
+  TestClient observer(server_.port());
+  observer.hello(Role::kObserver);
+
+  auto bytes = frame_of(protocol::MeasureDoorWidth{}, 10);
+  for (const auto& f : {frame_of(protocol::Ping{7}, 11), frame_of(protocol::Stop{}, 12)})
+    bytes.insert(bytes.end(), f.begin(), f.end());
+  controller.send_raw(bytes);
+  ASSERT_TRUE(eventually([&] { return engine_.count(MessageType::kStop) == 1; }));  // executed
+  // The other session is served while the controller's save is pending, its e-stop included.
+  EXPECT_TRUE(std::holds_alternative<protocol::Pong>(observer.request(protocol::Ping{1})));
+  EXPECT_TRUE(std::holds_alternative<protocol::Ack>(observer.request(protocol::EmergencyStop{})));
+  // Nothing for the controller until its save settles.
+  const auto next_reply = [&](std::chrono::milliseconds timeout) -> std::optional<std::uint32_t> {
+    for (;;) {  // events (control_changed) are not replies
+      auto outcome = controller.next(timeout);
+      if (!outcome) return std::nullopt;
+      if (outcome->kind == protocol::StreamDecoder::Kind::kMessage &&
+          outcome->envelope.request_id != 0) {
+        return outcome->envelope.request_id;
+      }
+    }
+  };
+  EXPECT_FALSE(next_reply(300ms).has_value());
+  engine_.settle();
+  std::vector<std::uint32_t> order;
+  for (int i = 0; i < 3; ++i) {
+    auto id = next_reply(20s);
+    ASSERT_TRUE(id);
+    order.push_back(*id);
+  }
+  EXPECT_EQ(order, (std::vector<std::uint32_t>{10, 11, 12}));
+  // Nothing held any more: replies flow at once again.
+  EXPECT_TRUE(std::holds_alternative<protocol::Pong>(controller.request(protocol::Ping{2})));
+}
+
 }  // namespace
 }  // namespace ajar::test

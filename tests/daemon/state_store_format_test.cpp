@@ -94,6 +94,105 @@ TEST(StateFormat, RefusesCorruptTruncatedAndForeignFiles) {
       << refused.error().message;
 }
 
+std::string with_checksum(const std::string& body) {
+  boost::crc_32_type sum;
+  sum.process_bytes(body.data(), body.size());
+  char crc[32];
+  std::snprintf(crc, sizeof(crc), "crc32 %08x\n", sum.checksum());
+  return body + crc;
+}
+
+// The body of a good file with `from` replaced by `to`, signed again: checksum-valid nonsense.
+std::string edited(const std::string& from, const std::string& to) {
+  std::string body = encode_state(full_record());
+  body = body.substr(0, body.rfind("crc32 "));
+  const auto at = body.find(from);
+  EXPECT_NE(at, std::string::npos) << "test bug: no '" << from << "' in\n" << body;
+  if (at != std::string::npos) body.replace(at, from.size(), to);
+  return with_checksum(body);
+}
+
+TEST(StateFormat, RefusesImpossibleContentWithAValidChecksum) {
+  ASSERT_TRUE(decode_state(edited("fault 512", "fault 512")).ok());  // the editor itself is fine
+  const struct {
+    const char* from;
+    const char* to;
+    const char* says;
+  } cases[] = {
+      {"fault 512", "fault 65535", "fault code '65535'"},
+      {"fault 512", "fault 305", "fault code '305'"},  // a validation code is never latched
+      {"fault 512", "fault -1", "fault code"},
+      {"phase engaged", "phase flying", "unknown phase"},
+      {"aligned 1", "aligned 2", "unexpected"},
+      {"width base 0.30000000000000004", "width base nan", "bad width"},
+      {"width base 0.30000000000000004", "width base inf", "bad width"},
+      {"width base 0.30000000000000004", "width base 1e999", "bad width"},
+      {"width base", "width sky", "bad width"},
+      {"plane 3", "plane 2", "plane point count"},
+      {"plane_consumed 0\n", "plane_consumed 0\nplane_consumed 1\n", "appears twice"},
+      {"phase engaged\n", "", "'phase' missing"},
+      {"fault 512\n", "", "'fault' missing"},
+  };
+  for (const auto& c : cases) {
+    const auto r = decode_state(edited(c.from, c.to));
+    ASSERT_FALSE(r.ok()) << c.to;
+    EXPECT_EQ(r.error().field, "state_file");
+    EXPECT_NE(r.error().message.find(c.says), std::string::npos)
+        << c.to << ": " << r.error().message;
+  }
+}
+
+TEST(StateStore, AFailedSaveLeavesNoTemporaryFile) {
+  TempDir tmp;
+  StateStore store(tmp.path());
+  store.prepare();
+  // The target is a non-empty directory: the rename fails after the .tmp was written.
+  std::filesystem::create_directories(store.path() + "/occupied");
+  const auto saved = store.save(full_record());
+  ASSERT_FALSE(saved.ok());
+  EXPECT_NE(saved.error().message.find("rename"), std::string::npos) << saved.error().message;
+  EXPECT_FALSE(std::filesystem::exists(store.path() + ".tmp"));
+}
+
+TEST(StateStore, TheWriterThreadCoalescesAndSettlesEveryGeneration) {
+  TempDir tmp;
+  StateStore store(tmp.path(), StateStore::Options{std::chrono::milliseconds(50)});
+  store.prepare();
+  store.start();
+  ProcedureRecord r;
+  std::uint64_t last = 0;
+  for (int i = 0; i < 20; ++i) {  // faster than the disk: most of these are never written
+    r.plane_consumed = i % 2 == 0;
+    r.fault = i == 19 ? ErrorCode::kDeadman : ErrorCode::kOk;
+    last = store.submit(r);
+  }
+  EXPECT_EQ(last, 20U);
+  EXPECT_EQ(store.submitted(), 20U);
+  ASSERT_TRUE(store.flush(std::chrono::seconds(20)));
+  EXPECT_EQ(store.settled(), 20U);
+  EXPECT_TRUE(store.take_errors().empty());
+  EXPECT_EQ(read_all(store.path()), encode_state(r));  // the latest record won
+  store.stop();
+}
+
+TEST(StateStore, WriterFailuresAreReportedOnce) {
+  TempDir tmp;
+  StateStore store(tmp.path());
+  store.prepare();
+  store.start();
+  std::filesystem::create_directories(store.path() + "/occupied");
+  store.submit(full_record());
+  ASSERT_TRUE(store.flush(std::chrono::seconds(20)));
+  store.submit(full_record());
+  ASSERT_TRUE(store.flush(std::chrono::seconds(20)));
+  EXPECT_EQ(store.take_errors().size(), 1U);  // the same failure twice: reported once
+  std::filesystem::remove_all(store.path());
+  store.submit(ProcedureRecord{});
+  ASSERT_TRUE(store.flush(std::chrono::seconds(20)));
+  EXPECT_TRUE(store.take_errors().empty());
+  EXPECT_EQ(store.settled(), 3U);
+}
+
 TEST(StateStore, SavesAtomicallyAndLoads) {
   TempDir tmp;
   StateStore store(tmp.path() + "/nested/state");

@@ -22,15 +22,15 @@
 namespace ajar::test {
 
 // Runs a Server on its own I/O thread, as ajard does: the server is built (installing the event
-// sink), listens, engine.start(), serving; stop() stops the server and shuts the engine down on
-// the I/O thread, then joins it.
+// sink), binds, engine.start(), listens and serves; stop() stops accepting, shuts the engine down
+// and closes the sessions on the I/O thread, then joins it.
 class ServerThread {
  public:
   ServerThread(daemon::Engine& engine, daemon::ServerOptions options) : engine_(engine) {
     options.bind_address = "127.0.0.1";
     options.port = 0;
     server_ = std::make_unique<daemon::Server>(io_, engine, std::move(options));
-    port_ = server_->listen();
+    port_ = server_->bind();
     engine_.start();
     server_->start();
     thread_ = std::thread([this] { io_.run(); });
@@ -39,9 +39,10 @@ class ServerThread {
 
   void stop() {
     if (!thread_.joinable()) return;
-    boost::asio::post(io_, [this] {
-      server_->stop();
+    boost::asio::post(io_, [this] {  // the daemon's order (daemon.cpp)
+      server_->stop_accepting();
       engine_.shutdown();
+      server_->stop();
     });
     // Sessions linger at most SessionOptions::linger after the graceful close.
     thread_.join();
@@ -79,6 +80,7 @@ class FakeEngine final : public daemon::Engine {
   protocol::Message handle_command(const protocol::Message& request) override {
     std::lock_guard lock(mutex_);
     commands_.push_back(protocol::type_of(request));
+    if (persisting_) ++accepted_;
     if (next_reply_) {
       auto reply = *next_reply_;
       next_reply_.reset();
@@ -134,6 +136,16 @@ class FakeEngine final : public daemon::Engine {
     return w;
   }
   bool control_loop_healthy() const noexcept override { return healthy_.load(); }
+
+  // Durability: with persisting(true) every command creates a new save generation, which
+  // settles only when the test says so (settle()).
+  std::uint64_t accepted_generation() const noexcept override { return accepted_.load(); }
+  std::uint64_t settled_generation() const noexcept override { return settled_.load(); }
+  void persisting(bool on) {
+    std::lock_guard lock(mutex_);
+    persisting_ = on;
+  }
+  void settle() { settled_.store(accepted_.load()); }
   void set_healthy(bool healthy) { healthy_.store(healthy); }
 
   void set_event_sink(EventSink sink) override { sink_ = std::move(sink); }
@@ -169,6 +181,9 @@ class FakeEngine final : public daemon::Engine {
   std::atomic<int> controller_lost_{0};
   std::atomic<int> polls_{0};
   std::atomic<bool> healthy_{true};
+  bool persisting_ = false;
+  std::atomic<std::uint64_t> accepted_{0};
+  std::atomic<std::uint64_t> settled_{0};
 };
 
 // Polls `condition` until true or the deadline; never asserts timing, only eventual truth.

@@ -104,15 +104,16 @@ class TlsServer {
     options.bind_address = "127.0.0.1";
     options.port = 0;
     server_ = std::make_unique<daemon::Server>(io_, engine, std::move(options));
-    port_ = server_->listen();
+    port_ = server_->bind();
     engine_.start();
     server_->start();
     thread_ = std::thread([this] { io_.run(); });
   }
   ~TlsServer() {
-    boost::asio::post(io_, [this] {
-      server_->stop();
+    boost::asio::post(io_, [this] {  // the daemon's order (daemon.cpp)
+      server_->stop_accepting();
       engine_.shutdown();
+      server_->stop();
     });
     thread_.join();
   }

@@ -65,6 +65,7 @@ struct NetworkConfig {
   int send_queue_frames = 512;    // per session; a client that lets it fill is dropped
   double read_deadline_s = 10.0;  // a started frame must complete within this
   double idle_timeout_s = 0;      // 0 = none (observers may stay idle forever)
+  double hello_timeout_s = 5.0;   // an un-greeted session is closed after this (0 = never)
   // Plaintext off loopback is refused at start unless this is true (then warned at every start).
   bool insecure_plaintext = false;
   TlsConfig tls;
@@ -93,6 +94,9 @@ struct LoggingConfig {
 
 struct StateConfig {
   std::string directory = "state";  // accepted parameters are persisted here (relative to cwd)
+  // Test and benchmark hook, NOT a config-file key: each save waits this long before its fsync
+  // (models slow flash). Always 0 when loaded from a file.
+  int debug_write_delay_ms = 0;
 };
 
 struct Config {

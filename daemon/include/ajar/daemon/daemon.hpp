@@ -1,9 +1,11 @@
-// run_daemon: ajard's life after the command line. Start-up order: bind and listen (fails fast on a
-// busy port), engine.start() (drivers active, state restored, control loop running), start serving,
-// write the port file, READY=1. Then the I/O thread runs the server, the engine's poll timer,
-// signals and the systemd watchdog until SIGTERM/SIGINT:
-//   SIGTERM/SIGINT  STOPPING=1, stop accepting, engine.shutdown() (stops motion, persists), close
-//                   sessions, exit code 0;
+// run_daemon: ajard's life after the command line. Start-up order: bind (fails fast on a busy port;
+// not listening yet, so a connect is refused), engine.start() (drivers active, state restored,
+// control loop running), listen and serve (a TCP connect now means the daemon serves), write the
+// port file, READY=1. Then the I/O thread runs the server, the engine's poll timer, signals and the
+// systemd watchdog until SIGTERM/SIGINT:
+//   SIGTERM/SIGINT  STOPPING=1, stop accepting, engine.shutdown() (stops motion — its
+//                   motion_stopped event reaches the still-open sessions — and persists), send held
+//                   replies, close sessions after their queued frames, exit code 0;
 //   SIGHUP          re-reads the config file; applies logging.level only; every other change is
 //                   logged as needing a restart; a broken file is logged and ignored.
 #pragma once

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -57,6 +58,15 @@ class Engine {
   // Called periodically (at least every few ms) on the I/O thread: drains control-loop reports,
   // emits events, persists changes.
   virtual void poll() = 0;
+
+  // Durability of accepted changes (persistence runs on the state store's writer thread, never on
+  // the I/O thread). Every change accepted so far is in the save numbered accepted_generation()
+  // (0: none yet); settled_generation() is the highest save that has finished — on disk, or failed
+  // (then take_warnings() says so). The network layer holds a state-changing command's Ack until
+  // settled_generation() reaches the generation that command produced. Thread-safe (atomics).
+  // Defaults (0, 0): nothing to wait for.
+  virtual std::uint64_t accepted_generation() const noexcept { return 0; }
+  virtual std::uint64_t settled_generation() const noexcept { return 0; }
 
   virtual protocol::Status status() const = 0;
   virtual protocol::Telemetry telemetry() const = 0;

@@ -1,17 +1,29 @@
-// Server: the TCP listener on the single I/O thread. Accepts connections (TCP_NODELAY), refuses
-// politely above max_clients (ERROR TOO_MANY_CLIENTS, then close), runs one Session per connection
-// under the SessionHub (session_hub.hpp), and drives the engine: Engine::poll() and due telemetry
-// every `poll_period` on a steady timer; engine events fan out to every session.
+// Server: the TCP listener on the single I/O thread. Accepts connections (TCP_NODELAY), runs one
+// Session per connection under the SessionHub (session_hub.hpp), and drives the engine:
+// Engine::poll(), due telemetry, settled held replies and the Hello deadline every `poll_period`
+// on a steady timer; engine events fan out to every session.
+//
+// A full table never refuses a stop: at max_clients a newcomer makes room (the hub closes the
+// idlest un-greeted session, else the idlest observer); when there is none (only the controller),
+// the newcomer gets ERROR TOO_MANY_CLIENTS, its frames are still read for `refused_read_window`
+// (its Stop/EmergencyStop executed and acknowledged), then it is closed.
 //
 // Lifecycle, all on the I/O thread (the thread running `io`):
-//   constructor installs the engine's event sink (so: before engine.start());
-//   listen()  loads TLS (tls.enabled, see tls.hpp), binds and listens (throws StartupError naming
-//             the address or the TLS file);
-//   start()   accepts and polls (call after engine.start());
-//   stop()    stops accepting and polling, closes every session gracefully. Idempotent.
-// With TLS, every accepted socket first goes through the TLS handshake (tls.hpp); handshakes in
-// progress count against max_clients (when full, the oldest unfinished handshake is dropped, else
-// the connection is closed: a refusal frame cannot be sent before the handshake).
+//   constructor      installs the engine's event sink (so: before engine.start());
+//   bind()           loads TLS (throws StartupError naming the TLS key or file), refuses plaintext
+//                    off loopback unless insecure_plaintext (warns then), and binds the address
+//                    (throws StartupError naming it: a busy port fails before
+//                    the engine starts); not listening yet, so a connect is refused;
+//   start()          listens, accepts and polls (call once the engine serves: a TCP connect then
+//                    means the daemon serves);
+//   stop_accepting() stops accepting and polling; sessions stay open and still get engine events
+//                    (call before Engine::shutdown(), so that its motion_stopped reaches them);
+//   stop()           stop_accepting(), sends every held reply, closes every session gracefully
+//                    (queued frames flushed first), detaches the event sink. Idempotent.
+// TLS (options.tls.enabled, tls.hpp): every accepted socket first completes the mutual TLS
+// handshake; only then is it a session (or a refused connection, as above, over TLS). Handshakes
+// in progress count against max_clients: at sessions + handshakes >= max_clients the oldest
+// unfinished handshake is dropped; at most tls.max_pending_handshakes run at once.
 // The engine must outlive the server.
 #pragma once
 
@@ -40,8 +52,10 @@ struct ServerOptions {
   SessionOptions session;
   RequestLedger::Limits ledger;
   std::chrono::steady_clock::duration poll_period = std::chrono::milliseconds(2);
+  std::chrono::steady_clock::duration hello_timeout = std::chrono::seconds(5);  // 0 = none
+  std::chrono::steady_clock::duration refused_read_window = std::chrono::seconds(1);
   TlsConfig tls;                    // tls.enabled: mutual TLS 1.3 on every connection
-  bool insecure_plaintext = false;  // plaintext off loopback: warned at listen()
+  bool insecure_plaintext = false;  // plaintext off loopback: warned at bind()
 
   static ServerOptions from(const NetworkConfig& network);
 };
@@ -53,14 +67,15 @@ class Server {
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
 
-  // Binds and listens. Returns the bound port. Throws StartupError.
-  std::uint16_t listen();
-  // Starts accepting and the poll timer.
+  // Binds (not listening yet). Returns the bound port. Throws StartupError.
+  std::uint16_t bind();
+  // Listens, starts accepting and the poll timer. Throws StartupError when listen() fails.
   void start();
-  // Re-reads the TLS policy files (SIGHUP): CRL, deny list, identities. Throws StartupError
-  // (the running policy stays). Nothing to do without TLS.
-  void reload_tls(const TlsConfig& tls);
+  void stop_accepting();
   void stop();
+  // Re-reads network.tls (SIGHUP): files, CRL, deny list, identities; new connections use it.
+  // Throws StartupError (the running policy stays). Nothing to do without TLS.
+  void reload_tls(const TlsConfig& tls);
 
   std::uint16_t port() const noexcept;
   std::size_t session_count() const noexcept;

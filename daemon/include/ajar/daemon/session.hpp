@@ -10,7 +10,10 @@
 // - Each queued frame leaves in one gather-write (async_write of a buffer sequence; several frames
 //   that queued up meanwhile go out together).
 // - Read deadline: once the first byte of a frame arrived, the frame must be complete within
-//   `read_deadline`, else the session is closed. Optional idle timeout (0 = none).
+//   `read_deadline`, else an ERROR BAD_PAYLOAD_LENGTH (field "read_deadline_s", saying how many
+//   bytes arrived) is sent and the session is closed gracefully. Optional idle timeout (0 = none).
+// - refuse(): a connection refused by the server still has its first frames read for a short
+//   window and handed to the handler (a refused peer's EmergencyStop is executed), then closes.
 // - close_after_flush(): stops handling input, writes what is queued, half-closes (FIN), waits for
 //   the peer's close for at most `linger`, then closes.
 // - SessionHandler::on_closed() is called exactly once, always from a posted handler (never from
@@ -21,6 +24,7 @@
 
 #include <utility>  // before Asio (asio issue 944)
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstddef>
@@ -113,11 +117,16 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
     arm_timer();
   }
 
-  // Sends one frame (e.g. ErrorReply TOO_MANY_CLIENTS) and closes.
-  void refuse(SharedFrame frame, std::string_view reason) {
-    read_more();
+  // Sends one frame (e.g. ErrorReply TOO_MANY_CLIENTS), keeps reading for `read_window` (the
+  // handler sees what arrives; start() is not called, so no on_open()), then closes gracefully.
+  void refuse(SharedFrame frame, std::string_view reason,
+              std::chrono::steady_clock::duration read_window) {
+    refusal_reason_ = reason;
+    refuse_at_ = Clock::now() + read_window;
+    last_read_ = Clock::now();
     send(std::move(frame));
-    close_after_flush(reason);
+    read_more();
+    arm_timer();
   }
 
   std::uint64_t id() const noexcept override { return id_; }
@@ -254,6 +263,7 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
     } else if (options_.idle_timeout > Clock::duration::zero()) {
       deadline = last_read_ + options_.idle_timeout;
     }
+    if (state_ == State::kOpen) deadline = std::min(deadline, refuse_at_);
     if (deadline == timer_deadline_) return;
     timer_deadline_ = deadline;
     timer_.expires_at(deadline);  // cancels a pending wait
@@ -267,9 +277,21 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
     if (ec || state_ == State::kClosed || Clock::now() < timer_deadline_) return;
     if (state_ == State::kClosing) {
       close_now(close_reason_);
+    } else if (Clock::now() >= refuse_at_) {
+      close_after_flush(refusal_reason_);
     } else if (partial_bytes_ > 0) {
-      close_now("read deadline: a frame stayed incomplete (" + std::to_string(partial_bytes_) +
-                " bytes received)");
+      const std::string what = "read deadline: a frame stayed incomplete for " +
+                               std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(
+                                                  options_.read_deadline)
+                                                  .count()) +
+                               " ms (network.read_deadline_s), " + std::to_string(partial_bytes_) +
+                               " bytes received; closing";
+      protocol::ErrorReply error;
+      error.code = ErrorCode::kBadPayloadLength;
+      error.field = "read_deadline_s";
+      error.message.assign(what);
+      if (auto frame = encode_frame(protocol::Envelope{0, 0, error})) send(std::move(frame));
+      close_after_flush(what);
     } else {
       close_now("idle timeout");
     }
@@ -299,6 +321,8 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
 
   State state_ = State::kOpen;
   std::string close_reason_;
+  std::string refusal_reason_;
+  Clock::time_point refuse_at_ = Clock::time_point::max();
   bool reading_ = false;
   bool writing_ = false;
   std::array<std::uint8_t, 4096> read_buffer_{};

@@ -27,12 +27,27 @@
 //   (bad magic, oversize) -> that session is closed after the reply; nobody else notices.
 // - Events from the engine go to every greeted session; Subscribe{rate} sends Telemetry at that
 //   rate (capped at the control loop rate; 0 = off; negative or non-finite: RATE_LIMITED).
+// - Durable Acks: a command that changed the persisted state (Engine::accepted_generation() moved)
+//   has its reply held until Engine::settled_generation() reaches that generation (the state
+//   store's writer thread finished the save: on disk, or failed with a logged warning — the
+//   command was executed, so it is acknowledged). Only that session waits: its later replies
+//   queue behind the held one (replies stay in request order); every other session is served at
+//   once. Stop and EmergencyStop are executed at once and their own Ack is never held for a save
+//   (it only keeps its place behind an earlier held reply of the same session). tick() releases
+//   what has settled; release_all() sends everything (shutdown).
+// - Hello deadline: a session that has not been greeted `hello_timeout` after it opened gets
+//   ERROR HELLO_REQUIRED ("no Hello within ...") and is closed (0 = no deadline).
+// - Room for a newcomer (make_room()): when the table is full, the un-greeted session idle the
+//   longest is closed (ERROR TOO_MANY_CLIENTS), else the observer idle the longest; never the
+//   controller. A connection refused all the same is served by refusal_handler(): its Stop and
+//   EmergencyStop are executed (and acknowledged), anything else gets TOO_MANY_CLIENTS.
 //
 // Threading: I/O thread only.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <optional>
 #include <string>
@@ -47,7 +62,13 @@ class SessionHub final : public SessionHandler {
  public:
   using Clock = std::chrono::steady_clock;
 
-  explicit SessionHub(Engine& engine, RequestLedger::Limits ledger_limits = {});
+  struct Options {
+    RequestLedger::Limits ledger;
+    Clock::duration hello_timeout{0};  // 0 = none
+  };
+
+  explicit SessionHub(Engine& engine) : SessionHub(engine, Options{}) {}
+  SessionHub(Engine& engine, Options options);
 
   void on_open(SessionLink& link) override;
   void on_message(SessionLink& link, const protocol::Envelope& envelope) override;
@@ -56,18 +77,36 @@ class SessionHub final : public SessionHandler {
 
   // Engine events (wire this as the engine's EventSink).
   void on_event(const protocol::Event& event);
-  // Sends due telemetry. Call every poll period.
+  // Sends due telemetry and settled held replies; closes sessions past the Hello deadline. Call
+  // every poll period.
   void tick(Clock::time_point now);
-  // Closes every session gracefully (daemon shutdown).
+  // Sends every held reply, settled or not (shutdown, after the engine flushed its state).
+  void release_all();
+  // Closes every session gracefully (daemon shutdown): queued frames are flushed first.
   void close_all(std::string_view reason);
+
+  // The table is full: closes the idlest un-greeted session, else the idlest observer (never the
+  // controller), and forgets it at once. False when there is none (only the controller is left).
+  bool make_room();
+  // The handler of connections refused while the table is full (Session::refuse()).
+  SessionHandler& refusal_handler() noexcept { return refusal_; }
 
   std::size_t session_count() const noexcept { return sessions_.size(); }
   std::optional<std::uint64_t> controller() const noexcept { return controller_; }
   const RequestLedger& ledger() const noexcept { return ledger_; }
 
  private:
+  struct HeldReply {
+    std::uint32_t request_id = 0;
+    protocol::Message message;
+    std::uint64_t generation = 0;  // released once the engine's settled generation reaches it
+  };
   struct SessionState {
     SessionLink* link = nullptr;
+    Clock::time_point opened{};
+    Clock::time_point last_activity{};  // last frame received
+    bool closing = false;               // past the Hello deadline: being closed
+    std::deque<HeldReply> held;         // replies waiting for durability, in request order
     bool greeted = false;
     protocol::Role role = protocol::Role::kObserver;
     std::uint64_t client_instance_id = 0;
@@ -80,15 +119,34 @@ class SessionHub final : public SessionHandler {
   void handle_subscribe(SessionState& s, const protocol::Envelope& envelope);
   void handle_command(SessionState& s, const protocol::Envelope& envelope);
   protocol::Message call_engine(const protocol::Message& request);
-  void reply(SessionState& s, std::uint32_t request_id, protocol::Message message);
+  // Sends at once unless `generation` is not settled yet or earlier replies are held.
+  void reply(SessionState& s, std::uint32_t request_id, protocol::Message message,
+             std::uint64_t generation = 0);
+  void send_reply(SessionState& s, std::uint32_t request_id, protocol::Message message);
+  void release_settled(SessionState& s, std::uint64_t settled);
   void refuse(SessionState& s, const protocol::Envelope& envelope, ErrorCode code,
               std::string_view field, std::string_view message);
   void broadcast(const protocol::Message& message);
   void announce_controller(std::string_view detail);
   std::string describe(const SessionState& s) const;
 
+  // Connections refused while the table is full: stops are executed, the rest refused.
+  class RefusalHandler final : public SessionHandler {
+   public:
+    explicit RefusalHandler(SessionHub& hub) : hub_(hub) {}
+    void on_open(SessionLink&) override {}
+    void on_message(SessionLink& link, const protocol::Envelope& envelope) override;
+    void on_decode_error(SessionLink&, const protocol::DecodeError&) override {}
+    void on_closed(SessionLink&, std::string_view) override {}
+
+   private:
+    SessionHub& hub_;
+  };
+
   Engine& engine_;
+  Options options_;
   RequestLedger ledger_;
+  RefusalHandler refusal_{*this};
   std::map<std::uint64_t, SessionState> sessions_;
   std::optional<std::uint64_t> controller_;
 };

@@ -1,7 +1,15 @@
 // StateStore: the procedure's accepted parameters on disk, so that they survive a daemon restart.
 // One file, `<directory>/ajard.state`, replaced atomically on every accepted change: written to
-// `ajard.state.tmp`, fsync'd, renamed over the old file, then the directory is fsync'd. A crash at
-// any point leaves either the old or the new file, never a mix.
+// `ajard.state.tmp`, fsync'd, closed (its result checked), renamed over the old file, then the
+// directory is fsync'd. A crash at any point leaves either the old or the new file, never a mix; a
+// failed save removes its `.tmp`.
+//
+// Saves run on the store's own writer thread (start()/submit()), never on the caller's: the I/O
+// thread hands over a record and goes on serving. Saves are coalesced: while one is being written,
+// newer submissions replace each other and only the latest is written next (a later record holds
+// every earlier accepted change). Each submission gets a generation number (1, 2, ...); settled()
+// is the highest generation whose save has finished — written durably, or failed (take_errors()
+// says why; the next submission tries again).
 //
 // Format (text, versioned, docs/procedure.md):
 //   ajar-state 1
@@ -19,7 +27,15 @@
 // validation on start (Procedure::restore).
 #pragma once
 
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <optional>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "ajar/core/result.hpp"
 #include "ajar/daemon/procedure.hpp"
@@ -29,13 +45,26 @@ namespace ajar::daemon {
 inline constexpr int kStateFormatVersion = 1;
 
 std::string encode_state(const ProcedureRecord& record);
+// As strict as a wire message: every line exactly once (phase, aligned, plane_consumed, fault
+// required; the measurements at most once), finite numbers only, known enum words, a fault code
+// that is kOk or a known driver/motion fault (5xx), 3..16 plane points.
 // Errors: kInternal with field "state_file" and a message saying what is wrong (version, line,
-// checksum).
+// checksum, value).
 Result<ProcedureRecord> decode_state(const std::string& text);
 
 class StateStore {
  public:
-  explicit StateStore(std::string directory);
+  struct Options {
+    // Test and benchmark hook (not a config-file key): extra time each save spends before its
+    // fsync, to model slow flash. 0 in production.
+    std::chrono::milliseconds debug_write_delay{0};
+  };
+
+  explicit StateStore(std::string directory) : StateStore(std::move(directory), Options{}) {}
+  StateStore(std::string directory, Options options);
+  ~StateStore();  // stop()
+  StateStore(const StateStore&) = delete;
+  StateStore& operator=(const StateStore&) = delete;
 
   // Creates the directory (and parents) if missing; throws StartupError naming it when it cannot.
   void prepare() const;
@@ -48,12 +77,46 @@ class StateStore {
     ProcedureRecord record;
   };
   Result<Loaded> load() const;
-  // Atomic replace (see above). Error: kInternal, field "state_file", naming the path and errno.
+  // Moves the current file aside as `ajard.state.rejected-<UTC YYYYmmddTHHMMSS>` (a suffix -N
+  // when that exists). Returns the new path, or why not.
+  Result<std::string> reject_current_file() const;
+
+  // Synchronous atomic replace on the caller's thread (see above). Error: kInternal, field
+  // "state_file", naming the path and errno. Do not mix with a running writer thread.
   Status save(const ProcedureRecord& record) const;
 
+  // ---- writer thread -------------------------------------------------------------------------
+  void start();  // starts the writer thread (idempotent)
+  // Hands a record to the writer; returns its generation. Never blocks on the disk.
+  std::uint64_t submit(ProcedureRecord record);
+  std::uint64_t submitted() const noexcept { return submitted_.load(std::memory_order_acquire); }
+  std::uint64_t settled() const noexcept { return settled_.load(std::memory_order_acquire); }
+  // Waits until every submission has settled or `timeout` passed; true when settled. For shutdown.
+  bool flush(std::chrono::milliseconds timeout);
+  // Failures of saves since the last call; a failure repeating the previous one word for word is
+  // reported once (until a save succeeds again).
+  std::vector<std::string> take_errors();
+  // Flushes (bounded) and joins the writer thread. Idempotent.
+  void stop();
+
  private:
+  void run();
+
   std::string directory_;
   std::string path_;
+  Options options_;
+
+  std::mutex mutex_;
+  std::condition_variable wake_;  // writer: work or stop
+  std::condition_variable settled_cv_;
+  std::optional<ProcedureRecord> pending_;  // latest record not yet taken by the writer
+  std::uint64_t pending_generation_ = 0;
+  std::vector<std::string> errors_;
+  std::string last_error_;
+  bool stopping_ = false;
+  std::atomic<std::uint64_t> submitted_{0};
+  std::atomic<std::uint64_t> settled_{0};
+  std::thread writer_;
 };
 
 }  // namespace ajar::daemon
