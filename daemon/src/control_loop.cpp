@@ -105,8 +105,10 @@ void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
   std::int64_t deadline = first_deadline_ns;
   while (!exit_requested_.load(std::memory_order_relaxed)) {
     sleep_until_ns(deadline);
-    cycle(monotonic_now_ns());
+    const std::int64_t wake = monotonic_now_ns();
+    cycle(wake);
     const std::int64_t end = monotonic_now_ns();
+    statistics_.record_cycle(deadline, wake, end);
     last_cycle_end_ns_.store(end, std::memory_order_release);
     deadline += period_ns_;
     if (end > deadline) {  // missed at least one deadline: count it, skip to the next free slot
@@ -254,9 +256,6 @@ void ControlLoop::start_move(const MoveCommand& move, std::int64_t now_ns) noexc
 }
 
 void ControlLoop::cycle(std::int64_t now_ns) noexcept {
-  if (previous_cycle_ns_ >= 0) statistics_.record_period(now_ns - previous_cycle_ns_);
-  previous_cycle_ns_ = now_ns;
-
   read_axes();  // first: odometry and a move's start position come from before any new command
   handle_requests(now_ns);
   MoveCommand move;
@@ -273,9 +272,6 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   snapshot_.fault = fault_;
   snapshot_.card_state = card_->state();
   snapshot_.reports_dropped = reports_dropped_;
-  if (snapshot_.cycles % 50 == 1) snapshot_.statistics = statistics_.summary();  // O(bins)
-  snapshot_.statistics.cycles = snapshot_.cycles;  // exact every cycle
-  snapshot_.statistics.overruns = statistics_.overruns();
   published_.store(snapshot_);
 }
 

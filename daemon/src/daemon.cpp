@@ -18,6 +18,7 @@
 
 #include "ajar/daemon/cli.hpp"
 #include "ajar/daemon/logging.hpp"
+#include "ajar/daemon/realtime.hpp"
 #include "ajar/daemon/server.hpp"
 #include "ajar/daemon/systemd_notify.hpp"
 #include "ajar/drivers/factory.hpp"
@@ -51,6 +52,8 @@ class Runner {
 
   int run() {
     try {
+      prepare_process({config_.control.realtime, config_.control.priority,
+                       config_.control.lock_memory});  // before the engine starts threads
       engine_ = options_.make_engine ? options_.make_engine(config_) : make_engine(config_);
       // The server installs the engine's event sink: before engine.start().
       server_ = std::make_unique<Server>(io_, *engine_, ServerOptions::from(config_.network));
@@ -60,6 +63,10 @@ class Runner {
       engine_->start();
       for (const auto& w : engine_->startup_warnings())
         spdlog::warn("{}", w);
+      spdlog::info("realtime: {}",
+                   describe_realtime({config_.control.realtime, config_.control.priority,
+                                      config_.control.lock_memory},
+                                     realtime_granted()));
       server_->start();
       if (!options_.port_file.empty()) {
         write_file_atomically(options_.port_file, std::to_string(port_) + "\n");

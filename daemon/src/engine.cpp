@@ -196,7 +196,7 @@ class EngineImpl final : public Engine {
     s.card = to_wire(snap.card_state);
     s.arm = to_wire(arm_->state());
     s.arm_state = to_wire(arm_->status().phase);
-    s.loop = snap.statistics;
+    s.loop = loop_->statistics().summary();
     return s;
   }
 
@@ -212,7 +212,7 @@ class EngineImpl final : public Engine {
     t.right_counts = snap.right_counts;
     t.base_yaw_odometry_rad = snap.base_yaw_rad;
     t.arm_state = to_wire(arm_->status().phase);
-    t.loop = snap.statistics;
+    t.loop = loop_->statistics().summary();
     return t;
   }
 

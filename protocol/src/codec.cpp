@@ -8,13 +8,11 @@
 #include <cstring>
 #include <type_traits>
 
-#include <boost/crc.hpp>
+#include "ajar/protocol/crc32c.hpp"
 
 namespace ajar::protocol {
 
 namespace {
-
-using Crc32c = boost::crc_optimal<32, 0x1EDC6F41, 0xFFFFFFFF, 0xFFFFFFFF, true, true>;
 
 // ---- little-endian helpers --------------------------------------------------------------------
 
@@ -673,10 +671,8 @@ bool check_header(const std::uint8_t* h, DecodeError& e) noexcept {
 
 std::uint32_t frame_crc(const std::uint8_t* header,
                         std::span<const std::uint8_t> payload) noexcept {
-  Crc32c crc;
-  crc.process_bytes(header, kOffCrc);
-  crc.process_bytes(payload.data(), payload.size());
-  return crc.checksum();
+  const std::uint32_t crc = crc32c_update(kCrc32cInit, header, kOffCrc);
+  return crc32c_finish(crc32c_update(crc, payload.data(), payload.size()));
 }
 
 // Decodes one whole frame into `out` (reusing its storage). `header_checked`: check_header()
@@ -729,12 +725,6 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
 }
 
 }  // namespace
-
-std::uint32_t crc32c(std::span<const std::uint8_t> bytes) noexcept {
-  Crc32c crc;
-  crc.process_bytes(bytes.data(), bytes.size());
-  return crc.checksum();
-}
 
 std::size_t encode(const Envelope& envelope, std::span<std::uint8_t> out) noexcept {
   if (out.size() < kHeaderSize) return 0;

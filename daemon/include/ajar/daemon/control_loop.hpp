@@ -11,7 +11,8 @@
 //      error, limits, card not answering, deadman, motion deadline -> smooth stop + latched fault;
 //      completion = both axes at rest and in position), end of a stop (both at rest, or an
 //      emergency stop when the stop itself overruns its deadline).
-//   4. statistics and the published snapshot (seqlock).
+//   4. the published snapshot (seqlock). The thread then records the cycle's timing (deadline,
+//      wake-up, end) in statistics(): readable from any other thread.
 // Reports (motion finished/stopped, move refused, fault, recovered) go back through a second
 // bounded SPSC queue (the loop is the single producer); if it is full the report is dropped and
 // counted in the snapshot, whose `fault` and `motion_active` stay authoritative.
@@ -81,7 +82,6 @@ struct LoopSnapshot {
   ErrorCode fault = ErrorCode::kOk;                // latched in the loop
   drivers::LifecycleState card_state = drivers::LifecycleState::kUnconfigured;
   std::uint64_t reports_dropped = 0;
-  protocol::LoopStatistics statistics;
 };
 
 // Trapezoid profile for the wheels from the base's wheel speed/acceleration limits (rad/s,
@@ -121,6 +121,9 @@ class ControlLoop {
   // ---- any thread ----
   void heartbeat(std::int64_t now_ns) noexcept;  // the controller is alive
   LoopSnapshot snapshot() const noexcept { return published_.load(); }
+  // The loop's timing (wake-up latency, execution time, period); see loop_statistics.hpp.
+  LoopStatisticsRecorder& statistics() noexcept { return statistics_; }
+  const LoopStatisticsRecorder& statistics() const noexcept { return statistics_; }
   // True while the thread completes cycles: the last one ended within max(10 periods, 20 ms).
   bool healthy(std::int64_t now_ns) const noexcept;
 
@@ -179,7 +182,6 @@ class ControlLoop {
   ErrorCode stop_reason_ = ErrorCode::kOk;
   bool have_origin_ = false;
   std::int64_t origin_counts_[2] = {0, 0};
-  std::int64_t previous_cycle_ns_ = -1;
   std::uint64_t reports_dropped_ = 0;
   LoopStatisticsRecorder statistics_;
   LoopSnapshot snapshot_;

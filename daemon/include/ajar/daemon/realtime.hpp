@@ -2,6 +2,7 @@
 // mlockall with graceful fallback (a refusal becomes a warning string; nothing here logs).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -19,9 +20,29 @@ struct RealtimeRequest {
   bool lock_memory = false;  // mlockall(MCL_CURRENT | MCL_FUTURE) and pre-fault the stack
 };
 
+// Call once at start, before any thread is created: when memory is to be locked, new threads get
+// kLockedThreadStackBytes of stack instead of glibc's default (RLIMIT_STACK, 8 MiB): mlockall
+// populates and locks every thread's whole stack, which would cost 8 MiB of RAM per thread.
+inline constexpr std::size_t kLockedThreadStackBytes = 1024 * 1024;
+void prepare_process(const RealtimeRequest& request) noexcept;
+
 // Applies what is requested to the calling thread/process. Returns one warning per refused item,
 // e.g. "control.realtime: SCHED_FIFO priority 80 refused (Operation not permitted); running with
-// normal scheduling". Empty when everything was granted (or nothing requested).
+// normal scheduling". Empty when everything was granted (or nothing requested). Records what the
+// thread really got (read back from the kernel) for realtime_granted().
 std::vector<std::string> apply_realtime(const RealtimeRequest& request);
+
+// What the last apply_realtime() obtained: the calling (control) thread's policy and priority as
+// the kernel reports them, and whether mlockall succeeded. Before any call: SCHED_OTHER, unlocked.
+struct RealtimeGranted {
+  int policy = 0;  // SCHED_OTHER, SCHED_FIFO, SCHED_RR (<sched.h>)
+  int priority = 0;
+  bool memory_locked = false;
+};
+RealtimeGranted realtime_granted() noexcept;
+// One line for the start-up log, e.g. "control thread SCHED_FIFO priority 80; memory locked
+// (mlockall; 28.1 MiB resident now)" or "control thread SCHED_OTHER (control.realtime: false);
+// memory not locked (control.lock_memory: false)". Reads /proc/self/status for the resident size.
+std::string describe_realtime(const RealtimeRequest& requested, const RealtimeGranted& granted);
 
 }  // namespace ajar::daemon

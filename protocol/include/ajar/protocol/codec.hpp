@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "ajar/core/error.hpp"
+#include "ajar/protocol/crc32c.hpp"  // crc32c(), the frame checksum
 #include "ajar/protocol/messages.hpp"
 
 namespace ajar::protocol {
@@ -107,8 +108,5 @@ StreamDecoder::Outcome decode_frame(std::span<const std::uint8_t> frame) noexcep
 
 // Decodes a header only (first kHeaderSize bytes); no CRC check.
 FrameHeader decode_header(std::span<const std::uint8_t, kHeaderSize> bytes) noexcept;
-
-// CRC-32C (Castagnoli), as used in frames. Check value: crc32c("123456789") == 0xE3069283.
-std::uint32_t crc32c(std::span<const std::uint8_t> bytes) noexcept;
 
 }  // namespace ajar::protocol

@@ -1,0 +1,127 @@
+// Loop timing: the daemon's control loop (ControlLoop over the drivers the config selects, the
+// same class and thread ajard runs) against a cyclictest-style reference thread that only sleeps to
+// absolute deadlines at the same period and policy, both running at once in this process (the
+// reference half a period out of phase so the two never wake together). Both record into
+// LoopStatisticsRecorder, so the figures come from the same histogram. Non-realtime, then
+// SCHED_FIFO at control.priority when this process may use it (skipped with a message if not).
+#include <pthread.h>
+#include <sched.h>
+
+#include <atomic>
+
+#include "ajar/daemon/config.hpp"
+#include "ajar/daemon/control_loop.hpp"
+#include "ajar/daemon/loop_statistics.hpp"
+#include "ajar/daemon/realtime.hpp"
+#include "ajar/drivers/factory.hpp"
+#include "ajar/drivers/lifecycle.hpp"
+#include "harness.hpp"
+
+namespace {
+
+using namespace ajar;
+using namespace ajar::bench;
+
+bool fifo_permitted(int priority) {
+  std::atomic<bool> ok{false};
+  std::thread t([&] {
+    sched_param p{};
+    p.sched_priority = priority;
+    ok = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
+  });
+  t.join();
+  return ok;
+}
+
+void run(const daemon::Config& base_config, bool fifo, double seconds) {
+  daemon::Config config = base_config;
+  config.control.realtime = fifo;
+  config.control.lock_memory = false;  // the reference does not lock either
+  const std::string mode =
+      fifo ? "SCHED_FIFO " + std::to_string(config.control.priority) : std::string("SCHED_OTHER");
+  auto set = drivers::make_drivers(config.drivers, config.base);
+  const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
+  daemon::ControlLoopSettings s;
+  s.rate_hz = config.control.rate_hz;
+  s.realtime = fifo;
+  s.priority = config.control.priority;
+  s.deadman_timeout_s = config.safety.deadman_timeout_s;
+  s.motion_timeout_margin_s = config.control.motion_timeout_margin_s;
+  s.base = config.base;
+  daemon::ControlLoop loop(std::make_unique<drivers::ManagedMotionCard>(std::move(set.card), axes),
+                           s);
+  if (auto st = loop.bring_up(); !st) fail("card bring-up: " + st.error().message);
+
+  daemon::LoopStatisticsRecorder reference(config.control.rate_hz);
+  const std::int64_t period = reference.nominal_period_ns();
+  std::atomic<bool> stop{false};
+  std::thread ref([&] {
+    if (fifo) {
+      sched_param p{};
+      p.sched_priority = config.control.priority;
+      pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);
+    }
+    std::int64_t deadline = now_ns() + period + period / 2;
+    while (!stop.load(std::memory_order_relaxed)) {
+      daemon::sleep_until_ns(deadline);
+      const std::int64_t wake = now_ns();
+      reference.record_cycle(deadline, wake, now_ns());
+      deadline += period;
+      while (deadline <= now_ns())
+        deadline += period;
+    }
+  });
+  const auto warnings = loop.start_thread();
+  for (const auto& w : warnings)
+    std::fprintf(stderr, "bench: %s\n", w.c_str());
+  const std::int64_t start = now_ns();
+  std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+  stop = true;
+  ref.join();
+  loop.stop_thread();
+  loop.bring_down();
+  const std::int64_t end = now_ns();
+  (void)start;
+  const auto l = loop.statistics().timing(end).all;
+  const auto r = reference.timing(end).all;
+  const std::string note = mode + ", " + std::to_string(l.samples) + " cycles at " +
+                           std::to_string(static_cast<int>(config.control.rate_hz)) + " Hz";
+  row("loop wake-up latency p50, " + mode, l.latency.p50_ns / 1e3, "us", r.latency.p50_ns / 1e3, "",
+      "vs reference thread; " + note);
+  row("loop wake-up latency p99, " + mode, l.latency.p99_ns / 1e3, "us", r.latency.p99_ns / 1e3,
+      "<= 1.2x", "vs reference thread");
+  row("loop wake-up latency p99.9, " + mode, l.latency.p999_ns / 1e3, "us", r.latency.p999_ns / 1e3,
+      "", "vs reference thread");
+  row("loop wake-up latency max, " + mode, l.latency.max_ns / 1e3, "us", r.latency.max_ns / 1e3, "",
+      "vs reference thread");
+  row("loop cycle execution p99, " + mode, l.execution.p99_ns / 1e3, "us", std::nullopt, "",
+      "max " + std::to_string(l.execution.max_ns / 1000) + " us");
+  row("loop overruns, " + mode, static_cast<double>(loop.statistics().overruns()), "", std::nullopt,
+      "", "deadlines missed");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Options o = Options::parse(argc, argv);
+  if (o.config.empty()) fail("--config is required");
+  daemon::Config config;
+  try {
+    config = daemon::load_config(o.config);
+  } catch (const std::exception& e) {
+    fail(e.what());
+  }
+  const double seconds = o.smoke ? 0.3 : 20.0;
+  info("loop timing: load average " + load_average() + " at start; " + std::to_string(seconds) +
+       " s per policy");
+  run(config, false, seconds);
+  if (fifo_permitted(config.control.priority)) {
+    run(config, true, seconds);
+  } else {
+    info(
+        "SKIPPED loop timing with SCHED_FIFO: not permitted here (needs CAP_SYS_NICE or "
+        "RLIMIT_RTPRIO >= " +
+        std::to_string(config.control.priority) + ")");
+  }
+  return 0;
+}
