@@ -70,5 +70,16 @@ string(REPLACE "/etc/ajar/" "${CMAKE_INSTALL_FULL_SYSCONFDIR}/ajar/" AJAR_UNIT "
 file(GENERATE OUTPUT ${PROJECT_BINARY_DIR}/systemd/ajard.service CONTENT "${AJAR_UNIT}")
 install(FILES ${PROJECT_BINARY_DIR}/systemd/ajard.service DESTINATION ${AJAR_INSTALL_UNITDIR}
   COMPONENT Runtime)
-install(DIRECTORY ${PROJECT_SOURCE_DIR}/systemd/ DESTINATION ${AJAR_INSTALL_PKGDATADIR}/examples/systemd
-  COMPONENT Runtime FILES_MATCHING PATTERN "*.conf")
+# Device access for the dynamic user: the ajar-card group (sysusers.d) and the card node's udev
+# rule; and the example drop-in for site device nodes.
+install(FILES ${PROJECT_SOURCE_DIR}/systemd/ajar.sysusers.conf DESTINATION lib/sysusers.d
+  RENAME ajar.conf COMPONENT Runtime)
+install(FILES ${PROJECT_SOURCE_DIR}/systemd/60-ajar-card.rules DESTINATION lib/udev/rules.d
+  COMPONENT Runtime)
+install(FILES ${PROJECT_SOURCE_DIR}/systemd/ajard-site-devices.conf
+  DESTINATION ${AJAR_INSTALL_PKGDATADIR}/examples/systemd COMPONENT Runtime)
+
+# bash completion (asks ajarctl itself for the words, so it follows the commands) and man pages.
+install(FILES ${PROJECT_SOURCE_DIR}/client/completion/ajarctl
+  DESTINATION ${CMAKE_INSTALL_DATADIR}/bash-completion/completions COMPONENT Runtime)
+include(${CMAKE_CURRENT_LIST_DIR}/AjarManPages.cmake)

@@ -1,5 +1,6 @@
 #include "ajar/client/cli.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <filesystem>
@@ -133,54 +134,274 @@ CommandParse fail(std::string message) {
 
 }  // namespace
 
+namespace {
+
+// Every ajarctl command, once: the --help list, `ajarctl help CMD` / `CMD --help`, did-you-mean and
+// the bash completion (ajarctl --complete) are all made from this table. `options` lists the
+// command's own options for completion; `words` its fixed first arguments, or "@file" / "@dir".
+struct CommandInfo {
+  std::string_view name;
+  std::string_view synopsis;  // one line: "ping [-n N] [-i S]"
+  std::string_view summary;   // one line, for the list in --help
+  std::string_view details;   // `ajarctl help CMD`: what it does, its arguments, its role
+  std::string_view options;   // space-separated, for completion
+  std::string_view words;     // first-argument words, "@file" or "@dir", for completion
+};
+
+constexpr CommandInfo kCommands[] = {
+    {"ping", "ping [-n N] [-i S]", "round-trip times (min/avg/max/p99)",
+     "Sends N Pings (-n, default 4, 1..1000000), S seconds apart (-i, default 0), prints each\n"
+     "round trip and then min/avg/max/p99. Observer role.",
+     "-n -i", ""},
+    {"status", "status", "procedure state, stored parameters, drivers, odometry",
+     "Prints the procedure state, a latched fault, the stored measurements with their derived\n"
+     "values, the base's odometry yaw, the drivers' states and the control loop statistics.\n"
+     "Observer role.",
+     "", ""},
+    {"watch", "watch [--rate HZ] [--duration S]", "telemetry and events until interrupted (Ctrl-C)",
+     "Subscribes to telemetry at HZ (default 10; 0 = events only) and prints telemetry and events\n"
+     "until Ctrl-C, or for S seconds. Observer role.",
+     "--rate --duration", ""},
+    {"measure", "measure width|handle|plane X Y Z ...", "door width, handle or plane from points",
+     "measure width X1 Y1 Z1 X2 Y2 Z2      P1 on the hinge side, P2 near the moving edge\n"
+     "measure handle X1 Y1 Z1 X2 Y2 Z2     P1 on the handle's axis, P2 at its free end\n"
+     "measure plane X Y Z X Y Z X Y Z [...] 3 to 16 points on the door leaf\n"
+     "Points in metres, in the camera frame unless --frame base (global or after the command).\n"
+     "The reply shows the derived values (width and direction, handle length, the door normal,\n"
+     "the signed yaw, the wheel angles and counts). Controller role.",
+     "--frame", "width handle plane"},
+    {"contact", "contact X Y Z", "the contact point (after alignment)",
+     "Sets the contact point for the arm (metres; camera frame unless --frame base). Accepted\n"
+     "after alignment; the reply shows it in the base frame and its reach margin. Controller\n"
+     "role.",
+     "--frame", ""},
+    {"align", "align [--no-wait] [--wait-timeout S]",
+     "turn the base square to the door; shows progress, waits",
+     "Turns the base in place by the measured yaw. Waits until the motion ends (default at most\n"
+     "120 s, --wait-timeout), printing the remaining yaw and the elapsed time every 0.5 s, then\n"
+     "the outcome; the waiting feeds the deadman. Ctrl-C while waiting sends Stop. --no-wait\n"
+     "returns after the Ack (the deadman then stops a one-shot: use it in script mode).\n"
+     "Controller role.",
+     "--no-wait --wait-timeout", ""},
+    {"engage", "engage [--no-wait] [--wait-timeout S]",
+     "hand the door model and contact point to the arm",
+     "Hands the door model (width, handle length, direction) and the contact point to the arm and\n"
+     "waits until it is engaged, printing the arm's state and the elapsed time every 0.5 s.\n"
+     "Options as for align. Controller role.",
+     "--no-wait --wait-timeout", ""},
+    {"stop", "stop", "stop motion (any role)", "Smooth stop of any motion. Any role.", "", ""},
+    {"estop", "estop", "emergency stop (any role; Reset to continue)",
+     "Emergency stop: latches EMERGENCY_STOPPED until `reset`. Any role.", "", ""},
+    {"reset", "reset [--clear]", "clear a latched fault; --clear also discards the procedure",
+     "Clears a latched fault. --clear also discards every measurement (back to awaiting_width).\n"
+     "Controller role.",
+     "--clear", ""},
+    {"sleep", "sleep S", "(script mode) pause S seconds, keeping the session alive",
+     "Script mode: pauses S seconds (0..1000000) while heartbeat Pings keep the session alive.", "",
+     ""},
+    {"conformance", "conformance [--vectors DIR]",
+     "hold the daemon to the protocol; ends \"N passed, N failed\"",
+     "Runs the protocol conformance suite against the daemon (takes control) with the golden\n"
+     "vectors in DIR (default: the installed vectors, or this source tree's). Prints one line\n"
+     "per check and ends with \"N passed, N failed\"; exit 0 only with 0 failed.",
+     "--vectors", ""},
+    {"simulate", "simulate SCENARIO.yaml [OPTIONS]",
+     "rehearse the whole procedure on a simulated door",
+     "Rehearses the whole procedure against the daemon with a simulated door and sensor noise and\n"
+     "reports true vs measured values (docs/simulation.md). Options:\n"
+     "  --config AJARD.yaml  camera->base transform from this ajard config (else the paper's)\n"
+     "  --trace FILE         CSV trace of every step and every telemetry sample\n"
+     "  --seeds N            N runs with seeds S, S+1, ..., then a summary\n"
+     "  --seed S             override the scenario's seed\n"
+     "  --plane-points N     override the scenario's number of plane points (3..16)\n"
+     "Scenarios: /usr/share/ajar/examples/scenarios/ (config/scenarios/ in the source tree).",
+     "--trace --seeds --seed --plane-points --config", "@file"},
+    {"script", "script [FILE]", "commands one per line from FILE or stdin, one session",
+     "Runs commands one per line from FILE (or stdin) on one controller session. Blank lines and\n"
+     "# comments are ignored; `quit` ends the script; the first failure ends it unless\n"
+     "--keep-going.",
+     "", "@file"},
+    {"help", "help [COMMAND]", "this list, or one command's help",
+     "Prints the list of commands, or what COMMAND does (same as `ajarctl COMMAND --help`).", "",
+     ""},
+};
+
+// Global options: the --help text and completion. `value` names the option's value ("" if none).
+struct OptionInfo {
+  std::string_view name;
+  std::string_view value;
+  std::string_view help;
+};
+constexpr OptionInfo kGlobalOptions[] = {
+    {"--connect", "HOST:PORT", "daemon address (default 127.0.0.1:7450)"},
+    {"--ca", "FILE", "speak TLS; the CA the daemon's certificate must chain to (PEM)"},
+    {"--cert", "FILE", "this operator's certificate (PEM; docs/security.md)"},
+    {"--key", "FILE", "its private key (PEM, mode 0600: others' access is refused)"},
+    {"--server-name", "NAME", "name the daemon's certificate must carry (default: HOST)"},
+    {"--client-config", "FILE", "connect and tls settings from YAML (docs/ajarctl.md)"},
+    {"--json", "", "one JSON object per line per reply or event (docs/ajarctl.md)"},
+    {"--frame", "camera|base", "frame of the points given to measure/contact (default camera)"},
+    {"--timeout", "S", "seconds to wait for each reply attempt (default 3)"},
+    {"--retries", "N", "re-sends of a timed-out request, same request id (default 1)"},
+    {"--take-over", "", "take control from the current controller"},
+    {"--keep", "", "after COMMAND, read more commands from stdin (one session)"},
+    {"--keep-going", "", "in script mode, continue after a failed command"},
+    {"--version", "", "print the version and exit"},
+    {"--help", "", "this help (-h); `ajarctl help COMMAND` for one command"},
+};
+
+const CommandInfo* find_command(std::string_view name) {
+  for (const auto& c : kCommands) {
+    if (c.name == name) return &c;
+  }
+  return nullptr;
+}
+
+// Optimal string alignment distance (a transposition counts as one edit).
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+  for (std::size_t i = 0; i <= a.size(); ++i)
+    d[i][0] = i;
+  for (std::size_t j = 0; j <= b.size(); ++j)
+    d[0][j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t cost = a[i - 1] == b[j - 1] ? 0 : 1;
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + cost});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) {
+        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+      }
+    }
+  }
+  return d[a.size()][b.size()];
+}
+
+// The closest candidate within a third of the word's length (at least 1, at most 3 edits), or a
+// candidate the word is a prefix of; empty if none is close.
+template <typename Range, typename Name>
+std::string closest(std::string_view word, const Range& candidates, Name name) {
+  std::string best;
+  std::size_t best_distance = std::clamp<std::size_t>(word.size() / 3, 1, 3) + 1;
+  for (const auto& c : candidates) {
+    const std::string_view n = name(c);
+    const std::size_t dist = n.starts_with(word) && word.size() >= 2 ? 1 : edit_distance(word, n);
+    if (dist < best_distance) {
+      best_distance = dist;
+      best = std::string(n);
+    }
+  }
+  return best;
+}
+
+std::string pad(std::string_view text, std::size_t width) {
+  std::string s(text);
+  if (s.size() < width) s.append(width - s.size(), ' ');
+  return s;
+}
+
+}  // namespace
+
 std::string usage() {
-  return R"(usage: ajarctl [OPTIONS] COMMAND [ARGS...]
-       ajarctl [OPTIONS] script [FILE]      (commands one per line, from FILE or stdin)
-       ajarctl [OPTIONS] --keep [COMMAND]   (run COMMAND, then commands from stdin)
+  std::string u = R"(Usage: ajarctl [OPTIONS] COMMAND [ARGS...]
+  or:  ajarctl [OPTIONS] script [FILE]      (commands one per line, from FILE or stdin)
+  or:  ajarctl [OPTIONS] --keep [COMMAND]   (run COMMAND, then commands from stdin)
+  or:  ajarctl help COMMAND | ajarctl COMMAND --help
 
 Drives and inspects ajard over its TCP protocol. Points are in metres, in the camera frame
 unless --frame base.
 
-options:
-  --connect HOST:PORT   daemon address (default 127.0.0.1:7450)
-  --ca FILE             speak TLS; the CA the daemon's certificate must chain to (PEM)
-  --cert FILE --key FILE  this operator's certificate and private key (PEM; key mode 0600)
-  --server-name NAME    name to verify the daemon's certificate against (default: HOST)
-  --client-config FILE  connect and tls settings from a YAML file (docs/ajarctl.md)
-  --json                one JSON object per line per reply or event (docs/ajarctl.md)
-  --frame camera|base   frame of the points given to measure/contact (default camera)
-  --timeout S           seconds to wait for each reply attempt (default 3)
-  --retries N           re-sends of a timed-out request, same request id (default 1)
-  --take-over           take control from the current controller
-  --keep                after COMMAND, read more commands from stdin (one session)
-  --keep-going          in script mode, continue after a failed command
-  --version, -h/--help
-
-commands:
-  ping [-n N] [-i S]                    round-trip times (min/avg/max/p99)
-  status                                procedure state, stored parameters, drivers, odometry
-  watch [--rate HZ] [--duration S]      telemetry and events until interrupted (Ctrl-C)
-  measure width X1 Y1 Z1 X2 Y2 Z2       P1 on the hinge side, P2 near the moving edge
-  measure handle X1 Y1 Z1 X2 Y2 Z2      P1 on the handle's axis, P2 at its free end
-  measure plane X Y Z X Y Z X Y Z [...] 3 to 16 points on the door
-  contact X Y Z                         the contact point (after alignment)
-  align [--no-wait] [--wait-timeout S]  turn the base square to the door; waits for the outcome
-  engage [--no-wait] [--wait-timeout S] hand the door model and contact point to the arm
-  stop                                  stop motion (any role)
-  estop                                 emergency stop (any role; Reset to continue)
-  reset [--clear]                       clear a latched fault; --clear also discards the procedure
-  sleep S                               (script mode) pause S seconds, keeping the session alive
-  conformance [--vectors DIR]           hold the daemon to the protocol; ends "N passed, N failed"
-  simulate SCENARIO.yaml [--trace FILE] [--seeds N] [--seed S] [--plane-points N]
-           [--config AJARD.yaml]        rehearse the whole procedure on a simulated door
-                                        (camera->base from AJARD.yaml, else the paper's)
-
+Options:
+)";
+  for (const auto& o : kGlobalOptions) {
+    const std::string left =
+        std::string(o.name) + (o.value.empty() ? "" : " ") + std::string(o.value);
+    u += "  " + pad(left, 22) + std::string(o.help) + "\n";
+  }
+  u += "\nCommands:\n";
+  // Synopsis, at least two spaces, summary (help2man reads this layout for the man page).
+  constexpr std::size_t kColumn = 40;
+  for (const auto& c : kCommands) {
+    if (c.synopsis.size() + 2 <= kColumn) {
+      u += "  " + pad(c.synopsis, kColumn) + std::string(c.summary) + "\n";
+    } else {
+      u += "  " + std::string(c.synopsis) + "\n  " + pad("", kColumn) + std::string(c.summary) +
+           "\n";
+    }
+  }
+  u += R"(
 measure, contact, align, engage, reset and script mode take the controller role; a one-shot
 'align --no-wait' disconnects during the motion, which the deadman stops: use it in script mode.
 
 exit codes: 0 success, 1 the daemon refused (or a check/tolerance failed), 2 usage,
             3 connection failure or timeout.
 )";
+  return u;
+}
+
+std::string command_help(std::string_view name) {
+  const CommandInfo* c = find_command(name);
+  if (c == nullptr) return {};
+  std::string text = "Usage: ajarctl [OPTIONS] " + std::string(c->synopsis);
+  text += "\n\n" + std::string(c->details) + "\n\n(ajarctl --help lists the global options)\n";
+  return text;
+}
+
+std::vector<std::string> command_names() {
+  std::vector<std::string> names;
+  for (const auto& c : kCommands)
+    names.emplace_back(c.name);
+  return names;
+}
+
+std::string unknown_command_message(std::string_view word) {
+  std::string m = "unknown command '" + std::string(word) + "'";
+  const std::string guess = closest(word, kCommands, [](const CommandInfo& c) { return c.name; });
+  if (!guess.empty()) m += " (did you mean '" + guess + "'?)";
+  return m;
+}
+
+std::vector<std::string> completion_words(std::span<const std::string> before) {
+  std::vector<std::string> out;
+  auto option_value = [](std::string_view word) -> const OptionInfo* {
+    for (const auto& o : kGlobalOptions) {
+      if (o.name == word && !o.value.empty()) return &o;
+    }
+    return nullptr;
+  };
+  std::size_t i = 0;
+  for (; i < before.size(); ++i) {
+    if (!before[i].starts_with('-')) break;
+    if (option_value(before[i]) != nullptr) ++i;  // skip its value
+  }
+  if (i > before.size()) i = before.size();
+  const std::string_view previous = before.empty() ? "" : std::string_view(before.back());
+  if (previous == "--frame") return {"camera", "base"};
+  if (i == before.size()) {
+    if (option_value(previous) != nullptr) return {};  // a value: nothing to offer
+    for (const auto& o : kGlobalOptions)
+      out.emplace_back(o.name);
+    for (const auto& c : kCommands)
+      out.emplace_back(c.name);
+    return out;
+  }
+  const CommandInfo* c = find_command(before[i]);
+  if (c == nullptr) return {};
+  if (c->name == "help") {
+    if (before.size() == i + 1) return command_names();
+    return {};
+  }
+  if (previous == "--vectors") return {"@dir"};
+  if (previous == "--trace" || previous == "--config") return {"@file"};
+  if (before.size() == i + 1 && !c->words.empty()) {
+    std::istringstream words{std::string(c->words)};
+    for (std::string w; words >> w;)
+      out.push_back(w);
+  }
+  std::istringstream options{std::string(c->options)};
+  for (std::string w; options >> w;)
+    out.push_back(w);
+  out.emplace_back("--help");
+  return out;
 }
 
 std::vector<std::string> split_line(const std::string& line) {
@@ -268,6 +489,9 @@ ParsedArgs parse_global_options(std::span<const std::string> args) {
       }
     } else {
       parsed.error = "unknown option '" + a + "'";
+      const std::string guess =
+          closest(a, kGlobalOptions, [](const OptionInfo& option) { return option.name; });
+      if (!guess.empty()) parsed.error += " (did you mean '" + guess + "'?)";
       return parsed;
     }
   }
@@ -293,6 +517,29 @@ CommandParse parse_command(std::span<const std::string> words_in, core::Frame fr
   const std::span<const std::string> rest(words.data() + 1, words.size() - 1);
   Command c;
   c.name = name;
+
+  // `help [COMMAND]` and `COMMAND --help` (or -h) anywhere after a known command.
+  if (name == "help") {
+    if (rest.size() > 1) return fail("help takes at most one COMMAND");
+    if (rest.size() == 1 && (rest[0] == "--help" || rest[0] == "-h")) {
+      c.kind = Command::Kind::kHelp;
+      c.args = {"help"};
+      return {c, {}};
+    }
+    if (rest.size() == 1 && find_command(rest[0]) == nullptr) {
+      return fail(unknown_command_message(rest[0]));
+    }
+    c.kind = Command::Kind::kHelp;
+    c.args.assign(rest.begin(), rest.end());
+    return {c, {}};
+  }
+  if (find_command(name) != nullptr &&
+      std::any_of(rest.begin(), rest.end(),
+                  [](const std::string& w) { return w == "--help" || w == "-h"; })) {
+    c.kind = Command::Kind::kHelp;
+    c.args = {name};
+    return {c, {}};
+  }
 
   auto wait_options = [&](std::span<const std::string> opts) -> std::string {
     for (std::size_t i = 0; i < opts.size(); ++i) {
@@ -445,7 +692,7 @@ CommandParse parse_command(std::span<const std::string> words_in, core::Frame fr
     }
     return {c, {}};
   }
-  return fail("unknown command '" + name + "' (try --help)");
+  return fail(unknown_command_message(name) + " (try --help)");
 }
 
 }  // namespace ajar::client

@@ -351,6 +351,11 @@ class Suite {
             return "got " + describe(reply);
           }
           break;
+        case MessageType::kGetRobotModel:
+          if (!std::holds_alternative<protocol::RobotModel>(reply->message)) {
+            return "got " + describe(reply);
+          }
+          break;
         case MessageType::kSubscribe:
         case MessageType::kStop:
         case MessageType::kEmergencyStop:

@@ -104,6 +104,12 @@ class Session {
         client_.set_heartbeat(Milliseconds{0});
         return kExitOk;
       }
+      case Command::Kind::kHelp: {
+        std::lock_guard lock(print_mutex_);
+        out_ << (c.args.empty() ? usage() : command_help(c.args[0]));
+        out_.flush();
+        return kExitOk;
+      }
       case Command::Kind::kConformance:
       case Command::Kind::kSimulate:
       case Command::Kind::kScript:
@@ -216,6 +222,40 @@ class Session {
     return kExitOk;
   }
 
+  static constexpr auto kProgressInterval = Milliseconds{500};
+
+  // While align / engage waits: elapsed time and, for align, the yaw turned so far and the yaw
+  // still to turn (the measured plane's yaw minus the odometry yaw turned since the start); for
+  // engage, the arm's state.
+  void print_progress(const Command& c, bool align, const protocol::Status& start,
+                      const protocol::Status& now, Clock::duration elapsed) {
+    const double elapsed_s = std::chrono::duration<double>(elapsed).count();
+    JsonObject o;
+    o.add("type", "progress").add("command", c.name).add("ok", true);
+    o.add("elapsed_s", elapsed_s).add("state", protocol::to_string(now.state));
+    char text[200];
+    if (align) {
+      const double turned = std::remainder(now.base_yaw_odometry_rad - start.base_yaw_odometry_rad,
+                                           2 * std::numbers::pi);
+      o.add("yaw_turned_rad", turned);
+      if (start.has_plane) {
+        const double remaining = start.plane.yaw_deviation_rad - turned;
+        o.add("yaw_remaining_rad", remaining);
+        std::snprintf(text, sizeof text,
+                      "%s: %5.1f s, turned %+.4f rad, %+.4f rad (%+.2f deg) to go", c.name.c_str(),
+                      elapsed_s, turned, remaining, remaining * 180 / std::numbers::pi);
+      } else {
+        std::snprintf(text, sizeof text, "%s: %5.1f s, turned %+.4f rad", c.name.c_str(), elapsed_s,
+                      turned);
+      }
+    } else {
+      o.add("arm_state", protocol::to_string(now.arm_state));
+      std::snprintf(text, sizeof text, "%s: %5.1f s, arm %s", c.name.c_str(), elapsed_s,
+                    std::string(protocol::to_string(now.arm_state)).c_str());
+    }
+    print(o, text);
+  }
+
   // align / engage: send, then (unless --no-wait) poll the status until the motion is over.
   int motion(const Command& c) {
     const bool align = c.kind == Command::Kind::kAlign;
@@ -235,7 +275,9 @@ class Session {
     client_.set_heartbeat(Milliseconds{100});
     const auto busy =
         align ? protocol::ProcedureState::kAligning : protocol::ProcedureState::kEngaging;
-    const auto deadline = Clock::now() + seconds_to_ms(c.wait_timeout_s);
+    const auto started = Clock::now();
+    const auto deadline = started + seconds_to_ms(c.wait_timeout_s);
+    auto next_progress = started + kProgressInterval;
     protocol::Status last = start;
     bool finished = false;
     int rc = kExitOk;
@@ -257,6 +299,10 @@ class Session {
       if (last.state != busy) {
         finished = true;
         break;
+      }
+      if (Clock::now() >= next_progress) {
+        print_progress(c, align, start, last, Clock::now() - started);
+        next_progress += kProgressInterval;
       }
       std::this_thread::sleep_for(Milliseconds{50});
     }
@@ -359,6 +405,11 @@ int run_script(Session& session, std::istream& in, const GlobalOptions& options,
 
 int run_ajarctl(std::span<const std::string> args, std::istream& in, std::ostream& out,
                 std::ostream& err) {
+  if (!args.empty() && args[0] == "--complete") {  // bash completion (client/completion/ajarctl)
+    for (const auto& word : completion_words(args.subspan(1)))
+      out << word << '\n';
+    return kExitOk;
+  }
   const ParsedArgs parsed = parse_global_options(args);
   if (!parsed.error.empty()) return usage_error(err, parsed.error);
   const GlobalOptions& options = parsed.options;
@@ -385,6 +436,9 @@ int run_ajarctl(std::span<const std::string> args, std::istream& in, std::ostrea
   if (!command.command) return usage_error(err, command.error);
   const Command& c = *command.command;
   switch (c.kind) {
+    case Command::Kind::kHelp:
+      out << (c.args.empty() ? usage() : command_help(c.args[0]));
+      return kExitOk;
     case Command::Kind::kConformance:
       return run_conformance(c, options, out, err);
     case Command::Kind::kSimulate:

@@ -42,6 +42,8 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "RATE_LIMITED";
     case ErrorCode::kShuttingDown:
       return "SHUTTING_DOWN";
+    case ErrorCode::kNotSupported:
+      return "NOT_SUPPORTED";
     case ErrorCode::kNonFinite:
       return "NON_FINITE";
     case ErrorCode::kPointOutOfDepthRange:
@@ -70,6 +72,8 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "UNKNOWN_FRAME";
     case ErrorCode::kTransformNotRigid:
       return "TRANSFORM_NOT_RIGID";
+    case ErrorCode::kStandoffOutOfRange:
+      return "STANDOFF_OUT_OF_RANGE";
     case ErrorCode::kWrongState:
       return "WRONG_STATE";
     case ErrorCode::kMissingDoorWidth:
@@ -88,6 +92,16 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "MOTION_IN_PROGRESS";
     case ErrorCode::kQueueFull:
       return "QUEUE_FULL";
+    case ErrorCode::kMeasurementStale:
+      return "MEASUREMENT_STALE";
+    case ErrorCode::kNoDoorDistance:
+      return "NO_DOOR_DISTANCE";
+    case ErrorCode::kNotSquareToDoor:
+      return "NOT_SQUARE_TO_DOOR";
+    case ErrorCode::kApproachTooFar:
+      return "APPROACH_TOO_FAR";
+    case ErrorCode::kDriveNotAllowed:
+      return "DRIVE_NOT_ALLOWED";
     case ErrorCode::kDriverError:
       return "DRIVER_ERROR";
     case ErrorCode::kDriverNotActive:

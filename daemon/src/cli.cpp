@@ -137,8 +137,8 @@ std::string version_text() {
 
 std::string help_text() {
   return R"(Usage: ajard --config FILE [--listen ADDR:PORT] [--port-file FILE] [--state-dir DIR]
-       ajard --check-config FILE [--listen ADDR:PORT] [--state-dir DIR]
-       ajard --version | --help
+  or:  ajard --check-config FILE [--listen ADDR:PORT] [--state-dir DIR]
+  or:  ajard --version | --help
 
 ajard is the Ajar door-opening controller daemon: it serves the Ajar wire protocol over TCP and
 drives the mobile base (motion card) and the arm (serial) selected by the config.
@@ -160,8 +160,9 @@ Signals:
   SIGTERM, SIGINT       stop any motion, persist the state, close the sessions, exit 0.
   SIGPIPE               ignored.
   SIGHUP                re-read the config file and apply logging.level; no other key is
-                        reloaded (a change elsewhere is logged as needing a restart); a config
-                        that does not load is logged and ignored.
+                        reloaded: the log names the keys applied and the changed keys that need
+                        a restart; a config that does not load is logged and ignored
+                        (systemctl reload ajard sends SIGHUP).
 
 Logging goes to journald when run by systemd (JOURNAL_STREAM or INVOCATION_ID set), else to
 stderr, unless logging.sink says otherwise. Under systemd (Type=notify) ajard sends READY=1 once

@@ -794,4 +794,26 @@ std::string to_yaml(const Config& c) {
   return std::string(out.c_str()) + "\n";
 }
 
+namespace {
+
+void collect_changed(const YAML::Node& a, const YAML::Node& b, const std::string& path,
+                     std::vector<std::string>& out) {
+  if (a.IsMap() && b.IsMap()) {
+    for (const auto& entry : a) {
+      const auto key = entry.first.as<std::string>();
+      collect_changed(entry.second, b[key], path.empty() ? key : path + "." + key, out);
+    }
+    return;
+  }
+  if (YAML::Dump(a) != YAML::Dump(b)) out.push_back(path);
+}
+
+}  // namespace
+
+std::vector<std::string> changed_keys(const Config& before, const Config& after) {
+  std::vector<std::string> out;
+  collect_changed(YAML::Load(to_yaml(before)), YAML::Load(to_yaml(after)), "", out);
+  return out;
+}
+
 }  // namespace ajar::daemon

@@ -166,7 +166,7 @@ void ControlLoop::finish(LoopReportKind kind, ErrorCode code) noexcept {
 }
 
 void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
-  if (!card_->smooth_stop(axes_)) (void)card_->emergency_stop(axes_);
+  if (card_->smooth_stop(axes_) != ErrorCode::kOk) (void)card_->emergency_stop(axes_);
   motion_ = Motion::kStopping;
   motion_deadline_ns_ = now_ns + stop_timeout_ns_;
 }
@@ -202,8 +202,9 @@ void ControlLoop::handle_requests(std::int64_t now_ns) noexcept {
     if (s && card_->state() == drivers::LifecycleState::kInactive) {
       s = card_->activate();
     } else if (s && card_->state() == drivers::LifecycleState::kActive) {
-      s = card_->clear_faults(axes_);
-      if (s) s = card_->enable_axes(axes_);
+      ErrorCode e = card_->clear_faults(axes_);
+      if (e == ErrorCode::kOk) e = card_->enable_axes(axes_);
+      if (e != ErrorCode::kOk) s = make_error(e, "", "");
     }
     if (s) {
       fault_ = ErrorCode::kOk;
@@ -240,9 +241,9 @@ void ControlLoop::start_move(const MoveCommand& move, std::int64_t now_ns) noexc
   }
   const drivers::AxisMove moves[2] = {{axes_[0], move.left_counts}, {axes_[1], move.right_counts}};
   motion_id_ = move.motion_id;
-  if (auto s = card_->move_relative(moves, profile_); !s) {
-    latch(s.error().code, 0);
-    report({LoopReportKind::kMoveRefused, s.error().code, move.motion_id, 0});
+  if (const ErrorCode e = card_->move_relative(moves, profile_); e != ErrorCode::kOk) {
+    latch(e, 0);
+    report({LoopReportKind::kMoveRefused, e, move.motion_id, 0});
     return;
   }
   target_counts_[0] = snapshot_profile_counts_[0] + move.left_counts;
@@ -279,12 +280,9 @@ void ControlLoop::read_axes() noexcept {
   answered_ = true;
   read_error_ = ErrorCode::kOk;
   for (int i = 0; i < 2; ++i) {
-    auto r = card_->axis_status(axes_[i]);
-    if (r) {
-      status_[i] = *r;
-    } else {
+    if (const ErrorCode e = card_->axis_status(axes_[i], status_[i]); e != ErrorCode::kOk) {
       answered_ = false;
-      read_error_ = r.error().code;
+      read_error_ = e;
     }
   }
   if (answered_) {

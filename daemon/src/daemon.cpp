@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <csignal>
@@ -153,6 +154,11 @@ class Runner {
     });
   }
 
+  // SIGHUP: re-read the config; apply the reloadable keys (kReloadableKeys, and network.tls except
+  // `enabled`: its files are re-read on every SIGHUP), and name every other
+  // changed key as needing a restart (nothing else is changed under live sessions and the loop).
+  static constexpr std::string_view kReloadableKeys[] = {"logging.level"};
+
   void reload() {
     if (!options_.reload_config) {
       spdlog::warn("SIGHUP: no config file to reload");
@@ -160,24 +166,38 @@ class Runner {
     }
     try {
       const Config fresh = options_.reload_config();
+      std::string applied;
+      std::string need_restart;
+      for (const auto& key : changed_keys(config_, fresh)) {
+        const bool reloadable =
+            std::find(std::begin(kReloadableKeys), std::end(kReloadableKeys), key) !=
+                std::end(kReloadableKeys) ||
+            (key.starts_with("network.tls.") && key != "network.tls.enabled");  // tls.hpp
+        std::string& list = reloadable ? applied : need_restart;
+        list += (list.empty() ? "" : ", ") + key;
+        if (key == "logging.level") list += " (now " + fresh.logging.level + ")";
+      }
       if (fresh.logging.level != config_.logging.level) {
         set_log_level(fresh.logging.level);
-        spdlog::warn("SIGHUP: logging.level is now {}", fresh.logging.level);
+        config_.logging.level = fresh.logging.level;
       }
       if (fresh.network.tls.enabled && config_.network.tls.enabled) {
-        server_->reload_tls(fresh.network.tls);  // CRL, deny list, identities (tls.hpp)
-        config_.network.tls = fresh.network.tls;
+        // Always: the CRL and certificate files may have changed under an unchanged config.
+        try {
+          server_->reload_tls(fresh.network.tls);
+          config_.network.tls = fresh.network.tls;
+        } catch (const std::exception& e) {
+          spdlog::error("SIGHUP: network.tls not reloaded, keeping the running policy: {}",
+                        e.what());
+        }
       }
-      Config compare = fresh;
-      compare.logging.level = config_.logging.level;
-      config_.logging.level = fresh.logging.level;
-      Config current = config_;
-      if (to_yaml(compare) != to_yaml(current)) {
-        spdlog::warn(
-            "SIGHUP: the config file changed in keys that are not reloaded (only logging.level "
-            "and network.tls are); restart ajard to apply them");
+      if (applied.empty() && need_restart.empty()) {
+        spdlog::info("SIGHUP: config re-read, nothing changed");
+      } else if (need_restart.empty()) {
+        spdlog::warn("SIGHUP: applied {}", applied);
       } else {
-        spdlog::info("SIGHUP: config reloaded");
+        spdlog::warn("SIGHUP: applied {}; not applied, restart ajard to apply: {}",
+                     applied.empty() ? std::string("nothing") : applied, need_restart);
       }
     } catch (const std::exception& e) {
       spdlog::error("SIGHUP: config not reloaded, keeping the running one: {}", e.what());

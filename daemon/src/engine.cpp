@@ -14,6 +14,7 @@
 #include "ajar/daemon/procedure.hpp"
 #include "ajar/daemon/realtime.hpp"
 #include "ajar/daemon/state_store.hpp"
+#include "ajar/daemon/wire_model.hpp"
 #include "ajar/version.hpp"
 
 namespace ajar::daemon {
@@ -93,7 +94,8 @@ class EngineImpl final : public Engine {
     if (!drivers.card || !drivers.arm) throw StartupError("drivers: card and arm are required");
     const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
     loop_ = std::make_unique<ControlLoop>(
-        std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes),
+        std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
+                                                     config.drivers.card.poll_timeout_ms),
         loop_settings(config));
     arm_ = std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm));
   }
@@ -226,8 +228,11 @@ class EngineImpl final : public Engine {
     w.min_handle_length_m = static_cast<float>(config_.limits.min_handle_length_m);
     w.max_handle_length_m = static_cast<float>(config_.limits.max_handle_length_m);
     w.max_yaw_correction_rad = static_cast<float>(config_.limits.max_yaw_correction_rad);
+    w.driver_kind = wire_driver_kind(config_.drivers.kind);
     return w;
   }
+
+  protocol::RobotModel robot_model() const override { return robot_model_of(config_); }
 
   bool control_loop_healthy() const noexcept override { return loop_->healthy(monotonic_now_ns()); }
 
@@ -277,6 +282,15 @@ class EngineImpl final : public Engine {
                                        "telemetry rate must be 0..loop rate"));
       }
       return ack(type, protocol::EmptyAck{});
+    }
+    if (type == MessageType::kDrive || type == MessageType::kApproach) {
+      return refuse(type, make_error(ErrorCode::kNotSupported, "",
+                                     std::string(protocol::to_string(type)) +
+                                         ": this daemon does not drive the base yet"));
+    }
+    if (type == MessageType::kResetLoopStatistics) {
+      return refuse(type, make_error(ErrorCode::kNotSupported, "",
+                                     "this daemon cannot reset its loop statistics yet"));
     }
     return refuse(type, make_error(ErrorCode::kWrongState, "", "not a command for the procedure"));
   }

@@ -28,6 +28,9 @@ bool needs_controller(MessageType t) {
     case MessageType::kAlignBase:
     case MessageType::kEngage:
     case MessageType::kReset:
+    case MessageType::kDrive:
+    case MessageType::kApproach:
+    case MessageType::kResetLoopStatistics:
       return true;
     default:
       return false;
@@ -40,9 +43,9 @@ bool is_stop(MessageType t) {
 
 }  // namespace
 
-SharedFrame encode_frame(const protocol::Envelope& envelope) {
+SharedFrame encode_frame(const protocol::Envelope& envelope, std::uint8_t minor) {
   std::array<std::uint8_t, protocol::kMaxFrameSize> buffer{};
-  const std::size_t size = protocol::encode(envelope, buffer);
+  const std::size_t size = protocol::encode(envelope, buffer, minor);
   if (size == 0) {
     // Cannot happen for messages built by the daemon (every message fits kMaxFrameSize).
     spdlog::error("cannot encode {} frame",
@@ -99,13 +102,13 @@ void SessionHub::release_settled(SessionState& s, std::uint64_t settled) {
 
 void SessionHub::send_reply(SessionState& s, std::uint32_t request_id, protocol::Message message) {
   const MessageType type = protocol::type_of(message);
-  auto frame = encode_frame(protocol::Envelope{request_id, 0, std::move(message)});
+  auto frame = encode_frame(protocol::Envelope{request_id, 0, std::move(message)}, s.minor);
   if (!frame) {  // a bug (e.g. an Ack body that does not match): the client still gets an answer
     protocol::ErrorReply error;
     error.code = ErrorCode::kInternal;
     error.offending_type = type;
     error.message = "the daemon could not encode its reply";
-    frame = encode_frame(protocol::Envelope{request_id, 0, error});
+    frame = encode_frame(protocol::Envelope{request_id, 0, error}, s.minor);
   }
   if (frame) s.link->send(std::move(frame));
 }
@@ -123,10 +126,12 @@ void SessionHub::refuse(SessionState& s, const protocol::Envelope& envelope, Err
 }
 
 void SessionHub::broadcast(const protocol::Message& message) {
-  auto frame = encode_frame(protocol::Envelope{0, 0, message});
-  if (!frame) return;
+  std::array<SharedFrame, protocol::kVersionMinor + 1> frames;  // encoded once per minor in use
   for (auto& [id, s] : sessions_) {
-    if (s.greeted) s.link->send(frame);
+    if (!s.greeted) continue;
+    SharedFrame& frame = frames[s.minor];
+    if (!frame) frame = encode_frame(protocol::Envelope{0, 0, message}, s.minor);
+    if (frame) s.link->send(frame);
   }
 }
 
@@ -149,8 +154,16 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
 
   const MessageType type = protocol::type_of(envelope.message);
   if (!protocol::is_request(type)) {
-    refuse(s, envelope, ErrorCode::kUnknownMessageType, "type",
-           "a daemon-to-host message is not a request");
+    refuse(s, envelope, ErrorCode::kUnknownMessageType, "header.type",
+           std::string(protocol::to_string(type)) +
+               " is a daemon-to-host message: the daemon does not accept it");
+    return;
+  }
+  if (protocol::minor_of(type) > s.minor) {
+    refuse(s, envelope, ErrorCode::kUnknownMessageType, "header.type",
+           std::string(protocol::to_string(type)) + " is defined from protocol 1." +
+               std::to_string(protocol::minor_of(type)) + "; this session's Hello said 1." +
+               std::to_string(s.minor));
     return;
   }
   if (type == MessageType::kHello) {
@@ -189,6 +202,9 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
     case MessageType::kSubscribe:
       handle_subscribe(s, envelope);
       return;
+    case MessageType::kGetRobotModel:
+      reply(s, envelope.request_id, engine_.robot_model());
+      return;
     default:
       break;
   }
@@ -196,7 +212,8 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
     handle_command(s, envelope);
     return;
   }
-  refuse(s, envelope, ErrorCode::kUnknownMessageType, "type", "not handled by this daemon");
+  refuse(s, envelope, ErrorCode::kUnknownMessageType, "header.type",
+         std::string(protocol::to_string(type)) + " is not handled by this daemon");
 }
 
 void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelope) {
@@ -230,6 +247,7 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
     controller_ = s.link->id();
   }
   s.greeted = true;
+  s.minor = std::min(hello.version_minor, protocol::kVersionMinor);
   s.role = hello.requested_role;
   s.client_instance_id = hello.client_instance_id;
   s.client_name = std::string(hello.client_name.view());
@@ -338,10 +356,7 @@ void SessionHub::on_decode_error(SessionLink& link, const protocol::DecodeError&
   reply_body.code = error.code;
   reply_body.offending_type = static_cast<MessageType>(error.type);
   reply_body.field = std::string_view(error.field == nullptr ? "" : error.field);
-  reply_body.message.assign(std::string(error.framing_lost
-                                            ? "frame rejected, framing lost: closing: "
-                                            : "frame rejected: ") +
-                            std::string(to_string(error.code)));
+  reply_body.message.assign(protocol::describe(error));
   spdlog::warn("session {} from {}: bad frame: {} field '{}' request {}{}", link.id(), link.peer(),
                to_string(error.code), reply_body.field.view(), error.request_id,
                error.framing_lost ? " (framing lost, closing)" : "");
@@ -368,7 +383,8 @@ void SessionHub::on_event(const protocol::Event& event) {
 
 void SessionHub::tick(Clock::time_point now) {
   const std::uint64_t settled = engine_.settled_generation();
-  SharedFrame frame;
+  std::array<SharedFrame, protocol::kVersionMinor + 1> frames;  // encoded once per minor in use
+  std::optional<protocol::Telemetry> telemetry;
   for (auto& [id, s] : sessions_) {
     release_settled(s, settled);
     if (!s.greeted && !s.closing && options_.hello_timeout > Clock::duration::zero() &&
@@ -385,7 +401,9 @@ void SessionHub::tick(Clock::time_point now) {
       continue;
     }
     if (s.telemetry_period == Clock::duration::zero() || now < s.next_telemetry) continue;
-    if (!frame) frame = encode_frame(protocol::Envelope{0, 0, engine_.telemetry()});
+    if (!telemetry) telemetry = engine_.telemetry();
+    SharedFrame& frame = frames[s.minor];
+    if (!frame) frame = encode_frame(protocol::Envelope{0, 0, *telemetry}, s.minor);
     if (!frame) return;
     s.link->send(frame);
     s.next_telemetry += s.telemetry_period;

@@ -9,8 +9,27 @@
 #include <string>
 
 #include "ajar/drivers/arm_simulator.hpp"
+#include "ajar/version.hpp"
 
 namespace {
+
+// --help (also the source of the ajar-armsim(1) man page, cmake/AjarManPages.cmake).
+constexpr const char* kHelp =
+    "Usage: ajar-armsim [--task-ms N] [--reply-delay-ms N] [--refuse]\n"
+    "\n"
+    "Runs the arm-controller simulator on a pseudo-terminal: prints the device path to open (a\n"
+    "stable symlink to the pseudo-terminal), then serves the arm's serial protocol\n"
+    "(docs/manipulator-serial.md) until SIGINT or SIGTERM. Requests and counters are printed on\n"
+    "stderr once a second when they change. Point drivers.arm.device at the path, or open it with\n"
+    "a terminal program (picocom PATH).\n"
+    "\n"
+    "Options:\n"
+    "  --task-ms N           a door task runs N ms before the controller reports DONE (default\n"
+    "                        200; 0..3600000)\n"
+    "  --reply-delay-ms N    delay every reply by N ms (a slow controller; default 0)\n"
+    "  --refuse              refuse every task (the controller's refusal path)\n"
+    "  --version             print the version and exit\n"
+    "  --help, -h            print this help and exit\n";
 
 int parse_ms(const char* text, const char* flag) {
   char* end = nullptr;
@@ -35,8 +54,15 @@ int main(int argc, char** argv) {
       settings.reply_delay_ms = parse_ms(argv[++i], "--reply-delay-ms");
     } else if (arg == "--refuse") {
       refuse = true;
+    } else if (arg == "--help" || arg == "-h") {
+      std::fputs(kHelp, stdout);
+      return 0;
+    } else if (arg == "--version") {
+      std::printf("ajar-armsim %s\n", ajar::kVersion);
+      return 0;
     } else {
-      std::fprintf(stderr, "usage: ajar-armsim [--task-ms N] [--reply-delay-ms N] [--refuse]\n");
+      std::fprintf(stderr, "ajar-armsim: unknown argument '%s' (see ajar-armsim --help)\n",
+                   arg.c_str());
       return 2;
     }
   }

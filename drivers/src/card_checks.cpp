@@ -4,80 +4,92 @@
 
 namespace ajar::drivers::card {
 
-Error axis_error(ErrorCode code, int axis, const std::string& what) {
-  return make_error(code, "axis", "axis " + std::to_string(axis) + ": " + what);
-}
-
 namespace {
 
 // One axis of a set: within 1..axis_count and not listed before (`seen` is the set's bitmask).
-Status check_next_axis(int axis, int axis_count, unsigned long long& seen) {
+ErrorCode check_next_axis(int axis, int axis_count, unsigned long long& seen, const char* call,
+                          CardFailure& failure) noexcept {
   if (axis < 1 || axis > axis_count || axis > 64) {
-    return axis_error(ErrorCode::kCardBadParameter, axis,
-                      "outside 1.." + std::to_string(axis_count));
+    return fail(failure, ErrorCode::kCardBadParameter, call, axis,
+                "axis outside 1..axis_count of the card");
   }
   const unsigned long long bit = 1ULL << (axis - 1);
-  if ((seen & bit) != 0) return axis_error(ErrorCode::kCardBadParameter, axis, "listed twice");
+  if ((seen & bit) != 0) {
+    return fail(failure, ErrorCode::kCardBadParameter, call, axis, "axis listed twice");
+  }
   seen |= bit;
-  return Ok{};
+  return ErrorCode::kOk;
+}
+
+bool positive(double v) noexcept {
+  return std::isfinite(v) && v > 0;
 }
 
 }  // namespace
 
-Status check_axes(std::span<const int> axes, int axis_count) {
+ErrorCode check_axes(std::span<const int> axes, int axis_count, const char* call,
+                     CardFailure& failure) noexcept {
   unsigned long long seen = 0;
   for (const int axis : axes) {
-    if (auto s = check_next_axis(axis, axis_count, seen); !s) return s;
+    if (const auto e = check_next_axis(axis, axis_count, seen, call, failure);
+        e != ErrorCode::kOk) {
+      return e;
+    }
   }
-  return Ok{};
+  return ErrorCode::kOk;
 }
 
-Status check_move(std::span<const AxisMove> moves, const TrapezoidProfile& profile,
-                  int axis_count) {
-  if (moves.empty()) return make_error(ErrorCode::kCardBadParameter, "moves", "no axis to move");
-  // No list is built: this runs in the control loop.
+ErrorCode check_move(std::span<const AxisMove> moves, const TrapezoidProfile& profile,
+                     int axis_count, CardFailure& failure) noexcept {
+  constexpr const char* kCall = "move_relative";
+  if (moves.empty())
+    return fail(failure, ErrorCode::kCardBadParameter, kCall, 0, "no axis to move");
   unsigned long long seen = 0;
   for (const AxisMove& m : moves) {
-    if (auto s = check_next_axis(m.axis, axis_count, seen); !s) return s;
+    if (const auto e = check_next_axis(m.axis, axis_count, seen, kCall, failure);
+        e != ErrorCode::kOk) {
+      return e;
+    }
   }
-  const auto positive = [](double v) { return std::isfinite(v) && v > 0; };
   if (!positive(profile.velocity_counts_per_ms)) {
-    return make_error(
-        ErrorCode::kCardBadParameter, "velocity_counts_per_ms",
-        "must be finite and > 0, got " + std::to_string(profile.velocity_counts_per_ms));
+    return fail(failure, ErrorCode::kCardBadParameter, kCall, 0,
+                "velocity_counts_per_ms must be finite and > 0");
   }
   if (!positive(profile.acceleration_counts_per_ms2)) {
-    return make_error(
-        ErrorCode::kCardBadParameter, "acceleration_counts_per_ms2",
-        "must be finite and > 0, got " + std::to_string(profile.acceleration_counts_per_ms2));
+    return fail(failure, ErrorCode::kCardBadParameter, kCall, 0,
+                "acceleration_counts_per_ms2 must be finite and > 0");
   }
   if (!positive(profile.deceleration_counts_per_ms2)) {
-    return make_error(
-        ErrorCode::kCardBadParameter, "deceleration_counts_per_ms2",
-        "must be finite and > 0, got " + std::to_string(profile.deceleration_counts_per_ms2));
+    return fail(failure, ErrorCode::kCardBadParameter, kCall, 0,
+                "deceleration_counts_per_ms2 must be finite and > 0");
   }
   if (!std::isfinite(profile.smooth_time_ms) || profile.smooth_time_ms < 0 ||
       profile.smooth_time_ms > 50) {
-    return make_error(ErrorCode::kCardBadParameter, "smooth_time_ms",
-                      "must be within 0..50, got " + std::to_string(profile.smooth_time_ms));
+    return fail(failure, ErrorCode::kCardBadParameter, kCall, 0,
+                "smooth_time_ms must be within 0..50");
   }
-  return Ok{};
+  return ErrorCode::kOk;
 }
 
-Status check_can_move(const AxisStatus& st, int axis, std::int64_t distance_counts) {
-  if (st.alarm) return axis_error(ErrorCode::kAxisAlarm, axis, "drive alarm");
-  if (st.following_error) return axis_error(ErrorCode::kFollowingError, axis, "following error");
-  if ((distance_counts > 0 && st.positive_limit) || (distance_counts < 0 && st.negative_limit)) {
-    return axis_error(ErrorCode::kLimitHit, axis, "limit switch active in the move direction");
+ErrorCode check_can_move(const AxisStatus& st, int axis, std::int64_t direction, const char* call,
+                         CardFailure& failure) noexcept {
+  if (st.alarm) return fail(failure, ErrorCode::kAxisAlarm, call, axis, "drive alarm");
+  if (st.following_error) {
+    return fail(failure, ErrorCode::kFollowingError, call, axis, "following error");
+  }
+  if ((direction > 0 && st.positive_limit) || (direction < 0 && st.negative_limit)) {
+    return fail(failure, ErrorCode::kLimitHit, call, axis,
+                "limit switch active in the direction of motion");
   }
   if (st.emergency_stopped) {
-    return axis_error(ErrorCode::kEmergencyStopped, axis,
-                      "emergency stop latched: clear faults first");
+    return fail(failure, ErrorCode::kEmergencyStopped, call, axis,
+                "emergency stop latched: clear faults first");
   }
   if (!st.enabled) {
-    return axis_error(ErrorCode::kDriverError, axis, "servo is off: enable the axis first");
+    return fail(failure, ErrorCode::kDriverError, call, axis,
+                "servo is off: enable the axis first");
   }
-  return Ok{};
+  return ErrorCode::kOk;
 }
 
 }  // namespace ajar::drivers::card

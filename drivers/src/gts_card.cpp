@@ -2,11 +2,8 @@
 
 #include <dlfcn.h>
 
-#include <chrono>
 #include <cmath>
 #include <string>
-#include <thread>
-#include <vector>
 
 #include "ajar/drivers/card_checks.hpp"
 #include "ajar/drivers/card_gts_abi.hpp"
@@ -16,13 +13,7 @@ namespace ajar::drivers {
 
 namespace {
 
-using card::axis_error;
-
-std::string where(std::string_view call, int axis) {
-  std::string s(call);
-  if (axis > 0) s += "(axis " + std::to_string(axis) + ")";
-  return s;
-}
+using card::fail;
 
 template <typename F>
 F resolve(void* handle, const char* name, const std::string& path) {
@@ -60,30 +51,21 @@ long valid_mask(std::span<const int> axes, int axis_count) {
 
 }  // namespace
 
-Error gts_error(short code, std::string_view call, int axis) {
-  ErrorCode ec = ErrorCode::kDriverError;
-  const char* meaning = "unknown vendor code";
-  if (code == gts::kCmdExecuteError) {
-    meaning = "execution error";
-  } else if (code == gts::kCmdBadParameter) {
-    ec = ErrorCode::kCardBadParameter;
-    meaning = "bad parameter";
-  } else if (code >= -5 && code <= -1) {
-    ec = ErrorCode::kCardCommunication;
-    meaning = "communication failure";
-  } else if (code == gts::kCmdOpenFailed) {
-    ec = ErrorCode::kCardOpenFailed;
-    meaning = "open failed";
-  } else if (code == gts::kCmdNoResponse) {
-    ec = ErrorCode::kCardCommunication;
-    meaning = "no response";
-  } else if (code == gts::kCmdBusy) {
-    ec = ErrorCode::kCardBusy;
-    meaning = "resource busy";
+ErrorCode gts_error_code(short code) noexcept {
+  if (code == gts::kCmdSuccess) return ErrorCode::kOk;
+  if (code == gts::kCmdBadParameter) return ErrorCode::kCardBadParameter;
+  if ((code >= -5 && code <= -1) || code == gts::kCmdNoResponse) {
+    return ErrorCode::kCardCommunication;
   }
-  return make_error(
-      ec, "",
-      where(call, axis) + " failed: vendor code " + std::to_string(code) + " (" + meaning + ")");
+  if (code == gts::kCmdOpenFailed) return ErrorCode::kCardOpenFailed;
+  if (code == gts::kCmdBusy) return ErrorCode::kCardBusy;
+  return ErrorCode::kDriverError;  // 1 (execution error) and anything unknown
+}
+
+Error gts_error(short code, std::string_view call, int axis) {
+  const std::string name(call);
+  const ErrorCode ec = gts_error_code(code);
+  return make_error(ec, "", describe(CardFailure{ec, axis, code, name.c_str(), ""}));
 }
 
 struct GtsMotionCard::Api {
@@ -149,32 +131,42 @@ GtsMotionCard::~GtsMotionCard() {
   dlclose(handle_);
 }
 
-Status GtsMotionCard::call(short code, std::string_view name, int axis) const {
-  if (code == gts::kCmdSuccess) return Ok{};
-  return gts_error(code, name, axis);
+ErrorCode GtsMotionCard::call(short code, const char* name, int axis) noexcept {
+  if (code == gts::kCmdSuccess) return ErrorCode::kOk;
+  return fail(last_, gts_error_code(code), name, axis, "", code);
 }
 
-Status GtsMotionCard::check_axes(std::span<const int> axes) const {
-  if (!open_) return make_error(ErrorCode::kDriverError, "", "GTS card is not open");
-  return card::check_axes(axes, settings_.axis_count);
+Status GtsMotionCard::start_up_call(short code, std::string_view name) const {
+  if (code == gts::kCmdSuccess) return Ok{};
+  return gts_error(code, name, 0);
+}
+
+ErrorCode GtsMotionCard::check_open(const char* name) noexcept {
+  if (!open_) return fail(last_, ErrorCode::kDriverError, name, 0, "GTS card is not open");
+  return ErrorCode::kOk;
+}
+
+ErrorCode GtsMotionCard::check_axes(std::span<const int> axes, const char* name) noexcept {
+  if (const auto e = check_open(name); e != ErrorCode::kOk) return e;
+  return card::check_axes(axes, settings_.axis_count, name, last_);
 }
 
 Status GtsMotionCard::open() {
   if (open_) (void)close();  // GT_Open on an open card: start over
-  if (auto s = call(api_->open(static_cast<short>(settings_.channel), 1), "GT_Open", 0); !s) {
+  if (auto s = start_up_call(api_->open(static_cast<short>(settings_.channel), 1), "GT_Open"); !s) {
     return s;
   }
   open_ = true;
   Status s = [&]() -> Status {
-    if (auto r = call(api_->reset(), "GT_Reset", 0); !r) return r;
+    if (auto r = start_up_call(api_->reset(), "GT_Reset"); !r) return r;
     if (!settings_.card_config_path.empty()) {
       std::string file = settings_.card_config_path;
-      if (auto r = call(api_->load_config(file.data()), "GT_LoadConfig", 0); !r) {
+      if (auto r = start_up_call(api_->load_config(file.data()), "GT_LoadConfig"); !r) {
         return make_error(r.error().code, "card_config_path",
                           r.error().message + " for " + settings_.card_config_path);
       }
     }
-    return call(api_->clr_sts(1, static_cast<short>(settings_.axis_count)), "GT_ClrSts", 0);
+    return start_up_call(api_->clr_sts(1, static_cast<short>(settings_.axis_count)), "GT_ClrSts");
   }();
   if (!s) (void)close();  // failed: do not hold the card open
   return s;
@@ -183,63 +175,73 @@ Status GtsMotionCard::open() {
 Status GtsMotionCard::close() {
   if (!open_) return Ok{};
   open_ = false;
-  return call(api_->close(), "GT_Close", 0);
+  return start_up_call(api_->close(), "GT_Close");
 }
 
-Status GtsMotionCard::enable_axes(std::span<const int> axes) {
-  if (auto s = check_axes(axes); !s) return s;
-  for (const int axis : axes) {
-    if (auto s = call(api_->axis_on(static_cast<short>(axis)), "GT_AxisOn", axis); !s) return s;
-  }
-  const auto deadline =
-      std::chrono::steady_clock::now() + std::chrono::milliseconds(settings_.poll_timeout_ms);
-  std::vector<int> pending(axes.begin(), axes.end());
-  while (true) {
-    for (auto it = pending.begin(); it != pending.end();) {
-      long sts = 0;
-      const auto a = static_cast<short>(*it);
-      if (auto s = call(api_->get_sts(a, &sts, 1, nullptr), "GT_GetSts", *it); !s) return s;
-      if ((sts & gts::kStsDriveAlarm) != 0) {
-        return axis_error(ErrorCode::kAxisAlarm, *it, "drive alarm while enabling");
-      }
-      it = (sts & gts::kStsServoOn) != 0 ? pending.erase(it) : it + 1;
+ErrorCode GtsMotionCard::enable_axes(std::span<const int> axes) noexcept {
+  if (const auto e = check_axes(axes, "enable_axes"); e != ErrorCode::kOk) return e;
+  for (const int axis : axes) {  // all checked before any is switched on
+    long sts = 0;
+    const auto a = static_cast<short>(axis);
+    if (const auto e = call(api_->get_sts(a, &sts, 1, nullptr), "GT_GetSts", axis);
+        e != ErrorCode::kOk) {
+      return e;
     }
-    if (pending.empty()) return Ok{};
-    if (std::chrono::steady_clock::now() >= deadline) {
-      return axis_error(ErrorCode::kMotionTimeout, pending.front(),
-                        "servo not on within " + std::to_string(settings_.poll_timeout_ms) + " ms");
+    if ((sts & gts::kStsDriveAlarm) != 0) {
+      return fail(last_, ErrorCode::kAxisAlarm, "enable_axes", axis,
+                  "drive alarm latched: clear faults first");
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-}
-
-Status GtsMotionCard::disable_axes(std::span<const int> axes) {
-  if (auto s = check_axes(axes); !s) return s;
   for (const int axis : axes) {
-    if (auto s = call(api_->axis_off(static_cast<short>(axis)), "GT_AxisOff", axis); !s) return s;
+    if (const auto e = call(api_->axis_on(static_cast<short>(axis)), "GT_AxisOn", axis);
+        e != ErrorCode::kOk) {
+      return e;
+    }
   }
-  return Ok{};
+  return ErrorCode::kOk;
 }
 
-Status GtsMotionCard::clear_faults(std::span<const int> axes) {
-  if (auto s = check_axes(axes); !s) return s;
+ErrorCode GtsMotionCard::disable_axes(std::span<const int> axes) noexcept {
+  if (const auto e = check_axes(axes, "disable_axes"); e != ErrorCode::kOk) return e;
   for (const int axis : axes) {
-    if (auto s = call(api_->clr_sts(static_cast<short>(axis), 1), "GT_ClrSts", axis); !s) return s;
+    if (const auto e = call(api_->axis_off(static_cast<short>(axis)), "GT_AxisOff", axis);
+        e != ErrorCode::kOk) {
+      return e;
+    }
   }
-  return Ok{};
+  return ErrorCode::kOk;
 }
 
-Status GtsMotionCard::move_relative(std::span<const AxisMove> moves,
-                                    const TrapezoidProfile& profile) {
-  if (!open_) return make_error(ErrorCode::kDriverError, "", "GTS card is not open");
-  if (auto s = card::check_move(moves, profile, settings_.axis_count); !s) return s;
+ErrorCode GtsMotionCard::clear_faults(std::span<const int> axes) noexcept {
+  if (const auto e = check_axes(axes, "clear_faults"); e != ErrorCode::kOk) return e;
+  for (const int axis : axes) {
+    if (const auto e = call(api_->clr_sts(static_cast<short>(axis), 1), "GT_ClrSts", axis);
+        e != ErrorCode::kOk) {
+      return e;
+    }
+  }
+  return ErrorCode::kOk;
+}
+
+ErrorCode GtsMotionCard::move_relative(std::span<const AxisMove> moves,
+                                       const TrapezoidProfile& profile) noexcept {
+  if (const auto e = check_open("move_relative"); e != ErrorCode::kOk) return e;
+  if (const auto e = card::check_move(moves, profile, settings_.axis_count, last_);
+      e != ErrorCode::kOk) {
+    return e;
+  }
   // Refuse with a named error before anything is commanded.
   for (const AxisMove& m : moves) {
     long sts = 0;
     const auto a = static_cast<short>(m.axis);
-    if (auto s = call(api_->get_sts(a, &sts, 1, nullptr), "GT_GetSts", m.axis); !s) return s;
-    if (auto s = card::check_can_move(decode_status(sts), m.axis, m.distance_counts); !s) {
-      return s;
+    if (const auto e = call(api_->get_sts(a, &sts, 1, nullptr), "GT_GetSts", m.axis);
+        e != ErrorCode::kOk) {
+      return e;
+    }
+    if (const auto e = card::check_can_move(decode_status(sts), m.axis, m.distance_counts,
+                                            "move_relative", last_);
+        e != ErrorCode::kOk) {
+      return e;
     }
   }
   gts::TTrapPrm prm{profile.acceleration_counts_per_ms2, profile.deceleration_counts_per_ms2, 0.0,
@@ -247,66 +249,83 @@ Status GtsMotionCard::move_relative(std::span<const AxisMove> moves,
   long mask = 0;
   for (const AxisMove& m : moves) {
     const auto axis = static_cast<short>(m.axis);
-    if (auto s = call(api_->prf_trap(axis), "GT_PrfTrap", m.axis); !s) return s;
-    if (auto s = call(api_->set_trap_prm(axis, &prm), "GT_SetTrapPrm", m.axis); !s) return s;
+    if (const auto e = call(api_->prf_trap(axis), "GT_PrfTrap", m.axis); e != ErrorCode::kOk) {
+      return e;
+    }
+    if (const auto e = call(api_->set_trap_prm(axis, &prm), "GT_SetTrapPrm", m.axis);
+        e != ErrorCode::kOk) {
+      return e;
+    }
     double current = 0;
-    if (auto s = call(api_->get_prf_pos(axis, &current, 1, nullptr), "GT_GetPrfPos", m.axis); !s) {
-      return s;
+    if (const auto e = call(api_->get_prf_pos(axis, &current, 1, nullptr), "GT_GetPrfPos", m.axis);
+        e != ErrorCode::kOk) {
+      return e;
     }
     // The card's position registers are 32-bit.
     const double target = std::round(current) + static_cast<double>(m.distance_counts);
     if (!std::isfinite(target) || std::fabs(target) > 2147483647.0) {
-      return axis_error(ErrorCode::kCardBadParameter, m.axis, "target position out of range");
+      return fail(last_, ErrorCode::kCardBadParameter, "move_relative", m.axis,
+                  "target position outside the card's 32-bit range");
     }
-    if (auto s = call(api_->set_pos(axis, std::lround(target)), "GT_SetPos", m.axis); !s) return s;
-    if (auto s = call(api_->set_vel(axis, profile.velocity_counts_per_ms), "GT_SetVel", m.axis);
-        !s) {
-      return s;
+    if (const auto e = call(api_->set_pos(axis, std::lround(target)), "GT_SetPos", m.axis);
+        e != ErrorCode::kOk) {
+      return e;
+    }
+    if (const auto e =
+            call(api_->set_vel(axis, profile.velocity_counts_per_ms), "GT_SetVel", m.axis);
+        e != ErrorCode::kOk) {
+      return e;
     }
     mask |= gts::axis_mask(m.axis);
   }
   return call(api_->update(mask), "GT_Update", 0);
 }
 
-Status GtsMotionCard::smooth_stop(std::span<const int> axes) {
-  if (!open_) return make_error(ErrorCode::kDriverError, "", "GTS card is not open");
+ErrorCode GtsMotionCard::smooth_stop(std::span<const int> axes) noexcept {
+  if (const auto e = check_open("smooth_stop"); e != ErrorCode::kOk) return e;
   if (const long mask = valid_mask(axes, settings_.axis_count); mask != 0) {
-    if (auto s = call(api_->stop(mask, 0), "GT_Stop", 0); !s) return s;
+    if (const auto e = call(api_->stop(mask, 0), "GT_Stop", 0); e != ErrorCode::kOk) return e;
   }
-  return check_axes(axes);
+  return check_axes(axes, "smooth_stop");
 }
 
-Status GtsMotionCard::emergency_stop(std::span<const int> axes) {
-  if (!open_) return make_error(ErrorCode::kDriverError, "", "GTS card is not open");
+ErrorCode GtsMotionCard::emergency_stop(std::span<const int> axes) noexcept {
+  if (const auto e = check_open("emergency_stop"); e != ErrorCode::kOk) return e;
   if (const long mask = valid_mask(axes, settings_.axis_count); mask != 0) {
-    if (auto s = call(api_->stop(mask, mask), "GT_Stop", 0); !s) return s;
+    if (const auto e = call(api_->stop(mask, mask), "GT_Stop", 0); e != ErrorCode::kOk) return e;
   }
-  return check_axes(axes);
+  return check_axes(axes, "emergency_stop");
 }
 
-Result<AxisStatus> GtsMotionCard::axis_status(int axis) {
+ErrorCode GtsMotionCard::axis_status(int axis, AxisStatus& out) noexcept {
   const int one[] = {axis};
-  if (auto s = check_axes(one); !s) return std::move(s).error();
+  if (const auto e = check_axes(one, "axis_status"); e != ErrorCode::kOk) return e;
   const auto a = static_cast<short>(axis);
   long sts = 0;
   double prf = 0;
   double enc = 0;
-  if (auto s = call(api_->get_sts(a, &sts, 1, nullptr), "GT_GetSts", axis); !s) {
-    return std::move(s).error();
+  if (const auto e = call(api_->get_sts(a, &sts, 1, nullptr), "GT_GetSts", axis);
+      e != ErrorCode::kOk) {
+    return e;
   }
-  if (auto s = call(api_->get_prf_pos(a, &prf, 1, nullptr), "GT_GetPrfPos", axis); !s) {
-    return std::move(s).error();
+  if (const auto e = call(api_->get_prf_pos(a, &prf, 1, nullptr), "GT_GetPrfPos", axis);
+      e != ErrorCode::kOk) {
+    return e;
   }
-  if (auto s = call(api_->get_enc_pos(a, &enc, 1, nullptr), "GT_GetEncPos", axis); !s) {
-    return std::move(s).error();
+  if (const auto e = call(api_->get_enc_pos(a, &enc, 1, nullptr), "GT_GetEncPos", axis);
+      e != ErrorCode::kOk) {
+    return e;
   }
-  if (!std::isfinite(prf) || !std::isfinite(enc)) {
-    return axis_error(ErrorCode::kDriverError, axis, "card reported a non-finite position");
+  if (!std::isfinite(prf) || !std::isfinite(enc) || std::fabs(prf) > 9.0e18 ||
+      std::fabs(enc) > 9.0e18) {
+    return fail(last_, ErrorCode::kDriverError, "axis_status", axis,
+                "card reported a non-finite or out-of-range position");
   }
   AxisStatus st = decode_status(sts);
   st.profile_position_counts = std::llround(prf);
   st.encoder_position_counts = std::llround(enc);
-  return st;
+  out = st;
+  return ErrorCode::kOk;
 }
 
 }  // namespace ajar::drivers

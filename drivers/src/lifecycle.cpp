@@ -58,19 +58,49 @@ const char* to_string(LifecycleState s) noexcept {
 // --- ManagedMotionCard ------------------------------------------------------------------------
 
 ManagedMotionCard::ManagedMotionCard(std::unique_ptr<MotionCard> impl, std::span<const int> axes,
-                                     int stop_timeout_ms)
-    : impl_(std::move(impl)), stop_timeout_ms_(stop_timeout_ms) {
+                                     int stop_timeout_ms, int enable_timeout_ms)
+    : impl_(std::move(impl)),
+      stop_timeout_ms_(stop_timeout_ms),
+      enable_timeout_ms_(enable_timeout_ms) {
   if (!impl_) throw std::invalid_argument("ManagedMotionCard: no card");
   if (axes.size() > std::size(axes_)) throw std::invalid_argument("ManagedMotionCard: > 8 axes");
   for (const int axis : axes)
     axes_[axis_count_++] = axis;
 }
 
-Status ManagedMotionCard::track(Status s) {
-  if (!s && state_ != LifecycleState::kUnconfigured && card_unhealthy(s.error().code)) {
-    state_ = LifecycleState::kFault;
+void ManagedMotionCard::latch_fault(ErrorCode cause) noexcept {
+  if (state_ == LifecycleState::kUnconfigured) return;
+  if (state_ != LifecycleState::kFault) fault_cause_ = cause;  // the first is the root cause
+  state_ = LifecycleState::kFault;
+}
+
+ErrorCode ManagedMotionCard::track(ErrorCode e) noexcept {
+  if (e == ErrorCode::kOk) return e;
+  last_ = impl_->last_failure();
+  if (last_.code != e) last_ = CardFailure{e, 0, 0, "card", ""};  // impl keeps no detail
+  if (card_unhealthy(e)) latch_fault(e);
+  return e;
+}
+
+ErrorCode ManagedMotionCard::refuse(const char* call) noexcept {
+  switch (state_) {
+    case LifecycleState::kFault:
+      last_ = CardFailure{fault_cause_, 0, 0, call, "card lifecycle in fault: recover first"};
+      return fault_cause_;
+    case LifecycleState::kInactive:
+      last_ = CardFailure{ErrorCode::kDriverNotActive, 0, 0, call,
+                          "card lifecycle inactive: enable the axes first"};
+      return ErrorCode::kDriverNotActive;
+    default:
+      last_ = CardFailure{ErrorCode::kDriverNotActive, 0, 0, call,
+                          "card lifecycle unconfigured: open the card first"};
+      return ErrorCode::kDriverNotActive;
   }
-  return s;
+}
+
+Status ManagedMotionCard::as_status(ErrorCode e) const {
+  if (e == ErrorCode::kOk) return Ok{};
+  return make_error(e, last_.axis != 0 ? "axis" : "", describe(last_));
 }
 
 Status ManagedMotionCard::configure() {
@@ -79,32 +109,58 @@ Status ManagedMotionCard::configure() {
   }
   if (auto s = impl_->open(); !s) return s;
   state_ = LifecycleState::kInactive;
+  fault_cause_ = ErrorCode::kOk;
   return Ok{};
 }
 
 Status ManagedMotionCard::activate() {
   if (state_ != LifecycleState::kInactive) return wrong_state("activate()", "inactive", state_);
-  if (auto s = track(impl_->clear_faults(axes())); !s) return s;
-  if (auto s = track(impl_->enable_axes(axes())); !s) return s;
+  if (const auto e = track(impl_->clear_faults(axes())); e != ErrorCode::kOk) return as_status(e);
+  if (const auto e = track(impl_->enable_axes(axes())); e != ErrorCode::kOk) return as_status(e);
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(enable_timeout_ms_);
+  while (true) {
+    bool all_on = true;
+    for (const int axis : axes()) {
+      AxisStatus st;
+      if (const auto e = track(impl_->axis_status(axis, st)); e != ErrorCode::kOk) {
+        return as_status(e);
+      }
+      if (st.alarm) {
+        return make_error(
+            ErrorCode::kAxisAlarm, "axis",
+            "driver lifecycle: axis " + std::to_string(axis) + ": drive alarm while enabling");
+      }
+      all_on = all_on && st.enabled;
+    }
+    if (state_ == LifecycleState::kFault) return as_status(fault_cause_);
+    if (all_on) break;
+    if (std::chrono::steady_clock::now() >= deadline) {
+      return make_error(
+          ErrorCode::kMotionTimeout, "",
+          "driver lifecycle: servo not on within " + std::to_string(enable_timeout_ms_) + " ms");
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
   state_ = LifecycleState::kActive;
   return Ok{};
 }
 
 Status ManagedMotionCard::deactivate() {
   if (state_ != LifecycleState::kActive) return wrong_state("deactivate()", "active", state_);
-  Status stopped = track(impl_->smooth_stop(axes()));
+  Status stopped = as_status(track(impl_->smooth_stop(axes())));
   const auto deadline =
       std::chrono::steady_clock::now() + std::chrono::milliseconds(stop_timeout_ms_);
   bool resting = false;
   while (stopped && !resting) {
     resting = true;
     for (const int axis : axes()) {
-      auto st = impl_->axis_status(axis);
-      if (!st) {
-        stopped = track(std::move(st).error());
+      AxisStatus st;
+      if (const auto e = track(impl_->axis_status(axis, st)); e != ErrorCode::kOk) {
+        stopped = as_status(e);
         break;
       }
-      resting = resting && !st->moving;
+      resting = resting && !st.moving;
     }
     if (resting || !stopped) break;
     if (std::chrono::steady_clock::now() >= deadline) {
@@ -117,7 +173,7 @@ Status ManagedMotionCard::deactivate() {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   if (!stopped) (void)track(impl_->emergency_stop(axes()));
-  Status disabled = track(impl_->disable_axes(axes()));
+  Status disabled = as_status(track(impl_->disable_axes(axes())));
   if (state_ == LifecycleState::kActive) state_ = LifecycleState::kInactive;
   if (!stopped) return stopped;
   return disabled;
@@ -129,26 +185,39 @@ Status ManagedMotionCard::cleanup() {
   }
   Status s = impl_->close();
   state_ = LifecycleState::kUnconfigured;
+  fault_cause_ = ErrorCode::kOk;
   return s;
+}
+
+ErrorCode ManagedMotionCard::recover_axes() noexcept {
+  if (const auto e = impl_->clear_faults(axes()); e != ErrorCode::kOk) {
+    last_ = impl_->last_failure();
+    return e;
+  }
+  for (const int axis : axes()) {
+    AxisStatus st;
+    if (const auto e = impl_->axis_status(axis, st); e != ErrorCode::kOk) {
+      last_ = impl_->last_failure();
+      return e;
+    }
+    if (st.alarm) {
+      last_ = CardFailure{ErrorCode::kAxisAlarm, axis, 0, "recover", "drive alarm persists"};
+      return ErrorCode::kAxisAlarm;
+    }
+    if (st.following_error) {
+      last_ =
+          CardFailure{ErrorCode::kFollowingError, axis, 0, "recover", "following error persists"};
+      return ErrorCode::kFollowingError;
+    }
+  }
+  state_ = LifecycleState::kInactive;
+  fault_cause_ = ErrorCode::kOk;
+  return ErrorCode::kOk;
 }
 
 Status ManagedMotionCard::recover() {
   if (state_ != LifecycleState::kFault) return wrong_state("recover()", "fault", state_);
-  if (auto s = impl_->clear_faults(axes()); !s) return s;
-  for (const int axis : axes()) {
-    auto st = impl_->axis_status(axis);
-    if (!st) return std::move(st).error();
-    if (st->alarm) {
-      return make_error(ErrorCode::kAxisAlarm, "axis",
-                        "axis " + std::to_string(axis) + ": drive alarm persists");
-    }
-    if (st->following_error) {
-      return make_error(ErrorCode::kFollowingError, "axis",
-                        "axis " + std::to_string(axis) + ": following error persists");
-    }
-  }
-  state_ = LifecycleState::kInactive;
-  return Ok{};
+  return as_status(recover_axes());
 }
 
 Status ManagedMotionCard::open() {
@@ -164,55 +233,58 @@ Status ManagedMotionCard::close() {
   return closed;
 }
 
-Status ManagedMotionCard::enable_axes(std::span<const int> axes) {
+ErrorCode ManagedMotionCard::enable_axes(std::span<const int> axes) noexcept {
   if (state_ != LifecycleState::kInactive && state_ != LifecycleState::kActive) {
-    return not_active("enable_axes()", state_);
+    return refuse("enable_axes");
   }
-  if (auto s = track(impl_->enable_axes(axes)); !s) return s;
-  state_ = LifecycleState::kActive;
-  return Ok{};
+  if (const auto e = track(impl_->enable_axes(axes)); e != ErrorCode::kOk) return e;
+  if (state_ == LifecycleState::kInactive) state_ = LifecycleState::kActive;
+  return ErrorCode::kOk;
 }
 
-Status ManagedMotionCard::disable_axes(std::span<const int> axes) {
-  if (state_ == LifecycleState::kUnconfigured) return not_active("disable_axes()", state_);
-  Status s = track(impl_->disable_axes(axes));
-  if (s && state_ == LifecycleState::kActive) state_ = LifecycleState::kInactive;
-  return s;
+ErrorCode ManagedMotionCard::disable_axes(std::span<const int> axes) noexcept {
+  if (state_ == LifecycleState::kUnconfigured) return refuse("disable_axes");
+  const ErrorCode e = track(impl_->disable_axes(axes));
+  if (e == ErrorCode::kOk && state_ == LifecycleState::kActive) state_ = LifecycleState::kInactive;
+  return e;
 }
 
-Status ManagedMotionCard::clear_faults(std::span<const int> axes) {
-  if (state_ == LifecycleState::kUnconfigured) return not_active("clear_faults()", state_);
+ErrorCode ManagedMotionCard::clear_faults(std::span<const int> axes) noexcept {
+  if (state_ == LifecycleState::kUnconfigured) return refuse("clear_faults");
   if (state_ == LifecycleState::kFault) {
-    if (auto s = impl_->clear_faults(axes); !s) return s;
-    return recover();
+    if (const auto e = impl_->clear_faults(axes); e != ErrorCode::kOk) {
+      last_ = impl_->last_failure();
+      return e;
+    }
+    return recover_axes();
   }
   return track(impl_->clear_faults(axes));
 }
 
-Status ManagedMotionCard::move_relative(std::span<const AxisMove> moves,
-                                        const TrapezoidProfile& profile) {
-  if (state_ != LifecycleState::kActive) return not_active("move_relative()", state_);
+ErrorCode ManagedMotionCard::move_relative(std::span<const AxisMove> moves,
+                                           const TrapezoidProfile& profile) noexcept {
+  if (state_ != LifecycleState::kActive) return refuse("move_relative");
   return track(impl_->move_relative(moves, profile));
 }
 
-Status ManagedMotionCard::smooth_stop(std::span<const int> axes) {
+ErrorCode ManagedMotionCard::smooth_stop(std::span<const int> axes) noexcept {
   return track(impl_->smooth_stop(axes));
 }
 
-Status ManagedMotionCard::emergency_stop(std::span<const int> axes) {
+ErrorCode ManagedMotionCard::emergency_stop(std::span<const int> axes) noexcept {
   return track(impl_->emergency_stop(axes));
 }
 
-Result<AxisStatus> ManagedMotionCard::axis_status(int axis) {
-  auto st = impl_->axis_status(axis);
-  if (!st) {
-    (void)track(st.error());
-    return st;
+ErrorCode ManagedMotionCard::axis_status(int axis, AxisStatus& out) noexcept {
+  AxisStatus st;
+  if (const auto e = track(impl_->axis_status(axis, st)); e != ErrorCode::kOk) return e;
+  if (st.alarm) {
+    latch_fault(ErrorCode::kAxisAlarm);
+  } else if (st.following_error) {
+    latch_fault(ErrorCode::kFollowingError);
   }
-  if (state_ != LifecycleState::kUnconfigured && (st->alarm || st->following_error)) {
-    state_ = LifecycleState::kFault;
-  }
-  return st;
+  out = st;
+  return ErrorCode::kOk;
 }
 
 // --- ManagedManipulator -----------------------------------------------------------------------

@@ -2,14 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <string>
 #include <thread>
 
 #include "ajar/drivers/card_checks.hpp"
 
 namespace ajar::drivers {
 
-using card::axis_error;
+using card::fail;
 
 MockMotionCard::MockMotionCard(MockFault fault, int slow_ms, double time_scale, int axis_count)
     : fault_(fault),
@@ -18,14 +17,15 @@ MockMotionCard::MockMotionCard(MockFault fault, int slow_ms, double time_scale, 
       axis_count_(std::clamp(axis_count, 1, 32)),
       axes_(static_cast<std::size_t>(axis_count_)) {}
 
-double MockMotionCard::now_ms() const {
+double MockMotionCard::now_ms() const noexcept {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - epoch_)
              .count() *
          time_scale_;
 }
 
 MockMotionCard::Segment MockMotionCard::plan(double t0_ms, double p0, double v0, double vmax,
-                                             double acc, double dec, double distance, int dir) {
+                                             double acc, double dec, double distance,
+                                             int dir) noexcept {
   Segment s;
   s.t0_ms = t0_ms;
   s.p0 = p0;
@@ -49,7 +49,7 @@ MockMotionCard::Segment MockMotionCard::plan(double t0_ms, double p0, double v0,
   return s;
 }
 
-double MockMotionCard::sample(Axis& a, double* speed) {
+double MockMotionCard::sample(Axis& a, double* speed) noexcept {
   *speed = 0;
   if (!a.moving || a.stuck) return a.rest_position;
   const Segment& s = a.segment;
@@ -74,31 +74,35 @@ double MockMotionCard::sample(Axis& a, double* speed) {
   return s.p0 + s.dir * std::min(dist, s.distance);
 }
 
-void MockMotionCard::halt(Axis& a) {
+void MockMotionCard::halt(Axis& a) noexcept {
   double speed = 0;
   a.rest_position = std::round(sample(a, &speed));
   a.moving = false;
   a.stuck = false;
 }
 
-Status MockMotionCard::enter(bool counts_for_faults) {
+ErrorCode MockMotionCard::enter(const char* call, bool realtime) noexcept {
   ++calls_;
   if (fault_ == MockFault::kSlow) std::this_thread::sleep_for(std::chrono::milliseconds(slow_ms_));
-  if (!counts_for_faults) return Ok{};
+  if (!realtime) return ErrorCode::kOk;
   if (fault_ == MockFault::kErrorCode) {
-    return make_error(ErrorCode::kDriverError, "", "mock card: injected error code");
+    return fail(last_, ErrorCode::kDriverError, call, 0, "mock card: injected error code");
   }
   if (fault_ == MockFault::kIntermittent && ++fault_calls_ % 3 == 0) {
-    return make_error(
-        ErrorCode::kCardCommunication, "",
-        "mock card: intermittent failure (call " + std::to_string(fault_calls_) + ")");
+    return fail(last_, ErrorCode::kCardCommunication, call, 0,
+                "mock card: intermittent failure (every third call)");
   }
-  return Ok{};
+  return ErrorCode::kOk;
 }
 
-Status MockMotionCard::check_axes(std::span<const int> axes) const {
-  if (!open_) return make_error(ErrorCode::kDriverError, "", "mock card is not open");
-  return card::check_axes(axes, axis_count_);
+ErrorCode MockMotionCard::check_open(const char* call) noexcept {
+  if (!open_) return fail(last_, ErrorCode::kDriverError, call, 0, "mock card is not open");
+  return ErrorCode::kOk;
+}
+
+ErrorCode MockMotionCard::check_axes(std::span<const int> axes, const char* call) noexcept {
+  if (const auto e = check_open(call); e != ErrorCode::kOk) return e;
+  return card::check_axes(axes, axis_count_, call, last_);
 }
 
 void MockMotionCard::inject_alarm(int axis) {
@@ -124,7 +128,7 @@ void MockMotionCard::inject_limit(int axis, bool positive) {
 }
 
 Status MockMotionCard::open() {
-  if (auto s = enter(false); !s) return s;
+  (void)enter("open", false);
   // Like GT_Open + GT_Reset + GT_ClrSts: axes off at position 0, no faults.
   open_ = true;
   for (Axis& a : axes_)
@@ -133,51 +137,57 @@ Status MockMotionCard::open() {
 }
 
 Status MockMotionCard::close() {
-  if (auto s = enter(false); !s) return s;
+  (void)enter("close", false);
   open_ = false;
   return Ok{};
 }
 
-Status MockMotionCard::enable_axes(std::span<const int> axes) {
-  if (auto s = enter(true); !s) return s;
-  if (auto s = check_axes(axes); !s) return s;
-  for (const int axis : axes) {
-    Axis& a = axes_[static_cast<std::size_t>(axis - 1)];
-    if (a.alarm) return axis_error(ErrorCode::kAxisAlarm, axis, "drive alarm while enabling");
-    a.enabled = true;
+#define AJAR_MOCK_TRY(expr) \
+  if (const ErrorCode e_ = (expr); e_ != ErrorCode::kOk) return e_
+
+ErrorCode MockMotionCard::enable_axes(std::span<const int> axes) noexcept {
+  AJAR_MOCK_TRY(enter("enable_axes", true));
+  AJAR_MOCK_TRY(check_axes(axes, "enable_axes"));
+  for (const int n : axes) {  // all checked before any is switched on
+    if (axis(n).alarm) {
+      return fail(last_, ErrorCode::kAxisAlarm, "enable_axes", n,
+                  "drive alarm latched: clear faults first");
+    }
   }
-  return Ok{};
+  for (const int n : axes)
+    axis(n).enabled = true;
+  return ErrorCode::kOk;
 }
 
-Status MockMotionCard::disable_axes(std::span<const int> axes) {
-  if (auto s = enter(true); !s) return s;
-  if (auto s = check_axes(axes); !s) return s;
-  for (const int axis : axes) {
-    Axis& a = axes_[static_cast<std::size_t>(axis - 1)];
+ErrorCode MockMotionCard::disable_axes(std::span<const int> axes) noexcept {
+  AJAR_MOCK_TRY(enter("disable_axes", true));
+  AJAR_MOCK_TRY(check_axes(axes, "disable_axes"));
+  for (const int n : axes) {
+    Axis& a = axis(n);
     halt(a);
     a.enabled = false;
   }
-  return Ok{};
+  return ErrorCode::kOk;
 }
 
-Status MockMotionCard::clear_faults(std::span<const int> axes) {
-  if (auto s = enter(true); !s) return s;
-  if (auto s = check_axes(axes); !s) return s;
-  for (const int axis : axes) {
-    Axis& a = axes_[static_cast<std::size_t>(axis - 1)];
+ErrorCode MockMotionCard::clear_faults(std::span<const int> axes) noexcept {
+  AJAR_MOCK_TRY(enter("clear_faults", true));
+  AJAR_MOCK_TRY(check_axes(axes, "clear_faults"));
+  for (const int n : axes) {
+    Axis& a = axis(n);
     a.alarm = a.following_error = a.positive_limit = a.negative_limit = false;
     a.smooth_stopped = a.emergency_stopped = false;
   }
-  return Ok{};
+  return ErrorCode::kOk;
 }
 
-Status MockMotionCard::move_relative(std::span<const AxisMove> moves,
-                                     const TrapezoidProfile& profile) {
-  if (auto s = enter(true); !s) return s;
-  if (!open_) return make_error(ErrorCode::kDriverError, "", "mock card is not open");
-  if (auto s = card::check_move(moves, profile, axis_count_); !s) return s;
+ErrorCode MockMotionCard::move_relative(std::span<const AxisMove> moves,
+                                        const TrapezoidProfile& profile) noexcept {
+  AJAR_MOCK_TRY(enter("move_relative", true));
+  AJAR_MOCK_TRY(check_open("move_relative"));
+  AJAR_MOCK_TRY(card::check_move(moves, profile, axis_count_, last_));
   for (const AxisMove& m : moves) {
-    const Axis& a = axes_[static_cast<std::size_t>(m.axis - 1)];
+    const Axis& a = axis(m.axis);
     AxisStatus st;
     st.enabled = a.enabled;
     st.alarm = a.alarm;
@@ -185,11 +195,11 @@ Status MockMotionCard::move_relative(std::span<const AxisMove> moves,
     st.positive_limit = a.positive_limit;
     st.negative_limit = a.negative_limit;
     st.emergency_stopped = a.emergency_stopped;
-    if (auto s = card::check_can_move(st, m.axis, m.distance_counts); !s) return s;
+    AJAR_MOCK_TRY(card::check_can_move(st, m.axis, m.distance_counts, "move_relative", last_));
   }
   const double t0 = now_ms();
   for (const AxisMove& m : moves) {
-    Axis& a = axes_[static_cast<std::size_t>(m.axis - 1)];
+    Axis& a = axis(m.axis);
     double speed = 0;
     const double here = sample(a, &speed);
     const double goal = std::round(here) + static_cast<double>(m.distance_counts);
@@ -203,16 +213,16 @@ Status MockMotionCard::move_relative(std::span<const AxisMove> moves,
         plan(t0, here, speed, profile.velocity_counts_per_ms, profile.acceleration_counts_per_ms2,
              profile.deceleration_counts_per_ms2, std::fabs(goal - here), dir);
   }
-  return Ok{};
+  return ErrorCode::kOk;
 }
 
-Status MockMotionCard::smooth_stop(std::span<const int> axes) {
-  if (auto s = enter(true); !s) return s;
-  if (!open_) return make_error(ErrorCode::kDriverError, "", "mock card is not open");
+ErrorCode MockMotionCard::smooth_stop(std::span<const int> axes) noexcept {
+  AJAR_MOCK_TRY(enter("smooth_stop", true));
+  AJAR_MOCK_TRY(check_open("smooth_stop"));
   const double t0 = now_ms();
-  for (const int axis : axes) {
-    if (axis < 1 || axis > axis_count_) continue;
-    Axis& a = axes_[static_cast<std::size_t>(axis - 1)];
+  for (const int n : axes) {
+    if (n < 1 || n > axis_count_) continue;
+    Axis& a = axis(n);
     a.smooth_stopped = true;
     if (!a.moving) continue;
     if (a.stuck) {
@@ -225,26 +235,26 @@ Status MockMotionCard::smooth_stop(std::span<const int> axes) {
     const double dec = a.segment.dec;
     a.segment = plan(t0, here, speed, speed, dec, dec, speed * speed / (2 * dec), a.segment.dir);
   }
-  return check_axes(axes);
+  return check_axes(axes, "smooth_stop");
 }
 
-Status MockMotionCard::emergency_stop(std::span<const int> axes) {
-  if (auto s = enter(true); !s) return s;
-  if (!open_) return make_error(ErrorCode::kDriverError, "", "mock card is not open");
-  for (const int axis : axes) {
-    if (axis < 1 || axis > axis_count_) continue;
-    Axis& a = axes_[static_cast<std::size_t>(axis - 1)];
+ErrorCode MockMotionCard::emergency_stop(std::span<const int> axes) noexcept {
+  AJAR_MOCK_TRY(enter("emergency_stop", true));
+  AJAR_MOCK_TRY(check_open("emergency_stop"));
+  for (const int n : axes) {
+    if (n < 1 || n > axis_count_) continue;
+    Axis& a = axis(n);
     halt(a);
     a.emergency_stopped = true;
   }
-  return check_axes(axes);
+  return check_axes(axes, "emergency_stop");
 }
 
-Result<AxisStatus> MockMotionCard::axis_status(int axis) {
-  if (auto s = enter(true); !s) return std::move(s).error();
-  const int one[] = {axis};
-  if (auto s = check_axes(one); !s) return std::move(s).error();
-  Axis& a = axes_[static_cast<std::size_t>(axis - 1)];
+ErrorCode MockMotionCard::axis_status(int n, AxisStatus& out) noexcept {
+  AJAR_MOCK_TRY(enter("axis_status", true));
+  const int one[] = {n};
+  AJAR_MOCK_TRY(check_axes(one, "axis_status"));
+  Axis& a = axis(n);
   double speed = 0;
   const double position = sample(a, &speed);
   AxisStatus st;
@@ -269,7 +279,10 @@ Result<AxisStatus> MockMotionCard::axis_status(int axis) {
     st.profile_position_counts = static_cast<std::int64_t>(r % 2000000001ULL) - 1000000000;
     st.encoder_position_counts = -st.profile_position_counts;
   }
-  return st;
+  out = st;
+  return ErrorCode::kOk;
 }
+
+#undef AJAR_MOCK_TRY
 
 }  // namespace ajar::drivers

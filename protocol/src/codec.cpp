@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <string_view>
 #include <type_traits>
 
 #include "ajar/protocol/crc32c.hpp"
@@ -48,7 +50,8 @@ constexpr std::array<std::uint8_t, 4> kMagicBytes = {0x41, 0x4A, 0x41, 0x52};  /
 
 // Enum table sizes (values 0..count-1 are valid).
 constexpr std::uint8_t kFrameCount = 2, kDirectionCount = 2, kRoleCount = 2, kStateCount = 10,
-                       kEventKindCount = 7, kArmStateCount = 5, kDriverStateCount = 4;
+                       kEventKindCount = 7, kArmStateCount = 5, kDriverStateCount = 4,
+                       kDriverKindCount = 3, kPolicyCount = 3;
 
 // ---- field names (static storage: DecodeError::field is a const char*) ------------------------
 
@@ -153,8 +156,11 @@ constexpr ContactNames kStatusContact{
 
 class Writer {
  public:
-  Writer(std::uint8_t* out, std::size_t capacity) noexcept : p_(out), cap_(capacity) {}
+  Writer(std::uint8_t* out, std::size_t capacity, std::uint8_t minor) noexcept
+      : p_(out), cap_(capacity), minor_(minor) {}
   bool ok() const noexcept { return ok_; }
+  // True when the layout being written has the fields that minor version `m` appended.
+  bool since(std::uint8_t m) const noexcept { return minor_ >= m; }
   std::size_t size() const noexcept { return pos_; }
 
   void u8(std::uint8_t v, const char*) noexcept {
@@ -173,6 +179,7 @@ class Writer {
   void f32(float v, const char* f) noexcept { u32(std::bit_cast<std::uint32_t>(v), f); }
   void f64(double v, const char* f) noexcept { u64(std::bit_cast<std::uint64_t>(v), f); }
   void boolean(bool v, const char* f) noexcept { u8(v ? 1 : 0, f); }
+  void polarity(std::int8_t v, const char* f) noexcept { u8(static_cast<std::uint8_t>(v), f); }
   template <typename E>
   void enumeration(E v, const char* f, std::uint8_t) noexcept {
     u8(static_cast<std::uint8_t>(v), f);
@@ -204,7 +211,7 @@ class Writer {
     return ok_;
   }
   bool ack_type(MessageType t, const char* f) noexcept {
-    if (!is_request(t)) ok_ = false;
+    if (!is_request(t) || minor_of(t) > minor_) ok_ = false;
     raw_type(t, f);
     return ok_;
   }
@@ -227,6 +234,7 @@ class Writer {
   }
   std::uint8_t* p_;
   std::size_t cap_;
+  std::uint8_t minor_;
   std::size_t pos_ = 0;
   bool ok_ = true;
 };
@@ -237,8 +245,9 @@ constexpr std::array<std::uint8_t, 8> kZeros{};
 
 class Reader {
  public:
-  explicit Reader(std::span<const std::uint8_t> payload) noexcept
-      : p_(payload.data()), size_(payload.size()) {}
+  Reader(std::span<const std::uint8_t> payload, std::uint8_t minor) noexcept
+      : p_(payload.data()), size_(payload.size()), minor_(minor) {}
+  bool since(std::uint8_t m) const noexcept { return minor_ >= m; }
 
   void u8(std::uint8_t& v, const char*) noexcept { v = take(1)[0]; }
   void u16(std::uint16_t& v, const char*) noexcept { v = get_u16(take(2)); }
@@ -249,21 +258,27 @@ class Reader {
   }
   void f32(float& v, const char* f) noexcept {
     v = std::bit_cast<float>(get_u32(take(4)));
-    if (!std::isfinite(v)) fail(ErrorCode::kNonFiniteNumber, f);
+    if (!std::isfinite(v)) fail(ErrorCode::kNonFiniteNumber, f, std::bit_cast<std::uint32_t>(v), 4);
   }
   void f64(double& v, const char* f) noexcept {
     v = std::bit_cast<double>(get_u64(take(8)));
-    if (!std::isfinite(v)) fail(ErrorCode::kNonFiniteNumber, f);
+    if (!std::isfinite(v)) fail(ErrorCode::kNonFiniteNumber, f, std::bit_cast<std::uint64_t>(v), 8);
   }
   void boolean(bool& v, const char* f) noexcept {
     const std::uint8_t raw = take(1)[0];
-    if (raw > 1) fail(ErrorCode::kInvalidEnumValue, f);
+    if (raw > 1) fail(ErrorCode::kInvalidEnumValue, f, raw, 2, "bool");
     v = raw != 0;
+  }
+  // +1 or -1 as a signed byte.
+  void polarity(std::int8_t& v, const char* f) noexcept {
+    const std::uint8_t raw = take(1)[0];
+    v = static_cast<std::int8_t>(raw);
+    if (v != 1 && v != -1) fail(ErrorCode::kInvalidEnumValue, f, raw, 0, "polarity");
   }
   template <typename E>
   void enumeration(E& v, const char* f, std::uint8_t count) noexcept {
     const std::uint8_t raw = take(1)[0];
-    if (raw >= count) fail(ErrorCode::kInvalidEnumValue, f);
+    if (raw >= count) fail(ErrorCode::kInvalidEnumValue, f, raw, count);
     v = static_cast<E>(raw);
   }
   // Error codes and raw message types are not validated: newer peers may send codes this version
@@ -280,7 +295,7 @@ class Reader {
     if (q == nullptr) return;
     const std::uint8_t n = q[0];
     if (n > N) {
-      fail(ErrorCode::kBadString, f);
+      fail(ErrorCode::kBadString, f, n, N, "length above capacity");
       return;
     }
     std::memcpy(s.bytes.data(), q + 1, N);
@@ -294,7 +309,11 @@ class Reader {
       const std::uint8_t c = q[1 + i];
       plain_ascii &= (c >= 0x20) & (c < 0x7F);
     }
-    if (padding != 0 || (!plain_ascii && !is_wire_string(s.view()))) fail(ErrorCode::kBadString, f);
+    if (padding != 0) {
+      fail(ErrorCode::kBadString, f, n, N, "non-zero padding");
+    } else if (!plain_ascii && !is_wire_string(s.view())) {
+      fail(ErrorCode::kBadString, f, n, N, "invalid UTF-8 or a control character");
+    }
   }
   void vec3(core::Vec3& v, const VecNames& n) noexcept {
     f64(v.x(), n.x);
@@ -309,7 +328,7 @@ class Reader {
     count = take(1)[0];
     if (truncated_) return false;
     if (count < kMinPlanePoints || count > kMaxPlanePoints) {
-      structural(ErrorCode::kBadCount, f);
+      structural(ErrorCode::kBadCount, f, count);
       return false;
     }
     return true;
@@ -317,8 +336,8 @@ class Reader {
   bool ack_type(MessageType& t, const char* f) noexcept {
     t = static_cast<MessageType>(get_u16(take(2)));
     if (truncated_) return false;
-    if (!is_request(t)) {
-      structural(ErrorCode::kInvalidEnumValue, f);
+    if (!is_request(t) || minor_of(t) > minor_) {
+      structural(ErrorCode::kInvalidEnumValue, f, static_cast<std::uint16_t>(t), 0, "acknowledged");
       return false;
     }
     return true;
@@ -331,14 +350,15 @@ class Reader {
   // The outcome, in the documented order of precedence.
   bool finish(bool allow_tail, DecodeError& e) const noexcept {
     if (structural_) {
-      e.code = code_;
-      e.field = field_;
+      set(e);
     } else if (truncated_ || (!allow_tail && pos_ != size_)) {
       e.code = ErrorCode::kBadPayloadLength;
       e.field = "header.payload_length";
+      e.value = size_;
+      e.limit = needed_;
+      e.reason = allow_tail ? "at least " : "";
     } else if (code_ != ErrorCode::kOk) {
-      e.code = code_;
-      e.field = field_;
+      set(e);
     } else {
       return true;
     }
@@ -347,6 +367,7 @@ class Reader {
 
  private:
   const std::uint8_t* take(std::size_t n) noexcept {
+    needed_ += n;
     if (size_ - pos_ < n) {
       truncated_ = true;
       pos_ = size_;
@@ -357,6 +378,7 @@ class Reader {
     return q;
   }
   const std::uint8_t* take_block(std::size_t n) noexcept {
+    needed_ += n;
     if (size_ - pos_ < n) {
       truncated_ = true;
       pos_ = size_;
@@ -366,21 +388,39 @@ class Reader {
     pos_ += n;
     return q;
   }
-  void fail(ErrorCode c, const char* f) noexcept {
-    if (code_ == ErrorCode::kOk) {
+  // The first failing field wins (wire order). A truncated payload reads zeros, which never fail.
+  void fail(ErrorCode c, const char* f, std::uint64_t value, std::uint64_t limit,
+            const char* reason = "") noexcept {
+    if (code_ == ErrorCode::kOk && !truncated_) {
       code_ = c;
       field_ = f;
+      value_ = value;
+      limit_ = limit;
+      reason_ = reason;
     }
   }
-  void structural(ErrorCode c, const char* f) noexcept {
-    code_ = c;
-    field_ = f;
+  void structural(ErrorCode c, const char* f, std::uint64_t value, std::uint64_t limit = 0,
+                  const char* reason = "") noexcept {
+    code_ = ErrorCode::kOk;
+    fail(c, f, value, limit, reason);
     structural_ = true;
+  }
+  void set(DecodeError& e) const noexcept {
+    e.code = code_;
+    e.field = field_;
+    e.value = value_;
+    e.limit = limit_;
+    e.reason = reason_;
   }
 
   const std::uint8_t* p_;
   std::size_t size_;
+  std::uint8_t minor_;
   std::size_t pos_ = 0;
+  std::size_t needed_ = 0;  // bytes the layout needs (counted also past a truncation)
+  std::uint64_t value_ = 0;
+  std::uint64_t limit_ = 0;
+  const char* reason_ = "";
   bool truncated_ = false;
   bool structural_ = false;
   ErrorCode code_ = ErrorCode::kOk;
@@ -428,11 +468,110 @@ void loop_fields(IO& io, M& m) {
   io.u32(m.jitter_p99_ns, "loop.jitter_p99_ns");
 }
 
+template <typename IO, typename M>
+void quantile_fields(IO& io, M& m, const std::array<const char*, 4>& n) {
+  io.u32(m.p50_ns, n[0]);
+  io.u32(m.p99_ns, n[1]);
+  io.u32(m.p999_ns, n[2]);
+  io.u32(m.max_ns, n[3]);
+}
+
+#define AJAR_QUANTILE_NAMES(prefix) \
+  { prefix ".p50_ns", prefix ".p99_ns", prefix ".p999_ns", prefix ".max_ns" }
+
+template <typename IO, typename M>
+void timing_fields(IO& io, M& m) {
+  io.f32(m.window_s, "timing.window_s");
+  io.u64(m.all.samples, "timing.all.samples");
+  quantile_fields(io, m.all.latency, AJAR_QUANTILE_NAMES("timing.all.latency"));
+  quantile_fields(io, m.all.execution, AJAR_QUANTILE_NAMES("timing.all.execution"));
+  quantile_fields(io, m.all.period, AJAR_QUANTILE_NAMES("timing.all.period"));
+  io.u64(m.recent.samples, "timing.recent.samples");
+  quantile_fields(io, m.recent.latency, AJAR_QUANTILE_NAMES("timing.recent.latency"));
+  quantile_fields(io, m.recent.execution, AJAR_QUANTILE_NAMES("timing.recent.execution"));
+  quantile_fields(io, m.recent.period, AJAR_QUANTILE_NAMES("timing.recent.period"));
+}
+#undef AJAR_QUANTILE_NAMES
+
+// The 1.1 block appended to Status and Telemetry (same layout in both).
+template <typename IO, typename M>
+void motion_fields(IO& io, M& m) {
+  io.f64(m.odometry_x_m, "odometry_x_m");
+  io.f64(m.odometry_y_m, "odometry_y_m");
+  io.boolean(m.door.has_distance, "door.has_distance");
+  io.f64(m.door.distance_m, "door.distance_m");
+  io.boolean(m.door.has_yaw, "door.has_yaw");
+  io.f64(m.door.yaw_rad, "door.yaw_rad");
+  io.boolean(m.staleness.plane, "staleness.plane");
+  io.boolean(m.staleness.contact, "staleness.contact");
+  io.f64(m.staleness.travel_since_plane_m, "staleness.travel_since_plane_m");
+  io.f64(m.commanded_linear_m_s, "commanded_linear_m_s");
+  io.f64(m.commanded_angular_rad_s, "commanded_angular_rad_s");
+  timing_fields(io, m.timing);
+}
+
+constexpr std::array<const char*, 12> kTransformNames = {
+    "camera_to_base[0]", "camera_to_base[1]", "camera_to_base[2]",  "camera_to_base[3]",
+    "camera_to_base[4]", "camera_to_base[5]", "camera_to_base[6]",  "camera_to_base[7]",
+    "camera_to_base[8]", "camera_to_base[9]", "camera_to_base[10]", "camera_to_base[11]"};
+
+template <typename IO, typename M>
+void robot_model_fields(IO& io, M& m) {
+  for (std::size_t i = 0; i < m.camera_to_base.size(); ++i)
+    io.f64(m.camera_to_base[i], kTransformNames[i]);
+  io.f64(m.wheel_radius_m, "wheel_radius_m");
+  io.f64(m.turning_radius_m, "turning_radius_m");
+  io.f64(m.encoder_counts_per_rev, "encoder_counts_per_rev");
+  io.f64(m.gear_ratio, "gear_ratio");
+  io.u8(m.left.card_axis, "left.card_axis");
+  io.polarity(m.left.polarity, "left.polarity");
+  io.u8(m.right.card_axis, "right.card_axis");
+  io.polarity(m.right.polarity, "right.polarity");
+  io.f64(m.max_wheel_speed_rad_s, "max_wheel_speed_rad_s");
+  io.f64(m.max_wheel_accel_rad_s2, "max_wheel_accel_rad_s2");
+  io.f64(m.max_linear_speed_m_s, "max_linear_speed_m_s");
+  io.f64(m.max_angular_speed_rad_s, "max_angular_speed_rad_s");
+  io.f64(m.max_linear_accel_m_s2, "max_linear_accel_m_s2");
+  io.f64(m.max_angular_accel_rad_s2, "max_angular_accel_rad_s2");
+  io.f64(m.drive_command_timeout_s, "drive_command_timeout_s");
+  io.f64(m.approach_max_travel_m, "approach_max_travel_m");
+  io.f64(m.approach_square_tolerance_rad, "approach_square_tolerance_rad");
+  io.f64(m.approach_min_standoff_m, "approach_min_standoff_m");
+  io.f64(m.stale_travel_m, "stale_travel_m");
+  io.f64(m.stale_yaw_rad, "stale_yaw_rad");
+  io.vec3(m.arm_shoulder_m, VecNames{"arm_shoulder_m.x", "arm_shoulder_m.y", "arm_shoulder_m.z"});
+  io.f64(m.arm_min_reach_m, "arm_min_reach_m");
+  io.f64(m.arm_max_reach_m, "arm_max_reach_m");
+  io.f64(m.arm_min_z_m, "arm_min_z_m");
+  io.f64(m.arm_max_z_m, "arm_max_z_m");
+  io.f64(m.min_depth_m, "min_depth_m");
+  io.f64(m.max_depth_m, "max_depth_m");
+  io.f64(m.min_door_width_m, "min_door_width_m");
+  io.f64(m.max_door_width_m, "max_door_width_m");
+  io.f64(m.min_handle_length_m, "min_handle_length_m");
+  io.f64(m.max_handle_length_m, "max_handle_length_m");
+  io.f64(m.max_yaw_correction_rad, "max_yaw_correction_rad");
+  io.f64(m.aligned_tolerance_rad, "aligned_tolerance_rad");
+  io.f64(m.min_point_separation_m, "min_point_separation_m");
+  io.f64(m.min_lateral_fraction, "min_lateral_fraction");
+  io.f64(m.collinearity, "collinearity");
+  io.f64(m.max_plane_rms_m, "max_plane_rms_m");
+  io.f64(m.max_door_tilt_rad, "max_door_tilt_rad");
+}
+
+template <typename IO, typename M>
+void approach_ack_fields(IO& io, M& m) {
+  io.f64(m.travel_m, "travel_m");
+  io.f64(m.start_distance_m, "start_distance_m");
+  io.i64(m.left_counts, "left_counts");
+  io.i64(m.right_counts, "right_counts");
+}
+
 constexpr PointNames kP1{"p1.frame", {"p1.x", "p1.y", "p1.z"}};
 constexpr PointNames kP2{"p2.frame", {"p2.x", "p2.y", "p2.z"}};
 constexpr PointNames kContactPoint{"contact.frame", {"contact.x", "contact.y", "contact.z"}};
 
-enum class AckKind { kEmpty, kSpan, kPlane, kContact };
+enum class AckKind { kEmpty, kSpan, kPlane, kContact, kApproach };
 AckKind ack_kind(MessageType acknowledged) noexcept {
   switch (acknowledged) {
     case MessageType::kMeasureDoorWidth:
@@ -442,6 +581,8 @@ AckKind ack_kind(MessageType acknowledged) noexcept {
       return AckKind::kPlane;
     case MessageType::kSetContactPoint:
       return AckKind::kContact;
+    case MessageType::kApproach:
+      return AckKind::kApproach;
     default:
       return AckKind::kEmpty;
   }
@@ -488,6 +629,8 @@ void fields(IO& io, M& m) {
     io.f32(m.min_handle_length_m, "min_handle_length_m");
     io.f32(m.max_handle_length_m, "max_handle_length_m");
     io.f32(m.max_yaw_correction_rad, "max_yaw_correction_rad");
+    if (!io.since(1)) return;
+    io.enumeration(m.driver_kind, "driver_kind", kDriverKindCount);
   } else if constexpr (std::is_same_v<T, Pong>) {
     io.u64(m.client_time_ns, "client_time_ns");
     io.u64(m.daemon_time_ns, "daemon_time_ns");
@@ -503,6 +646,9 @@ void fields(IO& io, M& m) {
         break;
       case AckKind::kContact:
         if (auto* b = io.template body<ContactAck>(m.body)) contact_fields(io, *b, kAckContact);
+        break;
+      case AckKind::kApproach:
+        if (auto* b = io.template body<ApproachAck>(m.body)) approach_ack_fields(io, *b);
         break;
       case AckKind::kEmpty:
         io.template body<EmptyAck>(m.body);
@@ -538,6 +684,11 @@ void fields(IO& io, M& m) {
     io.enumeration(m.arm, "arm", kDriverStateCount);
     io.enumeration(m.arm_state, "arm_state", kArmStateCount);
     loop_fields(io, m.loop);
+    if (!io.since(1)) return;
+    motion_fields(io, m);
+    io.enumeration(m.realtime.policy, "realtime.policy", kPolicyCount);
+    io.u8(m.realtime.priority, "realtime.priority");
+    io.boolean(m.realtime.memory_locked, "realtime.memory_locked");
   } else if constexpr (std::is_same_v<T, Telemetry>) {
     io.u64(m.daemon_time_ns, "daemon_time_ns");
     io.enumeration(m.state, "state", kStateCount);
@@ -549,8 +700,17 @@ void fields(IO& io, M& m) {
     io.f64(m.base_yaw_odometry_rad, "base_yaw_odometry_rad");
     io.enumeration(m.arm_state, "arm_state", kArmStateCount);
     loop_fields(io, m.loop);
+    if (!io.since(1)) return;
+    motion_fields(io, m);
+  } else if constexpr (std::is_same_v<T, Drive>) {
+    io.f64(m.linear_m_s, "linear_m_s");
+    io.f64(m.angular_rad_s, "angular_rad_s");
+  } else if constexpr (std::is_same_v<T, Approach>) {
+    io.f64(m.standoff_m, "standoff_m");
+  } else if constexpr (std::is_same_v<T, RobotModel>) {
+    robot_model_fields(io, m);
   } else {
-    // AlignBase, Engage, Stop, EmergencyStop, GetStatus: empty payload.
+    // AlignBase, Engage, Stop, EmergencyStop, GetStatus, GetRobotModel, ResetLoopStatistics: empty.
     static_assert(std::is_empty_v<T>);
   }
 }
@@ -558,9 +718,11 @@ void fields(IO& io, M& m) {
 template <typename T>
 void decode_as(Reader& r, Message& m) noexcept {
   // Reuse the alternative when it is already there (a stream of Telemetry, say): every field is
-  // overwritten. MeasureDoorPlane starts fresh so that points beyond `count` are default.
+  // overwritten. MeasureDoorPlane starts fresh so that points beyond `count` are default, and so
+  // does an older layout (the fields it lacks keep their defaults).
   if constexpr (!std::is_same_v<T, MeasureDoorPlane>) {
-    if (T* existing = std::get_if<T>(&m)) {
+    T* existing = std::get_if<T>(&m);
+    if (existing != nullptr && r.since(kVersionMinor)) {
       fields(r, *existing);
       return;
     }
@@ -631,13 +793,29 @@ bool decode_payload(std::uint16_t type, Reader& r, Message& m) noexcept {
     case MessageType::kTelemetry:
       decode_as<Telemetry>(r, m);
       return true;
+    case MessageType::kDrive:
+      decode_as<Drive>(r, m);
+      return true;
+    case MessageType::kApproach:
+      decode_as<Approach>(r, m);
+      return true;
+    case MessageType::kGetRobotModel:
+      decode_as<GetRobotModel>(r, m);
+      return true;
+    case MessageType::kResetLoopStatistics:
+      decode_as<ResetLoopStatistics>(r, m);
+      return true;
+    case MessageType::kRobotModel:
+      decode_as<RobotModel>(r, m);
+      return true;
   }
   return false;
 }
 
 // Encodes the payload of `m` into `out`; returns its size, or nullopt-like 0 with ok=false.
-bool encode_payload(const Message& m, std::span<std::uint8_t> out, std::size_t& size) noexcept {
-  Writer w(out.data(), std::min(out.size(), kMaxPayloadSize));
+bool encode_payload(const Message& m, std::span<std::uint8_t> out, std::size_t& size,
+                    std::uint8_t minor = kVersionMinor) noexcept {
+  Writer w(out.data(), std::min(out.size(), kMaxPayloadSize), minor);
   std::visit([&w](const auto& v) { fields(w, v); }, m);
   size = w.size();
   return w.ok();
@@ -654,16 +832,21 @@ bool check_header(const std::uint8_t* h, DecodeError& e) noexcept {
   }
   e.type = get_u16(h + kOffType);
   e.request_id = get_u32(h + kOffRequestId);
+  e.version_minor = h[kOffMinor];
   if (h[kOffMajor] != kVersionMajor) {
     e.code = ErrorCode::kUnsupportedVersion;
     e.framing_lost = true;
     e.field = "header.version_major";
+    e.value = h[kOffMajor];
     return false;
   }
-  if (get_u32(h + kOffLength) > kMaxPayloadSize) {
+  const std::uint32_t length = get_u32(h + kOffLength);
+  if (length > kMaxPayloadSize) {
     e.code = ErrorCode::kPayloadTooLarge;
     e.framing_lost = true;
     e.field = "header.payload_length";
+    e.value = length;
+    e.limit = kMaxPayloadSize;
     return false;
   }
   return true;
@@ -699,9 +882,12 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
   }
   const auto payload = frame.subspan(kHeaderSize);
 #ifndef AJAR_PROTOCOL_FUZZING
-  if (frame_crc(h, payload) != get_u32(h + kOffCrc)) {
+  const std::uint32_t crc = frame_crc(h, payload);
+  if (crc != get_u32(h + kOffCrc)) {
     e.code = ErrorCode::kCrcMismatch;
     e.field = "header.crc";
+    e.value = get_u32(h + kOffCrc);
+    e.limit = crc;
     return;
   }
 #endif
@@ -709,12 +895,18 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
   if ((flags & ~static_cast<std::uint16_t>(kFlagKnownMask)) != 0) {
     e.code = ErrorCode::kUnknownFlags;
     e.field = "header.flags";
+    e.value = flags;
+    e.limit = kFlagKnownMask;
     return;
   }
-  Reader r(payload);
-  if (!decode_payload(e.type, r, out.envelope.message)) {
+  // The layout is the frame's minor version's (a newer minor: ours, extra bytes ignored).
+  const std::uint8_t minor = std::min(h[kOffMinor], kVersionMinor);
+  Reader r(payload, minor);
+  if (minor_of(static_cast<MessageType>(e.type)) > minor ||
+      !decode_payload(e.type, r, out.envelope.message)) {
     e.code = ErrorCode::kUnknownMessageType;
     e.field = "header.type";
+    e.value = e.type;
     return;
   }
   if (!r.finish(h[kOffMinor] > kVersionMinor, e)) return;
@@ -726,14 +918,16 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
 
 }  // namespace
 
-std::size_t encode(const Envelope& envelope, std::span<std::uint8_t> out) noexcept {
-  if (out.size() < kHeaderSize) return 0;
+std::size_t encode(const Envelope& envelope, std::span<std::uint8_t> out,
+                   std::uint8_t minor) noexcept {
+  if (out.size() < kHeaderSize || minor > kVersionMinor) return 0;
+  if (minor_of(type_of(envelope.message)) > minor) return 0;
   std::size_t length = 0;
-  if (!encode_payload(envelope.message, out.subspan(kHeaderSize), length)) return 0;
+  if (!encode_payload(envelope.message, out.subspan(kHeaderSize), length, minor)) return 0;
   std::uint8_t* h = out.data();
   std::memcpy(h + kOffMagic, kMagicBytes.data(), kMagicBytes.size());
   h[kOffMajor] = kVersionMajor;
-  h[kOffMinor] = kVersionMinor;
+  h[kOffMinor] = minor;
   put_u16(h + kOffType, static_cast<std::uint16_t>(type_of(envelope.message)));
   put_u16(h + kOffFlags, envelope.flags);
   put_u32(h + kOffRequestId, envelope.request_id);
@@ -742,10 +936,10 @@ std::size_t encode(const Envelope& envelope, std::span<std::uint8_t> out) noexce
   return kHeaderSize + length;
 }
 
-bool encode_append(const Envelope& envelope, std::vector<std::uint8_t>& out) {
+bool encode_append(const Envelope& envelope, std::vector<std::uint8_t>& out, std::uint8_t minor) {
   const std::size_t old = out.size();
   out.resize(old + kMaxFrameSize);
-  const std::size_t n = encode(envelope, std::span(out).subspan(old));
+  const std::size_t n = encode(envelope, std::span(out).subspan(old), minor);
   out.resize(old + n);
   return n != 0;
 }
@@ -757,6 +951,120 @@ bool wire_equal(const Message& a, const Message& b) noexcept {
   const bool oka = encode_payload(a, ba, na);
   const bool okb = encode_payload(b, bb, nb);
   return oka && okb && na == nb && std::memcmp(ba.data(), bb.data(), na) == 0;
+}
+
+std::string describe(const DecodeError& e) {
+  std::string field = e.field == nullptr ? "" : e.field;
+  const auto type_name = [&e] {
+    const auto t = static_cast<MessageType>(e.type);
+    char buffer[64];
+    if (minor_of(t) == 255) {
+      std::snprintf(buffer, sizeof buffer, "type 0x%04X", e.type);
+    } else {
+      std::snprintf(buffer, sizeof buffer, "%.*s", static_cast<int>(to_string(t).size()),
+                    to_string(t).data());
+    }
+    return std::string(buffer);
+  };
+  char text[256];
+  const auto v = static_cast<unsigned long long>(e.value);
+  const auto l = static_cast<unsigned long long>(e.limit);
+  switch (e.code) {
+    case ErrorCode::kBadMagic:
+      std::snprintf(text, sizeof text,
+                    "header.magic: the frame does not start with \"AJAR\" (41 4A 41 52): "
+                    "framing lost, closing the connection");
+      break;
+    case ErrorCode::kUnsupportedVersion:
+      std::snprintf(text, sizeof text,
+                    "header.version_major is %llu: this peer speaks protocol %u.x only: closing "
+                    "the connection",
+                    v, static_cast<unsigned>(kVersionMajor));
+      break;
+    case ErrorCode::kPayloadTooLarge:
+      std::snprintf(text, sizeof text,
+                    "header.payload_length is %llu: the maximum is %llu: framing lost, closing "
+                    "the connection",
+                    v, l);
+      break;
+    case ErrorCode::kCrcMismatch:
+      std::snprintf(text, sizeof text,
+                    "header.crc is 0x%08llX but header and payload give 0x%08llX: frame "
+                    "corrupted, not executed; send it again",
+                    v, l);
+      break;
+    case ErrorCode::kUnknownFlags:
+      std::snprintf(text, sizeof text,
+                    "header.flags is 0x%04llX: reserved bits set (this version knows 0x%04llX): "
+                    "not executed",
+                    v, l);
+      break;
+    case ErrorCode::kUnknownMessageType:
+      if (minor_of(static_cast<MessageType>(e.type)) != 255) {
+        std::snprintf(text, sizeof text,
+                      "header.type 0x%04llX (%s) is defined from protocol %u.%u; the frame says "
+                      "%u.%u",
+                      v, type_name().c_str(), static_cast<unsigned>(kVersionMajor),
+                      static_cast<unsigned>(minor_of(static_cast<MessageType>(e.type))),
+                      static_cast<unsigned>(kVersionMajor), static_cast<unsigned>(e.version_minor));
+      } else {
+        std::snprintf(text, sizeof text,
+                      "header.type 0x%04llX is not a message type of protocol %u.%u: not "
+                      "executed",
+                      v, static_cast<unsigned>(kVersionMajor),
+                      static_cast<unsigned>(kVersionMinor));
+      }
+      break;
+    case ErrorCode::kBadPayloadLength:
+      if (field == "frame") {
+        std::snprintf(text, sizeof text, "the bytes given are not exactly one frame");
+      } else {
+        std::snprintf(text, sizeof text,
+                      "header.payload_length is %llu: %s in protocol %u.%u has %s%llu bytes", v,
+                      type_name().c_str(), static_cast<unsigned>(kVersionMajor),
+                      static_cast<unsigned>(std::min(e.version_minor, kVersionMinor)),
+                      e.reason == nullptr ? "" : e.reason, l);
+      }
+      break;
+    case ErrorCode::kInvalidEnumValue:
+      if (field == "acknowledged") {
+        std::snprintf(text, sizeof text,
+                      "acknowledged is 0x%04llX: not a host-to-daemon type of protocol %u.%u", v,
+                      static_cast<unsigned>(kVersionMajor),
+                      static_cast<unsigned>(std::min(e.version_minor, kVersionMinor)));
+      } else if (e.reason != nullptr && std::string_view(e.reason) == "polarity") {
+        std::snprintf(text, sizeof text, "%s is %d: a polarity is +1 or -1", field.c_str(),
+                      static_cast<int>(static_cast<std::int8_t>(e.value)));
+      } else if (e.reason != nullptr && std::string_view(e.reason) == "bool") {
+        std::snprintf(text, sizeof text, "%s is %llu: a bool is 0 or 1", field.c_str(), v);
+      } else {
+        std::snprintf(text, sizeof text, "%s is %llu: allowed values are 0..%llu", field.c_str(), v,
+                      l == 0 ? 0 : l - 1);
+      }
+      break;
+    case ErrorCode::kNonFiniteNumber: {
+      const double x =
+          e.limit == 4
+              ? static_cast<double>(std::bit_cast<float>(static_cast<std::uint32_t>(e.value)))
+              : std::bit_cast<double>(e.value);
+      std::snprintf(text, sizeof text, "%s is %s: numbers on the wire must be finite",
+                    field.c_str(), std::isnan(x) ? "NaN" : (x > 0 ? "+infinity" : "-infinity"));
+      break;
+    }
+    case ErrorCode::kBadString:
+      std::snprintf(text, sizeof text, "%s: %s (length %llu, capacity %llu)", field.c_str(),
+                    e.reason == nullptr ? "bad string" : e.reason, v, l);
+      break;
+    case ErrorCode::kBadCount:
+      std::snprintf(text, sizeof text, "%s is %llu: allowed %zu..%zu", field.c_str(), v,
+                    kMinPlanePoints, kMaxPlanePoints);
+      break;
+    default:
+      std::snprintf(text, sizeof text, "%s: %.*s", field.c_str(),
+                    static_cast<int>(to_string(e.code).size()), to_string(e.code).data());
+      break;
+  }
+  return text;
 }
 
 FrameHeader decode_header(std::span<const std::uint8_t, kHeaderSize> bytes) noexcept {

@@ -98,6 +98,12 @@ MessageType type_of(const Message& m) noexcept {
         if constexpr (std::is_same_v<T, Event>) return MessageType::kEvent;
         if constexpr (std::is_same_v<T, Status>) return MessageType::kStatus;
         if constexpr (std::is_same_v<T, Telemetry>) return MessageType::kTelemetry;
+        if constexpr (std::is_same_v<T, Drive>) return MessageType::kDrive;
+        if constexpr (std::is_same_v<T, Approach>) return MessageType::kApproach;
+        if constexpr (std::is_same_v<T, GetRobotModel>) return MessageType::kGetRobotModel;
+        if constexpr (std::is_same_v<T, ResetLoopStatistics>)
+          return MessageType::kResetLoopStatistics;
+        if constexpr (std::is_same_v<T, RobotModel>) return MessageType::kRobotModel;
       },
       m);
 }
@@ -117,6 +123,10 @@ bool is_request(MessageType t) noexcept {
     case MessageType::kReset:
     case MessageType::kGetStatus:
     case MessageType::kSubscribe:
+    case MessageType::kDrive:
+    case MessageType::kApproach:
+    case MessageType::kGetRobotModel:
+    case MessageType::kResetLoopStatistics:
       return true;
     case MessageType::kWelcome:
     case MessageType::kPong:
@@ -125,9 +135,43 @@ bool is_request(MessageType t) noexcept {
     case MessageType::kEvent:
     case MessageType::kStatus:
     case MessageType::kTelemetry:
+    case MessageType::kRobotModel:
       return false;
   }
   return false;
+}
+
+std::uint8_t minor_of(MessageType t) noexcept {
+  switch (t) {
+    case MessageType::kHello:
+    case MessageType::kPing:
+    case MessageType::kMeasureDoorWidth:
+    case MessageType::kMeasureHandle:
+    case MessageType::kMeasureDoorPlane:
+    case MessageType::kSetContactPoint:
+    case MessageType::kAlignBase:
+    case MessageType::kEngage:
+    case MessageType::kStop:
+    case MessageType::kEmergencyStop:
+    case MessageType::kReset:
+    case MessageType::kGetStatus:
+    case MessageType::kSubscribe:
+    case MessageType::kWelcome:
+    case MessageType::kPong:
+    case MessageType::kAck:
+    case MessageType::kError:
+    case MessageType::kEvent:
+    case MessageType::kStatus:
+    case MessageType::kTelemetry:
+      return 0;
+    case MessageType::kDrive:
+    case MessageType::kApproach:
+    case MessageType::kGetRobotModel:
+    case MessageType::kResetLoopStatistics:
+    case MessageType::kRobotModel:
+      return 1;
+  }
+  return 255;
 }
 
 std::string_view to_string(MessageType t) noexcept {
@@ -172,6 +216,16 @@ std::string_view to_string(MessageType t) noexcept {
       return "Status";
     case MessageType::kTelemetry:
       return "Telemetry";
+    case MessageType::kDrive:
+      return "Drive";
+    case MessageType::kApproach:
+      return "Approach";
+    case MessageType::kGetRobotModel:
+      return "GetRobotModel";
+    case MessageType::kResetLoopStatistics:
+      return "ResetLoopStatistics";
+    case MessageType::kRobotModel:
+      return "RobotModel";
   }
   return "Unknown";
 }
@@ -258,6 +312,30 @@ std::string_view to_string(DriverState s) noexcept {
       return "active";
     case DriverState::kFault:
       return "fault";
+  }
+  return "unknown";
+}
+
+std::string_view to_string(DriverKind k) noexcept {
+  switch (k) {
+    case DriverKind::kSim:
+      return "sim";
+    case DriverKind::kMock:
+      return "mock";
+    case DriverKind::kReal:
+      return "real";
+  }
+  return "unknown";
+}
+
+std::string_view to_string(SchedulingPolicy p) noexcept {
+  switch (p) {
+    case SchedulingPolicy::kOther:
+      return "other";
+    case SchedulingPolicy::kFifo:
+      return "fifo";
+    case SchedulingPolicy::kRoundRobin:
+      return "rr";
   }
   return "unknown";
 }

@@ -225,8 +225,9 @@ ajar::Status check_vector(const GoldenVector& v) {
     if (request != (v.direction == GoldenVector::Direction::kHostToDaemon)) {
       return mismatch(v, "message type does not match the direction");
     }
+    // Re-encoded in the frame's own layout (a 1.0 frame as 1.0; a newer minor's as ours).
     std::array<std::uint8_t, kMaxFrameSize> out{};
-    const std::size_t n = encode(whole.envelope, out);
+    const std::size_t n = encode(whole.envelope, out, std::min(v.bytes[5], kVersionMinor));
     if (n == 0) return mismatch(v, "the decoded message does not re-encode");
     const std::span<const std::uint8_t> again(out.data(), n);
     if (v.roundtrip) {

@@ -212,5 +212,18 @@ TEST_F(ConfigTest, EffectiveConfigRoundTrips) {
   EXPECT_EQ(again.drivers.arm.parity, original.drivers.arm.parity);
 }
 
+TEST_F(ConfigTest, ChangedKeysNameEveryDifferenceByItsPath) {
+  const Config a = load_config(repo_file("config/ajard.yaml"));
+  EXPECT_TRUE(changed_keys(a, a).empty());
+  Config b = a;
+  b.logging.level = a.logging.level == "debug" ? "info" : "debug";
+  b.network.port = static_cast<std::uint16_t>(a.network.port + 1);
+  b.base.right.card_axis = a.base.right.card_axis + 1;
+  b.camera_to_base_m(0, 3) += 0.01;
+  EXPECT_EQ(changed_keys(a, b),
+            (std::vector<std::string>{"network.port", "frames.camera_to_base_m",
+                                      "base.right_wheel.card_axis", "logging.level"}));
+}
+
 }  // namespace
 }  // namespace ajar::daemon

@@ -108,11 +108,13 @@ TEST(SystemdUnit, VerifiesAndItsSandboxExposureIsAtMostTwo) {
   std::stringstream text;
   text << in.rdbuf();
   const std::string patched =
-      std::regex_replace(text.str(), std::regex("/usr/bin/ajard"), std::string(AJARD_PATH));
+      std::regex_replace(text.str(), std::regex("/usr/s?bin/ajard"), std::string(AJARD_PATH));
   const std::string copy = dir.path() + "/ajard.service";
   std::ofstream(copy) << patched;
   int status = 0;
-  const std::string verify = run("systemd-analyze verify " + copy, &status);
+  // --man=no: the man pages the unit names are checked where they are installed
+  // (tests/package/deb_test.sh verifies the installed unit in full).
+  const std::string verify = run("systemd-analyze verify --man=no " + copy, &status);
   EXPECT_EQ(status, 0) << verify;
 
   const std::string security = run("systemd-analyze security --offline=yes " + unit, &status);

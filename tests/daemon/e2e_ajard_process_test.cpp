@@ -130,11 +130,14 @@ TEST_F(AjardBinary, SighupReloadsTheLoggingLevelAndKeepsServing) {
   {
     auto c = e2e_config(drivers::DriverKind::kMock, dir_.path(), 20.0);
     c.logging.level = "debug";
+    c.network.max_clients = 7;  // not reloadable: named as needing a restart
     std::ofstream(config) << daemon::to_yaml(c);
   }
   ajard.signal(SIGHUP);
   ASSERT_TRUE(eventually([&] {
-    return ajard.err().find("logging.level is now debug") != std::string::npos;
+    return ajard.err().find(
+               "SIGHUP: applied logging.level (now debug); not applied, restart ajard "
+               "to apply: network.max_clients") != std::string::npos;
   })) << ajard.err();
   TestClient client(*port);
   EXPECT_EQ(client.hello(Role::kObserver).granted_role, Role::kObserver);

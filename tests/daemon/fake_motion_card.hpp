@@ -69,24 +69,26 @@ class FakeMotionCard final : public drivers::MotionCard {
     return Ok{};
   }
   Status close() override { return Ok{}; }
-  Status enable_axes(std::span<const int>) override { return Ok{}; }
-  Status disable_axes(std::span<const int>) override { return Ok{}; }
-  Status clear_faults(std::span<const int> axes) override {
+  ErrorCode enable_axes(std::span<const int>) noexcept override { return ErrorCode::kOk; }
+  ErrorCode disable_axes(std::span<const int>) noexcept override { return ErrorCode::kOk; }
+  ErrorCode clear_faults(std::span<const int> axes) noexcept override {
     std::lock_guard lock(c_->mutex);
     ++c_->clear_faults_calls;
     for (int a : axes) {
       c_->alarm_axes.erase(a);
       c_->axes[a].estopped = false;
     }
-    return Ok{};
+    return ErrorCode::kOk;
   }
-  Status move_relative(std::span<const drivers::AxisMove> moves,
-                       const drivers::TrapezoidProfile& profile) override {
+  // The fake may allocate (std::map, std::vector) where a card must not: it observes the loop,
+  // it is not part of it.
+  ErrorCode move_relative(std::span<const drivers::AxisMove> moves,
+                          const drivers::TrapezoidProfile& profile) noexcept override {
     std::lock_guard lock(c_->mutex);
     ++c_->move_calls;
     c_->last_moves.assign(moves.begin(), moves.end());
     c_->last_profile = profile;
-    if (c_->fail_move) return make_error(ErrorCode::kCardBadParameter, "move", "fake: refused");
+    if (c_->fail_move) return ErrorCode::kCardBadParameter;
     for (const auto& m : moves) {
       auto& a = c_->axes[m.axis];
       a.target = a.position + m.distance_counts;
@@ -94,18 +96,18 @@ class FakeMotionCard final : public drivers::MotionCard {
       a.remaining = c_->status_reads_per_move;
       a.stop_in = -1;
     }
-    return Ok{};
+    return ErrorCode::kOk;
   }
-  Status smooth_stop(std::span<const int> axes) override {
+  ErrorCode smooth_stop(std::span<const int> axes) noexcept override {
     std::lock_guard lock(c_->mutex);
     ++c_->smooth_stops;
     for (int axis : axes) {
       auto& a = c_->axes[axis];
       if (a.moving && a.stop_in < 0) a.stop_in = 2;
     }
-    return Ok{};
+    return ErrorCode::kOk;
   }
-  Status emergency_stop(std::span<const int> axes) override {
+  ErrorCode emergency_stop(std::span<const int> axes) noexcept override {
     std::lock_guard lock(c_->mutex);
     ++c_->emergency_stops;
     for (int axis : axes) {
@@ -114,9 +116,9 @@ class FakeMotionCard final : public drivers::MotionCard {
       a.estopped = true;
       a.stop_in = -1;
     }
-    return Ok{};
+    return ErrorCode::kOk;
   }
-  Result<drivers::AxisStatus> axis_status(int axis) override {
+  ErrorCode axis_status(int axis, drivers::AxisStatus& out) noexcept override {
     std::unique_lock lock(c_->mutex);
     c_->unblocked.wait(lock, [this] { return !c_->block_status; });
     auto& a = c_->axes[axis];
@@ -140,7 +142,8 @@ class FakeMotionCard final : public drivers::MotionCard {
     s.emergency_stopped = a.estopped;
     s.profile_position_counts = a.position;
     s.encoder_position_counts = a.position;
-    return s;
+    out = s;
+    return ErrorCode::kOk;
   }
 
  private:

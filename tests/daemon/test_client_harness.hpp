@@ -100,6 +100,9 @@ class FakeEngine final : public daemon::Engine {
       case protocol::MessageType::kSetContactPoint:
         ack.body = protocol::ContactAck{};
         break;
+      case protocol::MessageType::kApproach:
+        ack.body = protocol::ApproachAck{};
+        break;
       default:
         ack.body = protocol::EmptyAck{};
     }

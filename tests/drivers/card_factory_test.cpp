@@ -11,6 +11,7 @@
 namespace ajar::drivers {
 namespace {
 
+using testing::status_of;
 using testing::wait_until;
 
 core::BaseGeometry wheels_on(int left, int right) {
@@ -29,14 +30,14 @@ void drive(DriverSet& set, int left, int right) {
   const auto activated = card.activate();
   ASSERT_TRUE(activated.ok()) << activated.error().message;
   const AxisMove moves[] = {{left, 4000}, {right, -4000}};
-  ASSERT_TRUE(card.move_relative(moves, TrapezoidProfile{}).ok());
+  ASSERT_TRUE(card.move_relative(moves, TrapezoidProfile{}) == ErrorCode::kOk);
   ASSERT_TRUE(wait_until([&] {
-    auto l = card.axis_status(left);
-    auto r = card.axis_status(right);
-    return l.ok() && r.ok() && !l->moving && !r->moving;
+    auto l = status_of(card, left);
+    auto r = status_of(card, right);
+    return l && r && !l->moving && !r->moving;
   }));
-  EXPECT_EQ(card.axis_status(left)->profile_position_counts, 4000);
-  EXPECT_EQ(card.axis_status(right)->profile_position_counts, -4000);
+  EXPECT_EQ(status_of(card, left)->profile_position_counts, 4000);
+  EXPECT_EQ(status_of(card, right)->profile_position_counts, -4000);
   ASSERT_TRUE(card.deactivate().ok());
   ASSERT_TRUE(card.cleanup().ok());
 }

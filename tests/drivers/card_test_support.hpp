@@ -3,9 +3,11 @@
 #pragma once
 
 #include <chrono>
+#include <optional>
 #include <string>
 #include <thread>
 
+#include "ajar/drivers/motion_card.hpp"
 #include "ajar/drivers/settings.hpp"
 
 namespace ajar::drivers::testing {
@@ -30,6 +32,18 @@ inline GtsCardSettings card_sim_settings() {
   s.axis_count = 4;
   s.poll_timeout_ms = 10000;
   return s;
+}
+
+// axis_status() as a value: empty when the card refused (then last_failure() says why).
+inline std::optional<AxisStatus> status_of(MotionCard& card, int axis) {
+  AxisStatus st;
+  if (card.axis_status(axis, st) != ErrorCode::kOk) return std::nullopt;
+  return st;
+}
+
+// A realtime call's result with its text, for assertion messages.
+inline std::string failure_text(const MotionCard& card) {
+  return describe(card.last_failure());
 }
 
 // Polls `done` every millisecond until it holds or `timeout` passed; returns whether it held.

@@ -13,6 +13,7 @@ namespace ajar::drivers {
 namespace {
 
 using testing::kFastTimeScale;
+using testing::status_of;
 using testing::wait_until;
 
 constexpr std::array<int, 2> kWheels{1, 2};
@@ -24,7 +25,7 @@ class ManagedCard : public ::testing::Test {
     mock_ = mock.get();
     card_ = std::make_unique<ManagedMotionCard>(std::move(mock), kWheels);
   }
-  Status move(std::int64_t distance = 100) {
+  ErrorCode move(std::int64_t distance = 100) {
     const AxisMove moves[] = {{1, distance}, {2, distance}};
     return card_->move_relative(moves, TrapezoidProfile{1, 0.5, 0.5, 0});
   }
@@ -39,55 +40,55 @@ TEST_F(ManagedCard, EnforcesTheOrderOfTransitions) {
   EXPECT_EQ(card_->deactivate().error().code, ErrorCode::kWrongState);
   EXPECT_EQ(card_->cleanup().error().code, ErrorCode::kWrongState);
   EXPECT_EQ(card_->recover().error().code, ErrorCode::kWrongState);
-  EXPECT_EQ(move().error().code, ErrorCode::kDriverNotActive);
+  EXPECT_EQ(move(), ErrorCode::kDriverNotActive);
   EXPECT_EQ(card_->state(), LifecycleState::kUnconfigured);
 
   ASSERT_TRUE(card_->configure().ok());
   EXPECT_EQ(card_->state(), LifecycleState::kInactive);
   EXPECT_EQ(card_->configure().error().code, ErrorCode::kWrongState);
   EXPECT_EQ(card_->deactivate().error().code, ErrorCode::kWrongState);
-  EXPECT_EQ(move().error().code, ErrorCode::kDriverNotActive);
-  EXPECT_FALSE(card_->axis_status(1)->moving);
+  EXPECT_EQ(move(), ErrorCode::kDriverNotActive);
+  EXPECT_FALSE(status_of(*card_, 1)->moving);
 
   ASSERT_TRUE(card_->activate().ok());
   EXPECT_EQ(card_->state(), LifecycleState::kActive);
-  EXPECT_TRUE(card_->axis_status(1)->enabled);
-  EXPECT_TRUE(card_->axis_status(2)->enabled);
-  EXPECT_FALSE(card_->axis_status(3)->enabled);  // only the managed axes
+  EXPECT_TRUE(status_of(*card_, 1)->enabled);
+  EXPECT_TRUE(status_of(*card_, 2)->enabled);
+  EXPECT_FALSE(status_of(*card_, 3)->enabled);  // only the managed axes
   EXPECT_EQ(card_->activate().error().code, ErrorCode::kWrongState);
   EXPECT_EQ(card_->cleanup().error().code, ErrorCode::kWrongState);
-  ASSERT_TRUE(move().ok());
+  ASSERT_TRUE(move() == ErrorCode::kOk);
 
   ASSERT_TRUE(card_->deactivate().ok());
   EXPECT_EQ(card_->state(), LifecycleState::kInactive);
-  EXPECT_FALSE(card_->axis_status(1)->enabled);
-  EXPECT_FALSE(card_->axis_status(1)->moving);
-  EXPECT_EQ(move().error().code, ErrorCode::kDriverNotActive);
+  EXPECT_FALSE(status_of(*card_, 1)->enabled);
+  EXPECT_FALSE(status_of(*card_, 1)->moving);
+  EXPECT_EQ(move(), ErrorCode::kDriverNotActive);
 
   ASSERT_TRUE(card_->cleanup().ok());
   EXPECT_EQ(card_->state(), LifecycleState::kUnconfigured);
-  EXPECT_FALSE(card_->axis_status(1).ok());  // the card is closed
+  EXPECT_FALSE(status_of(*card_, 1).has_value());  // the card is closed
 }
 
 TEST_F(ManagedCard, StopsAreNeverRefused) {
   ASSERT_TRUE(card_->configure().ok());
-  EXPECT_TRUE(card_->smooth_stop(kWheels).ok());
-  EXPECT_TRUE(card_->emergency_stop(kWheels).ok());
+  EXPECT_TRUE(card_->smooth_stop(kWheels) == ErrorCode::kOk);
+  EXPECT_TRUE(card_->emergency_stop(kWheels) == ErrorCode::kOk);
   ASSERT_TRUE(card_->activate().ok());
   mock_->inject_alarm(1);
-  (void)card_->axis_status(1);
+  (void)status_of(*card_, 1);
   ASSERT_EQ(card_->state(), LifecycleState::kFault);
-  EXPECT_TRUE(card_->smooth_stop(kWheels).ok());
-  EXPECT_TRUE(card_->emergency_stop(kWheels).ok());
+  EXPECT_TRUE(card_->smooth_stop(kWheels) == ErrorCode::kOk);
+  EXPECT_TRUE(card_->emergency_stop(kWheels) == ErrorCode::kOk);
 }
 
 TEST_F(ManagedCard, DeactivateStopsARunningMoveBeforeDisabling) {
   ASSERT_TRUE(card_->configure().ok());
   ASSERT_TRUE(card_->activate().ok());
-  ASSERT_TRUE(move(100'000'000).ok());
-  ASSERT_TRUE(card_->axis_status(1)->moving);
+  ASSERT_TRUE(move(100'000'000) == ErrorCode::kOk);
+  ASSERT_TRUE(status_of(*card_, 1)->moving);
   ASSERT_TRUE(card_->deactivate().ok());
-  const AxisStatus st = *card_->axis_status(1);
+  const AxisStatus st = *status_of(*card_, 1);
   EXPECT_FALSE(st.moving);
   EXPECT_FALSE(st.enabled);
   EXPECT_TRUE(st.smooth_stopped);
@@ -102,13 +103,13 @@ TEST(ManagedCardDeadline, DeactivateFallsBackToEmergencyStopAfterItsDeadline) {
   ASSERT_TRUE(card.configure().ok());
   ASSERT_TRUE(card.activate().ok());
   const AxisMove moves[] = {{1, 100'000'000}};
-  ASSERT_TRUE(card.move_relative(moves, TrapezoidProfile{10, 100, 0.0001, 0}).ok());
-  ASSERT_TRUE(wait_until([&] { return card.axis_status(1)->profile_position_counts > 0; }));
+  ASSERT_TRUE(card.move_relative(moves, TrapezoidProfile{10, 100, 0.0001, 0}) == ErrorCode::kOk);
+  ASSERT_TRUE(wait_until([&] { return status_of(card, 1)->profile_position_counts > 0; }));
   const auto s = card.deactivate();
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.error().code, ErrorCode::kMotionTimeout);
   EXPECT_EQ(card.state(), LifecycleState::kInactive);
-  const AxisStatus st = *card.axis_status(1);
+  const AxisStatus st = *status_of(card, 1);
   EXPECT_FALSE(st.moving);
   EXPECT_TRUE(st.emergency_stopped);
   EXPECT_FALSE(st.enabled);
@@ -118,26 +119,25 @@ TEST_F(ManagedCard, HardwareFaultsLatchAndRecoverNeedsHealthyAxes) {
   ASSERT_TRUE(card_->configure().ok());
   ASSERT_TRUE(card_->activate().ok());
   mock_->inject_following_error(2);
-  EXPECT_TRUE(card_->axis_status(2)->following_error);
+  EXPECT_TRUE(status_of(*card_, 2)->following_error);
   EXPECT_EQ(card_->state(), LifecycleState::kFault);
-  EXPECT_EQ(move().error().code, ErrorCode::kDriverNotActive);
+  EXPECT_EQ(move(), ErrorCode::kFollowingError);  // refused with the root cause
   EXPECT_EQ(card_->activate().error().code, ErrorCode::kWrongState);
   ASSERT_TRUE(card_->recover().ok());  // clear_faults clears the mock's latch
   EXPECT_EQ(card_->state(), LifecycleState::kInactive);
   ASSERT_TRUE(card_->activate().ok());
-  EXPECT_TRUE(move().ok());
+  EXPECT_TRUE(move() == ErrorCode::kOk);
 }
 
 TEST_F(ManagedCard, ErrorsOfTheCallerOrTheSituationDoNotLatch) {
   ASSERT_TRUE(card_->configure().ok());
   ASSERT_TRUE(card_->activate().ok());
   const AxisMove bad[] = {{7, 100}};
-  EXPECT_EQ(card_->move_relative(bad, TrapezoidProfile{}).error().code,
-            ErrorCode::kCardBadParameter);
+  EXPECT_EQ(card_->move_relative(bad, TrapezoidProfile{}), ErrorCode::kCardBadParameter);
   mock_->inject_limit(1, true);
-  EXPECT_EQ(move().error().code, ErrorCode::kLimitHit);
-  ASSERT_TRUE(card_->emergency_stop(kWheels).ok());
-  EXPECT_EQ(move(-100).error().code, ErrorCode::kEmergencyStopped);
+  EXPECT_EQ(move(), ErrorCode::kLimitHit);
+  ASSERT_TRUE(card_->emergency_stop(kWheels) == ErrorCode::kOk);
+  EXPECT_EQ(move(-100), ErrorCode::kEmergencyStopped);
   EXPECT_EQ(card_->state(), LifecycleState::kActive);
 }
 
@@ -147,25 +147,50 @@ TEST_F(ManagedCard, CommunicationFailuresLatch) {
   mock_->set_fault(MockFault::kIntermittent);
   bool failed = false;
   for (int i = 0; i < 3 && !failed; ++i) {
-    const auto st = card_->axis_status(1);
-    failed = !st.ok();
+    AxisStatus st;
+    const ErrorCode e = card_->axis_status(1, st);
+    failed = e != ErrorCode::kOk;
     if (failed) {
-      EXPECT_EQ(st.error().code, ErrorCode::kCardCommunication);
+      EXPECT_EQ(e, ErrorCode::kCardCommunication);
     }
   }
   ASSERT_TRUE(failed);
   EXPECT_EQ(card_->state(), LifecycleState::kFault);
+  // A move is then refused with the cause, CARD_COMMUNICATION (502), not DRIVER_NOT_ACTIVE (501):
+  // a caller that latches what it is told reports why the card is unusable.
+  mock_->set_fault(MockFault::kOff);
+  EXPECT_EQ(move(), ErrorCode::kCardCommunication);
+  EXPECT_STREQ(card_->last_failure().call, "move_relative");
+  // Recovery (clear_faults in fault) makes it usable again once the card answers.
+  ASSERT_EQ(card_->clear_faults(kWheels), ErrorCode::kOk);
+  EXPECT_EQ(card_->state(), LifecycleState::kInactive);
+  EXPECT_EQ(move(), ErrorCode::kDriverNotActive);
+}
+
+TEST_F(ManagedCard, RealtimeCallsKeepTheirFailureDetailWithoutText) {
+  EXPECT_EQ(move(), ErrorCode::kDriverNotActive);
+  CardFailure f = card_->last_failure();
+  EXPECT_EQ(f.code, ErrorCode::kDriverNotActive);
+  EXPECT_STREQ(f.call, "move_relative");
+  EXPECT_NE(describe(f).find("unconfigured"), std::string::npos) << describe(f);
+  ASSERT_TRUE(card_->configure().ok());
+  ASSERT_TRUE(card_->activate().ok());
+  const AxisMove bad[] = {{7, 100}};
+  EXPECT_EQ(card_->move_relative(bad, TrapezoidProfile{}), ErrorCode::kCardBadParameter);
+  f = card_->last_failure();  // the implementation's detail, passed through
+  EXPECT_EQ(f.axis, 7);
+  EXPECT_EQ(describe(f), "move_relative: axis 7: axis outside 1..axis_count of the card");
 }
 
 TEST_F(ManagedCard, TheMotionCardInterfaceDrivesTheLifecycle) {
   ASSERT_TRUE(card_->open().ok());
   EXPECT_EQ(card_->state(), LifecycleState::kInactive);
-  ASSERT_TRUE(card_->enable_axes(kWheels).ok());
+  ASSERT_TRUE(card_->enable_axes(kWheels) == ErrorCode::kOk);
   EXPECT_EQ(card_->state(), LifecycleState::kActive);
-  ASSERT_TRUE(card_->disable_axes(kWheels).ok());
+  ASSERT_TRUE(card_->disable_axes(kWheels) == ErrorCode::kOk);
   EXPECT_EQ(card_->state(), LifecycleState::kInactive);
-  ASSERT_TRUE(card_->enable_axes(kWheels).ok());
-  ASSERT_TRUE(move(100'000'000).ok());
+  ASSERT_TRUE(card_->enable_axes(kWheels) == ErrorCode::kOk);
+  ASSERT_TRUE(move(100'000'000) == ErrorCode::kOk);
   ASSERT_TRUE(card_->close().ok());  // deactivates (stops) first
   EXPECT_EQ(card_->state(), LifecycleState::kUnconfigured);
 }
@@ -175,16 +200,17 @@ TEST(ManagedCardOpen, AFailedConfigureStaysUnconfigured) {
    public:
     Status open() override { return make_error(ErrorCode::kCardOpenFailed, "", "no card"); }
     Status close() override { return Ok{}; }
-    Status enable_axes(std::span<const int>) override { return Ok{}; }
-    Status disable_axes(std::span<const int>) override { return Ok{}; }
-    Status clear_faults(std::span<const int>) override { return Ok{}; }
-    Status move_relative(std::span<const AxisMove>, const TrapezoidProfile&) override {
-      return Ok{};
+    ErrorCode enable_axes(std::span<const int>) noexcept override { return ErrorCode::kOk; }
+    ErrorCode disable_axes(std::span<const int>) noexcept override { return ErrorCode::kOk; }
+    ErrorCode clear_faults(std::span<const int>) noexcept override { return ErrorCode::kOk; }
+    ErrorCode move_relative(std::span<const AxisMove>, const TrapezoidProfile&) noexcept override {
+      return ErrorCode::kOk;
     }
-    Status smooth_stop(std::span<const int>) override { return Ok{}; }
-    Status emergency_stop(std::span<const int>) override { return Ok{}; }
-    Result<AxisStatus> axis_status(int) override { return AxisStatus{}; }
+    ErrorCode smooth_stop(std::span<const int>) noexcept override { return ErrorCode::kOk; }
+    ErrorCode emergency_stop(std::span<const int>) noexcept override { return ErrorCode::kOk; }
+    ErrorCode axis_status(int, AxisStatus&) noexcept override { return ErrorCode::kOk; }
   };
+
   ManagedMotionCard failing(std::make_unique<FailingOpen>(), kWheels);
   EXPECT_EQ(failing.configure().error().code, ErrorCode::kCardOpenFailed);
   EXPECT_EQ(failing.state(), LifecycleState::kUnconfigured);

@@ -34,6 +34,80 @@ inline LoopStatistics loop_stats() {
   return l;
 }
 
+inline LoopTiming loop_timing() {
+  LoopTiming t;
+  t.window_s = 10.0f;
+  const auto window = [](std::uint64_t samples, std::uint32_t scale) {
+    TimingWindow w;
+    w.samples = samples;
+    w.latency = {12 * scale, 38 * scale, 61 * scale, 140 * scale};
+    w.execution = {4 * scale, 9 * scale, 15 * scale, 33 * scale};
+    w.period = {2000012, 2000950, 2004100, 2011000 + scale};
+    return w;
+  };
+  t.all = window(123456789, 1000);
+  t.recent = window(5000, 900);
+  return t;
+}
+
+template <typename T>
+void fill_motion(T& m) {
+  m.odometry_x_m = 0.4125;
+  m.odometry_y_m = -0.0375;
+  m.door.has_distance = true;
+  m.door.distance_m = 1.0125;
+  m.door.has_yaw = true;
+  m.door.yaw_rad = -0.0412;
+  m.staleness.plane = true;
+  m.staleness.contact = false;
+  m.staleness.travel_since_plane_m = 0.3125;
+  m.commanded_linear_m_s = 0.25;
+  m.commanded_angular_rad_s = -0.125;
+  m.timing = loop_timing();
+}
+
+inline RobotModel robot_model() {
+  RobotModel r;
+  r.camera_to_base = {0, 0, 1, 0.08, -1, 0, 0, 0.0, 0, -1, 0, -0.22};
+  r.wheel_radius_m = 0.1;
+  r.turning_radius_m = 0.3;
+  r.encoder_counts_per_rev = 10000;
+  r.gear_ratio = 50;
+  r.left = {1, 1};
+  r.right = {2, -1};
+  r.max_wheel_speed_rad_s = 1.0;
+  r.max_wheel_accel_rad_s2 = 2.0;
+  r.max_linear_speed_m_s = 0.3;
+  r.max_angular_speed_rad_s = 0.5;
+  r.max_linear_accel_m_s2 = 0.4;
+  r.max_angular_accel_rad_s2 = 1.0;
+  r.drive_command_timeout_s = 0.5;
+  r.approach_max_travel_m = 2.0;
+  r.approach_square_tolerance_rad = 0.2;
+  r.approach_min_standoff_m = 0.5;
+  r.stale_travel_m = 0.05;
+  r.stale_yaw_rad = 0.02;
+  r.arm_shoulder_m = core::Vec3(0.25, 0.0, 0.3);
+  r.arm_min_reach_m = 0.15;
+  r.arm_max_reach_m = 1.0;
+  r.arm_min_z_m = -0.5;
+  r.arm_max_z_m = 1.2;
+  r.min_depth_m = 0.4;
+  r.max_depth_m = 4.0;
+  r.min_door_width_m = 0.5;
+  r.max_door_width_m = 2.0;
+  r.min_handle_length_m = 0.05;
+  r.max_handle_length_m = 0.3;
+  r.max_yaw_correction_rad = 0.7;
+  r.aligned_tolerance_rad = 0.01;
+  r.min_point_separation_m = 0.01;
+  r.min_lateral_fraction = 0.5;
+  r.collinearity = 0.02;
+  r.max_plane_rms_m = 0.02;
+  r.max_door_tilt_rad = 0.35;
+  return r;
+}
+
 inline SpanAck width_ack() {
   return {0.9152, core::RotationDirection::kCounterClockwise, core::Vec3(1.21, 0.43, 0.02),
           core::Vec3(1.23, -0.485, 0.05)};
@@ -107,6 +181,10 @@ inline std::vector<Sample> all() {
   add("reset_clear_parameters", 13, Reset{true});
   add("get_status", 14, GetStatus{});
   add("subscribe", 15, Subscribe{50.0f});
+  add("drive", 16, Drive{0.25, -0.125});
+  add("approach", 17, Approach{0.75});
+  add("get_robot_model", 18, GetRobotModel{});
+  add("reset_loop_statistics", 19, ResetLoopStatistics{});
 
   // daemon -> host
   Welcome welcome;
@@ -120,6 +198,7 @@ inline std::vector<Sample> all() {
   welcome.min_handle_length_m = 0.08f;
   welcome.max_handle_length_m = 0.25f;
   welcome.max_yaw_correction_rad = 0.5236f;
+  welcome.driver_kind = DriverKind::kReal;
   add("welcome", 1, welcome);
   add("pong", 2, Pong{1700000000123456789ull, 987654321012ull});
   add("ack_measure_door_width", 3,
@@ -132,6 +211,11 @@ inline std::vector<Sample> all() {
       Ack{MessageType::kSetContactPoint, ProcedureState::kReadyToEngage, contact_ack()});
   add("ack_align_base", 8, Ack{MessageType::kAlignBase, ProcedureState::kAligning, EmptyAck{}});
   add("ack_stop", 10, Ack{MessageType::kStop, ProcedureState::kAligned, EmptyAck{}});
+  add("ack_drive", 16, Ack{MessageType::kDrive, ProcedureState::kAwaitingHandle, EmptyAck{}});
+  add("ack_approach", 17,
+      Ack{MessageType::kApproach, ProcedureState::kAwaitingHandle,
+          ApproachAck{0.25, 1.0, 198944, -198944}});
+  add("robot_model", 18, robot_model());
   ErrorReply error;
   error.code = ErrorCode::kPointsCollinear;
   error.offending_type = MessageType::kMeasureDoorPlane;
@@ -170,6 +254,8 @@ inline std::vector<Sample> all() {
   status.arm = DriverState::kActive;
   status.arm_state = ArmState::kIdle;
   status.loop = loop_stats();
+  fill_motion(status);
+  status.realtime = {SchedulingPolicy::kFifo, 80, true};
   add("status", 14, status);
   Telemetry telemetry;
   telemetry.daemon_time_ns = 5500000000ull;
@@ -182,6 +268,7 @@ inline std::vector<Sample> all() {
   telemetry.base_yaw_odometry_rad = 0.0261;
   telemetry.arm_state = ArmState::kIdle;
   telemetry.loop = loop_stats();
+  fill_motion(telemetry);
   add("telemetry", 0, telemetry);
   return s;
 }

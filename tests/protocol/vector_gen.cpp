@@ -21,11 +21,11 @@ using ajar::ErrorCode;
 using namespace ajar::protocol;
 using Bytes = std::vector<std::uint8_t>;
 
-Bytes encode_sample(const std::string& name) {
+Bytes encode_sample(const std::string& name, std::uint8_t minor = kVersionMinor) {
   for (const auto& s : samples::all()) {
     if (s.name == name) {
       Bytes out;
-      if (!encode_append(s.envelope, out)) throw std::runtime_error("cannot encode " + name);
+      if (!encode_append(s.envelope, out, minor)) throw std::runtime_error("cannot encode " + name);
       return out;
     }
   }
@@ -79,19 +79,30 @@ int main(int argc, char** argv) {
                           "byte-exact."});
   }
 
-  // A newer minor version may append fields: v1.0 decoders ignore the tail.
+  // A 1.0 peer's frames: the 1.0 layout of the types that 1.1 extended.
+  for (const char* name : {"welcome", "status", "telemetry"}) {
+    GoldenVector v;
+    v.name = std::string("v1_0_") + name;
+    v.direction = GoldenVector::Direction::kDaemonToHost;
+    v.bytes = encode_sample(name, 0);
+    out.push_back({v, std::string("The ") + name +
+                          " sample as protocol 1.0 sends it (header minor 0, the 1.0 layout: "
+                          "the fields 1.1 appended are absent). Decodes; 1.1 fields read as 0."});
+  }
+
+  // A newer minor version may append fields: older decoders ignore the tail.
   {
     GoldenVector v;
     v.name = "newer_minor_appended_field";
     v.roundtrip = false;
     v.bytes = encode_sample("ping");
-    v.bytes[5] = 3;  // version 1.3
+    v.bytes[5] = 3;  // version 1.3 (newer than this library's 1.1)
     for (const std::uint8_t x : Bytes{0xDE, 0xAD, 0xBE, 0xEF})
       v.bytes.push_back(x);
     refresh(v.bytes);
     out.push_back({v,
                    "Ping sent by a v1.3 peer with 4 appended payload bytes: accepted, tail "
-                   "ignored.\nRe-encoding gives the v1.0 frame (roundtrip: no)."});
+                   "ignored.\nRe-encoding gives the v1.1 frame (roundtrip: no)."});
   }
 
   const auto bad = [&out](std::string name, std::string base, ErrorCode code, bool framing_lost,
@@ -267,6 +278,52 @@ int main(int argc, char** argv) {
         refresh(b);
       },
       "Control characters (U+0000..U+001F, U+007F) are not allowed in strings.");
+
+  bad(
+      "v1_0_status_with_1_1_length", "status", ErrorCode::kBadPayloadLength, false,
+      "header.payload_length",
+      [](Bytes& b) {
+        b[5] = 0;
+        refresh(b);
+      },
+      "A Status frame that says 1.0 but carries the 1.1 layout: a 1.0 frame must have the 1.0\n"
+      "length exactly (only a NEWER minor may be longer).");
+  bad(
+      "v1_0_drive", "drive", ErrorCode::kUnknownMessageType, false, "header.type",
+      [](Bytes& b) {
+        b[5] = 0;
+        refresh(b);
+      },
+      "Drive (0x0122) in a frame that says 1.0: 1.0 has no such type.");
+  bad(
+      "invalid_polarity", "robot_model", ErrorCode::kInvalidEnumValue, false, "left.polarity",
+      [](Bytes& b) {
+        b[P + 12 * 8 + 4 * 8 + 1] = 0;
+        refresh(b);
+      },
+      "RobotModel with left wheel polarity 0 (only +1 and -1 exist).");
+  bad(
+      "invalid_enum_driver_kind", "welcome", ErrorCode::kInvalidEnumValue, false, "driver_kind",
+      [](Bytes& b) {
+        b.back() = 3;
+        refresh(b);
+      },
+      "Welcome with driver_kind 3 (0 sim, 1 mock, 2 real).");
+  bad(
+      "non_finite_drive", "drive", ErrorCode::kNonFiniteNumber, false, "angular_rad_s",
+      [](Bytes& b) {
+        put_f64(b, P + 8, -std::numeric_limits<double>::infinity());
+        refresh(b);
+      },
+      "Drive with angular velocity -infinity.");
+  bad(
+      "bad_payload_length_approach", "approach", ErrorCode::kBadPayloadLength, false,
+      "header.payload_length",
+      [](Bytes& b) {
+        b.resize(b.size() - 4);
+        refresh(b);
+      },
+      "Approach with a 4-byte payload (needs 8).");
 
   int failures = 0;
   for (const auto& w : out) {

@@ -56,6 +56,7 @@ struct Command {
     kSimulate,
     kScript,
     kSleep,
+    kHelp,  // `help [COMMAND]` or `COMMAND --help`: args holds the COMMAND (or nothing)
   };
   Kind kind = Kind::kStatus;
   std::string name;           // "measure_width", "contact", "align", ...
@@ -81,7 +82,17 @@ CommandParse parse_command(std::span<const std::string> words, core::Frame frame
 // Splits a script line into words (blank-separated; '#' starts a comment). Empty: nothing to do.
 std::vector<std::string> split_line(const std::string& line);
 
+// The --help text (global options and the list of commands).
 std::string usage();
+// `ajarctl help COMMAND` / `ajarctl COMMAND --help`; empty if COMMAND is unknown.
+std::string command_help(std::string_view command);
+std::vector<std::string> command_names();
+// "unknown command 'stauts' (did you mean 'status'?)" (the suggestion only when one is close).
+std::string unknown_command_message(std::string_view word);
+// bash completion (`ajarctl --complete WORD...`): what may follow the words typed so far (the
+// options and command after ajarctl, then the command's arguments and options). "@file" / "@dir"
+// ask the shell to complete a file or directory name.
+std::vector<std::string> completion_words(std::span<const std::string> words_before);
 
 // Where `ajarctl conformance` reads the golden vectors without --vectors: DATADIR/ajar/vectors of
 // the install ajarctl runs from (found relative to the executable), else this source tree's

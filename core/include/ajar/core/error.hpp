@@ -34,6 +34,7 @@ enum class ErrorCode : std::uint16_t {
   kTooManyClients = 204,  // max clients reached; connection will be closed
   kRateLimited = 205,     // telemetry rate outside 0..loop rate (or similar)
   kShuttingDown = 206,    // daemon is stopping
+  kNotSupported = 207,    // 1.1: this daemon or its drivers cannot do the request (yet)
 
   // 3xx: geometry and validation (core/).
   kNonFinite = 300,             // a value is NaN or infinite
@@ -49,7 +50,8 @@ enum class ErrorCode : std::uint16_t {
   kOutOfReach = 310,             // contact point outside the arm's reachable workspace
   kPlaneResidualTooLarge = 311,  // plane fit RMS residual above the configured maximum
   kUnknownFrame = 312,           // a point names a frame that is neither camera nor base
-  kTransformNotRigid = 313,  // camera->base matrix not rigid (rotation, determinant, bottom row)
+  kTransformNotRigid = 313,   // camera->base matrix not rigid (rotation, determinant, bottom row)
+  kStandoffOutOfRange = 314,  // 1.1: Approach standoff below the configured minimum
 
   // 4xx: the procedure (daemon/).
   kWrongState = 400,           // command not allowed in the current procedure state
@@ -61,6 +63,12 @@ enum class ErrorCode : std::uint16_t {
   kFaultLatched = 406,         // a fault is latched: Reset first
   kMotionInProgress = 407,     // wait for the motion to finish or Stop it
   kQueueFull = 408,            // control loop command queue full: retry later
+  // 1.1: driving the base.
+  kMeasurementStale = 409,  // the base moved since a stored measurement: measure it again
+  kNoDoorDistance = 410,    // Approach: no width points and no plane give the distance
+  kNotSquareToDoor = 411,   // Approach: the base is not square to the door within tolerance
+  kApproachTooFar = 412,    // Approach: the move is longer than the configured maximum
+  kDriveNotAllowed = 413,   // Drive/Approach not allowed now (aligning, engaging, engaged, ...)
 
   // 5xx: drivers.
   kDriverError = 500,        // generic driver failure (see message)

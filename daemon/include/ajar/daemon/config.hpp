@@ -119,4 +119,9 @@ Config load_config(const std::string& path);
 // The effective config as YAML (every key, defaults filled in), for --check-config.
 std::string to_yaml(const Config& config);
 
+// The keys (dotted paths as in to_yaml, e.g. "logging.level", "base.left_wheel.card_axis") whose
+// values differ between two configs, in to_yaml's order. A list value (a range, the transform)
+// is one key. For SIGHUP: which changed keys were applied and which need a restart.
+std::vector<std::string> changed_keys(const Config& before, const Config& after);
+
 }  // namespace ajar::daemon

@@ -71,6 +71,8 @@ class Engine {
   virtual protocol::Status status() const = 0;
   virtual protocol::Telemetry telemetry() const = 0;
   virtual protocol::Welcome welcome_template() const = 0;  // limits and versions for Welcome
+  // The reply to GetRobotModel (protocol 1.1): calibration and limits from the config.
+  virtual protocol::RobotModel robot_model() const { return {}; }
 
   // Health for systemd's watchdog: true while the control loop keeps its period (it has completed a
   // cycle within the last few periods). Thread-safe.

@@ -45,9 +45,11 @@
 
 namespace ajar::daemon {
 
-// An encoded frame, shared between the sessions it is sent to (an event is encoded once).
+// An encoded frame, shared between the sessions it is sent to (an event is encoded once per
+// protocol minor version in use). `minor`: the layout of protocol 1.minor (the session's).
 using SharedFrame = std::shared_ptr<const std::vector<std::uint8_t>>;
-SharedFrame encode_frame(const protocol::Envelope& envelope);
+SharedFrame encode_frame(const protocol::Envelope& envelope,
+                         std::uint8_t minor = protocol::kVersionMinor);
 
 // What the peer at the other end may do (docs/security.md). Plaintext sessions (loopback, or
 // network.insecure_plaintext) get everything; TLS sessions what their certificate is granted.

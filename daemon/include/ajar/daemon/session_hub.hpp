@@ -2,7 +2,11 @@
 //
 // - Hello first: any other request before it gets ERROR HELLO_REQUIRED (the session stays open),
 //   except Stop and EmergencyStop, which are executed from any session at any time (safety).
-//   A second Hello gets ALREADY_GREETED. Hello with another major version: UNSUPPORTED_VERSION.
+//   A second Hello gets ALREADY_GREETED. Hello with another major version: UNSUPPORTED_VERSION
+//   (field "version_major"; the session stays open and un-greeted).
+// - Versions: a session speaks protocol 1.m with m = min(Hello.version_minor, kVersionMinor);
+//   every frame to it (replies, events, telemetry) has that minor's header and layout, and a type
+//   newer than m is refused with UNKNOWN_MESSAGE_TYPE (field "header.type"). Before Hello: ours.
 // - Roles: one controller, any number of observers. Hello{requested_role=controller}:
 //     no controller yet              -> granted controller;
 //     a controller exists, take_over -> granted controller; the previous controller is demoted to
@@ -15,8 +19,9 @@
 // - Certificates (TLS, session.hpp PeerAccess): an identity without the controller grant asking
 //   for control gets NOT_CONTROLLER naming the identity (field requested_role); one without
 //   may_stop gets NOT_CONTROLLER for Stop/EmergencyStop. Plaintext sessions may do everything.
-// - Commands (Measure*, SetContactPoint, AlignBase, Engage, Reset) need the controller role, else
-//   NOT_CONTROLLER. Stop, EmergencyStop, GetStatus, Ping, Subscribe: any greeted session.
+// - Commands (Measure*, SetContactPoint, AlignBase, Engage, Reset, Drive, Approach,
+//   ResetLoopStatistics) need the controller role, else NOT_CONTROLLER. Stop, EmergencyStop,
+//   GetStatus, GetRobotModel, Ping, Subscribe: any greeted session.
 // - Any frame from the controller (also an undecodable one) is a heartbeat for the deadman.
 //   Controller disconnect -> engine.controller_lost().
 // - Exactly-once: commands from a session whose Hello carried a non-zero client_instance_id, with
@@ -111,7 +116,8 @@ class SessionHub final : public SessionHandler {
     protocol::Role role = protocol::Role::kObserver;
     std::uint64_t client_instance_id = 0;
     std::string client_name;
-    Clock::duration telemetry_period{0};  // 0 = not subscribed
+    std::uint8_t minor = protocol::kVersionMinor;  // protocol 1.minor spoken with this session
+    Clock::duration telemetry_period{0};           // 0 = not subscribed
     Clock::time_point next_telemetry{};
   };
 

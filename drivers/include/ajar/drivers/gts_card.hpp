@@ -3,12 +3,13 @@
 // the card simulator (libajar_gts_sim.so) is loaded through exactly the same path.
 //
 // Threading: the vendor API is not thread-safe. One thread owns a GtsMotionCard (the control
-// thread); nothing here locks. Calls return as soon as the vendor call returns, except
-// enable_axes(), which waits for servo-on by polling (1 ms sleep) up to poll_timeout_ms.
+// thread); nothing here locks. Every call returns as soon as the vendor calls it makes return:
+// nothing sleeps or polls (enable_axes() issues servo-on; the caller watches axis_status()).
 //
-// Errors: every vendor return code maps to a named ajar::ErrorCode (gts_error()); the message names
-// the call and the axis. move_relative() reads each axis' status first and refuses with
-// kAxisAlarm / kFollowingError / kLimitHit (moving into an active limit) / kEmergencyStopped /
+// Errors: every vendor return code maps to a named ajar::ErrorCode (gts_error_code()); the
+// realtime calls return that code and keep the call, the axis and the raw vendor code in
+// last_failure() (no text is built). move_relative() reads each axis' status first and refuses
+// with kAxisAlarm / kFollowingError / kLimitHit (moving into an active limit) / kEmergencyStopped /
 // kDriverError (servo off) before it commands anything. Limits and alarms are never disabled.
 #pragma once
 
@@ -23,7 +24,10 @@ namespace ajar::drivers {
 
 // Vendor return code -> error: 1 kDriverError (execution error), 7 kCardBadParameter,
 // -1..-5 kCardCommunication, -6 kCardOpenFailed, -7 kCardCommunication (no response),
-// -8 kCardBusy, anything else kDriverError. `axis` 0 = the call is not about one axis.
+// -8 kCardBusy, anything else kDriverError (0 kOk).
+ErrorCode gts_error_code(short code) noexcept;
+// The same as an Error whose message names the call, the axis (0 = the call is not about one
+// axis), the vendor code and its meaning. Start-up and the I/O side only (allocates).
 Error gts_error(short code, std::string_view call, int axis);
 
 class GtsMotionCard final : public MotionCard {
@@ -41,32 +45,37 @@ class GtsMotionCard final : public MotionCard {
   // error is returned; opening an open card closes it first.
   Status open() override;
   Status close() override;  // GT_Close
-  // GT_AxisOn per axis, then polls GT_GetSts until servo-on (kMotionTimeout after poll_timeout_ms,
-  // kAxisAlarm if a drive alarm shows).
-  Status enable_axes(std::span<const int> axes) override;
-  Status disable_axes(std::span<const int> axes) override;  // GT_AxisOff per axis
-  Status clear_faults(std::span<const int> axes) override;  // GT_ClrSts per axis
+  // GT_GetSts per axis (kAxisAlarm if a drive alarm is latched: nothing is switched on), then
+  // GT_AxisOn per axis. The servo comes on a few ms later (status 0x200).
+  ErrorCode enable_axes(std::span<const int> axes) noexcept override;
+  ErrorCode disable_axes(std::span<const int> axes) noexcept override;  // GT_AxisOff per axis
+  ErrorCode clear_faults(std::span<const int> axes) noexcept override;  // GT_ClrSts per axis
   // Per axis: GT_PrfTrap, GT_SetTrapPrm, GT_GetPrfPos, GT_SetPos(current + distance), GT_SetVel;
   // then one GT_Update(mask) so that the axes start together.
-  Status move_relative(std::span<const AxisMove> moves, const TrapezoidProfile& profile) override;
+  ErrorCode move_relative(std::span<const AxisMove> moves,
+                          const TrapezoidProfile& profile) noexcept override;
   // GT_Stop(mask, 0). An empty list is a no-op; invalid axes are reported after the valid ones
   // were stopped.
-  Status smooth_stop(std::span<const int> axes) override;
-  Status emergency_stop(std::span<const int> axes) override;  // GT_Stop(mask, mask)
+  ErrorCode smooth_stop(std::span<const int> axes) noexcept override;
+  ErrorCode emergency_stop(std::span<const int> axes) noexcept override;  // GT_Stop(mask, mask)
   // GT_GetSts, GT_GetPrfPos, GT_GetEncPos.
-  Result<AxisStatus> axis_status(int axis) override;
+  ErrorCode axis_status(int axis, AxisStatus& out) noexcept override;
+  CardFailure last_failure() const noexcept override { return last_; }
 
   const GtsCardSettings& settings() const noexcept { return settings_; }
 
  private:
   struct Api;
-  Status check_axes(std::span<const int> axes) const;
-  Status call(short code, std::string_view name, int axis) const;
+  ErrorCode check_open(const char* call) noexcept;
+  ErrorCode check_axes(std::span<const int> axes, const char* call) noexcept;
+  ErrorCode call(short code, const char* name, int axis) noexcept;
+  Status start_up_call(short code, std::string_view name) const;
 
   GtsCardSettings settings_;
   void* handle_ = nullptr;
   std::unique_ptr<Api> api_;
   bool open_ = false;
+  CardFailure last_;
 };
 
 }  // namespace ajar::drivers

@@ -5,8 +5,11 @@
 //        ^------------------------cleanup()-----------------'
 //   any state --(an error from the implementation)--> fault --recover()--> unconfigured/inactive
 //
-// Motion calls (move_relative, hand_off, ...) are refused with kDriverNotActive unless active.
-// Stops (smooth_stop, emergency_stop, stop) are always passed through: stopping is never refused.
+// Motion calls (move_relative, hand_off, ...) are refused unless active: with kDriverNotActive when
+// unconfigured or inactive; a card in kFault refuses with the code that latched the fault (the
+// root cause, e.g. kCardCommunication), so that a caller which latches what it is told reports
+// why the card is unusable rather than that it is. Stops (smooth_stop, emergency_stop, stop) are
+// always passed through: stopping is never refused.
 //
 // Transitions called in the wrong state return kWrongState and change nothing. A failing
 // configure() leaves the wrapper unconfigured; any other failing call that means the hardware is
@@ -22,10 +25,15 @@
 // The MotionCard / Manipulator interface of a wrapper drives the lifecycle too, so code that only
 // knows the interface brings a wrapped driver up in the usual order:
 //   open() = configure(); close() = deactivate() (if active) + cleanup();
-//   enable_axes() is allowed when inactive or active and makes it active;
+//   enable_axes() is allowed when inactive or active and makes it active (the servo comes on a few
+//     ms later, see motion_card.hpp: poll axis_status().enabled);
 //   disable_axes() is allowed in any configured state and makes an active wrapper inactive;
-//   clear_faults() in kFault = the implementation's clear_faults() + recover();
+//   clear_faults() in kFault = the implementation's clear_faults() + the checks of recover();
 //   axis_status() is always passed through.
+// The card's realtime calls stay realtime through the wrapper (noexcept, no allocation, no
+// waiting); last_failure() is the wrapper's own refusal or the implementation's failure. The
+// transitions (configure, activate, deactivate, cleanup, recover) are start-up calls: they may
+// wait (activate() for servo-on, deactivate() for the stop) and return text.
 //   connect() = configure(); disconnect() = deactivate() (if active) + cleanup();
 //   clear_fault() in kFault = recover(); status() is always passed through.
 //
@@ -53,13 +61,17 @@ const char* to_string(LifecycleState s) noexcept;
 class ManagedMotionCard final : public MotionCard {
  public:
   // `axes` are the axes this card drives (the two wheels, at most 8): activate() enables exactly
-  // those. deactivate() waits up to stop_timeout_ms for the smooth stop before it disables them.
-  // Throws std::invalid_argument for more than 8 axes or a null impl.
+  // those and waits up to enable_timeout_ms for servo-on. deactivate() waits up to
+  // stop_timeout_ms for the smooth stop before it disables them. Throws std::invalid_argument for
+  // more than 8 axes or a null impl.
   ManagedMotionCard(std::unique_ptr<MotionCard> impl, std::span<const int> axes,
-                    int stop_timeout_ms = 5000);
+                    int stop_timeout_ms = 5000, int enable_timeout_ms = 2000);
 
   Status configure();  // open(): unconfigured -> inactive
-  Status activate();   // clear faults, enable axes: inactive -> active
+  // Clear faults, enable axes, poll (1 ms sleeps) until every axis reports servo-on: inactive ->
+  // active. kMotionTimeout after enable_timeout_ms, kAxisAlarm if a drive alarm shows (the wrapper
+  // then stays inactive).
+  Status activate();
   // Smooth stop, poll (1 ms sleeps) until the axes rest or stop_timeout_ms passed (then emergency
   // stop), disable axes: active -> inactive.
   Status deactivate();
@@ -71,23 +83,33 @@ class ManagedMotionCard final : public MotionCard {
 
   Status open() override;
   Status close() override;
-  Status enable_axes(std::span<const int> axes) override;
-  Status disable_axes(std::span<const int> axes) override;
-  Status clear_faults(std::span<const int> axes) override;
-  Status move_relative(std::span<const AxisMove> moves, const TrapezoidProfile& profile) override;
-  Status smooth_stop(std::span<const int> axes) override;
-  Status emergency_stop(std::span<const int> axes) override;
-  Result<AxisStatus> axis_status(int axis) override;
+  ErrorCode enable_axes(std::span<const int> axes) noexcept override;
+  ErrorCode disable_axes(std::span<const int> axes) noexcept override;
+  ErrorCode clear_faults(std::span<const int> axes) noexcept override;
+  ErrorCode move_relative(std::span<const AxisMove> moves,
+                          const TrapezoidProfile& profile) noexcept override;
+  ErrorCode smooth_stop(std::span<const int> axes) noexcept override;
+  ErrorCode emergency_stop(std::span<const int> axes) noexcept override;
+  ErrorCode axis_status(int axis, AxisStatus& out) noexcept override;
+  CardFailure last_failure() const noexcept override { return last_; }
 
  private:
   std::unique_ptr<MotionCard> impl_;
   int axes_[8] = {};
   std::size_t axis_count_ = 0;
   int stop_timeout_ms_ = 5000;
+  int enable_timeout_ms_ = 2000;
   LifecycleState state_ = LifecycleState::kUnconfigured;
+  ErrorCode fault_cause_ = ErrorCode::kOk;  // the error that latched kFault
+  CardFailure last_;
 
-  std::span<const int> axes() const { return {axes_, axis_count_}; }
-  Status track(Status s);
+  std::span<const int> axes() const noexcept { return {axes_, axis_count_}; }
+  // An implementation call's result: keeps its failure and latches kFault if it is unhealthy.
+  ErrorCode track(ErrorCode e) noexcept;
+  void latch_fault(ErrorCode cause) noexcept;
+  ErrorCode refuse(const char* call) noexcept;  // a motion call outside kActive
+  ErrorCode recover_axes() noexcept;            // recover() without text
+  Status as_status(ErrorCode e) const;          // kOk or the failure as text
 };
 
 class ManagedManipulator final : public Manipulator {

@@ -7,8 +7,8 @@
 //   kOff          normal behaviour
 //   kStuck        moves are accepted but never progress: the axes report moving forever
 //   kSlow         every call sleeps slow_ms (real time) before it runs
-//   kErrorCode    every call except open()/close() fails with kDriverError
-//   kIntermittent every third call (counting all calls except open()/close()) fails with
+//   kErrorCode    every realtime call (all but open()/close()) fails with kDriverError
+//   kIntermittent every third realtime call (counting all but open()/close()) fails with
 //                 kCardCommunication; the others work
 //   kGarbage      axis_status() returns implausible data (contradictory flags, jumping
 //                 positions); commands work
@@ -41,13 +41,16 @@ class MockMotionCard final : public MotionCard {
 
   Status open() override;
   Status close() override;
-  Status enable_axes(std::span<const int> axes) override;
-  Status disable_axes(std::span<const int> axes) override;
-  Status clear_faults(std::span<const int> axes) override;
-  Status move_relative(std::span<const AxisMove> moves, const TrapezoidProfile& profile) override;
-  Status smooth_stop(std::span<const int> axes) override;
-  Status emergency_stop(std::span<const int> axes) override;
-  Result<AxisStatus> axis_status(int axis) override;
+  // Realtime calls (motion_card.hpp): the servo comes on at once in enable_axes().
+  ErrorCode enable_axes(std::span<const int> axes) noexcept override;
+  ErrorCode disable_axes(std::span<const int> axes) noexcept override;
+  ErrorCode clear_faults(std::span<const int> axes) noexcept override;
+  ErrorCode move_relative(std::span<const AxisMove> moves,
+                          const TrapezoidProfile& profile) noexcept override;
+  ErrorCode smooth_stop(std::span<const int> axes) noexcept override;
+  ErrorCode emergency_stop(std::span<const int> axes) noexcept override;
+  ErrorCode axis_status(int axis, AxisStatus& out) noexcept override;
+  CardFailure last_failure() const noexcept override { return last_; }
 
  private:
   // One trapezoidal segment: from p0 at t0 with speed v0, towards p0 + dir * distance.
@@ -65,14 +68,17 @@ class MockMotionCard final : public MotionCard {
     Segment segment;
   };
 
-  double now_ms() const;
+  double now_ms() const noexcept;
   // Samples the segment at now; finishes motion that has ended. Returns position, sets speed.
-  double sample(Axis& a, double* speed);
-  void halt(Axis& a);
-  Status enter(bool counts_for_faults);
-  Status check_axes(std::span<const int> axes) const;
+  double sample(Axis& a, double* speed) noexcept;
+  void halt(Axis& a) noexcept;
+  // Counts the call, applies kSlow, and (realtime calls) kErrorCode / kIntermittent.
+  ErrorCode enter(const char* call, bool realtime) noexcept;
+  ErrorCode check_open(const char* call) noexcept;
+  ErrorCode check_axes(std::span<const int> axes, const char* call) noexcept;
+  Axis& axis(int n) noexcept { return axes_[static_cast<std::size_t>(n - 1)]; }
   static Segment plan(double t0_ms, double p0, double v0, double vmax, double acc, double dec,
-                      double distance, int dir);
+                      double distance, int dir) noexcept;
 
   MockFault fault_;
   int slow_ms_;
@@ -84,6 +90,7 @@ class MockMotionCard final : public MotionCard {
   std::uint64_t fault_calls_ = 0;
   std::uint64_t garbage_state_ = 0x9E3779B97F4A7C15ULL;
   std::vector<Axis> axes_;
+  CardFailure last_;
 };
 
 }  // namespace ajar::drivers

@@ -1,7 +1,14 @@
 // MotionCard: the narrow interface the control loop uses to drive the base's wheels. Implemented by
 // the real GTS4 driver (vendor library loaded at run time), the simulator (the same driver over the
 // card-simulator library), and the in-process mock. Not thread-safe: one thread (the control
-// thread) owns a card. Calls never block longer than the implementation's configured call timeout.
+// thread) owns a card.
+//
+// Two kinds of call:
+// - start-up / shut-down (open(), close()): may take long, return a Status with a message.
+// - realtime (everything else): noexcept, never allocate, never sleep or poll; each returns as
+//   soon as the card calls it makes return. kOk on success, else the ErrorCode. What failed
+//   (the vendor call, the axis, the vendor's raw return code, a static reason) is kept as numbers
+//   and static strings in last_failure(), for the I/O side to turn into text (describe()).
 //
 // Units are the card's: positions in pulses (counts), velocity in pulses/ms, acceleration in
 // pulses/ms^2. Axes count from 1.
@@ -9,6 +16,7 @@
 
 #include <cstdint>
 #include <span>
+#include <string>
 
 #include "ajar/core/result.hpp"
 
@@ -26,7 +34,9 @@ struct AxisStatus {
   bool emergency_stopped = false;  // GTS 0x100
   std::int64_t profile_position_counts = 0;
   std::int64_t encoder_position_counts = 0;
-  bool faulted() const { return alarm || following_error || positive_limit || negative_limit; }
+  bool faulted() const noexcept {
+    return alarm || following_error || positive_limit || negative_limit;
+  }
 };
 
 // One axis of a coordinated trapezoidal relative move.
@@ -42,24 +52,52 @@ struct TrapezoidProfile {
   double smooth_time_ms = 0;  // GTS smoothTime, 0..50
 };
 
+// The detail of a failed realtime call, without text. `call` and `what` point to string literals
+// (static storage: safe to copy into a report and read on another thread).
+struct CardFailure {
+  ErrorCode code = ErrorCode::kOk;
+  int axis = 0;           // the axis concerned; 0 = not about one axis
+  int vendor_code = 0;    // the vendor call's raw return code; 0 = not a vendor-call failure
+  const char* call = "";  // the vendor call (e.g. "GT_GetSts") or the card call that refused
+  const char* what =
+      "";  // why, when not a vendor code (e.g. "servo is off: enable the axis first")
+};
+
+// Text for an operator, e.g. "GT_GetSts(axis 2) failed: vendor code -7 (no response)" or
+// "move_relative: axis 1: drive alarm". Allocates: I/O side only.
+std::string describe(const CardFailure& failure);
+// The meaning of a GTS vendor return code ("no response", ...; "unknown vendor code").
+const char* gts_code_meaning(int vendor_code) noexcept;
+
 class MotionCard {
  public:
   virtual ~MotionCard() = default;
 
-  // Opens the card and loads its configuration. Start-up only (may take long).
+  // ---- start-up / shut-down ----
+  // Opens the card and loads its configuration (may take long).
   virtual Status open() = 0;
   virtual Status close() = 0;
-  virtual Status enable_axes(std::span<const int> axes) = 0;
-  virtual Status disable_axes(std::span<const int> axes) = 0;
-  virtual Status clear_faults(std::span<const int> axes) = 0;
+
+  // ---- realtime: noexcept, no allocation, no waiting ----
+  // Issues servo-on for the axes and returns (kAxisAlarm if a drive alarm is latched). The servo
+  // comes on later: poll axis_status().enabled (the card takes a few ms).
+  virtual ErrorCode enable_axes(std::span<const int> axes) noexcept = 0;
+  virtual ErrorCode disable_axes(std::span<const int> axes) noexcept = 0;
+  // Clears the latched status bits (alarm, following error, limits, stops) of the axes.
+  virtual ErrorCode clear_faults(std::span<const int> axes) noexcept = 0;
   // Trapezoidal relative move; all axes start together (one GT_Update with the axis mask).
-  virtual Status move_relative(std::span<const AxisMove> moves,
-                               const TrapezoidProfile& profile) = 0;
+  virtual ErrorCode move_relative(std::span<const AxisMove> moves,
+                                  const TrapezoidProfile& profile) noexcept = 0;
   // Decelerates the axes to rest along the profile's deceleration.
-  virtual Status smooth_stop(std::span<const int> axes) = 0;
+  virtual ErrorCode smooth_stop(std::span<const int> axes) noexcept = 0;
   // Stops the axes at once (GTS emergency stop option).
-  virtual Status emergency_stop(std::span<const int> axes) = 0;
-  virtual Result<AxisStatus> axis_status(int axis) = 0;
+  virtual ErrorCode emergency_stop(std::span<const int> axes) noexcept = 0;
+  // Fills `out` on kOk; leaves it unchanged otherwise.
+  virtual ErrorCode axis_status(int axis, AxisStatus& out) noexcept = 0;
+
+  // The detail of the last realtime call that did not return kOk (code kOk if none failed yet).
+  // Implementations that keep no detail return {code} of nothing: CardFailure{}.
+  virtual CardFailure last_failure() const noexcept { return {}; }
 };
 
 }  // namespace ajar::drivers

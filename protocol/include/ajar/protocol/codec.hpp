@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "ajar/core/error.hpp"
@@ -45,16 +46,20 @@ struct FrameHeader {
   std::uint32_t crc = 0;
 };
 
-// Encodes `envelope` as one frame into `out` (which must hold kMaxFrameSize bytes at most needed).
+// Encodes `envelope` as one frame into `out` (which must hold kMaxFrameSize bytes at most needed),
+// in the layout of protocol 1.`minor` (0..kVersionMinor; the header carries 1.`minor`): a peer
+// that said Hello with an older minor is answered in its own layout (docs/protocol.md section 7).
 // Returns the frame size in bytes, or 0 when `out` is too small or the message cannot be encoded:
-// an Ack whose body alternative does not match `acknowledged` (or acknowledges a non-request type),
-// a MeasureDoorPlane whose count is outside 3..16. Never allocates. The header carries this
-// library's version (kVersionMajor.kVersionMinor). Values are not validated otherwise: a sender
-// must not put NaN/infinity in numeric fields (the peer's decoder refuses the frame).
-std::size_t encode(const Envelope& envelope, std::span<std::uint8_t> out) noexcept;
+// a type (or an Ack of a type) that `minor` does not have, an Ack whose body alternative does not
+// match `acknowledged` (or acknowledges a non-request type), a MeasureDoorPlane whose count is
+// outside 3..16. Never allocates. Values are not validated otherwise: a sender must not put
+// NaN/infinity in numeric fields (the peer's decoder refuses the frame).
+std::size_t encode(const Envelope& envelope, std::span<std::uint8_t> out,
+                   std::uint8_t minor = kVersionMinor) noexcept;
 // Convenience: appends one frame to `out`. Returns false (and leaves `out` unchanged) when the
 // message cannot be encoded (see encode()).
-bool encode_append(const Envelope& envelope, std::vector<std::uint8_t>& out);
+bool encode_append(const Envelope& envelope, std::vector<std::uint8_t>& out,
+                   std::uint8_t minor = kVersionMinor);
 
 // True when the two messages are of the same type and encode to the same payload bytes (doubles
 // compared bit for bit). Used by tests, the fuzzer and conformance checks.
@@ -67,15 +72,29 @@ bool wire_equal(const Message& a, const Message& b) noexcept;
 // Order of checks: magic, major version, payload length maximum, CRC, flags, type, then the
 // payload: the fields that size it (Ack.acknowledged, MeasureDoorPlane.count), the payload length
 // for the type, then every other field in wire order; the first failure is reported.
-// A frame whose minor version is newer than kVersionMinor may carry a longer payload (fields
-// appended by the newer minor): the extra bytes are ignored. Otherwise the length must be exact.
+// Layouts follow the frame's minor version: a 1.0 frame has the 1.0 length (fields appended by
+// 1.1 keep their defaults) and may not carry a type 1.1 added (UNKNOWN_MESSAGE_TYPE). A frame whose
+// minor version is newer than kVersionMinor may carry a longer payload (fields appended by the
+// newer minor): the extra bytes are ignored. Otherwise the length must be exact.
 struct DecodeError {
   ErrorCode code = ErrorCode::kOk;
   std::uint32_t request_id = 0;  // from the header when it was readable, else 0
   std::uint16_t type = 0;        // raw message type from the header when readable, else 0
   bool framing_lost = false;     // true: the connection must be closed (bad magic, oversize)
   const char* field = "";        // offending field, e.g. "points[2].z", "frame", "header.crc"
+  // For the sentence (describe()): the frame's minor version, the offending raw value (enum byte,
+  // count, length, flags, type, the number's bit pattern, string length) and what was allowed
+  // (enum value count, maximum, expected length, computed CRC, string capacity), and a reason.
+  std::uint8_t version_minor = 0;
+  std::uint64_t value = 0;
+  std::uint64_t limit = 0;
+  const char* reason = "";
 };
+
+// One sentence for the operator saying which field was wrong and why, e.g. "p2.z is NaN: numbers
+// on the wire must be finite" or "header.payload_length is 40: Status in protocol 1.0 has 286
+// bytes". At most 200 bytes (fits ErrorReply::message).
+std::string describe(const DecodeError& error);
 
 // Streaming decoder. Feed it bytes as they arrive, in any chunking (one byte at a time works);
 // it yields one outcome at a time. Owns a fixed buffer of kMaxFrameSize: no allocation per frame.

@@ -1,4 +1,4 @@
-// Ajar wire protocol v1: the messages, as plain C++ values. Pure: no sockets, threads or logging.
+// Ajar wire protocol 1.1: the messages, as plain C++ values. Pure: no sockets, threads or logging.
 // The byte-level layout of every message is in docs/protocol.md; codec.hpp turns these into bytes
 // and back. Every field has a fixed size on the wire: no message allocates when decoded.
 #pragma once
@@ -16,7 +16,9 @@
 namespace ajar::protocol {
 
 inline constexpr std::uint8_t kVersionMajor = 1;
-inline constexpr std::uint8_t kVersionMinor = 0;
+// This library speaks 1.0 and 1.1: it encodes and decodes both layouts (docs/protocol.md section
+// 7).
+inline constexpr std::uint8_t kVersionMinor = 1;
 inline constexpr std::size_t kMaxPlanePoints = 16;
 inline constexpr std::size_t kMinPlanePoints = 3;
 
@@ -64,6 +66,11 @@ enum class MessageType : std::uint16_t {
   kReset = 0x0132,
   kGetStatus = 0x0140,
   kSubscribe = 0x0141,
+  // host -> daemon, protocol 1.1
+  kDrive = 0x0122,
+  kApproach = 0x0123,
+  kGetRobotModel = 0x0142,
+  kResetLoopStatistics = 0x0143,
   // daemon -> host
   kWelcome = 0x0201,
   kPong = 0x0202,
@@ -72,6 +79,8 @@ enum class MessageType : std::uint16_t {
   kEvent = 0x0205,
   kStatus = 0x0206,
   kTelemetry = 0x0207,
+  // daemon -> host, protocol 1.1
+  kRobotModel = 0x0208,
 };
 
 enum class Role : std::uint8_t { kController = 0, kObserver = 1 };
@@ -115,6 +124,12 @@ enum class DriverState : std::uint8_t {
   kActive = 2,
   kFault = 3,
 };
+
+// Which drivers the daemon runs (Welcome, 1.1; mirrors drivers::DriverKind).
+enum class DriverKind : std::uint8_t { kSim = 0, kMock = 1, kReal = 2 };
+
+// The control thread's scheduling policy (Status.realtime, 1.1).
+enum class SchedulingPolicy : std::uint8_t { kOther = 0, kFifo = 1, kRoundRobin = 2 };
 
 using core::FramedPoint;
 
@@ -160,6 +175,19 @@ struct Subscribe {
   float telemetry_rate_hz = 0;
 };  // 0 = off; capped at the loop rate
 
+// 1.1: jog the base. Body velocity (+x forward, CCW positive), valid for the robot model's
+// drive_command_timeout_s; a client holding the key re-sends it. Zero velocity is a smooth stop.
+struct Drive {
+  double linear_m_s = 0;
+  double angular_rad_s = 0;
+};
+// 1.1: drive straight until the base origin is `standoff_m` from the door plane.
+struct Approach {
+  double standoff_m = 0;
+};
+struct GetRobotModel {};        // 1.1: reply is RobotModel
+struct ResetLoopStatistics {};  // 1.1: restart the loop statistics (LoopStatistics, LoopTiming)
+
 // ---- daemon -> host -----------------------------------------------------------------------------
 
 struct Welcome {
@@ -173,6 +201,8 @@ struct Welcome {
   float min_door_width_m = 0, max_door_width_m = 0;
   float min_handle_length_m = 0, max_handle_length_m = 0;
   float max_yaw_correction_rad = 0;
+  // 1.1
+  DriverKind driver_kind = DriverKind::kSim;
 };
 struct Pong {
   std::uint64_t client_time_ns = 0;
@@ -186,9 +216,9 @@ struct SpanAck {  // MeasureDoorWidth, MeasureHandle
   core::Vec3 p1_base_m = core::Vec3::Zero();
   core::Vec3 p2_base_m = core::Vec3::Zero();
 };
-struct PlaneAck {                           // MeasureDoorPlane
-  core::Vec3 normal = core::Vec3::UnitX();  // unit, toward the robot, base frame
-  double yaw_deviation_rad = 0;             // CCW positive
+struct PlaneAck {                          // MeasureDoorPlane
+  core::Vec3 normal = core::Vec3::Zero();  // unit, toward the robot, base frame (zero: absent)
+  double yaw_deviation_rad = 0;            // CCW positive
   double left_wheel_rad = 0, right_wheel_rad = 0;
   std::int64_t left_counts = 0, right_counts = 0;
   double residual_yaw_rad = 0;  // left undone by rounding to counts
@@ -199,8 +229,15 @@ struct ContactAck {  // SetContactPoint
   core::Vec3 contact_base_m = core::Vec3::Zero();
   double reach_margin_m = 0;
 };
-struct EmptyAck {};  // everything else (AlignBase: motion accepted; Stop; Reset; Subscribe)
-using AckBody = std::variant<EmptyAck, SpanAck, PlaneAck, ContactAck>;
+// 1.1, Approach: the straight move the daemon accepted (motion accepted; completion is an Event).
+struct ApproachAck {
+  double travel_m = 0;           // signed, + forward: start distance - standoff
+  double start_distance_m = 0;   // base origin to the door plane when the move was planned
+  std::int64_t left_counts = 0;  // wheel command in card counts (polarity applied), as PlaneAck
+  std::int64_t right_counts = 0;
+};
+struct EmptyAck {};  // everything else (AlignBase: motion accepted; Stop; Reset; Subscribe; Drive)
+using AckBody = std::variant<EmptyAck, SpanAck, PlaneAck, ContactAck, ApproachAck>;
 
 struct Ack {
   MessageType acknowledged = MessageType::kPing;          // body layout follows from this
@@ -231,6 +268,44 @@ struct LoopStatistics {
   std::uint32_t jitter_p99_ns = 0;  // |period - nominal|, p99
 };
 
+// 1.1: percentiles of one loop quantity, in ns, saturating at 2^32 - 1.
+struct Quantiles {
+  std::uint32_t p50_ns = 0, p99_ns = 0, p999_ns = 0, max_ns = 0;
+};
+// 1.1: the loop's timing over one span of cycles.
+struct TimingWindow {
+  std::uint64_t samples = 0;  // cycles measured
+  Quantiles latency;          // wake-up latency: actual wake-up - deadline
+  Quantiles execution;        // cycle execution time: wake-up to the end of the cycle's work
+  Quantiles period;           // wake-up to wake-up
+};
+// 1.1: loop timing since start (or since ResetLoopStatistics) and over the recent window.
+struct LoopTiming {
+  float window_s = 0;  // length of the recent window
+  TimingWindow all;
+  TimingWindow recent;
+};
+
+// 1.1: where the door is, seen from the base now (updated as the base moves).
+struct DoorRelation {
+  bool has_distance = false;
+  double distance_m = 0;  // base origin to the door plane (perpendicular); see docs/protocol.md
+  bool has_yaw = false;   // needs a plane
+  double yaw_rad = 0;     // yaw still to correct to face the door squarely, CCW positive
+};
+// 1.1: stored base-frame measurements after the base moved.
+struct Staleness {
+  bool plane = false;    // the door plane no longer describes the door: measure it again
+  bool contact = false;  // the contact point no longer describes the handle: set it again
+  double travel_since_plane_m = 0;  // base origin displacement since the plane was measured
+};
+// 1.1: what the control thread got at start (Status only).
+struct RealtimeState {
+  SchedulingPolicy policy = SchedulingPolicy::kOther;
+  std::uint8_t priority = 0;   // SCHED_FIFO/RR priority; 0 for kOther
+  bool memory_locked = false;  // mlockall succeeded
+};
+
 struct Status {
   ProcedureState state = ProcedureState::kAwaitingWidth;
   ErrorCode latched_fault = ErrorCode::kOk;
@@ -251,6 +326,15 @@ struct Status {
   DriverState arm = DriverState::kUnconfigured;
   ArmState arm_state = ArmState::kDisconnected;
   LoopStatistics loop;
+  // 1.1 (a 1.0 layout ends above; decoded from a 1.0 frame these stay at their defaults)
+  double odometry_x_m = 0;  // with base_yaw_odometry_rad: the base pose in the odometry frame
+  double odometry_y_m = 0;
+  DoorRelation door;
+  Staleness staleness;
+  double commanded_linear_m_s = 0;  // body velocity the loop commands now (after limits)
+  double commanded_angular_rad_s = 0;
+  LoopTiming timing;
+  RealtimeState realtime;
 };
 
 struct Telemetry {
@@ -262,21 +346,74 @@ struct Telemetry {
   double base_yaw_odometry_rad = 0;                // CCW positive, since daemon start
   ArmState arm_state = ArmState::kDisconnected;
   LoopStatistics loop;
+  // 1.1, as in Status
+  double odometry_x_m = 0;
+  double odometry_y_m = 0;
+  DoorRelation door;
+  Staleness staleness;
+  double commanded_linear_m_s = 0;
+  double commanded_angular_rad_s = 0;
+  LoopTiming timing;
+};
+
+// 1.1: one driving wheel.
+struct WheelModel {
+  std::uint8_t card_axis = 0;  // GTS axis number, from 1
+  std::int8_t polarity = 1;    // +1 or -1: the sign that makes positive counts roll forward
+};
+
+// 1.1: the robot's calibration and every limit the daemon validates against (reply to
+// GetRobotModel): enough to reproduce every derived value of an Ack and to draw base-frame
+// coordinates. A value the daemon does not use yet is 0 (docs/protocol.md says which).
+struct RobotModel {
+  std::array<double, 12> camera_to_base{};  // ^B_C T, rows of [R | t] (3x4), t in metres
+  double wheel_radius_m = 0;                // R_W
+  double turning_radius_m = 0;              // R_B
+  double encoder_counts_per_rev = 0;        // motor encoder counts per motor revolution
+  double gear_ratio = 0;                    // motor revolutions per wheel revolution
+  WheelModel left, right;
+  double max_wheel_speed_rad_s = 0, max_wheel_accel_rad_s2 = 0;
+  // Drive (jog)
+  double max_linear_speed_m_s = 0, max_angular_speed_rad_s = 0;
+  double max_linear_accel_m_s2 = 0, max_angular_accel_rad_s2 = 0;
+  double drive_command_timeout_s = 0;
+  // Approach
+  double approach_max_travel_m = 0;          // longest accepted approach move
+  double approach_square_tolerance_rad = 0;  // |yaw to the door| above this: NOT_SQUARE_TO_DOOR
+  double approach_min_standoff_m = 0;        // smallest accepted standoff
+  // Staleness: base motion after which the stored plane (and contact point) is stale
+  double stale_travel_m = 0, stale_yaw_rad = 0;
+  // Arm workspace (base frame): spherical shell around the shoulder, clipped by a height band
+  core::Vec3 arm_shoulder_m = core::Vec3::Zero();
+  double arm_min_reach_m = 0, arm_max_reach_m = 0, arm_min_z_m = 0, arm_max_z_m = 0;
+  // Validation limits
+  double min_depth_m = 0, max_depth_m = 0;  // camera z
+  double min_door_width_m = 0, max_door_width_m = 0;
+  double min_handle_length_m = 0, max_handle_length_m = 0;
+  double max_yaw_correction_rad = 0;
+  double aligned_tolerance_rad = 0;
+  double min_point_separation_m = 0, min_lateral_fraction = 0, collinearity = 0;
+  double max_plane_rms_m = 0, max_door_tilt_rad = 0;
 };
 
 using Message =
     std::variant<Hello, Ping, MeasureDoorWidth, MeasureHandle, MeasureDoorPlane, SetContactPoint,
                  AlignBase, Engage, Stop, EmergencyStop, Reset, GetStatus, Subscribe, Welcome, Pong,
-                 Ack, ErrorReply, Event, Status, Telemetry>;
+                 Ack, ErrorReply, Event, Status, Telemetry, Drive, Approach, GetRobotModel,
+                 ResetLoopStatistics, RobotModel>;
 
 // The message type of a value, and whether it travels host -> daemon.
 MessageType type_of(const Message& m) noexcept;
 bool is_request(MessageType t) noexcept;
+// The minor version that defined `t` (0 for the 1.0 types, 1 for the 1.1 ones); 255 when unknown.
+std::uint8_t minor_of(MessageType t) noexcept;
 std::string_view to_string(MessageType t) noexcept;     // "MeasureDoorWidth", ...
 std::string_view to_string(ProcedureState s) noexcept;  // "awaiting_width", ...
 std::string_view to_string(EventKind k) noexcept;
 std::string_view to_string(Role r) noexcept;
 std::string_view to_string(ArmState s) noexcept;
 std::string_view to_string(DriverState s) noexcept;
+std::string_view to_string(DriverKind k) noexcept;        // "sim", "mock", "real"
+std::string_view to_string(SchedulingPolicy p) noexcept;  // "other", "fifo", "rr"
 
 }  // namespace ajar::protocol

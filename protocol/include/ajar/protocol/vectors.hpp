@@ -44,7 +44,8 @@ Result<GoldenVector> parse_vector(std::string_view text);
 std::string format_vector(const GoldenVector& v, std::string_view comment = {});
 
 // Checks this library against `v`: decode_frame() and a StreamDecoder fed one byte at a time must
-// both give the expected outcome; a valid frame must re-encode byte-exact (or, with roundtrip: no,
+// both give the expected outcome; a valid frame must re-encode byte-exact in the layout of its
+// header's minor version (or, with roundtrip: no,
 // to a message that is wire_equal), and its type must match the direction; an error that does not
 // lose framing must skip exactly this frame (a Ping appended after it still decodes).
 // Error on mismatch: kInternal with a message saying what differed.
