@@ -10,6 +10,7 @@
 #include <mutex>
 #include <random>
 #include <set>
+#include <unordered_map>
 #include <thread>
 
 #include <sys/stat.h>
@@ -135,6 +136,9 @@ struct Client::Impl {
   bool is_connected = false;
   std::deque<protocol::Envelope> replies;
   std::optional<protocol::Welcome> welcome;
+  // Replies still owed to requests that are over (a retransmitted request gets one reply per frame
+  // sent): request id -> how many more to drop when they arrive.
+  std::unordered_map<std::uint32_t, int> stale;
 
   std::mutex handler_mutex;
   EventHandler event_handler;
@@ -156,6 +160,20 @@ struct Client::Impl {
   std::set<std::uint32_t> heartbeat_ids;
 
   static constexpr std::size_t kMaxQueuedReplies = 1024;
+  static constexpr std::size_t kMaxStaleIds = 4096;
+
+  // A request is over; `owed` more replies with its id may still arrive: drop them (and any
+  // already queued). Caller holds `mutex`.
+  void forget_request(std::uint32_t request_id, int owed) {
+    std::erase_if(replies, [&](const protocol::Envelope& e) {
+      if (e.request_id != request_id || owed <= 0) return false;
+      --owed;
+      return true;
+    });
+    if (owed <= 0) return;
+    if (stale.size() >= kMaxStaleIds) stale.clear();
+    stale[request_id] += owed;
+  }
 
   void on_closed(const std::string& why) {
     if (!socket) return;
@@ -202,6 +220,10 @@ struct Client::Impl {
     if (envelope.request_id != 0 && heartbeat_ids.erase(envelope.request_id) > 0) return;
     {
       std::lock_guard lock(mutex);
+      if (auto it = stale.find(envelope.request_id); it != stale.end()) {
+        if (--it->second <= 0) stale.erase(it);
+        return;  // a late duplicate of a reply already taken (or given up on)
+      }
       replies.push_back(std::move(envelope));
       if (replies.size() > kMaxQueuedReplies) replies.pop_front();
     }
@@ -405,6 +427,7 @@ std::string Client::connect(const Endpoint& endpoint, Milliseconds timeout) {
                     std::lock_guard lock(impl->mutex);
                     impl->is_connected = true;
                     impl->replies.clear();
+                    impl->stale.clear();  // the old connection's replies never come
                     impl->welcome.reset();
                   }
                   impl->start_read(sock);
@@ -525,6 +548,10 @@ Response Client::request(const protocol::Message& message, Milliseconds timeout,
     const auto sent = Clock::now();
     auto reply = wait_reply(envelope.request_id, timeout);
     if (reply) {
+      if (response.attempts > 1) {  // each earlier attempt may still be answered
+        std::lock_guard lock(impl_->mutex);
+        impl_->forget_request(envelope.request_id, response.attempts - 1);
+      }
       response.round_trip = std::chrono::duration_cast<Milliseconds>(Clock::now() - sent);
       response.reply = std::move(reply->message);
       if (const auto* error = std::get_if<protocol::ErrorReply>(&response.reply)) {
@@ -540,6 +567,10 @@ Response Client::request(const protocol::Message& message, Milliseconds timeout,
       response.transport_error = "connection lost while waiting for the reply";
       return response;
     }
+  }
+  {  // every attempt may still be answered later
+    std::lock_guard lock(impl_->mutex);
+    impl_->forget_request(envelope.request_id, response.attempts);
   }
   response.outcome = Outcome::kTimeout;
   response.transport_error =

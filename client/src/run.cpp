@@ -306,6 +306,16 @@ class Session {
       }
       std::this_thread::sleep_for(Milliseconds{50});
     }
+    if (!finished && rc == kExitOk) {
+      // --wait-timeout while still moving: stop it and wait for the Ack (with the heartbeat still
+      // running) rather than disconnect and leave the stop to the deadman.
+      const Response stop = client_.request(protocol::Stop{});
+      print(response_object("stop", stop),
+            c.name + " wait timed out: " + response_text("stop", stop));
+      if (const Response r = client_.request(protocol::GetStatus{}); r.ok()) {
+        last = *r.get<protocol::Status>();
+      }
+    }
     client_.set_heartbeat(Milliseconds{0});
     show_events_ = false;
     if (rc != kExitOk) return rc;
@@ -349,7 +359,7 @@ class Session {
           finished
               ? "the " + c.name + " ended in state " + std::string(protocol::to_string(last.state))
               : "still " + std::string(protocol::to_string(busy)) + " after " +
-                    std::to_string(c.wait_timeout_s) + " s";
+                    std::to_string(c.wait_timeout_s) + " s: Stop sent";
       o.add("error", error_object(code, "", message));
       text += "\n  " + code + ": " + message;
     }

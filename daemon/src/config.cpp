@@ -572,6 +572,7 @@ Config load_config(const std::string& path) {
   {
     Section s = top.section("safety");
     s.number("deadman_timeout_s", c.safety.deadman_timeout_s, 0.02, 60, " s");
+    s.number("arm_task_timeout_s", c.safety.arm_task_timeout_s, 0.1, 3600, " s");
     s.finish();
   }
   read_logging(top.section("logging"), c.logging);
@@ -782,6 +783,7 @@ std::string to_yaml(const Config& c) {
 
   out << YAML::Key << "safety" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "deadman_timeout_s" << YAML::Value << c.safety.deadman_timeout_s;
+  out << YAML::Key << "arm_task_timeout_s" << YAML::Value << c.safety.arm_task_timeout_s;
   out << YAML::EndMap;
   out << YAML::Key << "logging" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "level" << YAML::Value << c.logging.level;

@@ -46,9 +46,8 @@ double planned_duration_s(std::int64_t distance_counts,
   return ms / 1e3;
 }
 
-ControlLoop::ControlLoop(std::unique_ptr<drivers::ManagedMotionCard> card,
-                         const ControlLoopSettings& settings)
-    : card_(std::move(card)),
+ControlLoop::ControlLoop(drivers::MotionCard& card, const ControlLoopSettings& settings)
+    : card_(card),
       settings_(settings),
       axes_{settings.base.left.card_axis, settings.base.right.card_axis},
       profile_(wheel_profile(settings.base)),
@@ -58,23 +57,11 @@ ControlLoop::ControlLoop(std::unique_ptr<drivers::ManagedMotionCard> card,
           seconds_to_ns(1.5 * (profile_.velocity_counts_per_ms /
                                std::max(profile_.deceleration_counts_per_ms2, 1e-12) / 1e3) +
                         settings.motion_timeout_margin_s)),
+      recovery_timeout_ns_(seconds_to_ns(settings.recovery_timeout_s)),
       statistics_(settings.rate_hz) {}
 
 ControlLoop::~ControlLoop() {
   stop_thread();
-}
-
-Status ControlLoop::bring_up() {
-  if (auto s = card_->configure(); !s) return s;
-  return card_->activate();
-}
-
-void ControlLoop::bring_down() noexcept {
-  if (card_->state() == drivers::LifecycleState::kActive) {
-    (void)card_->smooth_stop(axes_);
-    (void)card_->deactivate();
-  }
-  if (card_->state() == drivers::LifecycleState::kInactive) (void)card_->cleanup();
 }
 
 std::vector<std::string> ControlLoop::start_thread() {
@@ -120,19 +107,40 @@ void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
 }
 
 bool ControlLoop::post_move(const MoveCommand& move) noexcept {
-  return commands_.push(move);
+  Command c;
+  c.kind = CommandKind::kMove;
+  c.id = move.motion_id;
+  c.left_counts = move.left_counts;
+  c.right_counts = move.right_counts;
+  c.stop_stamp = stop_generation_.load();
+  c.latch_stamp = latch_generation_.load();
+  return commands_.push(c);
 }
+bool ControlLoop::request_recover(std::uint32_t sequence) noexcept {
+  Command c;
+  c.kind = CommandKind::kRecover;
+  c.id = sequence;
+  c.stop_stamp = stop_generation_.load();
+  c.latch_stamp = latch_generation_.load();
+  return commands_.push(c);
+}
+// The generations are bumped after the code is queued: a cycle that sees the new generation sees
+// the code too. The emergency generation is bumped before the latch generation for the same reason.
 void ControlLoop::request_stop() noexcept {
-  stop_requested_.store(true, std::memory_order_release);
+  stop_generation_.fetch_add(1);
 }
 void ControlLoop::request_emergency_stop() noexcept {
-  emergency_stop_requested_.store(true, std::memory_order_release);
+  emergency_generation_.fetch_add(1);
+  stop_generation_.fetch_add(1);
+  latch_generation_.fetch_add(1);
 }
 void ControlLoop::request_fault_stop(ErrorCode code) noexcept {
-  fault_stop_code_.store(static_cast<std::uint16_t>(code), std::memory_order_release);
-}
-void ControlLoop::request_recover() noexcept {
-  recover_requested_.store(true, std::memory_order_release);
+  if (!fault_codes_.push(code)) {
+    std::uint16_t none = 0;
+    (void)fault_overflow_code_.compare_exchange_strong(none, static_cast<std::uint16_t>(code));
+  }
+  stop_generation_.fetch_add(1);
+  latch_generation_.fetch_add(1);
 }
 void ControlLoop::set_arm_moving(bool moving) noexcept {
   arm_moving_.store(moving, std::memory_order_release);
@@ -155,78 +163,136 @@ void ControlLoop::report(const LoopReport& r) noexcept {
 }
 
 void ControlLoop::latch(ErrorCode code, int axis) noexcept {
-  if (fault_ != ErrorCode::kOk) return;  // the first fault is the root cause
-  fault_ = code;
-  report({LoopReportKind::kFault, code, motion_id_, axis});
+  if (fault_ == ErrorCode::kOk) {  // the first fault is the root cause
+    fault_ = code;
+    report({LoopReportKind::kFault, code, motion_id_, axis, recover_sequence_});
+  }
+  if (recovery_ != Recovery::kNone) end_recovery(code);  // a fault during recovery ends it
 }
 
 void ControlLoop::finish(LoopReportKind kind, ErrorCode code) noexcept {
-  report({kind, code, motion_id_, 0});
+  report({kind, code, motion_id_, 0, 0});
+  snapshot_.last_motion_id = motion_id_;
   motion_ = Motion::kIdle;
 }
 
 void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
-  if (card_->smooth_stop(axes_) != ErrorCode::kOk) (void)card_->emergency_stop(axes_);
+  if ((card_.smooth_stop(axes_)) != ErrorCode::kOk) (void)(card_.emergency_stop(axes_));
   motion_ = Motion::kStopping;
   motion_deadline_ns_ = now_ns + stop_timeout_ns_;
 }
 
-void ControlLoop::handle_requests(std::int64_t now_ns) noexcept {
-  if (emergency_stop_requested_.exchange(false, std::memory_order_acq_rel)) {
-    (void)card_->emergency_stop(axes_);
-    latch(ErrorCode::kEmergencyStopped, 0);
+void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
+  // Latch generation first: every emergency or fault stop it counts is visible below.
+  const std::uint32_t latches = latch_generation_.load();
+  if (const std::uint32_t e = emergency_generation_.load(); e != handled_emergency_) {
+    handled_emergency_ = e;
+    (void)(card_.emergency_stop(axes_));
     if (motion_ != Motion::kIdle) {
       stop_reason_ = ErrorCode::kEmergencyStopped;
       motion_ = Motion::kStopping;
       motion_deadline_ns_ = now_ns + stop_timeout_ns_;
     }
+    latch(ErrorCode::kEmergencyStopped, 0);
   }
-  if (const auto code = fault_stop_code_.exchange(0, std::memory_order_acq_rel); code != 0) {
-    latch(static_cast<ErrorCode>(code), 0);
-    if (motion_ == Motion::kMoving) {
-      stop_reason_ = static_cast<ErrorCode>(code);
-      begin_stop(now_ns);
+  if (latches != handled_latch_) {
+    handled_latch_ = latches;
+    ErrorCode queued = ErrorCode::kOk;
+    while (fault_codes_.pop(queued)) {
+      if (motion_ == Motion::kMoving) {
+        stop_reason_ = queued;
+        begin_stop(now_ns);
+      }
+      latch(queued, 0);
+    }
+    if (const auto overflow = fault_overflow_code_.exchange(0); overflow != 0) {
+      if (motion_ == Motion::kMoving) {
+        stop_reason_ = static_cast<ErrorCode>(overflow);
+        begin_stop(now_ns);
+      }
+      latch(static_cast<ErrorCode>(overflow), 0);
     }
   }
-  if (stop_requested_.exchange(false, std::memory_order_acq_rel) && motion_ == Motion::kMoving) {
-    stop_reason_ = ErrorCode::kOk;
-    begin_stop(now_ns);
-  }
-  if (recover_requested_.exchange(false, std::memory_order_acq_rel)) {
+  if (const std::uint32_t s = stop_generation_.load(); s != handled_stop_) {
+    handled_stop_ = s;
     if (motion_ == Motion::kMoving) {
       stop_reason_ = ErrorCode::kOk;
       begin_stop(now_ns);
     }
-    Status s = Ok{};
-    if (card_->state() == drivers::LifecycleState::kFault) s = card_->recover();
-    if (s && card_->state() == drivers::LifecycleState::kInactive) {
-      s = card_->activate();
-    } else if (s && card_->state() == drivers::LifecycleState::kActive) {
-      ErrorCode e = card_->clear_faults(axes_);
-      if (e == ErrorCode::kOk) e = card_->enable_axes(axes_);
-      if (e != ErrorCode::kOk) s = make_error(e, "", "");
-    }
-    if (s) {
-      fault_ = ErrorCode::kOk;
-      read_axes();  // supervise what the card says now, not what it said before the recovery
-      report({LoopReportKind::kRecovered, ErrorCode::kOk, 0, 0});
-    } else {
-      const ErrorCode code = s.error().code;
-      if (fault_ == ErrorCode::kOk) fault_ = code;
-      report({LoopReportKind::kRecovered, code, 0, 0});
-    }
   }
 }
 
-void ControlLoop::start_move(const MoveCommand& move, std::int64_t now_ns) noexcept {
-  if (motion_ != Motion::kIdle) {
-    report({LoopReportKind::kMoveRefused, ErrorCode::kMotionInProgress, move.motion_id, 0});
+void ControlLoop::execute(const Command& c, std::int64_t now_ns) noexcept {
+  handle_stops(now_ns);  // every stop posted before this command acts first
+  switch (c.kind) {
+    case CommandKind::kMove:
+      if (c.stop_stamp != handled_stop_) {  // a stop was posted after this move
+        report({LoopReportKind::kMoveCancelled, fault_, c.id, 0, 0});
+        snapshot_.last_motion_id = c.id;
+        return;
+      }
+      start_move(c, now_ns);
+      return;
+    case CommandKind::kRecover:
+      if (recovery_ != Recovery::kNone) end_recovery(ErrorCode::kOk);  // cannot happen: queue waits
+      recover_sequence_ = c.id;
+      if (c.latch_stamp != handled_latch_) {  // an emergency or fault stop was posted after it
+        report({LoopReportKind::kRecovered,
+                fault_ != ErrorCode::kOk ? fault_ : ErrorCode::kEmergencyStopped, 0, 0, c.id});
+        return;
+      }
+      fault_ = ErrorCode::kOk;
+      recovery_ = Recovery::kWaitRest;
+      advance_recovery(now_ns);
+      return;
+  }
+}
+
+void ControlLoop::end_recovery(ErrorCode code) noexcept {
+  recovery_ = Recovery::kNone;
+  report({LoopReportKind::kRecovered, code, 0, 0, recover_sequence_});
+}
+
+void ControlLoop::advance_recovery(std::int64_t now_ns) noexcept {
+  if (recovery_ != Recovery::kWaitRest && now_ns > recovery_deadline_ns_) {
+    latch(ErrorCode::kMotionTimeout, 0);  // the servo did not come on in time; ends the recovery
     return;
   }
-  if (fault_ != ErrorCode::kOk) {
-    report({LoopReportKind::kMoveRefused, ErrorCode::kFaultLatched, move.motion_id, 0});
-    return;
+  switch (recovery_) {
+    case Recovery::kNone:
+      return;
+    case Recovery::kWaitRest:  // the wheels come to rest first (a stop has its own deadline)
+      if (motion_ != Motion::kIdle) return;
+      recovery_ = Recovery::kClear;
+      recovery_deadline_ns_ = now_ns + recovery_timeout_ns_;
+      [[fallthrough]];
+    case Recovery::kClear:
+      if (const ErrorCode e = (card_.clear_faults(axes_)); e != ErrorCode::kOk) return latch(e, 0);
+      recovery_ = Recovery::kEnable;
+      return;
+    case Recovery::kEnable:
+      if (const ErrorCode e = (card_.enable_axes(axes_)); e != ErrorCode::kOk) return latch(e, 0);
+      recovery_ = Recovery::kPoll;
+      return;
+    case Recovery::kPoll:
+      if (!answered_) return;  // not answering: keep polling until the deadline
+      for (int i = 0; i < 2; ++i) {
+        if (status_[i].alarm) return latch(ErrorCode::kAxisAlarm, axes_[i]);
+        if (status_[i].following_error) return latch(ErrorCode::kFollowingError, axes_[i]);
+        if (!status_[i].enabled) return;
+      }
+      end_recovery(ErrorCode::kOk);
+      return;
   }
+}
+
+void ControlLoop::start_move(const Command& move, std::int64_t now_ns) noexcept {
+  const auto refuse = [&](ErrorCode code, int axis) {
+    report({LoopReportKind::kMoveRefused, code, move.id, axis, 0});
+    snapshot_.last_motion_id = move.id;
+  };
+  if (motion_ != Motion::kIdle) return refuse(ErrorCode::kMotionInProgress, 0);
+  if (fault_ != ErrorCode::kOk) return refuse(ErrorCode::kFaultLatched, 0);
   for (int i = 0; answered_ && i < 2; ++i) {  // a drive fault seen this cycle: do not start
     const drivers::AxisStatus& st = status_[i];
     const ErrorCode code = st.alarm                                   ? ErrorCode::kAxisAlarm
@@ -235,17 +301,15 @@ void ControlLoop::start_move(const MoveCommand& move, std::int64_t now_ns) noexc
                                                                       : ErrorCode::kOk;
     if (code != ErrorCode::kOk) {
       latch(code, axes_[i]);
-      report({LoopReportKind::kMoveRefused, code, move.motion_id, axes_[i]});
-      return;
+      return refuse(code, axes_[i]);
     }
   }
   const drivers::AxisMove moves[2] = {{axes_[0], move.left_counts}, {axes_[1], move.right_counts}};
-  motion_id_ = move.motion_id;
-  if (const ErrorCode e = card_->move_relative(moves, profile_); e != ErrorCode::kOk) {
+  if (const ErrorCode e = (card_.move_relative(moves, profile_)); e != ErrorCode::kOk) {
     latch(e, 0);
-    report({LoopReportKind::kMoveRefused, e, move.motion_id, 0});
-    return;
+    return refuse(e, 0);
   }
+  motion_id_ = move.id;
   target_counts_[0] = snapshot_profile_counts_[0] + move.left_counts;
   target_counts_[1] = snapshot_profile_counts_[1] + move.right_counts;
   seen_moving_ = false;
@@ -258,11 +322,12 @@ void ControlLoop::start_move(const MoveCommand& move, std::int64_t now_ns) noexc
 
 void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   read_axes();  // first: odometry and a move's start position come from before any new command
-  handle_requests(now_ns);
-  MoveCommand move;
-  while (commands_.pop(move)) {
-    handle_requests(now_ns);  // a Reset posted before this move must be applied before it
-    start_move(move, now_ns);
+  handle_stops(now_ns);
+  if (recovery_ != Recovery::kNone) advance_recovery(now_ns);
+  while (recovery_ == Recovery::kNone) {  // the queue waits behind a running recovery
+    Command c;
+    if (!commands_.pop(c)) break;
+    execute(c, now_ns);
   }
 
   supervise(now_ns);
@@ -271,16 +336,35 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   snapshot_.time_ns = now_ns;
   snapshot_.motion_active = motion_ != Motion::kIdle;
   snapshot_.fault = fault_;
-  snapshot_.card_state = card_->state();
+  snapshot_.recover_sequence = recover_sequence_;
+  snapshot_.recovering = recovery_ != Recovery::kNone;
+  snapshot_.card_state = card_state();
   snapshot_.reports_dropped = reports_dropped_;
   published_.store(snapshot_);
+}
+
+drivers::LifecycleState ControlLoop::card_state() const noexcept {
+  if (!answered_) return drivers::LifecycleState::kFault;
+  switch (fault_) {
+    case ErrorCode::kCardCommunication:
+    case ErrorCode::kAxisAlarm:
+    case ErrorCode::kFollowingError:
+    case ErrorCode::kDriverError:
+    case ErrorCode::kDriverNotActive:
+      return drivers::LifecycleState::kFault;
+    default:
+      break;
+  }
+  if (recovery_ != Recovery::kNone) return drivers::LifecycleState::kInactive;
+  return status_[0].enabled && status_[1].enabled ? drivers::LifecycleState::kActive
+                                                  : drivers::LifecycleState::kInactive;
 }
 
 void ControlLoop::read_axes() noexcept {
   answered_ = true;
   read_error_ = ErrorCode::kOk;
   for (int i = 0; i < 2; ++i) {
-    if (const ErrorCode e = card_->axis_status(axes_[i], status_[i]); e != ErrorCode::kOk) {
+    if (const ErrorCode e = card_.axis_status(axes_[i], status_[i]); e != ErrorCode::kOk) {
       answered_ = false;
       read_error_ = e;
     }
@@ -351,21 +435,20 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
       if (answered && !status[0].moving && !status[1].moving) {
         finish(LoopReportKind::kMotionStopped, stop_reason_);
       } else if (now_ns > motion_deadline_ns_) {
-        (void)card_->emergency_stop(axes_);
+        (void)(card_.emergency_stop(axes_));
         latch(ErrorCode::kMotionTimeout, 0);
         finish(LoopReportKind::kMotionStopped, ErrorCode::kMotionTimeout);
       }
       break;
     case Motion::kIdle:
-      if (fault_ == ErrorCode::kOk) {
-        if (arm_moving_.load(std::memory_order_acquire) && silent) {
-          latch(ErrorCode::kDeadman, 0);
-        } else if (answered) {
-          for (int i = 0; i < 2; ++i) {
-            if (status[i].alarm) {
-              latch(ErrorCode::kAxisAlarm, axes_[i]);
-              break;
-            }
+      if (fault_ != ErrorCode::kOk) break;
+      if (arm_moving_.load(std::memory_order_acquire) && silent) {
+        latch(ErrorCode::kDeadman, 0);
+      } else if (answered && recovery_ == Recovery::kNone) {  // a recovery checks alarms itself
+        for (int i = 0; i < 2; ++i) {
+          if (status[i].alarm) {
+            latch(ErrorCode::kAxisAlarm, axes_[i]);
+            break;
           }
         }
       }

@@ -1,5 +1,6 @@
 // The engine: procedure + control loop + arm + persistence, driven from the I/O thread.
 // docs/procedure.md and docs/control-loop.md describe the behaviour; this file wires it up.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -40,6 +41,7 @@ ControlLoopSettings loop_settings(const Config& c) {
   s.lock_memory = c.control.lock_memory;
   s.deadman_timeout_s = c.safety.deadman_timeout_s;
   s.motion_timeout_margin_s = c.control.motion_timeout_margin_s;
+  s.recovery_timeout_s = std::max(0.1, c.drivers.card.poll_timeout_ms / 1000.0);
   s.base = c.base;
   return s;
 }
@@ -83,20 +85,22 @@ std::string describe(const Error& e) {
 
 class EngineImpl final : public Engine {
  public:
-  EngineImpl(const Config& config, drivers::DriverSet drivers)
+  EngineImpl(const Config& config, drivers::DriverSet drivers, EngineOptions options)
       : config_(config),
+        clock_(options.now_ns ? std::move(options.now_ns)
+                              : std::function<std::int64_t()>([] { return monotonic_now_ns(); })),
+        manual_loop_(options.manual_loop),
         keepalive_(std::move(drivers.keepalive)),
         procedure_(camera_to_base_or_throw(config), config.limits, config.base,
                    ProcedureLimits{config.control.aligned_tolerance_rad}),
         store_(config.state.directory,
                StateStore::Options{std::chrono::milliseconds(config.state.debug_write_delay_ms)}),
-        start_ns_(monotonic_now_ns()) {
+        start_ns_(clock_()) {
     if (!drivers.card || !drivers.arm) throw StartupError("drivers: card and arm are required");
     const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
-    loop_ = std::make_unique<ControlLoop>(
-        std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
-                                                     config.drivers.card.poll_timeout_ms),
-        loop_settings(config));
+    card_ = std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
+                                                         config.drivers.card.poll_timeout_ms);
+    loop_ = std::make_unique<ControlLoop>(*card_, loop_settings(config));
     arm_ = std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm));
   }
 
@@ -107,41 +111,57 @@ class EngineImpl final : public Engine {
   void start() override {
     if (started_) return;
     store_.prepare();
-    if (auto s = loop_->bring_up(); !s) {
-      loop_->bring_down();
-      throw StartupError("motion card: " + describe(s.error()));
+    // Lifecycle policy (with its waits) runs here, before the control thread exists.
+    Status card_up = card_->configure();
+    if (card_up) card_up = card_->activate();
+    if (!card_up) {
+      bring_down_card();
+      throw StartupError("motion card: " + describe(card_up.error()));
     }
     if (auto s = arm_->configure(); !s) {
-      loop_->bring_down();
+      bring_down_card();
       throw StartupError("manipulator: " + describe(s.error()));
     }
     if (auto s = arm_->activate(); !s) {
       (void)arm_->cleanup();
-      loop_->bring_down();
+      bring_down_card();
       throw StartupError("manipulator: " + describe(s.error()));
     }
     restore();
     store_.start();
-    for (auto& w : loop_->start_thread())
-      startup_warnings_.push_back(std::move(w));
+    if (!manual_loop_) {
+      for (auto& w : loop_->start_thread())
+        startup_warnings_.push_back(std::move(w));
+    }
     last_state_ = procedure_.state();
     started_ = true;
   }
 
+  // Stops the wheels and the arm, tells every session (motion_stopped with the reason) while the
+  // sink is still connected, persists, then joins the loop and brings the drivers down.
   void shutdown() noexcept override {
     if (!started_ || stopped_) return;
     stopped_ = true;
     try {
       drain_reports();
+      stop_reason_ = "the daemon is shutting down";
       loop_->request_stop();
       (void)arm_->stop();
       loop_->set_arm_moving(false);
       if (procedure_.phase() == Phase::kAligning) procedure_.alignment_interrupted();
       if (procedure_.phase() == Phase::kEngaging) procedure_.engaging_interrupted();
+      end_arm_motion(EventKind::kMotionStopped, "arm stopped: the daemon is shutting down");
+      if (manual_loop_) loop_->cycle(now_ns());  // a hand-driven loop: the stop reaches the card
       // Let the wheels come to rest under the loop's supervision (bounded).
       const std::int64_t give_up = monotonic_now_ns() + 5'000'000'000;
-      while (loop_->snapshot().motion_active && monotonic_now_ns() < give_up) {
+      while (!manual_loop_ && wheel_motion_ != 0 && monotonic_now_ns() < give_up) {
         std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        drain_reports();
+      }
+      if (wheel_motion_ != 0) {
+        wheel_motion_ = 0;
+        emit(EventKind::kMotionStopped, ErrorCode::kShuttingDown,
+             "wheels stopped: the daemon is shutting down");
       }
       persist();
       if (!store_.flush(std::chrono::seconds(5))) {
@@ -151,7 +171,7 @@ class EngineImpl final : public Engine {
     } catch (...) {  // shutting down: nothing sensible to do but carry on
     }
     loop_->stop_thread();
-    loop_->bring_down();
+    bring_down_card();
     if (arm_->state() == drivers::LifecycleState::kActive) (void)arm_->deactivate();
     if (arm_->state() == drivers::LifecycleState::kInactive) (void)arm_->cleanup();
   }
@@ -163,15 +183,14 @@ class EngineImpl final : public Engine {
     return reply;
   }
 
-  void controller_heartbeat() noexcept override { loop_->heartbeat(monotonic_now_ns()); }
+  void controller_heartbeat() noexcept override { loop_->heartbeat(now_ns()); }
 
   void controller_lost() override {
     drain_reports();
     const Phase phase = procedure_.phase();
     if (phase == Phase::kAligning || phase == Phase::kEngaging) {
       loop_->request_fault_stop(ErrorCode::kDeadman);
-      if (phase == Phase::kEngaging) (void)arm_->stop();
-      loop_->set_arm_moving(false);
+      (void)arm_->stop();
       latch(ErrorCode::kDeadman, "the controller went away during motion: stopped");
     }
     flush();
@@ -179,7 +198,7 @@ class EngineImpl final : public Engine {
 
   void poll() override {
     drain_reports();
-    poll_arm();
+    supervise_arm();
     reconcile();
     flush();
   }
@@ -199,6 +218,8 @@ class EngineImpl final : public Engine {
     s.arm = to_wire(arm_->state());
     s.arm_state = to_wire(arm_->status().phase);
     s.loop = loop_->statistics().summary();
+    s.timing = loop_->statistics().timing(monotonic_now_ns());
+    s.realtime = to_wire(realtime_granted());
     return s;
   }
 
@@ -215,6 +236,7 @@ class EngineImpl final : public Engine {
     t.base_yaw_odometry_rad = snap.base_yaw_rad;
     t.arm_state = to_wire(arm_->status().phase);
     t.loop = loop_->statistics().summary();
+    t.timing = loop_->statistics().timing(monotonic_now_ns());
     return t;
   }
 
@@ -234,7 +256,17 @@ class EngineImpl final : public Engine {
 
   protocol::RobotModel robot_model() const override { return robot_model_of(config_); }
 
-  bool control_loop_healthy() const noexcept override { return loop_->healthy(monotonic_now_ns()); }
+  bool control_loop_healthy() const noexcept override {
+    return manual_loop_ || loop_->healthy(monotonic_now_ns());
+  }
+
+  std::uint64_t daemon_time_ns() const noexcept override {
+    return static_cast<std::uint64_t>(now_ns() - start_ns_);
+  }
+
+  void run_loop_cycle() noexcept override {
+    if (manual_loop_) loop_->cycle(now_ns());
+  }
 
   std::vector<std::string> startup_warnings() const override { return startup_warnings_; }
 
@@ -271,26 +303,14 @@ class EngineImpl final : public Engine {
     if (std::holds_alternative<protocol::Stop>(request)) return stop(type);
     if (std::holds_alternative<protocol::EmergencyStop>(request)) return emergency_stop(type);
     if (const auto* m = std::get_if<protocol::Reset>(&request)) return reset(type, *m);
-    if (std::holds_alternative<protocol::GetStatus>(request)) return status();
-    if (const auto* m = std::get_if<protocol::Ping>(&request)) {
-      return protocol::Pong{m->client_time_ns, daemon_time_ns()};
-    }
-    if (const auto* m = std::get_if<protocol::Subscribe>(&request)) {
-      if (!(m->telemetry_rate_hz >= 0.0F) ||
-          static_cast<double>(m->telemetry_rate_hz) > config_.control.rate_hz) {
-        return refuse(type, make_error(ErrorCode::kRateLimited, "telemetry_rate_hz",
-                                       "telemetry rate must be 0..loop rate"));
-      }
-      return ack(type, protocol::EmptyAck{});
-    }
     if (type == MessageType::kDrive || type == MessageType::kApproach) {
       return refuse(type, make_error(ErrorCode::kNotSupported, "",
                                      std::string(protocol::to_string(type)) +
                                          ": this daemon does not drive the base yet"));
     }
     if (type == MessageType::kResetLoopStatistics) {
-      return refuse(type, make_error(ErrorCode::kNotSupported, "",
-                                     "this daemon cannot reset its loop statistics yet"));
+      loop_->statistics().reset(monotonic_now_ns());
+      return ack(type, protocol::EmptyAck{});
     }
     return refuse(type, make_error(ErrorCode::kWrongState, "", "not a command for the procedure"));
   }
@@ -322,7 +342,7 @@ class EngineImpl final : public Engine {
   protocol::Message align(MessageType type) {
     auto wheels = procedure_.check_align();
     if (!wheels) return refuse(type, wheels.error());
-    if (wheels_busy_) {
+    if (wheel_motion_ != 0) {
       return refuse(type, make_error(ErrorCode::kMotionInProgress, "",
                                      "the wheels are still stopping: wait for them to rest"));
     }
@@ -332,14 +352,14 @@ class EngineImpl final : public Engine {
       dirty_ = true;
       return ack(type, protocol::EmptyAck{});
     }
-    loop_->heartbeat(monotonic_now_ns());  // the controller just spoke
+    loop_->heartbeat(now_ns());  // the controller just spoke
     const MoveCommand move{++motion_id_, wheels->left_counts, wheels->right_counts};
     if (!loop_->post_move(move)) {
       return refuse(type, make_error(ErrorCode::kQueueFull, "",
                                      "control loop command queue full: retry later"));
     }
     procedure_.alignment_started();
-    wheels_busy_ = true;
+    wheel_motion_ = move.motion_id;
     emit(EventKind::kMotionStarted, ErrorCode::kOk,
          "aligning: left " + std::to_string(move.left_counts) + " counts, right " +
              std::to_string(move.right_counts) + " counts");
@@ -350,7 +370,7 @@ class EngineImpl final : public Engine {
   protocol::Message engage(MessageType type) {
     auto task = procedure_.check_engage();
     if (!task) return refuse(type, task.error());
-    if (wheels_busy_) {
+    if (wheel_motion_ != 0) {
       return refuse(type, make_error(ErrorCode::kMotionInProgress, "",
                                      "the wheels are still stopping: wait for them to rest"));
     }
@@ -361,7 +381,11 @@ class EngineImpl final : public Engine {
       return refuse(type, e);
     }
     arm_task_id_ = *id;
-    loop_->heartbeat(monotonic_now_ns());
+    arm_motion_ = true;
+    arm_seen_busy_ = false;
+    arm_deadline_ns_ =
+        now_ns() + static_cast<std::int64_t>(config_.safety.arm_task_timeout_s * 1e9);
+    loop_->heartbeat(now_ns());
     loop_->set_arm_moving(true);
     procedure_.engaging_started();
     emit(EventKind::kMotionStarted, ErrorCode::kOk,
@@ -375,10 +399,8 @@ class EngineImpl final : public Engine {
     (void)arm_->stop();
     loop_->set_arm_moving(false);
     if (procedure_.phase() == Phase::kAligning) procedure_.alignment_interrupted();
-    if (procedure_.phase() == Phase::kEngaging) {
-      procedure_.engaging_interrupted();
-      emit(EventKind::kMotionStopped, ErrorCode::kOk, "arm stopped");
-    }
+    if (procedure_.phase() == Phase::kEngaging) procedure_.engaging_interrupted();
+    end_arm_motion(EventKind::kMotionStopped, "arm stopped");
     dirty_ = true;
   }
 
@@ -390,11 +412,12 @@ class EngineImpl final : public Engine {
   protocol::Message emergency_stop(MessageType type) {
     loop_->request_emergency_stop();
     (void)arm_->stop();
-    loop_->set_arm_moving(false);
     latch(ErrorCode::kEmergencyStopped, "emergency stop: wheels and arm stopped");
     return ack(type, protocol::EmptyAck{});
   }
 
+  // With a fault latched: recovers the arm here and the card in the loop (recover request with a
+  // fresh sequence number; the loop answers exactly that sequence), then clears the fault.
   protocol::Message reset(MessageType type, const protocol::Reset& r) {
     if (procedure_.phase() == Phase::kAligning || procedure_.phase() == Phase::kEngaging) {
       stop_motion();
@@ -405,8 +428,11 @@ class EngineImpl final : public Engine {
         if (e.field.empty()) e.field = "arm";
         return refuse(type, e);
       }
-      loop_->request_recover();
-      ++recovers_pending_;
+      if (!loop_->request_recover(recover_sequence_ + 1)) {
+        return refuse(type, make_error(ErrorCode::kQueueFull, "",
+                                       "control loop command queue full: retry later"));
+      }
+      ++recover_sequence_;
       const ErrorCode was = procedure_.fault();
       procedure_.clear_fault();
       emit(EventKind::kFaultCleared, ErrorCode::kOk,
@@ -432,13 +458,15 @@ class EngineImpl final : public Engine {
 
   // ---- reports and the arm ---------------------------------------------------------------------
 
+  // Every wheel motion the engine announced (motion_started) is closed by exactly one event, from
+  // the loop's terminal report for that motion id.
   void drain_reports() {
     LoopReport r;
     while (loop_->pop_report(r)) {
       switch (r.kind) {
         case LoopReportKind::kMotionFinished:
-          if (r.motion_id != motion_id_) break;
-          wheels_busy_ = false;
+          if (r.motion_id != wheel_motion_) break;
+          wheel_motion_ = 0;
           if (procedure_.phase() == Phase::kAligning) {
             procedure_.alignment_finished();
             dirty_ = true;
@@ -446,81 +474,109 @@ class EngineImpl final : public Engine {
           emit(EventKind::kMotionFinished, ErrorCode::kOk, "base aligned");
           break;
         case LoopReportKind::kMotionStopped:
-          if (r.motion_id == motion_id_) wheels_busy_ = false;
+          if (r.motion_id != wheel_motion_) break;
+          wheel_motion_ = 0;
           if (procedure_.phase() == Phase::kAligning) {  // stopped on its own (should not happen)
             procedure_.alignment_interrupted();
             dirty_ = true;
           }
-          emit(EventKind::kMotionStopped, r.code,
-               r.code == ErrorCode::kOk ? std::string("wheels stopped")
-                                        : "wheels stopped: " + std::string(to_string(r.code)));
+          emit(EventKind::kMotionStopped, r.code, "wheels stopped" + reason(r.code));
           break;
         case LoopReportKind::kMoveRefused:
-          if (r.motion_id != motion_id_) break;
-          wheels_busy_ = false;
-          procedure_.alignment_not_started();
+        case LoopReportKind::kMoveCancelled:
+          if (r.motion_id != wheel_motion_) break;
+          wheel_motion_ = 0;
+          procedure_.alignment_not_started();  // the wheels did not turn: the plane still holds
           dirty_ = true;
+          emit(EventKind::kMotionStopped, r.code,
+               (r.kind == LoopReportKind::kMoveRefused
+                    ? "the move did not start"
+                    : "the move was cancelled before it started") +
+                   reason(r.code));
           break;
         case LoopReportKind::kFault:
-          if (recovers_pending_ > 0) break;  // latched before the Reset that cleared it
-          if (procedure_.phase() == Phase::kEngaging || r.code == ErrorCode::kDeadman) {
-            (void)arm_->stop();
-            loop_->set_arm_moving(false);
-          }
+          if (r.sequence != recover_sequence_) break;  // latched before our last Reset cleared it
           latch(r.code,
                 r.axis != 0 ? "axis " + std::to_string(r.axis) : std::string("control loop"));
           break;
         case LoopReportKind::kRecovered:
-          if (recovers_pending_ > 0) --recovers_pending_;
-          if (r.code != ErrorCode::kOk) latch(r.code, "motion card did not recover");
+          if (r.sequence != recover_sequence_) break;  // an earlier Reset's recovery
+          if (r.code != ErrorCode::kOk) latch(r.code, "the motion card did not recover");
           break;
       }
     }
   }
 
-  void poll_arm() {
-    if (procedure_.phase() != Phase::kEngaging) return;
+  std::string reason(ErrorCode code) const {
+    if (!stop_reason_.empty()) return ": " + stop_reason_;
+    return code == ErrorCode::kOk ? std::string() : ": " + std::string(to_string(code));
+  }
+
+  // The arm task: done, fault, disconnect, a controller that dropped the task, or the deadline.
+  void supervise_arm() {
+    if (!arm_motion_) return;
     const drivers::ArmStatus st = arm_->status();
+    if (st.phase == drivers::ArmPhase::kBusy && st.task_id == arm_task_id_) arm_seen_busy_ = true;
     if (st.phase == drivers::ArmPhase::kDone && st.task_id == arm_task_id_) {
       procedure_.engaging_finished();
-      loop_->set_arm_moving(false);
-      emit(EventKind::kMotionFinished, ErrorCode::kOk, "the arm finished the door task");
+      end_arm_motion(EventKind::kMotionFinished, "the arm finished the door task");
       dirty_ = true;
     } else if (st.phase == drivers::ArmPhase::kFault) {
-      loop_->set_arm_moving(false);
       latch(st.last_error == ErrorCode::kOk ? ErrorCode::kArmRejected : st.last_error,
             "the arm reported a fault");
     } else if (st.phase == drivers::ArmPhase::kDisconnected) {
-      loop_->set_arm_moving(false);
       latch(ErrorCode::kArmDisconnected, "the arm is disconnected");
     } else if (arm_->state() == drivers::LifecycleState::kFault) {
-      loop_->set_arm_moving(false);
       latch(ErrorCode::kDriverError, "the arm driver failed");
+    } else if (arm_seen_busy_ && st.phase != drivers::ArmPhase::kBusy) {
+      latch(ErrorCode::kArmFault, "the arm controller dropped the task (reset mid-task?)");
+    } else if (now_ns() > arm_deadline_ns_) {
+      (void)arm_->stop();
+      latch(ErrorCode::kArmTimeout, "the arm task did not finish within safety.arm_task_timeout_s");
     }
+  }
+
+  void end_arm_motion(EventKind kind, const std::string& detail) {
+    if (!arm_motion_) return;
+    arm_motion_ = false;
+    loop_->set_arm_moving(false);
+    emit(kind, ErrorCode::kOk, detail);
   }
 
   // Backstop when reports were dropped (report queue full): the snapshot is authoritative.
   void reconcile() {
     const LoopSnapshot snap = loop_->snapshot();
-    if (snap.reports_dropped == reports_dropped_seen_) return;
-    reports_dropped_seen_ = snap.reports_dropped;
-    if (recovers_pending_ == 0 && snap.fault != ErrorCode::kOk) latch(snap.fault, "control loop");
-    if (!snap.motion_active && wheels_busy_) {
-      wheels_busy_ = false;
-      if (procedure_.phase() == Phase::kAligning) {
-        procedure_.alignment_interrupted();
-        dirty_ = true;
-      }
+    if (snap.reports_dropped == 0) return;
+    if (snap.recover_sequence == recover_sequence_ && !snap.recovering &&
+        snap.fault != ErrorCode::kOk) {
+      latch(snap.fault, "control loop");
+    }
+    if (wheel_motion_ != 0 && !snap.motion_active && snap.last_motion_id == wheel_motion_) {
+      wheel_motion_ = 0;
+      if (procedure_.phase() == Phase::kAligning) procedure_.alignment_interrupted();
+      dirty_ = true;
+      emit(EventKind::kMotionStopped, ErrorCode::kOk, "wheels at rest");
     }
   }
 
   // ---- faults, events, persistence -------------------------------------------------------------
 
+  // A fault latches once (the first is the root cause): the procedure's motion phases end, the arm
+  // is told to stop (an open arm task is closed), and the latch is announced once (fault_latched
+  // event, and a warning for the journal through take_warnings()).
   void latch(ErrorCode code, const std::string& detail) {
     const bool was_clear = procedure_.fault() == ErrorCode::kOk;
     procedure_.latch_fault(code);
-    if (was_clear || code == ErrorCode::kEmergencyStopped) {
-      emit(EventKind::kFaultLatched, code, std::string(to_string(code)) + ": " + detail);
+    (void)arm_->stop();  // whatever latched, the arm does not go on
+    if (arm_motion_) {
+      end_arm_motion(EventKind::kMotionStopped,
+                     "arm stopped: " + std::string(to_string(code)) + ": " + detail);
+    }
+    loop_->set_arm_moving(false);
+    if (was_clear) {
+      const std::string text = std::string(to_string(code)) + ": " + detail;
+      emit(EventKind::kFaultLatched, code, text);
+      warnings_.push_back("fault latched: " + text);
     }
     dirty_ = true;
   }
@@ -587,12 +643,22 @@ class EngineImpl final : public Engine {
                                            kept.error().message);
   }
 
-  std::uint64_t daemon_time_ns() const {
-    return static_cast<std::uint64_t>(monotonic_now_ns() - start_ns_);
+  std::int64_t now_ns() const noexcept { return clock_(); }
+
+  // Lifecycle policy for the card (waits allowed): only while the control thread is not running.
+  void bring_down_card() noexcept {
+    if (card_->state() == drivers::LifecycleState::kActive) (void)card_->deactivate();
+    if (card_->state() == drivers::LifecycleState::kInactive ||
+        card_->state() == drivers::LifecycleState::kFault) {
+      (void)card_->cleanup();
+    }
   }
 
   Config config_;
-  std::shared_ptr<void> keepalive_;  // first: outlives the drivers
+  std::function<std::int64_t()> clock_;
+  bool manual_loop_ = false;
+  std::shared_ptr<void> keepalive_;                   // first: outlives the drivers
+  std::unique_ptr<drivers::ManagedMotionCard> card_;  // outlives the loop that drives it
   std::unique_ptr<ControlLoop> loop_;
   std::unique_ptr<drivers::ManagedManipulator> arm_;
   Procedure procedure_;
@@ -604,11 +670,14 @@ class EngineImpl final : public Engine {
   bool stopped_ = false;
   bool restored_ = false;
   bool dirty_ = false;
-  bool wheels_busy_ = false;
   std::uint32_t motion_id_ = 0;
+  std::uint32_t wheel_motion_ = 0;  // the announced wheel motion the loop has not ended (0: none)
   std::uint32_t arm_task_id_ = 0;
-  int recovers_pending_ = 0;
-  std::uint64_t reports_dropped_seen_ = 0;
+  bool arm_motion_ = false;  // an announced arm task not yet ended
+  bool arm_seen_busy_ = false;
+  std::int64_t arm_deadline_ns_ = 0;
+  std::uint32_t recover_sequence_ = 0;  // the last recover request sent to the loop
+  std::string stop_reason_;             // why every motion is stopping (shutdown), else empty
   ProcedureState last_state_ = ProcedureState::kAwaitingWidth;
   std::vector<std::string> startup_warnings_;
   std::vector<std::string> warnings_;
@@ -616,8 +685,9 @@ class EngineImpl final : public Engine {
 
 }  // namespace
 
-std::unique_ptr<Engine> make_engine(const Config& config, drivers::DriverSet drivers) {
-  return std::make_unique<EngineImpl>(config, std::move(drivers));
+std::unique_ptr<Engine> make_engine(const Config& config, drivers::DriverSet drivers,
+                                    EngineOptions options) {
+  return std::make_unique<EngineImpl>(config, std::move(drivers), std::move(options));
 }
 
 }  // namespace ajar::daemon

@@ -128,6 +128,16 @@ RealtimeGranted realtime_granted() noexcept {
   return {g_policy.load(), g_priority.load(), g_memory_locked.load()};
 }
 
+protocol::RealtimeState to_wire(const RealtimeGranted& granted) noexcept {
+  protocol::RealtimeState r;
+  r.policy = granted.policy == SCHED_FIFO ? protocol::SchedulingPolicy::kFifo
+             : granted.policy == SCHED_RR ? protocol::SchedulingPolicy::kRoundRobin
+                                          : protocol::SchedulingPolicy::kOther;
+  r.priority = static_cast<std::uint8_t>(std::clamp(granted.priority, 0, 99));
+  r.memory_locked = granted.memory_locked;
+  return r;
+}
+
 std::string describe_realtime(const RealtimeRequest& requested, const RealtimeGranted& granted) {
   std::ostringstream out;
   out << "control thread " << policy_name(granted.policy);

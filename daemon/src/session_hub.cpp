@@ -13,12 +13,6 @@ namespace {
 
 using protocol::MessageType;
 
-std::uint64_t monotonic_ns() {
-  return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                        std::chrono::steady_clock::now().time_since_epoch())
-                                        .count());
-}
-
 bool needs_controller(MessageType t) {
   switch (t) {
     case MessageType::kMeasureDoorWidth:
@@ -139,7 +133,7 @@ void SessionHub::announce_controller(std::string_view detail) {
   protocol::Event event;
   event.kind = protocol::EventKind::kControlChanged;
   event.state = engine_.status().state;
-  event.daemon_time_ns = monotonic_ns();
+  event.daemon_time_ns = engine_.daemon_time_ns();  // one clock: since the daemon started
   event.detail = detail;
   spdlog::info("control changed: {}", detail);
   broadcast(event);
@@ -188,7 +182,7 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
   switch (type) {
     case MessageType::kPing: {
       const auto& ping = std::get<protocol::Ping>(envelope.message);
-      reply(s, envelope.request_id, protocol::Pong{ping.client_time_ns, monotonic_ns()});
+      reply(s, envelope.request_id, protocol::Pong{ping.client_time_ns, engine_.daemon_time_ns()});
       return;
     }
     case MessageType::kGetStatus: {

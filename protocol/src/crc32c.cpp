@@ -13,6 +13,17 @@
 #ifndef HWCAP_CRC32
 #define HWCAP_CRC32 (1 << 7)
 #endif
+// GCC's arm_acle.h declares __crc32c* for any target; clang's only when the whole file is built
+// with +crc, so clang uses its builtins inside a function compiled for the extension.
+#if defined(__clang__)
+#define AJAR_TARGET_CRC __attribute__((target("crc")))
+#define AJAR_CRC32CD __builtin_arm_crc32cd
+#define AJAR_CRC32CB __builtin_arm_crc32cb
+#else
+#define AJAR_TARGET_CRC __attribute__((target("+crc")))
+#define AJAR_CRC32CD __crc32cd
+#define AJAR_CRC32CB __crc32cb
+#endif
 #endif
 
 namespace ajar::protocol {
@@ -85,17 +96,17 @@ bool cpu_has_sse42() noexcept {
   return (ecx & bit_SSE4_2) != 0;
 }
 #elif defined(__aarch64__)
-__attribute__((target("+crc"))) std::uint32_t update_armv8(std::uint32_t crc, const std::uint8_t* p,
-                                                           std::size_t n) noexcept {
+AJAR_TARGET_CRC std::uint32_t update_armv8(std::uint32_t crc, const std::uint8_t* p,
+                                           std::size_t n) noexcept {
   while (n >= 8) {
     std::uint64_t v;  // little-endian arm64 (the only arm64 ABI Debian ships)
     std::memcpy(&v, p, sizeof v);
-    crc = __crc32cd(crc, v);
+    crc = AJAR_CRC32CD(crc, v);
     p += 8;
     n -= 8;
   }
   while (n-- > 0)
-    crc = __crc32cb(crc, *p++);
+    crc = AJAR_CRC32CB(crc, *p++);
   return crc;
 }
 

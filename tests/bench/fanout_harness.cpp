@@ -1,11 +1,11 @@
 // Fan-out and footprint. 256 observers subscribed to telemetry at 100 Hz while a controller runs
 // the procedure and AlignBase over and over: the loop's timing under that load vs the same daemon
 // configuration idle (two daemons started in this run: one idle, one loaded, so that each one's
-// since-start statistics cover exactly its phase), the telemetry inter-arrival at the observers vs
-// a bare fan-out server (one thread writing the same Telemetry frame to 256 sockets every 10 ms),
-// sessions dropped, the daemon's CPU. Footprint: RSS idle, after one procedure, with 256 sessions;
-// exec -> serving (spawn until a Hello is answered), median of several starts.
-// With --fifo the daemons run with control.realtime (SCHED_FIFO) and lock_memory; with
+// since-start LoopTiming from Status covers exactly its phase), the telemetry inter-arrival at the
+// observers vs a bare fan-out server (one thread writing the same Telemetry frame to 256 sockets
+// every 10 ms), sessions dropped, the daemon's CPU. Footprint: RSS idle, after one procedure, with
+// 256 sessions; exec -> serving (spawn until a Hello is answered), median of several starts. With
+// --fifo the daemons run with control.realtime (SCHED_FIFO) and lock_memory; with
 // --no-controller the controller stays connected but idle (to tell its commands' cost apart).
 #include <netinet/in.h>
 #include <sys/epoll.h>
@@ -61,9 +61,10 @@ bool align_once(Conn& c, double yaw_rad) {
   fail("alignment did not finish within 30 s");
 }
 
-protocol::LoopStatistics loop_statistics(Conn& c) {
+// The loop's timing since start (protocol 1.1 LoopTiming.all).
+protocol::TimingWindow loop_timing(Conn& c) {
   const auto m = c.request(GetStatus{});
-  if (const auto* s = std::get_if<protocol::Status>(&m)) return s->loop;
+  if (const auto* s = std::get_if<protocol::Status>(&m)) return s->timing.all;
   fail("GetStatus not answered with Status");
 }
 
@@ -162,7 +163,8 @@ class BareFanout {
   void start() {
     thread_ = std::thread([this] {
       std::uint8_t frame[kMaxFrameSize];
-      const std::int64_t period = static_cast<std::int64_t>(1e9 / static_cast<double>(kTelemetryHz));
+      const std::int64_t period =
+          static_cast<std::int64_t>(1e9 / static_cast<double>(kTelemetryHz));
       std::int64_t deadline = now_ns();
       while (!stop_) {
         Telemetry t;
@@ -242,17 +244,17 @@ int main(int argc, char** argv) {
   row("RSS after the procedure, " + mode, static_cast<double>(rss_after) / 1024.0, "MiB");
 
   // Idle phase: a fresh daemon, nobody connected but one Status at the end.
-  LoopStatistics idle;
+  TimingWindow idle;
   {
     Daemon d(o.ajard, config, o.dir + "/fanout-idle");
     std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
     Conn c(d.port());
     (void)c.hello(Role::kObserver, "bench-idle");
-    idle = loop_statistics(c);
+    idle = loop_timing(c);
   }
 
   // Loaded phase.
-  LoopStatistics loaded;
+  TimingWindow loaded;
   long rss_sessions = 0;
   double cpu = 0;
   int aligns = 0, dropped = 0;
@@ -287,7 +289,7 @@ int main(int argc, char** argv) {
     stop = true;
     ctl.join();
     cpu = (d.cpu_s() - cpu0) / (static_cast<double>(now_ns() - t0) * 1e-9);
-    loaded = loop_statistics(controller);
+    loaded = loop_timing(controller);
     obs.stop();
     aligns = aligned;
     dropped = obs.dropped();
@@ -314,14 +316,18 @@ int main(int argc, char** argv) {
 
   const auto g = quantiles(daemon_gaps);
   const auto b = quantiles(bare_gaps);
-  row("loop period p99 with " + std::to_string(observers) + " observers, " + mode,
-      idle.period_p99_ns > 0 ? loaded.period_p99_ns / 1e3 : 0, "us", idle.period_p99_ns / 1e3,
-      fifo ? "<= 1.1x" : "", "vs idle daemon; " + std::to_string(aligns) + " aligns meanwhile");
-  row("loop jitter p99 with " + std::to_string(observers) + " observers, " + mode,
-      loaded.jitter_p99_ns / 1e3, "us", idle.jitter_p99_ns / 1e3, "",
-      "abs(period - nominal), vs idle daemon");
-  row("loop period max with " + std::to_string(observers) + " observers, " + mode,
-      loaded.period_max_ns / 1e3, "us", idle.period_max_ns / 1e3, "", "vs idle daemon");
+  const std::string load = std::to_string(observers) + " observers, " + mode;
+  row("loop wake-up latency p99 with " + load, loaded.latency.p99_ns / 1e3, "us",
+      idle.latency.p99_ns / 1e3, fifo ? "<= 1.1x" : "",
+      "vs idle daemon; " + std::to_string(aligns) + " aligns meanwhile");
+  row("loop wake-up latency p99.9 with " + load, loaded.latency.p999_ns / 1e3, "us",
+      idle.latency.p999_ns / 1e3, "", "vs idle daemon");
+  row("loop wake-up latency max with " + load, loaded.latency.max_ns / 1e3, "us",
+      idle.latency.max_ns / 1e3, "", "vs idle daemon");
+  row("loop period p99 with " + load, loaded.period.p99_ns / 1e3, "us", idle.period.p99_ns / 1e3,
+      "", "vs idle daemon");
+  row("loop cycle execution p99 with " + load, loaded.execution.p99_ns / 1e3, "us",
+      idle.execution.p99_ns / 1e3, "", "vs idle daemon");
   row("telemetry inter-arrival p99.9, " + mode, g.p999 / 1e6, "ms", b.p999 / 1e6, "",
       "vs bare fan-out server; " + std::to_string(g.n) + " gaps");
   row("telemetry inter-arrival max, " + mode, g.max / 1e6, "ms", b.max / 1e6, "<= 1.2x",

@@ -48,9 +48,11 @@ void run(const daemon::Config& base_config, bool fifo, double seconds) {
   s.deadman_timeout_s = config.safety.deadman_timeout_s;
   s.motion_timeout_margin_s = config.control.motion_timeout_margin_s;
   s.base = config.base;
-  daemon::ControlLoop loop(std::make_unique<drivers::ManagedMotionCard>(std::move(set.card), axes),
-                           s);
-  if (auto st = loop.bring_up(); !st) fail("card bring-up: " + st.error().message);
+  drivers::ManagedMotionCard card(std::move(set.card), axes);
+  Status up = card.configure();
+  if (up) up = card.activate();
+  if (!up) fail("card bring-up: " + up.error().message);
+  daemon::ControlLoop loop(card, s);
 
   daemon::LoopStatisticsRecorder reference(config.control.rate_hz);
   const std::int64_t period = reference.nominal_period_ns();
@@ -79,7 +81,8 @@ void run(const daemon::Config& base_config, bool fifo, double seconds) {
   stop = true;
   ref.join();
   loop.stop_thread();
-  loop.bring_down();
+  (void)card.deactivate();
+  (void)card.cleanup();
   const std::int64_t end = now_ns();
   (void)start;
   const auto l = loop.statistics().timing(end).all;

@@ -68,8 +68,9 @@ std::int64_t ping_once(Conn& c) {
   return t1 - t0;
 }
 
-void report(const std::string& what, const Quantiles& q, const Quantiles& base,
-            const std::string& base_name, const std::string& target) {
+void report(const std::string& what, const ajar::bench::Quantiles& q,
+            const ajar::bench::Quantiles& base, const std::string& base_name,
+            const std::string& target) {
   row(what + " p50", q.p50 / 1e3, "us", base.p50 / 1e3, "", "vs " + base_name);
   row(what + " p99", q.p99 / 1e3, "us", base.p99 / 1e3, target, "vs " + base_name);
   row(what + " p99.9", q.p999 / 1e3, "us", base.p999 / 1e3, "", "vs " + base_name);
@@ -99,7 +100,7 @@ int main(int argc, char** argv) {
     via_daemon.push_back(ping_once(to_daemon));
     via_echo.push_back(ping_once(to_echo));
   }
-  const Quantiles idle = quantiles(via_daemon);
+  const ajar::bench::Quantiles idle = quantiles(via_daemon);
   report("Ping RTT ajard", idle, quantiles(via_echo), "echo server", "<= 1.1x");
 
   // A controller sends commands back to back while the observer pings.
@@ -125,8 +126,8 @@ int main(int argc, char** argv) {
   controller.join();
   for (int i = 0; i < n; ++i)
     via_daemon.push_back(ping_once(to_daemon));
-  const Quantiles q = quantiles(loaded);
-  const Quantiles idle_after = quantiles(via_daemon);
+  const ajar::bench::Quantiles q = quantiles(loaded);
+  const ajar::bench::Quantiles idle_after = quantiles(via_daemon);
   row("Ping RTT p99, controller sending commands", q.p99 / 1e3, "us", idle_after.p99 / 1e3,
       "<= 1.2x", "vs idle; " + std::to_string(commands.load()) + " commands meanwhile");
   row("Ping RTT p99.9, controller sending commands", q.p999 / 1e3, "us", idle_after.p999 / 1e3, "",

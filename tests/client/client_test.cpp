@@ -6,11 +6,13 @@
 #include <atomic>
 #include <condition_variable>
 #include <mutex>
+#include <sstream>
 #include <thread>
 
 #include <boost/asio.hpp>
 #include <gtest/gtest.h>
 
+#include "ajar/client/cli.hpp"
 #include "ajar/client/client.hpp"
 
 namespace ajar::client {
@@ -216,6 +218,27 @@ TEST(Client, TimeoutIsRetriedWithTheSameIdAndTheRetransmitFlag) {
   EXPECT_EQ(got[1].flags, protocol::kFlagRetransmit);
 }
 
+// The first attempt's reply arrives late, together with the retransmit's: the request takes one,
+// and the other is never handed to a later wait_reply() as if it answered something else.
+TEST(Client, ALateDuplicateReplyIsDroppedNotKeptForTheNextWait) {
+  std::atomic<int> pings{0};
+  FakeDaemon daemon([&](const protocol::Envelope& e) -> std::vector<protocol::Envelope> {
+    if (!std::holds_alternative<protocol::Ping>(e.message)) return polite(e);
+    if (pings.fetch_add(1) == 0) return {};  // the first attempt "is slow"
+    auto replies = polite(e);
+    replies.push_back(replies.front());  // ... and its reply comes with the retransmit's
+    return replies;
+  });
+  Client c(fast_options());
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  const Response r = c.request(protocol::Ping{5}, Milliseconds{300}, 2);
+  ASSERT_TRUE(r.ok()) << r.transport_error;
+  EXPECT_EQ(r.attempts, 2);
+  EXPECT_FALSE(c.wait_reply(std::nullopt, Milliseconds{300}).has_value());
+  const Response status = c.request(protocol::GetStatus{});
+  EXPECT_TRUE(status.get<protocol::Status>());
+}
+
 TEST(Client, NoReplyAfterAllRetriesIsATimeout) {
   FakeDaemon daemon([](const protocol::Envelope&) { return std::vector<protocol::Envelope>{}; });
   Client c(fast_options());
@@ -381,6 +404,46 @@ TEST(Client, RawBytesAndWaitReplyForConformanceWork) {
   const auto reply = c.wait_reply(4242, Milliseconds{10000});
   ASSERT_TRUE(reply);
   EXPECT_TRUE(std::holds_alternative<protocol::Pong>(reply->message));
+}
+
+// `ajarctl align --wait-timeout`: the base is still turning when the wait ends. ajarctl sends Stop
+// and waits for its Ack before it disconnects (not leaving the stop to the deadman).
+TEST(Ajarctl, AlignWaitTimeoutSendsStopAndWaitsForItsAck) {
+  std::atomic<bool> stopped{false};
+  FakeDaemon daemon([&](const protocol::Envelope& e) -> std::vector<protocol::Envelope> {
+    const auto type = protocol::type_of(e.message);
+    if (type == MessageType::kGetStatus) {
+      protocol::Status status;
+      status.state =
+          stopped ? protocol::ProcedureState::kReadyToAlign : protocol::ProcedureState::kAligning;
+      return {{e.request_id, 0, status}};
+    }
+    if (type == MessageType::kStop) stopped = true;
+    if (type == MessageType::kAlignBase || type == MessageType::kStop) {
+      return {{e.request_id, 0,
+               protocol::Ack{type, protocol::ProcedureState::kAligning, protocol::EmptyAck{}}}};
+    }
+    return polite(e);
+  });
+  const std::vector<std::string> args{"--connect", "127.0.0.1:" + std::to_string(daemon.port()),
+                                      "align", "--wait-timeout", "0.3"};
+  std::istringstream in;
+  std::ostringstream out, err;
+  const int rc = run_ajarctl(args, in, out, err);
+  EXPECT_NE(rc, 0) << out.str();
+  EXPECT_EQ(daemon.count(MessageType::kStop), 1u) << out.str() << err.str();
+  EXPECT_NE(out.str().find("Stop sent"), std::string::npos) << out.str();
+  // Stop was the last command, and the status was read again after its Ack.
+  const auto got = daemon.received();
+  std::size_t stop_at = got.size();
+  for (std::size_t i = 0; i < got.size(); ++i)
+    if (protocol::type_of(got[i].message) == MessageType::kStop) stop_at = i;
+  ASSERT_LT(stop_at, got.size());
+  for (std::size_t i = stop_at + 1; i < got.size(); ++i) {
+    const auto type = protocol::type_of(got[i].message);
+    EXPECT_TRUE(type == MessageType::kGetStatus || type == MessageType::kPing)
+        << protocol::to_string(type);
+  }
 }
 
 }  // namespace

@@ -27,11 +27,13 @@ class ControlLoopTest : public ::testing::Test {
     make_loop();
   }
   void make_loop() {
+    loop.reset();
     const int axes[2] = {settings.base.left.card_axis, settings.base.right.card_axis};
-    loop = std::make_unique<ControlLoop>(
-        std::make_unique<drivers::ManagedMotionCard>(std::make_unique<FakeMotionCard>(card), axes),
-        settings);
-    ASSERT_TRUE(loop->bring_up().ok());
+    managed =
+        std::make_unique<drivers::ManagedMotionCard>(std::make_unique<FakeMotionCard>(card), axes);
+    ASSERT_TRUE(managed->configure().ok());
+    ASSERT_TRUE(managed->activate().ok());
+    loop = std::make_unique<ControlLoop>(*managed, settings);
   }
   // Runs n cycles, 2 ms apart, keeping the controller's heartbeat fresh when asked.
   void run(int n, bool heartbeat = true) {
@@ -58,6 +60,7 @@ class ControlLoopTest : public ::testing::Test {
 
   ControlLoopSettings settings;
   std::shared_ptr<FakeCardControl> card = std::make_shared<FakeCardControl>();
+  std::unique_ptr<drivers::ManagedMotionCard> managed;
   std::unique_ptr<ControlLoop> loop;
   std::int64_t now = 1'000 * kMs;
 };
@@ -151,9 +154,10 @@ TEST_F(ControlLoopTest, AxisAlarmDuringMotionStopsAndLatches) {
   EXPECT_TRUE(has(rs, LoopReportKind::kMoveRefused, ErrorCode::kFaultLatched));
   EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.move_calls; }), 1);
 
-  // Recover clears the card and the latch; the next move runs.
-  loop->request_recover();
-  run(1);
+  // Recover clears the card and the latch (a few cycles: clear, enable, servo on); the next move
+  // runs.
+  ASSERT_TRUE(loop->request_recover(1));
+  run(4);
   EXPECT_TRUE(has(reports(), LoopReportKind::kRecovered, ErrorCode::kOk));
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kOk);
   ASSERT_TRUE(loop->post_move({3, 10, 10}));
@@ -322,7 +326,6 @@ TEST_F(ControlLoopTest, ThreadRunsAndHealthFollowsTheLoop) {
 
   loop->stop_thread();
   EXPECT_FALSE(loop->healthy(monotonic_now_ns()));
-  loop->bring_down();
 }
 
 }  // namespace

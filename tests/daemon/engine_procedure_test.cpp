@@ -313,10 +313,14 @@ TEST_F(EngineTest, WelcomeAndHealth) {
   EXPECT_EQ(w.loop_rate_hz, 250.0F);
   EXPECT_EQ(w.max_door_width_m, static_cast<float>(config.limits.max_door_width_m));
   EXPECT_GT(w.daemon_version.length, 0);
+  EXPECT_EQ(w.driver_kind, protocol::DriverKind::kMock);  // config.drivers.kind
   EXPECT_TRUE(wait_for([&] { return engine->control_loop_healthy(); }));
-  auto pong = send(protocol::Ping{42});
-  ASSERT_TRUE(std::holds_alternative<protocol::Pong>(pong));
-  EXPECT_EQ(std::get<protocol::Pong>(pong).client_time_ns, 42U);
+  // Ping, GetStatus and Subscribe are the session hub's: the engine refuses them.
+  expect_refused(send(protocol::Ping{42}), ErrorCode::kWrongState);
+  // One clock for everything on the wire: time since the engine (daemon) started.
+  const std::uint64_t t0 = engine->daemon_time_ns();
+  EXPECT_LT(t0, 3'600ULL * 1'000'000'000ULL);
+  EXPECT_GE(engine->telemetry().daemon_time_ns, t0);
   engine->shutdown();
   EXPECT_FALSE(engine->control_loop_healthy());
 }

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "ajar/daemon/config.hpp"
 #include "test_client.hpp"
 #include "test_client_harness.hpp"
 
@@ -284,6 +285,40 @@ TEST(ServerScale, TwoHundredFiftySixObserversAllGetTelemetryAndEvents) {
   TestClient status(server.port());
   status.hello(Role::kObserver);
   EXPECT_EQ(status.request_as<protocol::Status>(protocol::GetStatus{}).session_count, 257);
+}
+
+// A TCP connect means the daemon serves: bound (port known, a busy port fails early) but refused
+// until start(), which ajard calls once the engine serves.
+TEST(ServerStart, AConnectIsRefusedUntilTheServerServes) {
+  FakeEngine engine;
+  boost::asio::io_context io{1};
+  daemon::ServerOptions options = small_options();
+  options.bind_address = "127.0.0.1";
+  options.port = 0;
+  daemon::Server server(io, engine, options);
+  const std::uint16_t port = server.bind();
+  ASSERT_NE(port, 0);
+  {
+    boost::asio::io_context client_io;
+    boost::asio::ip::tcp::socket early(client_io);
+    boost::system::error_code ec;
+    early.connect({boost::asio::ip::make_address("127.0.0.1"), port}, ec);
+    EXPECT_EQ(ec, boost::asio::error::connection_refused) << ec.message();
+  }
+  server.start();
+  // A second daemon on the same address fails at bind(), before its engine starts.
+  daemon::ServerOptions same = options;
+  same.port = port;
+  daemon::Server rival(io, engine, same);
+  EXPECT_THROW(rival.bind(), daemon::StartupError);
+
+  std::thread thread([&] { io.run(); });
+  {
+    TestClient c(port);
+    EXPECT_EQ(c.hello(Role::kObserver).granted_role, Role::kObserver);
+  }
+  boost::asio::post(io, [&] { server.stop(); });
+  thread.join();
 }
 
 }  // namespace

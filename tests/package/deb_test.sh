@@ -17,7 +17,7 @@
 #    group exists, the unit is enabled and passes `systemd-analyze verify` (installed paths, man
 #    pages included) with an exposure <= 2.0, `man ajarctl` renders, `ajard --check-config
 #    /etc/ajar/ajard.yaml` passes, the installed ajard runs the simulated drivers from the
-#    installed example config (card simulator found in /usr/lib/ajar) and the installed ajarctl
+#    installed example config (card simulator found in LIBDIR/ajar) and the installed ajarctl
 #    gets its status and passes the conformance suite (installed golden vectors); then
 #    `dpkg --purge ajar` removes the conffile. Where no overlay can be mounted (an unprivileged
 #    container), the test says so and instead extracts the package (dpkg-deb -x) and runs the same
@@ -44,7 +44,8 @@ echo "built $(basename "$deb") ($(stat -c %s "$deb") bytes), $(basename "$dev")"
 
 # ---- 2. contents ----------------------------------------------------------------------------------
 contents=$(dpkg-deb -c "$deb" | awk '{print $6}')
-for f in ./usr/sbin/ajard ./usr/bin/ajarctl ./usr/bin/ajar-armsim ./usr/lib/ajar/libajar_gts_sim.so \
+grep -Eq '^\./usr/lib/([^/]+/)?ajar/libajar_gts_sim\.so$' <<<"$contents" || fail "ajar lacks the card simulator"
+for f in ./usr/sbin/ajard ./usr/bin/ajarctl ./usr/bin/ajar-armsim \
   ./etc/ajar/ajard.yaml ./lib/systemd/system/ajard.service ./lib/udev/rules.d/60-ajar.rules \
   ./usr/lib/sysusers.d/ajar.conf ./usr/share/ajar/examples/ajard.sim.yaml \
   ./usr/share/ajar/examples/systemd/ajard-site-devices.conf ./usr/share/ajar/vectors/ping.vec \

@@ -16,6 +16,9 @@
 //
 // Retries: a request that times out is re-sent with the SAME request id (flag kFlagRetransmit); the
 // daemon de-duplicates by (client_instance_id, request id), so a retried command executes once.
+// The daemon answers every frame, so a retried request may be answered more than once: once a
+// request is over (answered or timed out), the replies still owed to it are dropped on arrival and
+// never handed to a later wait_reply().
 // The client_instance_id survives reconnects of one Client object (random per Client unless given),
 // and request ids keep increasing across reconnects.
 #pragma once

@@ -84,7 +84,8 @@ struct ControlConfig {
 };
 
 struct SafetyConfig {
-  double deadman_timeout_s = 0.5;  // controller silent this long during motion -> stop + fault
+  double deadman_timeout_s = 0.5;   // controller silent this long during motion -> stop + fault
+  double arm_task_timeout_s = 120;  // an arm task not done within this -> arm stop + ARM_TIMEOUT
 };
 
 struct LoggingConfig {

@@ -1,29 +1,53 @@
-// ControlLoop: the fixed-rate control thread. It owns the motion card (the vendor API is not
-// thread-safe: after start() only the control thread touches it) and supervises the wheels.
+// ControlLoop: the fixed-rate control thread. It drives the wheels through the narrow
+// drivers::MotionCard interface only (the vendor API is not thread-safe: between start_thread() and
+// stop_thread() only the control thread touches the card). Lifecycle policy (configure, activate,
+// deactivate, cleanup, with their waits) is not the loop's: the engine runs it at start-up and
+// shut-down while the thread is not running.
 //
-// Every cycle (cycle(), noexcept, no allocation, no locks, no logging), in this order:
-//   1. stop requests (atomic flags, never lost, never refused): emergency stop, fault stop
-//      (controller lost), smooth stop, recover (Reset). An emergency stop reaches the card in the
-//      cycle that sees it, i.e. within one loop period.
-//   2. queued commands (bounded lock-free SPSC queue; the I/O thread is the single producer):
-//      moves. A move is refused (report kMoveRefused) while a fault is latched or a motion runs.
-//   3. axis status of both wheels: odometry, supervision of a running motion (alarm, following
-//      error, limits, card not answering, deadman, motion deadline -> smooth stop + latched fault;
-//      completion = both axes at rest and in position), end of a stop (both at rest, or an
-//      emergency stop when the stop itself overruns its deadline).
-//   4. the published snapshot (seqlock). The thread then records the cycle's timing (deadline,
+// One ordered command path (the I/O thread is the single producer):
+//   - moves (and Reset's recover requests) go through one bounded lock-free SPSC queue, in order;
+//   - stops never wait in that queue and can never be refused by it: request_stop(),
+//     request_emergency_stop() and request_fault_stop() bump atomic generation counters (and a
+//     fault stop queues its code in a second small queue, with a first-wins overflow slot), which
+//     every cycle checks first. Each queued command is stamped with the generations current when it
+//     was posted, so the loop discards every move posted before the latest stop (report
+//     kMoveCancelled) and every recover posted before the latest emergency/fault stop (it is
+//     answered with the fault that superseded it). A stop therefore acts within one period and is
+//     never overtaken by anything queued before it, even when the queue is full.
+//
+// Every cycle (cycle(), noexcept, no allocation, no locks, no waiting, no logging), in this order:
+//   1. axis status of both wheels (odometry; what supervision and a new move start from);
+//   2. stops: emergency stop (card emergency stop in this cycle), fault stops (smooth stop, latch
+//      the code: the first latched code stays, later ones are still reported), smooth stop;
+//   3. one step of a running recovery (Reset), a state machine advanced once per cycle: wait for
+//   the
+//      wheels to rest, clear faults, enable the axes, then poll their status every cycle until the
+//      servo is on without alarm, or fail at recovery_timeout_s. While it runs the command queue
+//      waits (moves queued behind a Reset start after it); stops still act at once;
+//   4. queued commands, in order (stops re-checked before each): a move is refused (kMoveRefused)
+//      while a fault is latched in the loop or a motion runs, cancelled (kMoveCancelled) when a
+//      stop was posted after it; a recover starts the recovery (step 3);
+//   5. supervision: card not answering, alarm, following error, limits, deadman, motion deadline
+//      -> smooth stop + latched fault; completion (both axes at rest and in position); end of a
+//      stop (both at rest; a stop overrunning its own deadline becomes an emergency stop);
+//   6. the published snapshot (seqlock). The thread then records the cycle's timing (deadline,
 //      wake-up, end) in statistics(): readable from any other thread.
-// Reports (motion finished/stopped, move refused, fault, recovered) go back through a second
-// bounded SPSC queue (the loop is the single producer); if it is full the report is dropped and
-// counted in the snapshot, whose `fault` and `motion_active` stay authoritative.
+// Card errors on this path are ErrorCodes only; text is made on the I/O side.
 //
-// The loop latches faults itself (no move starts until a recover request), independent of the
-// engine's own latch: a belt and braces for races between a report and a new command.
+// Reports (motion finished/stopped, move refused/cancelled, fault, recovered) go back through a
+// second bounded SPSC queue (the loop is the single producer); if it is full the report is dropped
+// and counted in the snapshot, whose fault, motion and recover fields stay authoritative.
+// Every move posted gets exactly one terminal report: kMotionFinished, kMotionStopped,
+// kMoveRefused or kMoveCancelled. Every recover request gets exactly one kRecovered with its
+// sequence number. kFault reports carry the sequence of the last recover the loop had taken when
+// the fault latched, so the engine can tell a fault that a later Reset already cleared.
+//
+// The loop latches faults itself (no move starts until a recover), independent of the engine's
+// own latch: belt and braces for races between a report and a new command.
 #pragma once
 
 #include <atomic>
 #include <cstdint>
-#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -34,6 +58,7 @@
 #include "ajar/daemon/loop_statistics.hpp"
 #include "ajar/daemon/seqlock.hpp"
 #include "ajar/drivers/lifecycle.hpp"
+#include "ajar/drivers/motion_card.hpp"
 
 namespace ajar::daemon {
 
@@ -44,6 +69,7 @@ struct ControlLoopSettings {
   bool lock_memory = false;
   double deadman_timeout_s = 0.5;
   double motion_timeout_margin_s = 2.0;
+  double recovery_timeout_s = 2.0;  // a recovery must see the servo on within this
   core::BaseGeometry base;
 };
 
@@ -58,29 +84,37 @@ struct MoveCommand {
 enum class LoopReportKind : std::uint8_t {
   kMotionFinished = 0,  // both axes in position
   kMotionStopped = 1,   // a motion ended early (stop, fault, emergency stop); wheels at rest
-  kMoveRefused = 2,     // a queued move did not start (code says why)
-  kFault = 3,           // a fault latched in the loop (code)
-  kRecovered = 4,       // a recover request completed; kOk or the code that made it fail
+  kMoveRefused = 2,     // a queued move did not start (code says why); the wheels did not turn
+  kFault = 3,           // a fault latched in the loop (code; sequence = last recover taken)
+  kRecovered = 4,       // recover `sequence` ended: kOk, or the code that made it fail
+  kMoveCancelled = 5,   // a stop posted after this move cancelled it (code: the stop's reason);
+                        // the wheels did not turn
 };
 
 struct LoopReport {
   LoopReportKind kind = LoopReportKind::kFault;
   ErrorCode code = ErrorCode::kOk;
   std::uint32_t motion_id = 0;
-  int axis = 0;  // the offending axis for axis faults, 0 otherwise
+  int axis = 0;                // the offending axis for axis faults, 0 otherwise
+  std::uint32_t sequence = 0;  // kRecovered: its recover; kFault: the last recover taken
 };
 
 // What the loop publishes every cycle.
 struct LoopSnapshot {
   std::uint64_t cycles = 0;
-  std::int64_t time_ns = 0;                        // CLOCK_MONOTONIC of the cycle
+  std::int64_t time_ns = 0;                        // the clock of the cycle
   std::int64_t left_counts = 0, right_counts = 0;  // encoder counts as read
   double left_wheel_rad = 0, right_wheel_rad = 0;  // since start, wheel-forward positive
   double base_yaw_rad = 0;                         // since start, CCW positive
   bool moving = false;                             // an axis reports profile motion
   bool motion_active = false;                      // a motion (or its stop) is being supervised
-  ErrorCode fault = ErrorCode::kOk;                // latched in the loop
-  drivers::LifecycleState card_state = drivers::LifecycleState::kUnconfigured;
+  std::uint32_t last_motion_id = 0;    // the last motion that ended (any terminal report)
+  ErrorCode fault = ErrorCode::kOk;    // latched in the loop
+  std::uint32_t recover_sequence = 0;  // the last recover request taken from the queue
+  bool recovering = false;             // that recovery is still running
+  // The card as the loop sees it: kFault while the last status read failed or a card fault is
+  // latched, kActive while both wheel axes report servo on, else kInactive.
+  drivers::LifecycleState card_state = drivers::LifecycleState::kInactive;
   std::uint64_t reports_dropped = 0;
 };
 
@@ -94,27 +128,28 @@ double planned_duration_s(std::int64_t distance_counts,
 class ControlLoop {
  public:
   static constexpr std::size_t kCommandQueueCapacity = 32;
+  static constexpr std::size_t kFaultQueueCapacity = 16;
   static constexpr std::size_t kReportQueueCapacity = 256;
 
-  ControlLoop(std::unique_ptr<drivers::ManagedMotionCard> card,
-              const ControlLoopSettings& settings);
+  // `card` must outlive the loop and be active (brought up by the caller).
+  ControlLoop(drivers::MotionCard& card, const ControlLoopSettings& settings);
   ~ControlLoop();  // stop_thread()
   ControlLoop(const ControlLoop&) = delete;
   ControlLoop& operator=(const ControlLoop&) = delete;
 
-  // ---- start-up / shut-down (I/O thread, while the loop thread is not running) ----
-  Status bring_up();           // card: configure -> activate
-  void bring_down() noexcept;  // card: smooth stop, deactivate -> cleanup
+  // ---- start-up / shut-down (I/O thread) ----
   // Starts the control thread; returns the realtime warnings (refused SCHED_FIFO / mlockall).
   std::vector<std::string> start_thread();
   void stop_thread() noexcept;  // asks the thread to exit and joins it. Idempotent.
 
-  // ---- I/O thread ----
+  // ---- I/O thread (the single producer) ----
   bool post_move(const MoveCommand& move) noexcept;  // false: queue full (nothing queued)
-  void request_stop() noexcept;
-  void request_emergency_stop() noexcept;
-  void request_fault_stop(ErrorCode code) noexcept;  // stop anything moving, latch `code`
-  void request_recover() noexcept;                   // clear the loop's latch, recover the card
+  // Starts a recovery (Reset): clears the loop's latch, recovers the card. Answered by exactly
+  // one kRecovered report carrying `sequence`. false: queue full (nothing queued).
+  bool request_recover(std::uint32_t sequence) noexcept;
+  void request_stop() noexcept;                      // never refused
+  void request_emergency_stop() noexcept;            // never refused; latches kEmergencyStopped
+  void request_fault_stop(ErrorCode code) noexcept;  // never refused; stop, latch `code`
   void set_arm_moving(bool moving) noexcept;         // the deadman also watches the arm
   bool pop_report(LoopReport& report) noexcept;
 
@@ -132,32 +167,47 @@ class ControlLoop {
 
  private:
   enum class Motion : std::uint8_t { kIdle, kMoving, kStopping };
+  enum class Recovery : std::uint8_t { kNone, kWaitRest, kClear, kEnable, kPoll };
+  enum class CommandKind : std::uint8_t { kMove, kRecover };
+  struct Command {
+    CommandKind kind = CommandKind::kMove;
+    std::uint32_t id = 0;  // motion id (kMove) or recover sequence (kRecover)
+    std::int64_t left_counts = 0, right_counts = 0;
+    std::uint32_t stop_stamp = 0;   // stop generation when posted
+    std::uint32_t latch_stamp = 0;  // emergency/fault stop generation when posted
+  };
 
   void thread_main(std::int64_t first_deadline_ns) noexcept;
-  void handle_requests(std::int64_t now_ns) noexcept;
-  void start_move(const MoveCommand& move, std::int64_t now_ns) noexcept;
+  void handle_stops(std::int64_t now_ns) noexcept;
+  void execute(const Command& command, std::int64_t now_ns) noexcept;
+  void start_move(const Command& move, std::int64_t now_ns) noexcept;
+  void advance_recovery(std::int64_t now_ns) noexcept;
+  void end_recovery(ErrorCode code) noexcept;
   void begin_stop(std::int64_t now_ns) noexcept;
   void latch(ErrorCode code, int axis) noexcept;
   void finish(LoopReportKind kind, ErrorCode code) noexcept;
   void report(const LoopReport& r) noexcept;
   void read_axes() noexcept;
   void supervise(std::int64_t now_ns) noexcept;
+  drivers::LifecycleState card_state() const noexcept;
 
-  std::unique_ptr<drivers::ManagedMotionCard> card_;
+  drivers::MotionCard& card_;
   ControlLoopSettings settings_;
   int axes_[2];
   drivers::TrapezoidProfile profile_;
   std::int64_t period_ns_;
   std::int64_t deadman_ns_;
   std::int64_t stop_timeout_ns_;
+  std::int64_t recovery_timeout_ns_;
 
   // I/O thread -> loop.
-  boost::lockfree::spsc_queue<MoveCommand, boost::lockfree::capacity<kCommandQueueCapacity>>
-      commands_;
-  std::atomic<bool> stop_requested_{false};
-  std::atomic<bool> emergency_stop_requested_{false};
-  std::atomic<std::uint16_t> fault_stop_code_{0};
-  std::atomic<bool> recover_requested_{false};
+  boost::lockfree::spsc_queue<Command, boost::lockfree::capacity<kCommandQueueCapacity>> commands_;
+  boost::lockfree::spsc_queue<ErrorCode, boost::lockfree::capacity<kFaultQueueCapacity>>
+      fault_codes_;
+  std::atomic<std::uint16_t> fault_overflow_code_{0};  // first code that found the queue full
+  std::atomic<std::uint32_t> stop_generation_{0};      // every stop, emergency and fault stop
+  std::atomic<std::uint32_t> latch_generation_{0};     // emergency and fault stops
+  std::atomic<std::uint32_t> emergency_generation_{0};
   std::atomic<bool> arm_moving_{false};
   std::atomic<std::int64_t> heartbeat_ns_{0};
   std::atomic<bool> exit_requested_{false};
@@ -169,6 +219,7 @@ class ControlLoop {
   std::atomic<bool> thread_running_{false};
 
   // Loop-private state.
+  std::uint32_t handled_stop_ = 0, handled_latch_ = 0, handled_emergency_ = 0;
   Motion motion_ = Motion::kIdle;
   std::uint32_t motion_id_ = 0;
   std::int64_t motion_deadline_ns_ = 0;
@@ -180,6 +231,9 @@ class ControlLoop {
   ErrorCode read_error_ = ErrorCode::kOk;
   ErrorCode fault_ = ErrorCode::kOk;
   ErrorCode stop_reason_ = ErrorCode::kOk;
+  Recovery recovery_ = Recovery::kNone;
+  std::uint32_t recover_sequence_ = 0;
+  std::int64_t recovery_deadline_ns_ = 0;
   bool have_origin_ = false;
   std::int64_t origin_counts_[2] = {0, 0};
   std::uint64_t reports_dropped_ = 0;

@@ -1,11 +1,12 @@
 // Engine: the daemon's heart below the network. It owns the procedure state machine, the accepted
-// door parameters (persisted), the control loop thread (which owns the motion card) and the arm.
+// door parameters (persisted), the motion card's lifecycle (brought up before the control thread
+// starts, down after it stops), the control loop thread (which drives the card) and the arm.
 // The network layer (server.hpp) owns sessions, roles, request de-duplication and fan-out, and
 // talks to the engine only through this interface, from the single I/O thread.
 //
 // Threading: every method is called from the I/O thread, except where noted. The engine talks to
-// its control thread through a bounded lock-free queue and reads back published snapshots; no call
-// here blocks on the control loop.
+// its control thread through one ordered lock-free command path (docs/control-loop.md) and reads
+// back reports and published snapshots; no call here blocks on the control loop.
 #pragma once
 
 #include <chrono>
@@ -37,7 +38,9 @@ class Engine {
   // Brings the drivers up (init -> configured -> active), restores persisted parameters, and starts
   // the control thread. Throws ajar::daemon::StartupError naming what failed.
   virtual void start() = 0;
-  // Stops motion (smooth), persists, joins the control thread, brings the drivers down. Idempotent.
+  // Stops the wheels (smooth) and the arm and closes every open motion with a motion_stopped event
+  // through the sink (call it before the sessions close), persists, joins the control thread,
+  // brings the drivers down. Idempotent.
   virtual void shutdown() noexcept = 0;
 
   // A command from the controlling session (roles are enforced by the caller). Validates with core,
@@ -78,6 +81,19 @@ class Engine {
   // cycle within the last few periods). Thread-safe.
   virtual bool control_loop_healthy() const noexcept = 0;
 
+  // The daemon's clock: nanoseconds since the engine was made (CLOCK_MONOTONIC unless a test
+  // injected a clock). Every daemon_time_ns on the wire (Telemetry, Event, Pong) uses it.
+  // Thread-safe. (The default, for engine doubles, is plain CLOCK_MONOTONIC.)
+  virtual std::uint64_t daemon_time_ns() const noexcept {
+    return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                          std::chrono::steady_clock::now().time_since_epoch())
+                                          .count());
+  }
+
+  // Test seam (EngineOptions::manual_loop only): runs one control-loop cycle at the engine's
+  // clock on the calling thread. Without manual_loop it does nothing.
+  virtual void run_loop_cycle() noexcept {}
+
   // Warnings from start() for the network layer to log (the engine never logs): realtime
   // scheduling or mlockall refused, a corrupt/unreadable state file (started clean), a restored
   // state that no longer validates with the current config. Valid after start().
@@ -87,11 +103,19 @@ class Engine {
   virtual std::vector<std::string> take_warnings() { return {}; }
 };
 
+// How an engine is made; the defaults are the daemon's. Tests inject a clock and drive the control
+// loop by hand so that every interleaving of commands and cycles is reproducible.
+struct EngineOptions {
+  std::function<std::int64_t()> now_ns;  // monotonic ns; empty = CLOCK_MONOTONIC
+  bool manual_loop = false;              // start() starts no control thread: call run_loop_cycle()
+};
+
 // Builds the engine for a loaded config (drivers selected by config.drivers.kind). Throws
 // StartupError when the drivers cannot be created (e.g. a vendor library is missing).
 std::unique_ptr<Engine> make_engine(const Config& config);
 // The same over drivers made elsewhere (tests: fakes or mocks). `drivers.card` and `drivers.arm`
 // must be set.
-std::unique_ptr<Engine> make_engine(const Config& config, drivers::DriverSet drivers);
+std::unique_ptr<Engine> make_engine(const Config& config, drivers::DriverSet drivers,
+                                    EngineOptions options = {});
 
 }  // namespace ajar::daemon

@@ -35,19 +35,11 @@
 
 namespace ajar::daemon {
 
-// The shape of protocol 1.1's LoopTiming (docs/protocol.md), in ns.
-struct TimingQuantiles {
-  std::uint32_t p50_ns = 0, p99_ns = 0, p999_ns = 0, max_ns = 0;
-};
-struct TimingSpan {
-  std::uint64_t samples = 0;  // cycles measured
-  TimingQuantiles latency, execution, period;
-};
-struct TimingSummary {
-  float window_s = 0;  // length of `recent`
-  TimingSpan all;      // since start or the last reset
-  TimingSpan recent;   // the last window_s seconds
-};
+// Protocol 1.1's LoopTiming (docs/protocol.md), in ns: window_s, all (since start or the last
+// reset), recent (the last window_s seconds).
+using TimingQuantiles = protocol::Quantiles;
+using TimingSpan = protocol::TimingWindow;
+using TimingSummary = protocol::LoopTiming;
 
 class LoopStatisticsRecorder {
  public:

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "ajar/protocol/messages.hpp"
+
 namespace ajar::daemon {
 
 // CLOCK_MONOTONIC in nanoseconds.
@@ -40,6 +42,8 @@ struct RealtimeGranted {
   bool memory_locked = false;
 };
 RealtimeGranted realtime_granted() noexcept;
+// The same, as Status reports it.
+protocol::RealtimeState to_wire(const RealtimeGranted& granted) noexcept;
 // One line for the start-up log, e.g. "control thread SCHED_FIFO priority 80; memory locked
 // (mlockall; 28.1 MiB resident now)" or "control thread SCHED_OTHER (control.realtime: false);
 // memory not locked (control.lock_memory: false)". Reads /proc/self/status for the resident size.

@@ -1,0 +1,389 @@
+// Wire-level proof of issue 10's I/O side, against the server and the real engine on mock drivers
+// (in process) and against the ajard binary: several frames in ONE write (a GUI that queues them,
+// a host retrying), a session table full of sockets that never greet, an EmergencyStop while the
+// controller's state is being written to a slow disk, durable Acks in request order, a state file
+// with impossible content, SIGTERM while the base turns. No timing is asserted: every wait is
+// bounded and checks an outcome.
+#include <signal.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include <boost/crc.hpp>
+#include <gtest/gtest.h>
+
+#include "ajar/daemon/engine.hpp"
+#include "ajard_process.hpp"
+#include "test_client_e2e.hpp"
+#include "test_client_harness.hpp"
+
+namespace ajar::test {
+namespace {
+
+using protocol::EventKind;
+using protocol::MessageType;
+using protocol::ProcedureState;
+using protocol::Role;
+
+class InProcess {
+ public:
+  explicit InProcess(const daemon::Config& config) : engine_(daemon::make_engine(config)) {
+    server_ = std::make_unique<ServerThread>(*engine_, daemon::ServerOptions::from(config.network));
+  }
+  ~InProcess() { server_.reset(); }
+  std::uint16_t port() const { return server_->port(); }
+  daemon::Engine& engine() { return *engine_; }
+  std::size_t session_count() { return server_->session_count(); }
+
+ private:
+  std::unique_ptr<daemon::Engine> engine_;
+  std::unique_ptr<ServerThread> server_;
+};
+
+// Several requests as ONE write (one TCP segment on loopback).
+std::vector<std::uint8_t> one_write(
+    std::initializer_list<std::pair<protocol::Message, std::uint32_t>> requests) {
+  std::vector<std::uint8_t> bytes;
+  for (const auto& [message, id] : requests) {
+    const auto f = frame_of(message, id);
+    bytes.insert(bytes.end(), f.begin(), f.end());
+  }
+  return bytes;
+}
+
+struct WheelCounts {
+  std::int64_t left = 0;
+  std::int64_t right = 0;
+  bool operator==(const WheelCounts&) const = default;
+};
+
+// The wheel positions over the next `frames` telemetry frames (the loop publishes every cycle):
+// returns true when they never moved from `at` and nothing was reported moving.
+bool wheels_stay_put(TestClient& watcher, WheelCounts at, std::size_t frames = 30) {
+  for (std::size_t i = 0; i < frames; ++i) {
+    if (!watcher.wait_telemetry(watcher.telemetry_count() + 1)) {
+      ADD_FAILURE() << "no telemetry";
+      return false;
+    }
+    const auto& t = *watcher.last_telemetry();
+    const WheelCounts now{t.left_counts, t.right_counts};
+    if (!(now == at) || t.moving) {
+      ADD_FAILURE() << "the wheels turned: left " << at.left << " -> " << now.left << ", right "
+                    << at.right << " -> " << now.right << (t.moving ? " (moving)" : "");
+      return false;
+    }
+  }
+  return true;
+}
+
+WheelCounts counts_now(TestClient& watcher) {
+  watcher.wait_telemetry(watcher.telemetry_count() + 1);
+  const auto& t = *watcher.last_telemetry();
+  return {t.left_counts, t.right_counts};
+}
+
+// Waits (bounded) until the telemetry says nothing moves; returns the resting counts.
+WheelCounts wait_at_rest(TestClient& watcher) {
+  EXPECT_TRUE(eventually([&] {
+    return watcher.wait_telemetry(watcher.telemetry_count() + 1) &&
+           !watcher.last_telemetry()->moving;
+  }));
+  return counts_now(watcher);
+}
+
+protocol::Status status_of(TestClient& c) {
+  return c.request_as<protocol::Status>(protocol::GetStatus{});
+}
+
+// Back to ready_to_align after an interrupted alignment (which consumes the plane).
+void ready_to_align(TestClient& controller) {
+  const auto state = status_of(controller).state;
+  if (state == ProcedureState::kReadyToAlign) return;
+  if (state == ProcedureState::kAwaitingWidth) {
+    measure_door(controller, 0.6);
+    return;
+  }
+  ASSERT_EQ(ack_state(controller.request(plane_at_yaw(0.6))), ProcedureState::kReadyToAlign);
+}
+
+// Until the loop helper's ordered command path lands (issue 10: a Stop consumed by an idle loop
+// before a queued move; one recovery flag for several Resets), the tests below that exercise it
+// fail on main. They are skipped with this message ONLY until then.
+constexpr bool kOrderedCommandPathLanded = false;
+#define REQUIRE_ORDERED_COMMAND_PATH()                                                       \
+  if (!kOrderedCommandPathLanded)                                                            \
+  GTEST_SKIP() << "DEPENDS ON the loop helper's ordered command path (issue 10, engine.cpp/" \
+                  "control_loop.cpp); remove this skip when it lands"
+
+class StopRaces : public ::testing::Test {
+ protected:
+  daemon::Config config(double speedup = 1.0) {
+    return e2e_config(drivers::DriverKind::kMock, dir_.path(), speedup);
+  }
+  // An observer watching telemetry at the loop rate.
+  std::unique_ptr<TestClient> watcher(std::uint16_t port) {
+    auto w = std::make_unique<TestClient>(port);
+    w->hello(Role::kObserver);
+    w->request_as<protocol::Ack>(protocol::Subscribe{1000});
+    return w;
+  }
+  TempDir dir_;
+};
+
+// The bug that opened issue 10: AlignBase and Stop in one write. The Stop is acknowledged, so the
+// queued move must never start.
+TEST_F(StopRaces, AlignBaseAndStopInOneWriteTurnsNothing) {
+  REQUIRE_ORDERED_COMMAND_PATH();
+  InProcess d(config());
+  auto w = watcher(d.port());
+  TestClient controller(d.port());
+  controller.hello(Role::kController);
+  for (std::uint32_t round = 0; round < 10;
+       ++round) {  // the race has several outcomes: try it repeatedly
+    SCOPED_TRACE("round " + std::to_string(round));
+    ready_to_align(controller);
+    const WheelCounts before = wait_at_rest(*w);
+    controller.send_raw(one_write(
+        {{protocol::AlignBase{}, 100u + 2 * round}, {protocol::Stop{}, 101u + 2 * round}}));
+    const auto align = controller.reply_to(100 + 2 * round);
+    const auto stop = controller.reply_to(101 + 2 * round);
+    ASSERT_TRUE(std::holds_alternative<protocol::Ack>(stop)) << TestClient::describe(stop);
+    (void)align;  // accepted then cancelled, or refused: either way nothing may turn
+    ASSERT_TRUE(wheels_stay_put(*w, before));
+    ASSERT_NE(status_of(controller).state, ProcedureState::kAligning);
+  }
+}
+
+// A table full of sockets that never said Hello: a new connection's Hello + EmergencyStop (one
+// write) is executed: the fault latches and the wheels stop.
+TEST_F(StopRaces, AFullTableOfSilentSocketsCannotLockOutAnEmergencyStop) {
+  REQUIRE_ORDERED_COMMAND_PATH();
+  auto c = config();
+  c.network.max_clients = 24;
+  InProcess d(c);
+  auto w = watcher(d.port());
+  TestClient controller(d.port());
+  controller.hello(Role::kController);
+  measure_door(controller, 0.6);
+  ASSERT_EQ(ack_state(controller.request(protocol::AlignBase{})), ProcedureState::kAligning);
+  std::vector<std::unique_ptr<TestClient>> silent;
+  while (silent.size() < 22)
+    silent.push_back(std::make_unique<TestClient>(d.port()));
+  ASSERT_TRUE(eventually([&] { return d.session_count() == 24; }));
+
+  TestClient operator_(d.port());
+  operator_.send_raw(one_write({{hello_as(Role::kObserver), 1}, {protocol::EmergencyStop{}, 2}}));
+  EXPECT_TRUE(std::holds_alternative<protocol::Welcome>(operator_.reply_to(1)));
+  const auto ack = operator_.reply_to(2);
+  ASSERT_TRUE(std::holds_alternative<protocol::Ack>(ack)) << TestClient::describe(ack);
+  const auto status = status_of(operator_);
+  EXPECT_EQ(status.state, ProcedureState::kFault);
+  EXPECT_EQ(status.latched_fault, ErrorCode::kEmergencyStopped);
+  const WheelCounts rest = wait_at_rest(*w);
+  EXPECT_TRUE(wheels_stay_put(*w, rest));
+  // One of the silent sockets made room (TOO_MANY_CLIENTS, closed); the controller is untouched.
+  EXPECT_TRUE(eventually([&] {
+    for (auto& s : silent)
+      if (s->wait_closed(50ms)) return true;
+    return false;
+  }));
+  EXPECT_TRUE(std::holds_alternative<protocol::Status>(controller.request(protocol::GetStatus{})));
+}
+
+// Reset (clearing a latched fault) + AlignBase + Stop in one write: the Stop cancels the queued
+// move, nothing turns, and the fault stays cleared.
+TEST_F(StopRaces, ResetAlignBaseAndStopInOneWriteTurnsNothing) {
+  REQUIRE_ORDERED_COMMAND_PATH();
+  InProcess d(config());
+  auto w = watcher(d.port());
+  TestClient controller(d.port());
+  controller.hello(Role::kController);
+  measure_door(controller, 0.6);
+  for (std::uint32_t round = 0; round < 5; ++round) {
+    SCOPED_TRACE("round " + std::to_string(round));
+    ASSERT_TRUE(
+        std::holds_alternative<protocol::Ack>(controller.request(protocol::EmergencyStop{})));
+    ASSERT_EQ(status_of(controller).state, ProcedureState::kFault);
+    const WheelCounts before = wait_at_rest(*w);
+    const std::uint32_t id = 200 + 3 * round;
+    controller.send_raw(one_write(
+        {{protocol::Reset{}, id}, {protocol::AlignBase{}, id + 1}, {protocol::Stop{}, id + 2}}));
+    ASSERT_TRUE(std::holds_alternative<protocol::Ack>(controller.reply_to(id)));
+    (void)controller.reply_to(id + 1);
+    ASSERT_TRUE(std::holds_alternative<protocol::Ack>(controller.reply_to(id + 2)));
+    ASSERT_TRUE(wheels_stay_put(*w, before));
+    const auto status = status_of(controller);
+    EXPECT_NE(status.state, ProcedureState::kAligning);
+    EXPECT_EQ(status.latched_fault, ErrorCode::kOk);
+    ready_to_align(controller);
+  }
+}
+
+// Two Resets in one write during a fault: both answered, and a fault the loop raises afterwards
+// (the deadman of a controller that falls silent mid-alignment) is still latched.
+TEST_F(StopRaces, TwoResetsInOneWriteLeaveLaterFaultsLatching) {
+  REQUIRE_ORDERED_COMMAND_PATH();
+  InProcess d(config());
+  auto w = watcher(d.port());
+  TestClient controller(d.port());
+  controller.hello(Role::kController);
+  measure_door(controller, 0.6);
+  ASSERT_TRUE(std::holds_alternative<protocol::Ack>(controller.request(protocol::EmergencyStop{})));
+  controller.send_raw(one_write({{protocol::Reset{}, 300}, {protocol::Reset{}, 301}}));
+  ASSERT_TRUE(std::holds_alternative<protocol::Ack>(controller.reply_to(300)));
+  ASSERT_TRUE(std::holds_alternative<protocol::Ack>(controller.reply_to(301)));
+  // And two recoveries requested back to back (each Reset clears a fault) in one write.
+  controller.send_raw(one_write({{protocol::EmergencyStop{}, 302},
+                                 {protocol::Reset{}, 303},
+                                 {protocol::EmergencyStop{}, 304},
+                                 {protocol::Reset{}, 305}}));
+  for (std::uint32_t id = 302; id <= 305; ++id) {
+    const auto reply = controller.reply_to(id);
+    ASSERT_TRUE(std::holds_alternative<protocol::Ack>(reply)) << id << TestClient::describe(reply);
+  }
+  ASSERT_EQ(status_of(controller).latched_fault, ErrorCode::kOk);
+  w->events().clear();  // the e-stop's fault_latched is history
+  // The card is back (the recovery finished): the move is accepted.
+  protocol::Message align;
+  ASSERT_TRUE(eventually([&] {
+    align = controller.request(protocol::AlignBase{});
+    return std::holds_alternative<protocol::Ack>(align);
+  })) << TestClient::describe(align);
+  // The controller now falls silent while the base turns: the loop's deadman must latch.
+  bool deadman = false;
+  while (!deadman) {  // (late e-stop fault_latched events are skipped)
+    const auto e = w->wait_event(EventKind::kFaultLatched, 20s);
+    if (!e) break;
+    deadman = e->fault == ErrorCode::kDeadman;
+  }
+  EXPECT_TRUE(deadman);
+  EXPECT_EQ(status_of(*w).latched_fault, ErrorCode::kDeadman);
+}
+
+// An EmergencyStop from an observer while the controller's commands are being written to a slow
+// disk (3 s per save): the e-stop is executed and acknowledged while that save is still running.
+TEST_F(StopRaces, AnEmergencyStopDoesNotWaitForTheControllersSlowDisk) {
+  auto c = config();
+  c.state.debug_write_delay_ms = 3000;
+  InProcess d(c);
+  TestClient observer(d.port());
+  observer.hello(Role::kObserver);
+  TestClient controller(d.port());
+  controller.hello(Role::kController);
+  const std::uint32_t width_id = controller.send(good_width());
+  ASSERT_TRUE(eventually([&] { return d.engine().accepted_generation() > 0; }));
+  const std::uint64_t width_generation = d.engine().accepted_generation();
+  const auto ack = observer.request(protocol::EmergencyStop{});
+  ASSERT_TRUE(std::holds_alternative<protocol::Ack>(ack)) << TestClient::describe(ack);
+  EXPECT_LT(d.engine().settled_generation(), width_generation)
+      << "the e-stop Ack came only after the controller's save finished";
+  EXPECT_EQ(status_of(observer).latched_fault, ErrorCode::kEmergencyStopped);
+  // The controller's Ack arrives once its save is on disk.
+  EXPECT_TRUE(std::holds_alternative<protocol::Ack>(controller.reply_to(width_id)));
+  EXPECT_GE(d.engine().settled_generation(), width_generation);
+}
+
+// One session's replies stay in request order when its first command waits for the disk.
+TEST_F(StopRaces, DurableAcksKeepOneSessionsRequestOrder) {
+  auto c = config();
+  c.state.debug_write_delay_ms = 200;
+  InProcess d(c);
+  TestClient controller(d.port());
+  controller.hello(Role::kController);
+  controller.send_raw(one_write({{good_width(), 11},
+                                 {protocol::Ping{5}, 12},
+                                 {good_handle(), 13},
+                                 {protocol::GetStatus{}, 14}}));
+  std::vector<std::uint32_t> order;
+  while (order.size() < 4) {
+    auto outcome = controller.next();
+    ASSERT_TRUE(outcome && outcome->kind == protocol::StreamDecoder::Kind::kMessage);
+    if (outcome->envelope.request_id == 0) continue;  // events
+    order.push_back(outcome->envelope.request_id);
+    if (outcome->envelope.request_id == 11 || outcome->envelope.request_id == 13) {
+      // Released only once durable.
+      EXPECT_GE(d.engine().settled_generation(), outcome->envelope.request_id == 11 ? 1U : 2U);
+    }
+  }
+  EXPECT_EQ(order, (std::vector<std::uint32_t>{11, 12, 13, 14}));
+  EXPECT_EQ(status_of(controller).state, ProcedureState::kAwaitingPlane);
+}
+
+// ---- against the ajard binary
+// --------------------------------------------------------------------
+
+class AjardStopRaces : public ::testing::Test {
+ protected:
+  std::string write_config(double speedup) {
+    daemon::Config c = e2e_config(drivers::DriverKind::kMock, dir_.path(), speedup);
+    const std::string path = dir_.path() + "/ajard.yaml";
+    std::ofstream(path) << daemon::to_yaml(c);
+    return path;
+  }
+  std::string state_file() const { return dir_.path() + "/state/ajard.state"; }
+  TempDir dir_;
+};
+
+std::string with_checksum(const std::string& body) {
+  boost::crc_32_type crc;
+  crc.process_bytes(body.data(), body.size());
+  char line[32];
+  std::snprintf(line, sizeof(line), "crc32 %08x\n", crc.checksum());
+  return body + line;
+}
+
+// A state file with a valid checksum but impossible content is not restored; it is kept beside the
+// new file and the log says so.
+TEST_F(AjardStopRaces, AnImpossibleStateFileIsRejectedKeptAndReported) {
+  std::filesystem::create_directories(dir_.path() + "/state");
+  const std::string impossible =
+      with_checksum("ajar-state 1\nphase idle\naligned 0\nplane_consumed 0\nfault 65535\n");
+  std::ofstream(state_file()) << impossible;
+  const std::string port_file = dir_.path() + "/port";
+  AjardProcess ajard({"--config", write_config(20.0), "--port-file", port_file}, dir_.path());
+  const auto port = wait_for_port_file(port_file, ajard);
+  ASSERT_TRUE(port) << ajard.err();
+  TestClient observer(*port);
+  observer.hello(Role::kObserver);
+  const auto status = status_of(observer);
+  EXPECT_FALSE(status.restored_from_disk);
+  EXPECT_EQ(status.state, ProcedureState::kAwaitingWidth);
+  std::string kept;
+  for (const auto& entry : std::filesystem::directory_iterator(dir_.path() + "/state")) {
+    if (entry.path().filename().string().starts_with("ajard.state.rejected-")) kept = entry.path();
+  }
+  ASSERT_FALSE(kept.empty());
+  EXPECT_EQ(read_text_file(kept), impossible);
+  EXPECT_NE(ajard.err().find("fault code '65535'"), std::string::npos) << ajard.err();
+  EXPECT_NE(ajard.err().find(kept), std::string::npos) << ajard.err();
+  ajard.signal(SIGTERM);
+  EXPECT_EQ(ajard.wait_exit(), 0);
+}
+
+// SIGTERM while the base turns: every session receives motion_stopped before it is closed.
+TEST_F(AjardStopRaces, SigtermWhileMovingSendsMotionStoppedBeforeClosing) {
+  REQUIRE_ORDERED_COMMAND_PATH();  // (and its Engine::shutdown() emitting motion_stopped)
+  const std::string port_file = dir_.path() + "/port";
+  AjardProcess ajard({"--config", write_config(1.0), "--port-file", port_file}, dir_.path());
+  const auto port = wait_for_port_file(port_file, ajard);
+  ASSERT_TRUE(port) << ajard.err();
+  TestClient observer(*port);
+  observer.hello(Role::kObserver);
+  TestClient controller(*port);
+  controller.hello(Role::kController);
+  measure_door(controller, 0.6);
+  ASSERT_EQ(ack_state(controller.request(protocol::AlignBase{})), ProcedureState::kAligning);
+  ASSERT_TRUE(observer.wait_event(EventKind::kMotionStarted));
+  ajard.signal(SIGTERM);
+  EXPECT_TRUE(observer.wait_closed());
+  EXPECT_TRUE(controller.wait_closed());
+  bool stopped = false;
+  for (const auto& e : observer.events())
+    stopped = stopped || e.kind == EventKind::kMotionStopped;
+  EXPECT_TRUE(stopped);
+  EXPECT_EQ(ajard.wait_exit(), 0);
+}
+
+}  // namespace
+}  // namespace ajar::test

@@ -1,0 +1,212 @@
+// The engine with its loop driven by hand on a fake clock (EngineOptions::manual_loop) over the
+// deterministic card: resets that cannot merge, events that pair, the arm's deadline, shutdown.
+#include <gtest/gtest.h>
+
+#include "ajar/daemon/config.hpp"
+#include "ajar/daemon/engine.hpp"
+#include "det_card.hpp"
+#include "fake_door.hpp"
+#include "fake_engine_fixture.hpp"
+#include "fake_manipulator.hpp"
+
+namespace ajar::testing {
+namespace {
+
+using protocol::EventKind;
+using protocol::ProcedureState;
+
+constexpr std::int64_t kPeriodNs = 2'000'000;
+
+class ManualEngine : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    config.safety.deadman_timeout_s = 0.05;
+    config.safety.arm_task_timeout_s = 0.5;
+    config.control.motion_timeout_margin_s = 0.2;
+    card.now_ns = &now;
+    card.tick = &tick;
+    card.left_axis = config.base.left.card_axis;
+    card.right_axis = config.base.right.card_axis;
+    drivers::DriverSet set;
+    set.card = std::make_unique<DetCard>(card);
+    set.arm = std::make_unique<FakeManipulator>(arm);
+    daemon::EngineOptions options;
+    options.now_ns = [this] { return now; };
+    options.manual_loop = true;
+    engine = daemon::make_engine(config, std::move(set), std::move(options));
+    engine->set_event_sink([this](const protocol::Event& e) { events.push_back(e); });
+    engine->start();
+  }
+  void TearDown() override { engine.reset(); }
+
+  protocol::Message send(const protocol::Message& m) {
+    ++tick;
+    engine->controller_heartbeat();
+    return engine->handle_command(m);
+  }
+  void cycles(int n, bool alive = true) {
+    for (int i = 0; i < n; ++i) {
+      ++tick;
+      now += kPeriodNs;
+      if (alive) engine->controller_heartbeat();
+      engine->run_loop_cycle();
+      engine->poll();
+    }
+  }
+  ProcedureState state() { return engine->status().state; }
+  int count(EventKind kind) const {
+    int n = 0;
+    for (const auto& e : events)
+      n += e.kind == kind ? 1 : 0;
+    return n;
+  }
+  int moves() const {
+    int n = 0;
+    for (const auto& c : card.calls)
+      n += c.kind == DetCardState::Call::kMove ? 1 : 0;
+    return n;
+  }
+  void to_ready_to_align() {
+    cycles(3);
+    expect_ack(send(good_width()), ProcedureState::kAwaitingHandle);
+    expect_ack(send(good_handle()), ProcedureState::kAwaitingPlane);
+    expect_ack(send(plane_at_yaw(0.1)), ProcedureState::kReadyToAlign);
+  }
+  void to_ready_to_engage() {
+    to_ready_to_align();
+    expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
+    cycles(1000);
+    ASSERT_EQ(state(), ProcedureState::kAligned);
+    expect_ack(send(good_contact()), ProcedureState::kReadyToEngage);
+  }
+
+  TempDir tmp;
+  daemon::Config config = test_config(tmp.path());
+  std::int64_t now = 1'000'000'000;
+  std::uint64_t tick = 0;
+  DetCardState card;
+  std::shared_ptr<FakeArmControl> arm = std::make_shared<FakeArmControl>();
+  std::unique_ptr<daemon::Engine> engine;
+  std::vector<protocol::Event> events;
+};
+
+TEST_F(ManualEngine, TwoResetsInOneReadDuringAFaultThenLaterFaultsStillLatch) {
+  to_ready_to_engage();
+  card.inject_alarm(card.left_axis);
+  cycles(2);
+  ASSERT_EQ(engine->status().latched_fault, ErrorCode::kAxisAlarm);
+  expect_ack(send(protocol::Reset{}), ProcedureState::kReadyToEngage);
+  expect_ack(send(protocol::Reset{}), ProcedureState::kReadyToEngage);
+  cycles(20);
+  EXPECT_EQ(engine->status().latched_fault, ErrorCode::kOk);
+  EXPECT_EQ(engine->status().card, protocol::DriverState::kActive);
+  // The engine waits for nothing any more: the deadman while the arm works latches.
+  expect_ack(send(protocol::Engage{}), ProcedureState::kEngaging);
+  cycles(100, /*alive=*/false);
+  EXPECT_EQ(engine->status().latched_fault, ErrorCode::kDeadman);
+  EXPECT_GE(arm->with_lock([](FakeArmControl& a) { return a.stops; }), 1);
+  EXPECT_EQ(count(EventKind::kMotionStarted),
+            count(EventKind::kMotionStopped) + count(EventKind::kMotionFinished));
+}
+
+TEST_F(ManualEngine, ResetAlignBaseStopInOneReadTurnsNothing) {
+  to_ready_to_align();
+  expect_ack(send(protocol::EmergencyStop{}), ProcedureState::kFault);
+  cycles(5);
+  expect_ack(send(protocol::Reset{}), ProcedureState::kReadyToAlign);
+  expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
+  expect_ack(send(protocol::Stop{}), ProcedureState::kReadyToAlign);
+  cycles(300);
+  EXPECT_EQ(moves(), 0);
+  EXPECT_EQ(engine->status().latched_fault, ErrorCode::kOk);
+  EXPECT_EQ(count(EventKind::kMotionStarted), 1);
+  EXPECT_EQ(count(EventKind::kMotionStopped), 1);
+  // The wheels never turned: the plane still holds, a new AlignBase is accepted.
+  expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
+  cycles(1000);
+  EXPECT_EQ(state(), ProcedureState::kAligned);
+}
+
+TEST_F(ManualEngine, TakeOverRightAfterAlignBaseClosesTheMotion) {
+  to_ready_to_align();
+  expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
+  engine->controller_lost();  // before the loop's next cycle
+  cycles(50);
+  EXPECT_EQ(moves(), 0);
+  EXPECT_EQ(engine->status().latched_fault, ErrorCode::kDeadman);
+  EXPECT_EQ(count(EventKind::kMotionStarted), 1);
+  EXPECT_EQ(count(EventKind::kMotionStopped), 1);
+  EXPECT_EQ(count(EventKind::kFaultLatched), 1);
+}
+
+TEST_F(ManualEngine, EachLatchIsAnnouncedOnceAndSurfacedOnceForTheJournal) {
+  to_ready_to_align();
+  (void)engine->take_warnings();
+  expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
+  cycles(5);
+  expect_ack(send(protocol::EmergencyStop{}), ProcedureState::kFault);
+  expect_ack(send(protocol::EmergencyStop{}), ProcedureState::kFault);
+  cycles(50);
+  EXPECT_EQ(count(EventKind::kFaultLatched), 1);
+  EXPECT_EQ(count(EventKind::kMotionStopped), 1);
+  int latched = 0;
+  for (const auto& w : engine->take_warnings()) {
+    if (w.find("fault latched: EMERGENCY_STOPPED") != std::string::npos) ++latched;
+  }
+  EXPECT_EQ(latched, 1);
+}
+
+TEST_F(ManualEngine, AStuckArmTaskHitsItsDeadline) {
+  to_ready_to_engage();
+  expect_ack(send(protocol::Engage{}), ProcedureState::kEngaging);
+  cycles(static_cast<int>(config.safety.arm_task_timeout_s / 0.002) - 5);
+  EXPECT_EQ(state(), ProcedureState::kEngaging);  // not before the deadline
+  cycles(10);
+  EXPECT_EQ(engine->status().latched_fault, ErrorCode::kArmTimeout);
+  EXPECT_GE(arm->with_lock([](FakeArmControl& a) { return a.stops; }), 1);
+  EXPECT_EQ(count(EventKind::kMotionStopped), 1);
+  expect_ack(send(protocol::Reset{}), ProcedureState::kReadyToEngage);
+}
+
+TEST_F(ManualEngine, AnArmControllerThatDropsTheTaskAborts) {
+  to_ready_to_engage();
+  expect_ack(send(protocol::Engage{}), ProcedureState::kEngaging);
+  cycles(3);
+  arm->set_phase(drivers::ArmPhase::kIdle);  // reset mid-task: busy -> idle without our stop
+  cycles(2);
+  EXPECT_EQ(engine->status().latched_fault, ErrorCode::kArmFault);
+  EXPECT_EQ(count(EventKind::kMotionStopped), 1);
+}
+
+TEST_F(ManualEngine, ShutdownWhileMovingTellsEverySessionFirst) {
+  to_ready_to_align();
+  expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
+  cycles(5);
+  ASSERT_EQ(moves(), 1);
+  card.stops_rest_at_once = true;  // the fake clock stands still during shutdown()
+  engine->shutdown();
+  ASSERT_EQ(count(EventKind::kMotionStopped), 1);
+  EXPECT_NE(events.back().detail.view().find("shutting down"), std::string_view::npos);
+  bool stopped = false;
+  for (const auto& c : card.calls)
+    stopped = stopped || c.kind == DetCardState::Call::kSmoothStop;
+  EXPECT_TRUE(stopped);
+}
+
+// The same over the real control thread: the wheels stop under its supervision first.
+TEST_F(EngineTest, ShutdownWhileAligningEmitsMotionStoppedWithTheReason) {
+  start();
+  walk_to(ProcedureState::kAligning);
+  engine->shutdown();
+  bool said = false;
+  for (const auto& e : events) {
+    if (e.kind == protocol::EventKind::kMotionStopped) {
+      said = said || e.detail.view().find("shutting down") != std::string_view::npos;
+    }
+  }
+  EXPECT_TRUE(said);
+  EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.smooth_stops; }), 1);
+}
+
+}  // namespace
+}  // namespace ajar::testing
