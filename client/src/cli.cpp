@@ -3,7 +3,11 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <sstream>
+#include <tuple>
+
+#include <yaml-cpp/yaml.h>
 
 #include "ajar/version.hpp"
 
@@ -71,6 +75,57 @@ std::string quoted(std::span<const std::string> words, std::size_t i) {
   std::string s = "'" + words[i];
   if (words[i].starts_with('-') && i + 1 < words.size()) s += " " + words[i + 1];
   return s + "'";
+}
+
+// --client-config FILE: `connect: HOST:PORT` and `tls: {ca, certificate, private_key,
+// server_name}`; relative paths are taken from the file's folder. Empty, or what is wrong.
+std::string load_client_config(const std::string& path, GlobalOptions& o) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    return "--client-config " + path + ": " + e.what();
+  }
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  auto text = [&](const YAML::Node& map, const char* key, std::string& out,
+                  bool is_path) -> std::string {
+    const YAML::Node n = map[key];
+    if (!n) return {};
+    if (!n.IsScalar() || n.Scalar().empty())
+      return path + ": " + key + ": must be a non-empty string";
+    std::filesystem::path value = n.Scalar();
+    out = is_path && value.is_relative() ? (folder / value).string() : value.string();
+    return {};
+  };
+  if (!root.IsMap()) return path + ": must be a map (connect, tls)";
+  for (const auto& entry : root) {
+    const auto key = entry.first.as<std::string>();
+    if (key != "connect" && key != "tls") return path + ": unknown key '" + key + "'";
+  }
+  std::string connect;
+  if (auto e = text(root, "connect", connect, false); !e.empty()) return e;
+  if (!connect.empty()) {
+    auto endpoint = parse_endpoint(connect);
+    if (!endpoint) return path + ": connect: wants HOST:PORT, got '" + connect + "'";
+    o.endpoint = *endpoint;
+  }
+  if (const YAML::Node tls = root["tls"]) {
+    if (!tls.IsMap()) return path + ": tls: must be a map";
+    for (const auto& entry : tls) {
+      const auto key = entry.first.as<std::string>();
+      if (key != "ca" && key != "certificate" && key != "private_key" && key != "server_name")
+        return path + ": tls." + key + ": unknown key (allowed: ca, certificate, private_key, " +
+               "server_name)";
+    }
+    for (auto [key, out, is_path] :
+         {std::tuple<const char*, std::string*, bool>{"ca", &o.tls.ca, true},
+          {"certificate", &o.tls.certificate, true},
+          {"private_key", &o.tls.private_key, true},
+          {"server_name", &o.tls.server_name, false}}) {
+      if (auto e = text(tls, key, *out, is_path); !e.empty()) return e;
+    }
+  }
+  return {};
 }
 
 CommandParse fail(std::string message) {
@@ -179,6 +234,11 @@ struct OptionInfo {
 };
 constexpr OptionInfo kGlobalOptions[] = {
     {"--connect", "HOST:PORT", "daemon address (default 127.0.0.1:7450)"},
+    {"--ca", "FILE", "speak TLS; the CA the daemon's certificate must chain to (PEM)"},
+    {"--cert", "FILE", "this operator's certificate (PEM; docs/security.md)"},
+    {"--key", "FILE", "its private key (PEM, mode 0600: others' access is refused)"},
+    {"--server-name", "NAME", "name the daemon's certificate must carry (default: HOST)"},
+    {"--client-config", "FILE", "connect and tls settings from YAML (docs/ajarctl.md)"},
     {"--json", "", "one JSON object per line per reply or event (docs/ajarctl.md)"},
     {"--frame", "camera|base", "frame of the points given to measure/contact (default camera)"},
     {"--timeout", "S", "seconds to wait for each reply attempt (default 3)"},
@@ -388,6 +448,24 @@ ParsedArgs parse_global_options(std::span<const std::string> args) {
         return parsed;
       }
       o.endpoint = *endpoint;
+    } else if (a == "--ca" || a == "--cert" || a == "--key" || a == "--server-name") {
+      const auto* v = value(a);
+      if (!v) return parsed;
+      if (v->empty()) {
+        parsed.error = a + " wants a value";
+        return parsed;
+      }
+      (a == "--ca"     ? o.tls.ca
+       : a == "--cert" ? o.tls.certificate
+       : a == "--key"  ? o.tls.private_key
+                       : o.tls.server_name) = *v;
+    } else if (a == "--client-config") {
+      const auto* v = value(a);
+      if (!v) return parsed;
+      if (auto e = load_client_config(*v, o); !e.empty()) {
+        parsed.error = e;
+        return parsed;
+      }
     } else if (a == "--frame") {
       const auto* v = value(a);
       if (!v) return parsed;

@@ -13,13 +13,68 @@
 #include <unordered_map>
 #include <thread>
 
+#include <sys/stat.h>
+
+#include <cerrno>
+#include <cstring>
+
 #include <boost/asio.hpp>
+#include <boost/asio/ssl.hpp>
+#include <openssl/x509.h>
 
 namespace ajar::client {
 
 namespace asio = boost::asio;
+namespace ssl = asio::ssl;
 using tcp = asio::ip::tcp;
 using Clock = std::chrono::steady_clock;
+using TlsSocket = ssl::stream<tcp::socket&>;
+
+namespace {
+
+// Empty when `path` may be used; a private key must not be accessible to group or others.
+std::string file_problem(const std::string& path, const char* what, bool secret) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0)
+    return std::string("cannot read ") + what + " '" + path + "': " + std::strerror(errno);
+  if (!S_ISREG(st.st_mode)) return std::string(what) + " '" + path + "' is not a regular file";
+  if (secret && (st.st_mode & 0077U) != 0)
+    return std::string(what) + " '" + path +
+           "' is accessible to group or others: refused (chmod 600 it)";
+  return {};
+}
+
+// The client's TLS context, or an error message.
+std::string make_tls_context(const TlsOptions& o, std::shared_ptr<ssl::context>& out) {
+  if (auto e = file_problem(o.ca, "CA certificate (--ca)", false); !e.empty()) return e;
+  const bool has_certificate = !o.certificate.empty() || !o.private_key.empty();
+  if (has_certificate) {
+    if (o.certificate.empty() || o.private_key.empty())
+      return "TLS: a client certificate needs both --cert and --key";
+    if (auto e = file_problem(o.certificate, "certificate (--cert)", false); !e.empty()) return e;
+    if (auto e = file_problem(o.private_key, "private key (--key)", true); !e.empty()) return e;
+  }
+  auto ctx = std::make_shared<ssl::context>(ssl::context::tls_client);
+  if (SSL_CTX_set_min_proto_version(ctx->native_handle(), TLS1_3_VERSION) != 1)
+    return "TLS: this OpenSSL cannot restrict to TLS 1.3";
+  boost::system::error_code ec;
+  ctx->load_verify_file(o.ca, ec);
+  if (ec) return "cannot load CA certificate '" + o.ca + "': " + ec.message();
+  if (has_certificate) {
+    ctx->use_certificate_chain_file(o.certificate, ec);
+    if (ec) return "cannot load certificate '" + o.certificate + "': " + ec.message();
+    ctx->use_private_key_file(o.private_key, ssl::context::pem, ec);
+    if (ec) return "cannot load private key '" + o.private_key + "': " + ec.message();
+    if (SSL_CTX_check_private_key(ctx->native_handle()) != 1)
+      return "private key '" + o.private_key + "' does not match certificate '" + o.certificate +
+             "'";
+  }
+  ctx->set_verify_mode(ssl::verify_peer);
+  out = std::move(ctx);
+  return {};
+}
+
+}  // namespace
 
 std::optional<Endpoint> parse_endpoint(std::string_view text) {
   std::string_view host;
@@ -94,6 +149,8 @@ struct Client::Impl {
 
   // I/O thread only.
   std::shared_ptr<tcp::socket> socket;
+  std::shared_ptr<TlsSocket> tls;  // over *socket when TLS is on
+  std::shared_ptr<ssl::context> tls_context;
   std::array<std::uint8_t, 4096> read_buffer{};
   protocol::StreamDecoder decoder;
   std::deque<std::vector<std::uint8_t>> write_queue;
@@ -124,6 +181,7 @@ struct Client::Impl {
     socket->shutdown(tcp::socket::shutdown_both, ignored);
     socket->close(ignored);
     socket.reset();
+    tls.reset();
     write_queue.clear();
     writing = false;
     heartbeat_ids.clear();
@@ -172,34 +230,51 @@ struct Client::Impl {
     changed.notify_all();
   }
 
+  // Reads or writes through TLS when it is on.
+  template <typename F>
+  void with_stream(F&& f) {
+    if (tls) {
+      f(*tls);
+    } else {
+      f(*socket);
+    }
+  }
+
   void start_read(const std::shared_ptr<tcp::socket>& sock) {
-    sock->async_read_some(
-        asio::buffer(read_buffer), [this, sock](boost::system::error_code ec, std::size_t n) {
-          if (sock != socket) return;  // a stale connection
-          if (ec) {
-            on_closed(ec == asio::error::eof ? "connection closed by the daemon"
-                                             : "connection lost: " + ec.message());
-            return;
-          }
-          std::span<const std::uint8_t> in(read_buffer.data(), n);
-          while (!in.empty()) {
-            protocol::StreamDecoder::Outcome outcome;
-            const std::size_t used = decoder.feed(in, outcome);
-            in = in.subspan(used);
-            if (outcome.kind == protocol::StreamDecoder::Kind::kMessage) {
-              dispatch(std::move(outcome.envelope));
-            } else if (outcome.kind == protocol::StreamDecoder::Kind::kError) {
-              if (outcome.error.framing_lost) {
-                on_closed("undecodable data from the daemon (" +
-                          std::string(ajar::to_string(outcome.error.code)) + ")");
-                return;
-              }
-            } else if (used == 0) {
-              break;
+    with_stream([&](auto& stream) {
+      stream.async_read_some(
+          asio::buffer(read_buffer), [this, sock](boost::system::error_code ec, std::size_t n) {
+            if (sock != socket) return;  // a stale connection
+            if (ec) {
+              std::string why = ec == asio::error::eof ? "connection closed by the daemon"
+                                                       : "connection lost: " + ec.message();
+              if (ec.category() == asio::error::get_ssl_category())
+                why +=
+                    " (the daemon ended the TLS session: is this client's certificate "
+                    "accepted? see the daemon's log)";
+              on_closed(why);
+              return;
             }
-          }
-          start_read(sock);
-        });
+            std::span<const std::uint8_t> in(read_buffer.data(), n);
+            while (!in.empty()) {
+              protocol::StreamDecoder::Outcome outcome;
+              const std::size_t used = decoder.feed(in, outcome);
+              in = in.subspan(used);
+              if (outcome.kind == protocol::StreamDecoder::Kind::kMessage) {
+                dispatch(std::move(outcome.envelope));
+              } else if (outcome.kind == protocol::StreamDecoder::Kind::kError) {
+                if (outcome.error.framing_lost) {
+                  on_closed("undecodable data from the daemon (" +
+                            std::string(ajar::to_string(outcome.error.code)) + ")");
+                  return;
+                }
+              } else if (used == 0) {
+                break;
+              }
+            }
+            start_read(sock);
+          });
+    });
   }
 
   void write(std::vector<std::uint8_t> bytes) {
@@ -215,16 +290,18 @@ struct Client::Impl {
     }
     writing = true;
     auto sock = socket;
-    asio::async_write(*sock, asio::buffer(write_queue.front()),
-                      [this, sock](boost::system::error_code ec, std::size_t) {
-                        if (sock != socket) return;
-                        if (ec) {
-                          on_closed("cannot send: " + ec.message());
-                          return;
-                        }
-                        write_queue.pop_front();
-                        start_write();
-                      });
+    with_stream([&](auto& stream) {
+      asio::async_write(stream, asio::buffer(write_queue.front()),
+                        [this, sock](boost::system::error_code ec, std::size_t) {
+                          if (sock != socket) return;
+                          if (ec) {
+                            on_closed("cannot send: " + ec.message());
+                            return;
+                          }
+                          write_queue.pop_front();
+                          start_write();
+                        });
+    });
   }
 
   void schedule_heartbeat() {
@@ -289,10 +366,16 @@ std::string Client::connect(const Endpoint& endpoint) {
 }
 
 std::string Client::connect(const Endpoint& endpoint, Milliseconds timeout) {
+  std::shared_ptr<ssl::context> tls_context;
+  if (options_.tls.enabled()) {
+    if (auto e = make_tls_context(options_.tls, tls_context); !e.empty()) return e;
+  }
+  const std::string server_name =
+      options_.tls.server_name.empty() ? endpoint.host : options_.tls.server_name;
   auto promise = std::make_shared<std::promise<std::string>>();
   auto future = promise->get_future();
   Impl* impl = impl_.get();
-  asio::post(impl->io, [impl, endpoint, timeout, promise] {
+  asio::post(impl->io, [impl, endpoint, timeout, promise, tls_context, server_name] {
     impl->on_closed("");
     impl->decoder.reset();
     auto sock = std::make_shared<tcp::socket>(impl->io);
@@ -310,8 +393,8 @@ std::string Client::connect(const Endpoint& endpoint, Milliseconds timeout) {
     });
     resolver->async_resolve(
         endpoint.host, std::to_string(endpoint.port),
-        [impl, sock, timer, resolver, done, promise, where](boost::system::error_code ec,
-                                                            tcp::resolver::results_type results) {
+        [impl, sock, timer, resolver, done, promise, where, tls_context, server_name](
+            boost::system::error_code ec, tcp::resolver::results_type results) {
           if (*done) return;
           if (ec) {
             *done = true;
@@ -321,28 +404,68 @@ std::string Client::connect(const Endpoint& endpoint, Milliseconds timeout) {
           }
           asio::async_connect(
               *sock, results,
-              [impl, sock, timer, done, promise, where](boost::system::error_code cec,
-                                                        const tcp::endpoint&) {
+              [impl, sock, timer, done, promise, where, tls_context, server_name](
+                  boost::system::error_code cec, const tcp::endpoint&) {
                 if (*done) return;
-                *done = true;
-                timer->cancel();
                 if (cec) {
+                  *done = true;
+                  timer->cancel();
                   promise->set_value("cannot connect to " + where + ": " + cec.message());
                   return;
                 }
                 boost::system::error_code ignored;
                 sock->set_option(tcp::no_delay(true), ignored);
-                impl->socket = sock;
-                {
-                  std::lock_guard lock(impl->mutex);
-                  impl->is_connected = true;
-                  impl->replies.clear();
-                  impl->stale.clear();  // the old connection's replies never come
-                  impl->welcome.reset();
+                auto established = [impl, sock, timer, done, promise](
+                                       std::shared_ptr<TlsSocket> tls,
+                                       std::shared_ptr<ssl::context> context) {
+                  *done = true;
+                  timer->cancel();
+                  impl->socket = sock;
+                  impl->tls = std::move(tls);
+                  impl->tls_context = std::move(context);
+                  {
+                    std::lock_guard lock(impl->mutex);
+                    impl->is_connected = true;
+                    impl->replies.clear();
+                    impl->stale.clear();  // the old connection's replies never come
+                    impl->welcome.reset();
+                  }
+                  impl->start_read(sock);
+                  impl->schedule_heartbeat();
+                  promise->set_value("");
+                };
+                if (!tls_context) {
+                  established(nullptr, nullptr);
+                  return;
                 }
-                impl->start_read(sock);
-                impl->schedule_heartbeat();
-                promise->set_value("");
+                // TLS: verify the daemon's certificate for `server_name` (DNS name or IP).
+                auto tls = std::make_shared<TlsSocket>(*sock, *tls_context);
+                boost::system::error_code addr_ec;
+                asio::ip::make_address(server_name, addr_ec);
+                if (addr_ec)  // a name, not an address: send it (SNI)
+                  SSL_ctrl(tls->native_handle(), SSL_CTRL_SET_TLSEXT_HOSTNAME,
+                           TLSEXT_NAMETYPE_host_name, const_cast<char*>(server_name.c_str()));
+                tls->set_verify_callback(ssl::host_name_verification(server_name));
+                tls->async_handshake(
+                    ssl::stream_base::client, [sock, tls, tls_context, done, timer, promise, where,
+                                               established](boost::system::error_code hec) {
+                      if (*done) return;
+                      if (hec) {
+                        *done = true;
+                        timer->cancel();
+                        std::string why =
+                            "TLS handshake with " + where + " failed: " + hec.message();
+                        const long verify = SSL_get_verify_result(tls->native_handle());
+                        if (verify != X509_V_OK)
+                          why += std::string(" (daemon certificate: ") +
+                                 X509_verify_cert_error_string(verify) + ")";
+                        boost::system::error_code ignored_ec;
+                        sock->close(ignored_ec);
+                        promise->set_value(why);
+                        return;
+                      }
+                      established(tls, tls_context);
+                    });
               });
         });
   });

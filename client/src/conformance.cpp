@@ -223,6 +223,7 @@ class Suite {
     co.request_timeout = Milliseconds{static_cast<std::int64_t>(options_.timeout_s * 1000)};
     co.connect_timeout = std::max(co.request_timeout, Milliseconds{1000});
     co.retries = 0;
+    co.tls = options_.tls;
     co.client_name = "ajarctl conformance";
     auto c = std::make_unique<Client>(co);
     if (!c->connect(options_.endpoint).empty()) return nullptr;

@@ -60,6 +60,7 @@ class Session {
     c.connect_timeout = std::max(seconds_to_ms(o.timeout_s), Milliseconds{1000});
     c.retries = o.retries;
     c.client_name = "ajarctl";
+    c.tls = o.tls;
     return c;
   }
 

@@ -370,6 +370,7 @@ class Rehearsal {
     ClientOptions co;
     co.request_timeout = Milliseconds{static_cast<std::int64_t>(options_.timeout_s * 1000)};
     co.retries = options_.retries;
+    co.tls = options_.tls;
     co.client_name = "ajarctl simulate";
     Client client(co);
     client_ = &client;

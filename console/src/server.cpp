@@ -350,7 +350,11 @@ struct ConsoleServer::Impl {
         sim(sim_source),
         acceptor(ioc),
         client(client::ClientOptions{std::chrono::milliseconds(2000),
-                                     std::chrono::milliseconds(3000), 1, 0, "ajar-console"}),
+                                     std::chrono::milliseconds(3000),
+                                     1,
+                                     0,
+                                     "ajar-console",
+                                     {}}),
         role(options.role),
         take_over_next(options.take_over) {}
 

@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <numbers>
 #include <set>
@@ -233,6 +234,88 @@ class Section {
 
 constexpr double kHalfPi = std::numbers::pi / 2;
 
+// One identity of network.tls.identities / deny: exactly one of cn, san, sha256.
+TlsIdentity read_identity(Section& s) {
+  TlsIdentity id;
+  int given = 0;
+  std::string value;
+  if (s.text("cn", value, false), !value.empty()) {
+    id = {TlsIdentity::Kind::kCommonName, value};
+    ++given;
+  }
+  value.clear();
+  if (s.text("san", value, false), !value.empty()) {
+    id = {TlsIdentity::Kind::kSubjectAltName, value};
+    ++given;
+  }
+  value.clear();
+  if (s.text("sha256", value, false), !value.empty()) {
+    std::string hex;
+    for (const char ch : value) {
+      if (ch == ':') continue;
+      hex += static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+    }
+    if (hex.size() != 64 || hex.find_first_not_of("0123456789ABCDEF") != std::string::npos) {
+      s.fail(s.raw("sha256"), s.key_path("sha256"), "is not a SHA-256 fingerprint",
+             "'" + value + "'",
+             "64 hex digits, colons optional (openssl x509 -fingerprint -sha256)");
+    }
+    id = {TlsIdentity::Kind::kSha256, hex};
+    ++given;
+  }
+  if (given != 1) {
+    s.fail(s.raw("cn"), s.path(), "must name exactly one of cn, san, sha256",
+           std::to_string(given) + " given", "{cn: NAME} or {san: NAME} or {sha256: HEX}");
+  }
+  return id;
+}
+
+void read_tls(Section s, TlsConfig& c) {
+  s.boolean("enabled", c.enabled);
+  s.text("certificate", c.certificate);
+  s.text("private_key", c.private_key);
+  s.text("ca", c.ca);
+  s.text("crl", c.crl);
+  s.number("handshake_timeout_s", c.handshake_timeout_s, 0.1, 600, " s");
+  s.integer("max_pending_handshakes", c.max_pending_handshakes, 1, 4096);
+  s.choice<bool>("unlisted", c.unlisted_may_observe, {{"observer", true}, {"refuse", false}});
+  auto list = [&](std::string_view key, auto&& each) {
+    const YAML::Node n = s.raw(key);
+    if (!n.IsDefined() || n.IsNull()) return;
+    if (!n.IsSequence()) s.fail(n, s.key_path(key), "must be a list", describe(n), "");
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      Section item(n[i], s.key_path(key) + "[" + std::to_string(i) + "]", s.file());
+      each(item);
+      item.finish();
+    }
+  };
+  c.identities.clear();
+  list("identities", [&](Section& item) {
+    TlsGrant grant;
+    grant.identity = read_identity(item);
+    if (!item.raw("role").IsDefined()) {
+      item.fail(item.raw("role"), item.key_path("role"), "is required", "nothing",
+                "controller, observer");
+    }
+    item.choice<bool>("role", grant.may_control, {{"controller", true}, {"observer", false}});
+    item.boolean("may_stop", grant.may_stop);
+    c.identities.push_back(grant);
+  });
+  c.deny.clear();
+  list("deny", [&](Section& item) { c.deny.push_back(read_identity(item)); });
+  s.finish();
+  if (!c.enabled) return;
+  for (const auto* key : {"certificate", "private_key", "ca"}) {
+    const std::string& value = std::string_view(key) == "certificate" ? c.certificate
+                               : std::string_view(key) == "ca"        ? c.ca
+                                                                      : c.private_key;
+    if (value.empty()) {
+      s.fail(s.raw(key), s.key_path(key), "is required when network.tls.enabled is true", "nothing",
+             "a PEM file path (scripts/make-certs creates them)");
+    }
+  }
+}
+
 void read_network(Section s, NetworkConfig& c) {
   s.text("bind_address", c.bind_address, false);
   {
@@ -249,7 +332,15 @@ void read_network(Section s, NetworkConfig& c) {
   s.number("read_deadline_s", c.read_deadline_s, 0.1, 3600, " s");
   s.number("idle_timeout_s", c.idle_timeout_s, 0, 86400, " s (0 = none)");
   s.number("hello_timeout_s", c.hello_timeout_s, 0, 3600, " s (0 = none)");
+  s.boolean("insecure_plaintext", c.insecure_plaintext);
+  read_tls(s.section("tls"), c.tls);
   s.finish();
+  if (!c.tls.enabled && !is_loopback_address(c.bind_address) && !c.insecure_plaintext) {
+    s.fail(s.raw("bind_address"), s.key_path("bind_address"),
+           "plaintext is only allowed on loopback: enable network.tls (docs/security.md), or "
+           "set network.insecure_plaintext: true to accept anyone on the network as an operator",
+           "'" + c.bind_address + "'", "127.0.0.1, ::1, or any address with network.tls");
+  }
 }
 
 void read_frames(Section s, Config& c) {
@@ -439,6 +530,26 @@ void read_logging(Section s, LoggingConfig& c) {
 
 }  // namespace
 
+std::string TlsIdentity::text() const {
+  switch (kind) {
+    case Kind::kCommonName:
+      return "cn:" + value;
+    case Kind::kSubjectAltName:
+      return "san:" + value;
+    case Kind::kSha256:
+      return "sha256:" + value;
+  }
+  return value;
+}
+
+bool is_loopback_address(const std::string& address) {
+  in_addr v4{};
+  if (inet_pton(AF_INET, address.c_str(), &v4) == 1) return (ntohl(v4.s_addr) >> 24) == 127;
+  in6_addr v6{};
+  if (inet_pton(AF_INET6, address.c_str(), &v6) == 1) return IN6_IS_ADDR_LOOPBACK(&v6) != 0;
+  return false;
+}
+
 Config load_config(const std::string& path) {
   YAML::Node root;
   try {
@@ -545,6 +656,44 @@ std::string to_yaml(const Config& c) {
   out << YAML::Key << "read_deadline_s" << YAML::Value << c.network.read_deadline_s;
   out << YAML::Key << "idle_timeout_s" << YAML::Value << c.network.idle_timeout_s;
   out << YAML::Key << "hello_timeout_s" << YAML::Value << c.network.hello_timeout_s;
+  out << YAML::Key << "insecure_plaintext" << YAML::Value << c.network.insecure_plaintext;
+  {
+    const auto& t = c.network.tls;
+    auto identity = [&out](const TlsIdentity& id) {
+      out << YAML::Key
+          << (id.kind == TlsIdentity::Kind::kCommonName       ? "cn"
+              : id.kind == TlsIdentity::Kind::kSubjectAltName ? "san"
+                                                              : "sha256")
+          << YAML::Value << id.value;
+    };
+    out << YAML::Key << "tls" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "enabled" << YAML::Value << t.enabled;
+    out << YAML::Key << "certificate" << YAML::Value << t.certificate;
+    out << YAML::Key << "private_key" << YAML::Value << t.private_key;
+    out << YAML::Key << "ca" << YAML::Value << t.ca;
+    out << YAML::Key << "crl" << YAML::Value << t.crl;
+    out << YAML::Key << "handshake_timeout_s" << YAML::Value << t.handshake_timeout_s;
+    out << YAML::Key << "max_pending_handshakes" << YAML::Value << t.max_pending_handshakes;
+    out << YAML::Key << "unlisted" << YAML::Value
+        << (t.unlisted_may_observe ? "observer" : "refuse");
+    out << YAML::Key << "identities" << YAML::Value << YAML::BeginSeq;
+    for (const auto& g : t.identities) {
+      out << YAML::Flow << YAML::BeginMap;
+      identity(g.identity);
+      out << YAML::Key << "role" << YAML::Value << (g.may_control ? "controller" : "observer");
+      out << YAML::Key << "may_stop" << YAML::Value << g.may_stop;
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+    out << YAML::Key << "deny" << YAML::Value << YAML::BeginSeq;
+    for (const auto& d : t.deny) {
+      out << YAML::Flow << YAML::BeginMap;
+      identity(d);
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
+    out << YAML::EndMap;
+  }
   out << YAML::EndMap;
 
   out << YAML::Key << "frames" << YAML::Value << YAML::BeginMap;

@@ -154,7 +154,8 @@ class Runner {
     });
   }
 
-  // SIGHUP: re-read the config; apply the reloadable keys (kReloadableKeys), and name every other
+  // SIGHUP: re-read the config; apply the reloadable keys (kReloadableKeys, and network.tls except
+  // `enabled`: its files are re-read on every SIGHUP), and name every other
   // changed key as needing a restart (nothing else is changed under live sessions and the loop).
   static constexpr std::string_view kReloadableKeys[] = {"logging.level"};
 
@@ -168,8 +169,10 @@ class Runner {
       std::string applied;
       std::string need_restart;
       for (const auto& key : changed_keys(config_, fresh)) {
-        const bool reloadable = std::find(std::begin(kReloadableKeys), std::end(kReloadableKeys),
-                                          key) != std::end(kReloadableKeys);
+        const bool reloadable =
+            std::find(std::begin(kReloadableKeys), std::end(kReloadableKeys), key) !=
+                std::end(kReloadableKeys) ||
+            (key.starts_with("network.tls.") && key != "network.tls.enabled");  // tls.hpp
         std::string& list = reloadable ? applied : need_restart;
         list += (list.empty() ? "" : ", ") + key;
         if (key == "logging.level") list += " (now " + fresh.logging.level + ")";
@@ -177,6 +180,16 @@ class Runner {
       if (fresh.logging.level != config_.logging.level) {
         set_log_level(fresh.logging.level);
         config_.logging.level = fresh.logging.level;
+      }
+      if (fresh.network.tls.enabled && config_.network.tls.enabled) {
+        // Always: the CRL and certificate files may have changed under an unchanged config.
+        try {
+          server_->reload_tls(fresh.network.tls);
+          config_.network.tls = fresh.network.tls;
+        } catch (const std::exception& e) {
+          spdlog::error("SIGHUP: network.tls not reloaded, keeping the running policy: {}",
+                        e.what());
+        }
       }
       if (applied.empty() && need_restart.empty()) {
         spdlog::info("SIGHUP: config re-read, nothing changed");

@@ -9,6 +9,7 @@
 
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/session_hub.hpp"
+#include "ajar/daemon/tls.hpp"
 
 namespace ajar::daemon {
 namespace {
@@ -39,6 +40,8 @@ ServerOptions ServerOptions::from(const NetworkConfig& network) {
   options.session.read_deadline = seconds(network.read_deadline_s);
   options.session.idle_timeout = seconds(network.idle_timeout_s);
   options.hello_timeout = seconds(network.hello_timeout_s);
+  options.tls = network.tls;
+  options.insecure_plaintext = network.insecure_plaintext;
   return options;
 }
 
@@ -76,11 +79,28 @@ struct Server::Impl {
     const auto remote = socket.remote_endpoint(ec);
     const std::string peer = ec ? std::string("unknown peer") : endpoint_text(remote);
     const std::uint64_t id = ++last_session_id;
-    if (!has_room()) {
-      refuse(std::move(socket), id, peer);
+    if (tls) {
+      const auto limit = static_cast<std::size_t>(std::max(options.max_clients, 0));
+      if (hub.session_count() + tls->pending() >= limit)
+        tls->drop_oldest("dropped unfinished: max_clients reached");
+      tls->handshake(std::move(socket), peer, [this, id, peer](TlsStream stream, PeerAccess a) {
+        if (!accepting) return;
+        start_session<TlsStream>(std::move(stream), id, peer, std::move(a));
+      });
       return;
     }
-    std::make_shared<TcpSession>(std::move(socket), id, peer, &hub, options.session)->start();
+    start_session<tcp::socket>(std::move(socket), id, peer, PeerAccess{});
+  }
+
+  template <typename Stream>
+  void start_session(Stream stream, std::uint64_t id, const std::string& peer, PeerAccess access) {
+    if (!has_room()) {
+      refuse(std::move(stream), id, peer, std::move(access));
+      return;
+    }
+    std::make_shared<Session<Stream>>(std::move(stream), id, peer, &hub, options.session,
+                                      std::move(access))
+        ->start();
   }
 
   // A newcomer is always read: at max_clients the hub closes an idle session to make room.
@@ -91,7 +111,8 @@ struct Server::Impl {
 
   // Nothing to evict (only the controller): TOO_MANY_CLIENTS, but the newcomer's first frames are
   // still read for refused_read_window, so its Stop/EmergencyStop is executed.
-  void refuse(tcp::socket socket, std::uint64_t id, const std::string& peer) {
+  template <typename Stream>
+  void refuse(Stream stream, std::uint64_t id, const std::string& peer, PeerAccess access) {
     spdlog::warn(
         "refused {}: {} clients connected (network.max_clients); its Stop and "
         "EmergencyStop are still executed",
@@ -101,8 +122,8 @@ struct Server::Impl {
     error.offending_type = protocol::MessageType::kHello;
     error.message.assign("too many clients (" + std::to_string(options.max_clients) +
                          "); try again later");
-    auto session = std::make_shared<TcpSession>(std::move(socket), id, peer, &hub.refusal_handler(),
-                                                options.session);
+    auto session = std::make_shared<Session<Stream>>(
+        std::move(stream), id, peer, &hub.refusal_handler(), options.session, std::move(access));
     session->refuse(encode_frame(protocol::Envelope{0, 0, error}), "too many clients",
                     options.refused_read_window);
   }
@@ -137,6 +158,7 @@ struct Server::Impl {
   asio::steady_timer poll_timer;
   std::unique_ptr<asio::steady_timer> retry_timer;
   SessionHub hub;
+  std::unique_ptr<TlsAcceptor> tls;  // null: plaintext
   Clock::time_point next_poll{};
   std::uint64_t last_session_id = 0;
   std::uint16_t bound_port = 0;
@@ -162,6 +184,17 @@ std::uint16_t Server::bind() {
   if (ec)
     throw StartupError("network.bind_address: '" + d.options.bind_address +
                        "' is not an IP address");
+  if (d.options.tls.enabled) {
+    if (!d.tls) d.tls = std::make_unique<TlsAcceptor>(d.options.tls);
+  } else if (!address.is_loopback()) {
+    if (!d.options.insecure_plaintext)
+      throw StartupError("network.bind_address: plaintext on " + d.options.bind_address +
+                         " is refused: enable network.tls or set network.insecure_plaintext");
+    spdlog::warn(
+        "INSECURE: plaintext on {} (network.insecure_plaintext): anyone who reaches this port "
+        "can command the robot; enable network.tls (docs/security.md)",
+        d.options.bind_address);
+  }
   const tcp::endpoint endpoint(address, d.options.port);
   auto fail = [&](const char* what) {
     throw StartupError("cannot listen on " + where + ": " + what + ": " + ec.message());
@@ -184,7 +217,7 @@ void Server::start() {
   boost::system::error_code ec;
   d.acceptor.listen(asio::socket_base::max_listen_connections, ec);
   if (ec) throw StartupError("cannot listen on " + d.where + ": listen: " + ec.message());
-  spdlog::info("listening on {}", d.where);
+  spdlog::info("listening on {} ({})", d.where, d.tls ? "mutual TLS 1.3" : "plaintext");
   d.accepting = true;
   d.accept();
   d.next_poll = Clock::now();
@@ -196,8 +229,16 @@ void Server::stop_accepting() {
   d.accepting = false;
   boost::system::error_code ignored;
   d.acceptor.close(ignored);
+  if (d.tls) d.tls->close_all();
   d.poll_timer.cancel();
   if (d.retry_timer) d.retry_timer->cancel();
+}
+
+void Server::reload_tls(const TlsConfig& tls) {
+  auto& d = *impl_;
+  if (!d.tls) return;
+  d.tls->reload(tls);
+  d.options.tls = tls;
 }
 
 void Server::stop() {

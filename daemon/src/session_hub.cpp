@@ -67,7 +67,8 @@ void SessionHub::on_open(SessionLink& link) {
   state.opened = Clock::now();
   state.last_activity = state.opened;
   sessions_[link.id()] = std::move(state);
-  spdlog::info("session {} opened from {} ({} sessions)", link.id(), link.peer(), sessions_.size());
+  spdlog::info("session {} opened from {} as {} ({} sessions)", link.id(), link.peer(),
+               link.access().identity, sessions_.size());
 }
 
 std::string SessionHub::describe(const SessionState& s) const {
@@ -163,7 +164,13 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
     handle_hello(s, envelope);
     return;
   }
-  if (is_stop(type)) {  // from any session, greeted or not: stopping is never refused here
+  if (is_stop(type)) {  // from any session, greeted or not, unless its certificate may not stop
+    if (!link.access().may_stop) {
+      refuse(s, envelope, ErrorCode::kNotController, "",
+             "identity " + link.access().identity +
+                 " may not stop the robot (network.tls.identities: may_stop false)");
+      return;
+    }
     spdlog::info("{}: {}", describe(s), protocol::to_string(type));
     reply(s, envelope.request_id, call_engine(envelope.message));
     return;
@@ -217,6 +224,12 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
   }
   std::optional<std::uint64_t> demoted;
   if (hello.requested_role == protocol::Role::kController) {
+    if (!s.link->access().may_control) {
+      refuse(s, envelope, ErrorCode::kNotController, "requested_role",
+             "identity " + s.link->access().identity +
+                 " may only observe (network.tls.identities); ask for the observer role");
+      return;
+    }
     if (controller_ && !hello.take_over) {
       refuse(s, envelope, ErrorCode::kControllerBusy, "take_over",
              describe(sessions_.at(*controller_)) +
@@ -428,7 +441,7 @@ bool SessionHub::make_room() {
 void SessionHub::RefusalHandler::on_message(SessionLink& link, const protocol::Envelope& envelope) {
   const MessageType type = protocol::type_of(envelope.message);
   protocol::Message answer;
-  if (is_stop(type)) {  // no table state may refuse a stop
+  if (is_stop(type) && link.access().may_stop) {  // no table state may refuse a stop
     spdlog::warn("refused connection {} from {}: {} executed", link.id(), link.peer(),
                  protocol::to_string(type));
     answer = hub_.call_engine(envelope.message);

@@ -29,6 +29,9 @@ struct GlobalOptions {
   bool take_over = false;                    // --take-over: take control from another controller
   bool help = false;                         // --help / -h
   bool version = false;                      // --version
+  // --ca FILE --cert FILE --key FILE [--server-name NAME], or --client-config FILE (YAML: connect,
+  // tls.{ca, certificate, private_key, server_name}; relative paths from the file's folder).
+  TlsOptions tls;
 };
 
 struct ParsedArgs {

@@ -1,5 +1,6 @@
-// Host-side client of ajard: one TCP connection, the Hello handshake, request/reply with request
-// ids and timeouts, events and telemetry callbacks, and a heartbeat. Linkable by a GUI.
+// Host-side client of ajard: one TCP connection (plaintext, or mutual TLS 1.3), the Hello
+// handshake, request/reply with request ids and timeouts, events and telemetry callbacks, and a
+// heartbeat. Linkable by a GUI.
 //
 // Threading contract:
 //  - Every public method is thread-safe and synchronous (it blocks the calling thread until done or
@@ -71,12 +72,24 @@ struct Response {
   }
 };
 
+// Mutual TLS 1.3 (docs/security.md): on when `ca` is set. The daemon's certificate must chain to
+// `ca` and name the host connected to (or `server_name`); the client presents `certificate`.
+// Files are checked before use: a private key accessible to group or others is refused.
+struct TlsOptions {
+  std::string ca;           // CA certificate(s), PEM
+  std::string certificate;  // this client's certificate chain, PEM (empty: none; ajard refuses)
+  std::string private_key;  // its private key, PEM
+  std::string server_name;  // the name to verify the daemon's certificate against (empty: host)
+  bool enabled() const { return !ca.empty(); }
+};
+
 struct ClientOptions {
   Milliseconds connect_timeout{3000};
   Milliseconds request_timeout{3000};    // per attempt
   int retries = 1;                       // re-sends after the first attempt, same request id
   std::uint64_t client_instance_id = 0;  // 0: random per Client object
   std::string client_name = "ajarctl";
+  TlsOptions tls;  // plaintext unless tls.ca is set
 };
 
 class Client {

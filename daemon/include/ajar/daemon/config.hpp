@@ -28,6 +28,36 @@ class StartupError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A certificate identity in network.tls.identities / deny (docs/security.md).
+struct TlsIdentity {
+  enum class Kind { kCommonName, kSubjectAltName, kSha256 };
+  Kind kind = Kind::kCommonName;
+  std::string value;         // kSha256: 64 upper-case hex digits, no colons
+  std::string text() const;  // "cn:alice", "san:host.site", "sha256:AB12..."
+};
+
+// What a certificate identity may do.
+struct TlsGrant {
+  TlsIdentity identity;
+  bool may_control = false;  // role controller (may take control); observer otherwise
+  bool may_stop = true;      // may send Stop / EmergencyStop (safety: default yes)
+};
+
+// network.tls: mutual TLS 1.3 (docs/security.md). crl, identities, deny and unlisted are re-read
+// on SIGHUP; the rest needs a restart.
+struct TlsConfig {
+  bool enabled = false;
+  std::string certificate;  // the daemon's certificate chain (PEM)
+  std::string private_key;  // its key (PEM); refused when group/world accessible
+  std::string ca;           // CA certificate(s) client certificates must chain to (PEM)
+  std::string crl;          // optional CRL file (PEM) of that CA: revoked client certificates
+  double handshake_timeout_s = 5.0;
+  int max_pending_handshakes = 16;   // beyond: the oldest unfinished handshake is dropped
+  bool unlisted_may_observe = true;  // a CA-signed certificate not in `identities`: observer
+  std::vector<TlsGrant> identities;  // first match wins
+  std::vector<TlsIdentity> deny;     // refused at the handshake even though CA-signed
+};
+
 struct NetworkConfig {
   std::string bind_address = "127.0.0.1";
   std::uint16_t port = 7450;
@@ -36,7 +66,13 @@ struct NetworkConfig {
   double read_deadline_s = 10.0;  // a started frame must complete within this
   double idle_timeout_s = 0;      // 0 = none (observers may stay idle forever)
   double hello_timeout_s = 5.0;   // an un-greeted session is closed after this (0 = never)
+  // Plaintext off loopback is refused at start unless this is true (then warned at every start).
+  bool insecure_plaintext = false;
+  TlsConfig tls;
 };
+
+// True for 127.0.0.0/8 and ::1 (an IP literal; anything else is false).
+bool is_loopback_address(const std::string& address);
 
 struct ControlConfig {
   double rate_hz = 500;   // control loop rate

@@ -10,7 +10,9 @@
 //
 // Lifecycle, all on the I/O thread (the thread running `io`):
 //   constructor      installs the engine's event sink (so: before engine.start());
-//   bind()           binds the address (throws StartupError naming it: a busy port fails before
+//   bind()           loads TLS (throws StartupError naming the TLS key or file), refuses plaintext
+//                    off loopback unless insecure_plaintext (warns then), and binds the address
+//                    (throws StartupError naming it: a busy port fails before
 //                    the engine starts); not listening yet, so a connect is refused;
 //   start()          listens, accepts and polls (call once the engine serves: a TCP connect then
 //                    means the daemon serves);
@@ -18,6 +20,10 @@
 //                    (call before Engine::shutdown(), so that its motion_stopped reaches them);
 //   stop()           stop_accepting(), sends every held reply, closes every session gracefully
 //                    (queued frames flushed first), detaches the event sink. Idempotent.
+// TLS (options.tls.enabled, tls.hpp): every accepted socket first completes the mutual TLS
+// handshake; only then is it a session (or a refused connection, as above, over TLS). Handshakes
+// in progress count against max_clients: at sessions + handshakes >= max_clients the oldest
+// unfinished handshake is dropped; at most tls.max_pending_handshakes run at once.
 // The engine must outlive the server.
 #pragma once
 
@@ -26,6 +32,7 @@
 #include <memory>
 #include <string>
 
+#include "ajar/daemon/config.hpp"
 #include "ajar/daemon/engine.hpp"
 #include "ajar/daemon/request_ledger.hpp"
 #include "ajar/daemon/session.hpp"
@@ -36,7 +43,6 @@ class io_context;
 
 namespace ajar::daemon {
 
-struct NetworkConfig;
 class SessionHub;
 
 struct ServerOptions {
@@ -48,6 +54,8 @@ struct ServerOptions {
   std::chrono::steady_clock::duration poll_period = std::chrono::milliseconds(2);
   std::chrono::steady_clock::duration hello_timeout = std::chrono::seconds(5);  // 0 = none
   std::chrono::steady_clock::duration refused_read_window = std::chrono::seconds(1);
+  TlsConfig tls;                    // tls.enabled: mutual TLS 1.3 on every connection
+  bool insecure_plaintext = false;  // plaintext off loopback: warned at bind()
 
   static ServerOptions from(const NetworkConfig& network);
 };
@@ -65,6 +73,9 @@ class Server {
   void start();
   void stop_accepting();
   void stop();
+  // Re-reads network.tls (SIGHUP): files, CRL, deny list, identities; new connections use it.
+  // Throws StartupError (the running policy stays). Nothing to do without TLS.
+  void reload_tls(const TlsConfig& tls);
 
   std::uint16_t port() const noexcept;
   std::size_t session_count() const noexcept;

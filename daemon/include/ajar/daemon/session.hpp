@@ -1,5 +1,5 @@
-// Session: one client connection's byte I/O, independent of the stream type (a plain TCP socket
-// today; a later issue puts mutual TLS under it: Session<ssl::stream<tcp::socket>>). It decodes
+// Session: one client connection's byte I/O, independent of the stream type (a plain TCP socket,
+// or after the server's TLS handshake Session<ssl::stream<tcp::socket>>, see tls.hpp). It decodes
 // frames with the protocol's StreamDecoder and hands messages and decode errors to a
 // SessionHandler (the SessionHub: roles, requests, fan-out); it knows nothing about the protocol's
 // session rules.
@@ -51,9 +51,21 @@ using SharedFrame = std::shared_ptr<const std::vector<std::uint8_t>>;
 SharedFrame encode_frame(const protocol::Envelope& envelope,
                          std::uint8_t minor = protocol::kVersionMinor);
 
+// What the peer at the other end may do (docs/security.md). Plaintext sessions (loopback, or
+// network.insecure_plaintext) get everything; TLS sessions what their certificate is granted.
+struct PeerAccess {
+  std::string identity = "plaintext";  // for logs and errors: "cn:alice (sha256:AB12...)"
+  bool may_control = true;             // may ask for the controller role
+  bool may_stop = true;                // may send Stop / EmergencyStop
+};
+
 // What the hub sees of a session.
 class SessionLink {
  public:
+  virtual const PeerAccess& access() const noexcept {
+    static const PeerAccess plaintext;
+    return plaintext;
+  }
   virtual std::uint64_t id() const noexcept = 0;
   virtual const std::string& peer() const noexcept = 0;  // "127.0.0.1:40312"
   // Queues a frame. False when the session is closing/closed or the queue overflowed (the session
@@ -94,13 +106,14 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
  public:
   // `handler` null: a refused connection (see refuse()), not registered anywhere.
   Session(Stream stream, std::uint64_t id, std::string peer, SessionHandler* handler,
-          SessionOptions options)
+          SessionOptions options, PeerAccess access = {})
       : stream_(std::move(stream)),
         timer_(stream_.get_executor()),
         id_(id),
         peer_(std::move(peer)),
         handler_(handler),
-        options_(options) {}
+        options_(options),
+        access_(std::move(access)) {}
 
   void start() {
     last_read_ = Clock::now();
@@ -123,6 +136,7 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
 
   std::uint64_t id() const noexcept override { return id_; }
   const std::string& peer() const noexcept override { return peer_; }
+  const PeerAccess& access() const noexcept override { return access_; }
 
   bool send(SharedFrame frame) override {
     if (state_ != State::kOpen) return false;
@@ -312,6 +326,7 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
   std::string peer_;
   SessionHandler* handler_;
   SessionOptions options_;
+  PeerAccess access_;
 
   State state_ = State::kOpen;
   std::string close_reason_;

@@ -16,6 +16,9 @@
 //                                       stays un-greeted and may send another Hello.
 //   Every change of controller (grant, take-over, controller gone) is an Event CONTROL_CHANGED to
 //   every greeted session.
+// - Certificates (TLS, session.hpp PeerAccess): an identity without the controller grant asking
+//   for control gets NOT_CONTROLLER naming the identity (field requested_role); one without
+//   may_stop gets NOT_CONTROLLER for Stop/EmergencyStop. Plaintext sessions may do everything.
 // - Commands (Measure*, SetContactPoint, AlignBase, Engage, Reset, Drive, Approach,
 //   ResetLoopStatistics) need the controller role, else NOT_CONTROLLER. Stop, EmergencyStop,
 //   GetStatus, GetRobotModel, Ping, Subscribe: any greeted session.

@@ -1,0 +1,441 @@
+// Mutual TLS between ajar_client and the server (issue 13), over loopback with certificates made
+// by scripts/make-certs at test time: who gets in (and why not, in the log), what each identity
+// may do, revocation and its reload, plaintext rules, and handshake slowloris.
+#include <utility>  // before Asio (asio issue 944)
+
+#include <sys/stat.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <boost/asio/ip/tcp.hpp>
+#include <gtest/gtest.h>
+#include <spdlog/sinks/ringbuffer_sink.h>
+#include <spdlog/spdlog.h>
+
+#include "ajar/client/client.hpp"
+#include "ajar/daemon/config.hpp"
+#include "ajar/daemon/engine.hpp"
+#include "ajar/daemon/tls.hpp"
+#include "fake_door.hpp"
+#include "test_client_harness.hpp"
+
+namespace ajar::test {
+namespace {
+
+using namespace std::chrono_literals;
+using ajar::testing::TempDir;
+using client::Client;
+using client::ClientOptions;
+using client::Outcome;
+using protocol::MessageType;
+using protocol::Role;
+
+// The certificates of one test: a CA (with a CRL revoking "eve"), the daemon's certificate for
+// 127.0.0.1, operators, an expired one, and an operator of another CA.
+class Pki {
+ public:
+  Pki() {
+    const std::string& d = dir_.path();
+    run("ca");
+    run("daemon 127.0.0.1 localhost");
+    for (const char* op : {"alice controller", "bob observer", "carol observer", "dave controller",
+                           "eve controller"}) {
+      run(std::string("operator ") + op);
+    }
+    run("--valid 20200101000000Z 20200102000000Z operator old controller");
+    run("revoke eve");
+    other_ = d + "/other";
+    run("ca --name Other", other_);
+    run("operator mallory controller", other_);
+  }
+
+  std::string path(const std::string& file) const { return dir_.path() + "/" + file; }
+
+  // The daemon's TLS policy of these tests.
+  daemon::TlsConfig server_config() const {
+    daemon::TlsConfig t;
+    t.enabled = true;
+    t.certificate = path("ajard.crt");
+    t.private_key = path("ajard.key");
+    t.ca = path("ca.crt");
+    t.crl = path("ca.crl");
+    t.handshake_timeout_s = 10;
+    using K = daemon::TlsIdentity::Kind;
+    t.identities = {{{K::kCommonName, "alice"}, true, true},
+                    {{K::kCommonName, "bob"}, false, true},
+                    {{K::kCommonName, "carol"}, false, false}};
+    t.deny = {{K::kCommonName, "dave"}};
+    t.unlisted_may_observe = false;
+    return t;
+  }
+
+  // Client options presenting NAME's certificate ("" = none; other CA's names with `other`).
+  client::TlsOptions client_tls(const std::string& name, bool other_ca = false) const {
+    client::TlsOptions o;
+    o.ca = path("ca.crt");
+    if (!name.empty()) {
+      const std::string base = other_ca ? other_ + "/" + name : path(name);
+      o.certificate = base + ".crt";
+      o.private_key = base + ".key";
+    }
+    return o;
+  }
+
+ private:
+  void run(const std::string& args, const std::string& dir = "") {
+    const std::string command = std::string(AJAR_SOURCE_DIR "/scripts/make-certs --dir ") +
+                                (dir.empty() ? dir_.path() : dir) + " " + args + " >/dev/null";
+    ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  }
+
+  TempDir dir_;
+  std::string other_;
+};
+
+// Runs a Server on its own I/O thread (like ServerThread) and lets a test reload its TLS policy.
+class TlsServer {
+ public:
+  TlsServer(daemon::Engine& engine, daemon::ServerOptions options) : engine_(engine) {
+    options.bind_address = "127.0.0.1";
+    options.port = 0;
+    server_ = std::make_unique<daemon::Server>(io_, engine, std::move(options));
+    port_ = server_->bind();
+    engine_.start();
+    server_->start();
+    thread_ = std::thread([this] { io_.run(); });
+  }
+  ~TlsServer() {
+    boost::asio::post(io_, [this] {  // the daemon's order (daemon.cpp)
+      server_->stop_accepting();
+      engine_.shutdown();
+      server_->stop();
+    });
+    thread_.join();
+  }
+  std::uint16_t port() const { return port_; }
+  template <typename F>
+  auto call(F f) -> decltype(f()) {
+    std::packaged_task<decltype(f())()> task(std::move(f));
+    auto result = task.get_future();
+    boost::asio::post(io_, [&task] { task(); });
+    return result.get();
+  }
+  std::size_t session_count() {
+    return call([this] { return server_->session_count(); });
+  }
+  void reload(const daemon::TlsConfig& tls) {
+    call([&] {
+      server_->reload_tls(tls);
+      return 0;
+    });
+  }
+
+ private:
+  daemon::Engine& engine_;
+  boost::asio::io_context io_{1};
+  std::unique_ptr<daemon::Server> server_;
+  std::uint16_t port_ = 0;
+  std::thread thread_;
+};
+
+// The daemon's log lines, to check that a refusal names the peer and the reason.
+class LogCapture {
+ public:
+  LogCapture() : sink_(std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(512)) {
+    spdlog::default_logger()->sinks().push_back(sink_);
+  }
+  ~LogCapture() {
+    auto& sinks = spdlog::default_logger()->sinks();
+    sinks.erase(std::remove(sinks.begin(), sinks.end(), sink_), sinks.end());
+  }
+  bool contains(const std::string& a, const std::string& b = "") const {
+    for (const auto& line : sink_->last_formatted()) {
+      if (line.find(a) != std::string::npos && line.find(b) != std::string::npos) return true;
+    }
+    return false;
+  }
+  std::string all() const {
+    std::string text;
+    for (const auto& line : sink_->last_formatted())
+      text += line;
+    return text;
+  }
+
+ private:
+  std::shared_ptr<spdlog::sinks::ringbuffer_sink_mt> sink_;
+};
+
+ClientOptions options_with(const client::TlsOptions& tls, const std::string& name = "tls-test") {
+  ClientOptions o;
+  o.connect_timeout = 5000ms;
+  o.request_timeout = 5000ms;
+  o.retries = 0;
+  o.client_name = name;
+  o.tls = tls;
+  return o;
+}
+
+daemon::ServerOptions server_options(const Pki& pki) {
+  daemon::ServerOptions o;
+  o.max_clients = 8;
+  o.session.linger = 500ms;
+  o.tls = pki.server_config();
+  return o;
+}
+
+const protocol::ErrorReply* error_of(const client::Response& r) {
+  return r.outcome == Outcome::kRefused ? &r.error : nullptr;
+}
+
+class Tls : public ::testing::Test {
+ protected:
+  LogCapture log_;
+  Pki pki_;
+  FakeEngine engine_;
+  std::unique_ptr<TlsServer> server_ = std::make_unique<TlsServer>(engine_, server_options(pki_));
+
+  // A greeted observer that must not notice what happens to others.
+  std::unique_ptr<Client> bystander() {
+    auto c = std::make_unique<Client>(options_with(pki_.client_tls("bob"), "bystander"));
+    EXPECT_EQ(c->connect({"127.0.0.1", server_->port()}), "");
+    EXPECT_TRUE(c->hello(Role::kObserver).ok());
+    return c;
+  }
+};
+
+TEST_F(Tls, AControllerCertificateTakesControlAndItsCommandsReachTheEngine) {
+  Client c(options_with(pki_.client_tls("alice")));
+  ASSERT_EQ(c.connect({"127.0.0.1", server_->port()}), "");
+  const auto hello = c.hello(Role::kController);
+  ASSERT_TRUE(hello.ok()) << hello.transport_error << hello.error.message.view();
+  EXPECT_EQ(hello.get<protocol::Welcome>()->granted_role, Role::kController);
+  EXPECT_TRUE(c.request(ajar::testing::good_width()).ok());
+  EXPECT_TRUE(c.request(protocol::Ping{7}).ok());
+  EXPECT_EQ(engine_.count(MessageType::kMeasureDoorWidth), 1U);
+  EXPECT_TRUE(log_.contains("authenticated as cn:alice", "controller"));
+}
+
+// A peer that must be refused at the handshake, and the reason the daemon's log must give.
+struct Refusal {
+  const char* name;
+  std::string certificate;  // operator name; "" none
+  bool other_ca;
+  bool tls;
+  const char* logged;
+};
+
+class TlsRefused : public Tls, public ::testing::WithParamInterface<Refusal> {};
+
+TEST_P(TlsRefused, BeforeAnyFrameNothingMovesAndOthersAreUnaffected) {
+  const Refusal& r = GetParam();
+  auto other = bystander();
+  client::TlsOptions tls = pki_.client_tls(r.certificate, r.other_ca);
+  if (!r.tls) tls = {};
+  Client c(options_with(tls, r.name));
+  const std::string connected = c.connect({"127.0.0.1", server_->port()});
+  if (connected.empty()) {
+    // TLS 1.3: the client's side of the handshake may finish before the daemon checked the
+    // certificate; then the daemon's alert ends the connection. Stop is executed from any
+    // session that reached the hub, even un-greeted: it must not get that far.
+    c.send_envelope(protocol::Envelope{1, 0, protocol::Stop{}});
+    const auto hello = c.hello(Role::kController, true);
+    EXPECT_FALSE(hello.ok());
+    EXPECT_EQ(hello.outcome, Outcome::kDisconnected) << hello.transport_error;
+  }
+  EXPECT_TRUE(eventually([&] { return log_.contains("TLS handshake with 127.0.0.1:", r.logged); }))
+      << "log:\n"
+      << log_.all();
+  EXPECT_TRUE(engine_.commands().empty()) << "a frame of a refused peer reached the engine";
+  EXPECT_TRUE(other->request(protocol::Ping{1}).ok());
+  EXPECT_TRUE(eventually([&] { return server_->session_count() == 1; }));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Peers, TlsRefused,
+    ::testing::Values(Refusal{"NoCertificate", "", false, true, "did not return a certificate"},
+                      Refusal{"AnotherCa", "mallory", true, true, "unable to get local issuer"},
+                      Refusal{"Expired", "old", false, true, "certificate has expired"},
+                      Refusal{"RevokedByTheCrl", "eve", false, true, "certificate revoked"},
+                      Refusal{"DeniedByTheConfig", "dave", false, true, "network.tls.deny"},
+                      Refusal{"PlaintextClient", "", false, false, "plaintext client"}),
+    [](const auto& p) { return std::string(p.param.name); });
+
+TEST_F(Tls, AnObserverCertificateCannotTakeControlNorCommand) {
+  Client c(options_with(pki_.client_tls("bob")));
+  ASSERT_EQ(c.connect({"127.0.0.1", server_->port()}), "");
+  const auto refused = c.hello(Role::kController, true);
+  ASSERT_NE(error_of(refused), nullptr);
+  EXPECT_EQ(refused.error.code, ErrorCode::kNotController);
+  EXPECT_EQ(refused.error.field.view(), "requested_role");
+  EXPECT_NE(refused.error.message.view().find("cn:bob"), std::string_view::npos)
+      << refused.error.message.view();
+  ASSERT_TRUE(c.hello(Role::kObserver).ok());
+  const auto command = c.request(ajar::testing::good_width());
+  ASSERT_NE(error_of(command), nullptr);
+  EXPECT_EQ(command.error.code, ErrorCode::kNotController);
+  EXPECT_TRUE(c.request(protocol::GetStatus{}).ok());
+  EXPECT_EQ(engine_.count(MessageType::kMeasureDoorWidth), 0U);
+}
+
+TEST_F(Tls, EmergencyStopWorksFromAnObserverButNotFromAnIdentityThatMayNotStop) {
+  Client observer(options_with(pki_.client_tls("bob")));
+  ASSERT_EQ(observer.connect({"127.0.0.1", server_->port()}), "");
+  ASSERT_TRUE(observer.hello(Role::kObserver).ok());
+  EXPECT_TRUE(observer.request(protocol::EmergencyStop{}).ok());
+  EXPECT_EQ(engine_.count(MessageType::kEmergencyStop), 1U);
+
+  Client carol(options_with(pki_.client_tls("carol")));
+  ASSERT_EQ(carol.connect({"127.0.0.1", server_->port()}), "");
+  const auto refused = carol.request(protocol::EmergencyStop{});
+  ASSERT_NE(error_of(refused), nullptr);
+  EXPECT_EQ(refused.error.code, ErrorCode::kNotController);
+  EXPECT_NE(refused.error.message.view().find("cn:carol"), std::string_view::npos);
+  EXPECT_EQ(engine_.count(MessageType::kEmergencyStop), 1U);
+}
+
+TEST_F(Tls, ARevocationReloadedAtRuntimeRefusesTheNextConnection) {
+  {
+    Client alice(options_with(pki_.client_tls("alice")));
+    ASSERT_EQ(alice.connect({"127.0.0.1", server_->port()}), "");
+    ASSERT_TRUE(alice.hello(Role::kController).ok());
+  }
+  auto policy = pki_.server_config();
+  policy.deny.push_back({daemon::TlsIdentity::Kind::kCommonName, "alice"});
+  server_->reload(policy);
+  Client alice(options_with(pki_.client_tls("alice")));
+  if (alice.connect({"127.0.0.1", server_->port()}).empty()) {
+    EXPECT_FALSE(alice.hello(Role::kController).ok());
+  }
+  EXPECT_TRUE(eventually([&] {
+    return log_.contains("cn:alice", "denied by network.tls.deny (cn:alice)");
+  })) << log_.all();
+}
+
+TEST_F(Tls, HandshakeSlowlorisDoesNotStarveARealClient) {
+  // Far more silent connections than max_clients (8) and max_pending_handshakes: none of them
+  // ever finishes its handshake (the deadline is 10 s, longer than the client waits).
+  boost::asio::io_context io;
+  std::vector<boost::asio::ip::tcp::socket> silent;
+  for (int i = 0; i < 40; ++i) {
+    silent.emplace_back(io);
+    silent.back().connect({boost::asio::ip::make_address("127.0.0.1"), server_->port()});
+    if (i % 2 == 0) {  // half of them start a ClientHello record and stall
+      const std::uint8_t start[] = {0x16, 0x03, 0x01, 0x02, 0x00, 0x01};
+      boost::asio::write(silent.back(), boost::asio::buffer(start));
+    }
+  }
+  Client c(options_with(pki_.client_tls("alice")));
+  ASSERT_EQ(c.connect({"127.0.0.1", server_->port()}), "");
+  ASSERT_TRUE(c.hello(Role::kController).ok());
+  EXPECT_TRUE(c.request(protocol::Ping{1}).ok());
+  EXPECT_TRUE(log_.contains("TLS handshake with", "dropped unfinished"));
+}
+
+TEST_F(Tls, ATlsClientOnAPlaintextPortGetsNoSession) {
+  FakeEngine plain_engine;
+  TlsServer plain(plain_engine, daemon::ServerOptions{});
+  Client c(options_with(pki_.client_tls("alice")));
+  const std::string why = c.connect({"127.0.0.1", plain.port()});
+  EXPECT_NE(why.find("TLS handshake"), std::string::npos) << why;
+  EXPECT_TRUE(plain_engine.commands().empty());
+  Client bystander(options_with({}));
+  ASSERT_EQ(bystander.connect({"127.0.0.1", plain.port()}), "");
+  EXPECT_TRUE(bystander.hello(Role::kObserver).ok());
+}
+
+TEST_F(Tls, TheDaemonVerifiesItsNameForTheClient) {
+  auto tls = pki_.client_tls("alice");
+  tls.server_name = "robot.elsewhere";  // not in ajard.crt's subjectAltName
+  Client c(options_with(tls));
+  const std::string why = c.connect({"127.0.0.1", server_->port()});
+  EXPECT_NE(why.find("TLS handshake"), std::string::npos) << why;
+  EXPECT_TRUE(engine_.commands().empty());
+}
+
+TEST_F(Tls, KeysReadableByOthersAreRefusedAtBothEnds) {
+  const std::string key = pki_.path("alice.key");
+  ASSERT_EQ(::chmod(key.c_str(), 0644), 0);
+  Client c(options_with(pki_.client_tls("alice")));
+  const std::string why = c.connect({"127.0.0.1", server_->port()});
+  EXPECT_NE(why.find("accessible to group or others"), std::string::npos) << why;
+
+  auto config = pki_.server_config();
+  config.private_key = key;
+  try {
+    daemon::TlsAcceptor acceptor(config);
+    ADD_FAILURE() << "a world-readable daemon key was accepted";
+  } catch (const daemon::StartupError& e) {
+    EXPECT_NE(std::string(e.what()).find("network.tls.private_key"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("0644"), std::string::npos) << e.what();
+  }
+}
+
+TEST(TlsPolicy, DenyWinsThenTheFirstListedIdentityThenUnlisted) {
+  using K = daemon::TlsIdentity::Kind;
+  daemon::TlsConfig policy;
+  policy.identities = {{{K::kSubjectAltName, "console.site"}, true, true},
+                       {{K::kCommonName, "alice"}, false, false}};
+  daemon::CertificateIdentity alice{"alice", {"console.site"}, std::string(64, 'A')};
+  auto a = daemon::admit(policy, alice);
+  EXPECT_TRUE(a.admitted && a.access.may_control && a.access.may_stop);
+
+  policy.deny = {{K::kSha256, std::string(64, 'A')}};
+  a = daemon::admit(policy, alice);
+  EXPECT_FALSE(a.admitted);
+  EXPECT_NE(a.refusal.find("network.tls.deny"), std::string::npos);
+
+  daemon::CertificateIdentity stranger{"zed", {}, std::string(64, 'B')};
+  a = daemon::admit(policy, stranger);
+  EXPECT_TRUE(a.admitted);
+  EXPECT_FALSE(a.access.may_control);
+  EXPECT_TRUE(a.access.may_stop);
+  policy.unlisted_may_observe = false;
+  EXPECT_FALSE(daemon::admit(policy, stranger).admitted);
+}
+
+// The plaintext rule lives in the config loader: an operator sees it before anything starts.
+TEST(TlsConfig, PlaintextOffLoopbackNeedsInsecurePlaintextAndTlsNeedsItsFiles) {
+  TempDir dir;
+  auto load = [&](const std::string& network) {
+    const std::string path = dir.path() + "/ajard.yaml";
+    std::ofstream(path) << "network:\n" << network;
+    return daemon::load_config(path);
+  };
+  EXPECT_NO_THROW(load("  bind_address: 127.0.0.1\n"));
+  try {
+    load("  bind_address: 0.0.0.0\n");
+    ADD_FAILURE() << "plaintext on 0.0.0.0 was accepted";
+  } catch (const daemon::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("network.bind_address"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("insecure_plaintext"), std::string::npos);
+  }
+  EXPECT_TRUE(
+      load("  bind_address: 0.0.0.0\n  insecure_plaintext: true\n").network.insecure_plaintext);
+  try {
+    load("  bind_address: 0.0.0.0\n  tls: {enabled: true, certificate: a.crt, ca: ca.crt}\n");
+    ADD_FAILURE() << "tls without a private key was accepted";
+  } catch (const daemon::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("network.tls.private_key"), std::string::npos) << e.what();
+  }
+  const auto c = load(
+      "  bind_address: 0.0.0.0\n  tls:\n    enabled: true\n    certificate: a.crt\n"
+      "    private_key: a.key\n    ca: ca.crt\n    identities:\n"
+      "      - {cn: alice, role: controller}\n      - {sha256: 'ab:" +
+      std::string(62, 'c') + "', role: observer, may_stop: false}\n    deny: [{san: lost.site}]\n");
+  ASSERT_EQ(c.network.tls.identities.size(), 2U);
+  EXPECT_TRUE(c.network.tls.identities[0].may_control);
+  EXPECT_EQ(c.network.tls.identities[1].identity.value, "AB" + std::string(62, 'C'));
+  EXPECT_FALSE(c.network.tls.identities[1].may_stop);
+  EXPECT_EQ(c.network.tls.deny.at(0).text(), "san:lost.site");
+  EXPECT_THROW(load("  tls:\n    identities: [{cn: a, san: b, role: observer}]\n"),
+               daemon::ConfigError);
+  EXPECT_THROW(load("  tls:\n    identities: [{cn: a}]\n"), daemon::ConfigError);
+}
+
+}  // namespace
+}  // namespace ajar::test
