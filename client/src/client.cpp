@@ -243,7 +243,11 @@ struct Client::Impl {
   void start_read(const std::shared_ptr<tcp::socket>& sock) {
     with_stream([&](auto& stream) {
       stream.async_read_some(
-          asio::buffer(read_buffer), [this, sock](boost::system::error_code ec, std::size_t n) {
+          asio::buffer(read_buffer),
+          // keep_tls: the TLS stream outlives every operation on it, also when a read or write
+          // failure closes the connection while the other operation is still in flight.
+          [this, sock, keep_tls = tls](boost::system::error_code ec, std::size_t n) {
+            (void)keep_tls;
             if (sock != socket) return;  // a stale connection
             if (ec) {
               std::string why = ec == asio::error::eof ? "connection closed by the daemon"
@@ -292,7 +296,8 @@ struct Client::Impl {
     auto sock = socket;
     with_stream([&](auto& stream) {
       asio::async_write(stream, asio::buffer(write_queue.front()),
-                        [this, sock](boost::system::error_code ec, std::size_t) {
+                        [this, sock, keep_tls = tls](boost::system::error_code ec, std::size_t) {
+                          (void)keep_tls;  // see start_read
                           if (sock != socket) return;
                           if (ec) {
                             on_closed("cannot send: " + ec.message());
