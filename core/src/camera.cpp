@@ -77,7 +77,7 @@ Result<DepthPick> pick_point(const PinholeIntrinsics& k, const DepthView& depth,
   const int u = static_cast<int>(ur);
   const int v = static_cast<int>(vr);
   DepthPick pick;
-  double z = depth.at(u, v);
+  double z = static_cast<double>(depth.at(u, v));
   if (z <= 0) {
     const int r = std::max(0, rule.window_radius_px);
     // At most a 33x33 window on the stack; larger radii are clamped.
@@ -105,7 +105,7 @@ Result<DepthPick> pick_point(const PinholeIntrinsics& k, const DepthView& depth,
     auto* first = samples.data();
     auto* mid = first + valid / 2;
     std::nth_element(first, mid, first + valid);
-    z = *mid;
+    z = static_cast<double>(*mid);
     if (valid % 2 == 0) {
       const float lower = *std::max_element(first, mid);
       z = (z + static_cast<double>(lower)) / 2.0;
