@@ -1,9 +1,10 @@
 // Randomized interleavings of the engine and its control loop on a fake clock: commands arrive in
 // batches between two loop cycles (as if several frames came in one read), with Stop, EmergencyStop
 // and Reset at random points, duplicates, controller loss and take-over, silence (deadman), card
-// faults at random cycles (DetCard's menu), a slow state store, and arm outcomes (done, fault, disconnect, a controller
-// that resets mid-task). The loop runs by hand (EngineOptions::manual_loop), so a seed replays
-// exactly. After every command and every cycle the invariants below are checked.
+// faults at random cycles (DetCard's menu), a slow state store, and arm outcomes (done, fault,
+// disconnect, a controller that resets mid-task). The loop runs by hand
+// (EngineOptions::manual_loop), so a seed replays exactly. After every command and every cycle the
+// invariants below are checked.
 //
 //   AJAR_SEED=<n>     replay one seed (prints its trace)
 //   AJAR_SEEDS=<n>    number of seeds (default 2000; a campaign: AJAR_SEEDS=200000)
