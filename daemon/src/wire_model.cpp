@@ -18,7 +18,17 @@ protocol::RobotModel robot_model_of(const Config& config) {
              static_cast<std::int8_t>(b.right.polarity)};
   r.max_wheel_speed_rad_s = b.max_wheel_speed_rad_s;
   r.max_wheel_accel_rad_s2 = b.max_wheel_accel_rad_s2;
-  // Drive, approach and staleness limits: 0 until the daemon drives the base (issue 11).
+  const core::DriveLimits& d = config.drive;
+  r.max_linear_speed_m_s = d.max_linear_speed_m_s;
+  r.max_angular_speed_rad_s = d.max_angular_speed_rad_s;
+  r.max_linear_accel_m_s2 = d.max_linear_accel_m_s2;
+  r.max_angular_accel_rad_s2 = d.max_angular_accel_rad_s2;
+  r.drive_command_timeout_s = d.command_timeout_s;
+  r.approach_max_travel_m = d.approach_max_travel_m;
+  r.approach_square_tolerance_rad = d.approach_square_tolerance_rad;
+  r.approach_min_standoff_m = d.approach_min_standoff_m;
+  r.stale_travel_m = d.stale_travel_m;
+  r.stale_yaw_rad = d.stale_yaw_rad;
   const core::Limits& l = config.limits;
   r.arm_shoulder_m = l.arm.shoulder_m;
   r.arm_min_reach_m = l.arm.min_reach_m;
