@@ -791,8 +791,7 @@ std::string to_yaml(const Config& c) {
   out << YAML::Key << "max_linear_speed_m_s" << YAML::Value << c.drive.max_linear_speed_m_s;
   out << YAML::Key << "max_angular_speed_rad_s" << YAML::Value << c.drive.max_angular_speed_rad_s;
   out << YAML::Key << "max_linear_accel_m_s2" << YAML::Value << c.drive.max_linear_accel_m_s2;
-  out << YAML::Key << "max_angular_accel_rad_s2" << YAML::Value
-      << c.drive.max_angular_accel_rad_s2;
+  out << YAML::Key << "max_angular_accel_rad_s2" << YAML::Value << c.drive.max_angular_accel_rad_s2;
   out << YAML::Key << "command_timeout_s" << YAML::Value << c.drive.command_timeout_s;
   out << YAML::Key << "approach_max_travel_m" << YAML::Value << c.drive.approach_max_travel_m;
   out << YAML::Key << "approach_square_tolerance_rad" << YAML::Value

@@ -51,12 +51,12 @@ struct Tolerances {
 // Driving the base (jog and approach) and when stored measurements go stale (docs/procedure.md,
 // "Driving and stale measurements").
 struct DriveLimits {
-  double max_linear_speed_m_s = 0.3;      // jog: body speed along +x
-  double max_angular_speed_rad_s = 0.6;   // jog: body yaw rate
-  double max_linear_accel_m_s2 = 0.5;     // jog: speeding up and slowing down
-  double max_angular_accel_rad_s2 = 1.2;  //
-  double command_timeout_s = 0.5;         // a Drive command is valid this long
-  double approach_max_travel_m = 1.5;     // longest accepted Approach move
+  double max_linear_speed_m_s = 0.3;           // jog: body speed along +x
+  double max_angular_speed_rad_s = 0.6;        // jog: body yaw rate
+  double max_linear_accel_m_s2 = 0.5;          // jog: speeding up and slowing down
+  double max_angular_accel_rad_s2 = 1.2;       //
+  double command_timeout_s = 0.5;              // a Drive command is valid this long
+  double approach_max_travel_m = 1.5;          // longest accepted Approach move
   double approach_square_tolerance_rad = 0.2;  // |yaw to the door| above this: not square
   double approach_min_standoff_m = 0.4;        // smallest accepted standoff
   double stale_travel_m = 0.05;  // base origin displacement after which plane/contact are stale
