@@ -97,51 +97,15 @@ class Pki {
   std::string other_;
 };
 
-// Runs a Server on its own I/O thread (like ServerThread) and lets a test reload its TLS policy.
-class TlsServer {
- public:
-  TlsServer(daemon::Engine& engine, daemon::ServerOptions options) : engine_(engine) {
-    options.bind_address = "127.0.0.1";
-    options.port = 0;
-    server_ = std::make_unique<daemon::Server>(io_, engine, std::move(options));
-    port_ = server_->bind();
-    engine_.start();
-    server_->start();
-    thread_ = std::thread([this] { io_.run(); });
-  }
-  ~TlsServer() {
-    boost::asio::post(io_, [this] {  // the daemon's order (daemon.cpp)
-      server_->stop_accepting();
-      engine_.shutdown();
-      server_->stop();
-    });
-    thread_.join();
-  }
-  std::uint16_t port() const { return port_; }
-  template <typename F>
-  auto call(F f) -> decltype(f()) {
-    std::packaged_task<decltype(f())()> task(std::move(f));
-    auto result = task.get_future();
-    boost::asio::post(io_, [&task] { task(); });
-    return result.get();
-  }
-  std::size_t session_count() {
-    return call([this] { return server_->session_count(); });
-  }
-  void reload(const daemon::TlsConfig& tls) {
-    call([&] {
-      server_->reload_tls(tls);
-      return 0;
-    });
-  }
+using TlsServer = ServerThread;
 
- private:
-  daemon::Engine& engine_;
-  boost::asio::io_context io_{1};
-  std::unique_ptr<daemon::Server> server_;
-  std::uint16_t port_ = 0;
-  std::thread thread_;
-};
+// SIGHUP's reload of network.tls, on the server's I/O thread.
+void reload(TlsServer& server, const daemon::TlsConfig& tls) {
+  server.call([&] {
+    server.server().reload_tls(tls);
+    return 0;
+  });
+}
 
 // The daemon's log lines, to check that a refusal names the peer and the reason.
 class LogCapture {
@@ -306,7 +270,7 @@ TEST_F(Tls, ARevocationReloadedAtRuntimeRefusesTheNextConnection) {
   }
   auto policy = pki_.server_config();
   policy.deny.push_back({daemon::TlsIdentity::Kind::kCommonName, "alice"});
-  server_->reload(policy);
+  reload(*server_, policy);
   Client alice(options_with(pki_.client_tls("alice")));
   if (alice.connect({"127.0.0.1", server_->port()}).empty()) {
     EXPECT_FALSE(alice.hello(Role::kController).ok());
