@@ -88,8 +88,8 @@ struct Server::Impl {
       tls->handshake(std::move(socket), peer,
                      [this, id, peer](TlsStream stream, PeerAccess a, PeerCertificate c) {
                        if (!accepting) return;
-                       track(id, start_session<TlsStream>(std::move(stream), id, peer,
-                                                          std::move(a)),
+                       track(id,
+                             start_session<TlsStream>(std::move(stream), id, peer, std::move(a)),
                              std::move(c));
                      });
       return;
@@ -141,8 +141,7 @@ struct Server::Impl {
       error.code = ErrorCode::kNotController;
       error.offending_type = protocol::MessageType::kHello;
       error.field.assign("certificate");
-      error.message.assign("certificate " + identity + " no longer admitted: " + why +
-                           "; closing");
+      error.message.assign("certificate " + identity + " no longer admitted: " + why + "; closing");
       if (auto frame = encode_frame(protocol::Envelope{0, 0, error}, hub.minor_of(it->first)))
         session->send(std::move(frame));
       session->close_after_flush("certificate no longer admitted: " + why);

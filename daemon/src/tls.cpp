@@ -137,7 +137,8 @@ struct Scratch {
   std::string refused;  // the identity and reason of a refused certificate
 };
 
-// The file rule shared with ajar_client (ajar/security/tls_files.hpp), as a StartupError naming `key`.
+// The file rule shared with ajar_client (ajar/security/tls_files.hpp), as a StartupError naming
+// `key`.
 void check_file(const std::string& path, std::string_view key, bool secret) {
   if (const std::string problem = security::tls_file_problem(path, secret); !problem.empty())
     throw StartupError(std::string(key) + ": " + problem);
@@ -213,7 +214,7 @@ std::shared_ptr<Generation> load(const TlsConfig& config) {
 
 struct PeerCertificate::Chain {
   X509* leaf = nullptr;
-  STACK_OF(X509)* untrusted = nullptr;  // what the peer sent besides the leaf
+  STACK_OF(X509) * untrusted = nullptr;  // what the peer sent besides the leaf
   Chain() = default;
   Chain(const Chain&) = delete;
   Chain& operator=(const Chain&) = delete;
@@ -322,7 +323,8 @@ struct TlsAcceptor::Impl {
     PeerCertificate certificate;
     auto chain = std::make_shared<PeerCertificate::Chain>();
     chain->leaf = SSL_get1_peer_certificate(handle);
-    if (STACK_OF(X509)* sent = SSL_get_peer_cert_chain(handle)) chain->untrusted = X509_chain_up_ref(sent);
+    if (STACK_OF(X509)* sent = SSL_get_peer_cert_chain(handle))
+      chain->untrusted = X509_chain_up_ref(sent);
     certificate.identity_ = identity_of(chain->leaf);
     certificate.chain_ = std::move(chain);
     p->done(TlsStream(std::move(p->stream)), a.access, std::move(certificate));

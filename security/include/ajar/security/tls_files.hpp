@@ -23,8 +23,7 @@ namespace ajar::security {
 
 inline std::string tls_file_problem(const std::string& path, bool secret) {
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0)
-    return "cannot read '" + path + "': " + std::strerror(errno);
+  if (::stat(path.c_str(), &st) != 0) return "cannot read '" + path + "': " + std::strerror(errno);
   if (!S_ISREG(st.st_mode)) return "'" + path + "' is not a regular file";
   const unsigned mode = st.st_mode & 07777U;
   if ((mode & (secret ? 0077U : 0022U)) == 0) return {};
