@@ -13,14 +13,11 @@
 #include <unordered_map>
 #include <thread>
 
-#include <sys/stat.h>
-
-#include <cerrno>
-#include <cstring>
-
 #include <boost/asio.hpp>
 #include <boost/asio/ssl.hpp>
 #include <openssl/x509.h>
+
+#include "ajar/security/tls_files.hpp"
 
 namespace ajar::client {
 
@@ -32,16 +29,10 @@ using TlsSocket = ssl::stream<tcp::socket&>;
 
 namespace {
 
-// Empty when `path` may be used; a private key must not be accessible to group or others.
+// Empty when `path` may be used (the rule ajard applies too: ajar/security/tls_files.hpp).
 std::string file_problem(const std::string& path, const char* what, bool secret) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0)
-    return std::string("cannot read ") + what + " '" + path + "': " + std::strerror(errno);
-  if (!S_ISREG(st.st_mode)) return std::string(what) + " '" + path + "' is not a regular file";
-  if (secret && (st.st_mode & 0077U) != 0)
-    return std::string(what) + " '" + path +
-           "' is accessible to group or others: refused (chmod 600 it)";
-  return {};
+  const std::string problem = security::tls_file_problem(path, secret);
+  return problem.empty() ? problem : std::string(what) + ": " + problem;
 }
 
 // The client's TLS context, or an error message.
@@ -209,6 +200,10 @@ struct Client::Impl {
   void on_closed(const std::string& why) {
     if (!socket) return;
     boost::system::error_code ignored;
+    if (tls && !writing) {  // close_notify, not waiting for the daemon's (non-blocking: no hang)
+      socket->non_blocking(true, ignored);
+      tls->shutdown(ignored);
+    }
     socket->shutdown(tcp::socket::shutdown_both, ignored);
     socket->close(ignored);
     socket.reset();
