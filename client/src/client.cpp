@@ -138,6 +138,37 @@ struct Client::Impl {
 
   std::atomic<std::uint32_t> next_id{1};
 
+  // record_headers(): guarded by `mutex`.
+  bool recording_headers = false;
+  std::vector<protocol::FrameHeader> headers;
+  // I/O thread only: where the frame boundaries are in the received byte stream.
+  std::array<std::uint8_t, protocol::kHeaderSize> track_header{};
+  std::size_t track_filled = 0;
+  std::size_t track_skip = 0;
+
+  // Follows the frame boundaries of the received bytes and keeps each header while recording.
+  void track_frames(std::span<const std::uint8_t> in) {
+    while (!in.empty()) {
+      if (track_skip > 0) {
+        const std::size_t k = std::min(track_skip, in.size());
+        track_skip -= k;
+        in = in.subspan(k);
+        continue;
+      }
+      const std::size_t k = std::min(protocol::kHeaderSize - track_filled, in.size());
+      std::copy_n(in.begin(), k, track_header.begin() + static_cast<std::ptrdiff_t>(track_filled));
+      track_filled += k;
+      in = in.subspan(k);
+      if (track_filled < protocol::kHeaderSize) return;
+      track_filled = 0;
+      const protocol::FrameHeader h = protocol::decode_header(track_header);
+      // An oversize length loses the framing: the decoder closes the connection.
+      track_skip = h.payload_length <= protocol::kMaxPayloadSize ? h.payload_length : 0;
+      std::lock_guard lock(mutex);
+      if (recording_headers && headers.size() < kMaxQueuedReplies) headers.push_back(h);
+    }
+  }
+
   // I/O thread only.
   std::shared_ptr<tcp::socket> socket;
   std::shared_ptr<TlsSocket> tls;  // over *socket when TLS is on
@@ -255,6 +286,7 @@ struct Client::Impl {
               return;
             }
             std::span<const std::uint8_t> in(read_buffer.data(), n);
+            track_frames(in);
             while (!in.empty()) {
               protocol::StreamDecoder::Outcome outcome;
               const std::size_t used = decoder.feed(in, outcome);
@@ -378,6 +410,8 @@ std::string Client::connect(const Endpoint& endpoint, Milliseconds timeout) {
   asio::post(impl->io, [impl, endpoint, timeout, promise, tls_context, server_name] {
     impl->on_closed("");
     impl->decoder.reset();
+    impl->track_filled = 0;
+    impl->track_skip = 0;
     auto sock = std::make_shared<tcp::socket>(impl->io);
     auto timer = std::make_shared<asio::steady_timer>(impl->io, timeout);
     auto resolver = std::make_shared<tcp::resolver>(impl->io);
@@ -648,6 +682,17 @@ bool Client::wait_closed(Milliseconds timeout) {
 void Client::discard_replies() {
   std::lock_guard lock(impl_->mutex);
   impl_->replies.clear();
+}
+
+void Client::record_headers(bool on) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->recording_headers = on;
+  if (on) impl_->headers.clear();
+}
+
+std::vector<protocol::FrameHeader> Client::recorded_headers() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->headers;
 }
 
 }  // namespace ajar::client
