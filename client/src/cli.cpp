@@ -162,6 +162,12 @@ constexpr CommandInfo kCommands[] = {
      "Subscribes to telemetry at HZ (default 10; 0 = events only) and prints telemetry and events\n"
      "until Ctrl-C, or for S seconds. Observer role.",
      "--rate --duration", ""},
+    {"model", "model", "the robot's calibration and limits (RobotModel)",
+     "Prints the robot model the daemon validates against: the camera->base transform, wheel\n"
+     "radius, turning radius, counts per revolution, gear ratio, wheel axes and polarities, the\n"
+     "speed, drive, approach and staleness limits, the arm's workspace and the measurement\n"
+     "tolerances (docs/protocol.md 5.22). Observer role.",
+     "", ""},
     {"measure", "measure width|handle|plane X Y Z ...", "door width, handle or plane from points",
      "measure width X1 Y1 Z1 X2 Y2 Z2      P1 on the hinge side, P2 near the moving edge\n"
      "measure handle X1 Y1 Z1 X2 Y2 Z2     P1 on the handle's axis, P2 at its free end\n"
@@ -577,6 +583,12 @@ CommandParse parse_command(std::span<const std::string> words_in, core::Frame fr
     if (!rest.empty()) return fail("status takes no arguments");
     c.kind = Command::Kind::kStatus;
     c.request = protocol::GetStatus{};
+    return {c, {}};
+  }
+  if (name == "model") {
+    if (!rest.empty()) return fail("model takes no arguments");
+    c.kind = Command::Kind::kRequest;
+    c.request = protocol::GetRobotModel{};
     return {c, {}};
   }
   if (name == "watch") {

@@ -1,6 +1,6 @@
 #include "ajar/protocol/messages.hpp"
 
-#include <type_traits>
+#include "message_schema.hpp"
 
 namespace ajar::protocol {
 
@@ -75,269 +75,22 @@ bool is_wire_string(std::string_view s) noexcept {
 }
 
 MessageType type_of(const Message& m) noexcept {
-  return std::visit(
-      [](const auto& v) -> MessageType {
-        using T = std::decay_t<decltype(v)>;
-        if constexpr (std::is_same_v<T, Hello>) return MessageType::kHello;
-        if constexpr (std::is_same_v<T, Ping>) return MessageType::kPing;
-        if constexpr (std::is_same_v<T, MeasureDoorWidth>) return MessageType::kMeasureDoorWidth;
-        if constexpr (std::is_same_v<T, MeasureHandle>) return MessageType::kMeasureHandle;
-        if constexpr (std::is_same_v<T, MeasureDoorPlane>) return MessageType::kMeasureDoorPlane;
-        if constexpr (std::is_same_v<T, SetContactPoint>) return MessageType::kSetContactPoint;
-        if constexpr (std::is_same_v<T, AlignBase>) return MessageType::kAlignBase;
-        if constexpr (std::is_same_v<T, Engage>) return MessageType::kEngage;
-        if constexpr (std::is_same_v<T, Stop>) return MessageType::kStop;
-        if constexpr (std::is_same_v<T, EmergencyStop>) return MessageType::kEmergencyStop;
-        if constexpr (std::is_same_v<T, Reset>) return MessageType::kReset;
-        if constexpr (std::is_same_v<T, GetStatus>) return MessageType::kGetStatus;
-        if constexpr (std::is_same_v<T, Subscribe>) return MessageType::kSubscribe;
-        if constexpr (std::is_same_v<T, Welcome>) return MessageType::kWelcome;
-        if constexpr (std::is_same_v<T, Pong>) return MessageType::kPong;
-        if constexpr (std::is_same_v<T, Ack>) return MessageType::kAck;
-        if constexpr (std::is_same_v<T, ErrorReply>) return MessageType::kError;
-        if constexpr (std::is_same_v<T, Event>) return MessageType::kEvent;
-        if constexpr (std::is_same_v<T, Status>) return MessageType::kStatus;
-        if constexpr (std::is_same_v<T, Telemetry>) return MessageType::kTelemetry;
-        if constexpr (std::is_same_v<T, Drive>) return MessageType::kDrive;
-        if constexpr (std::is_same_v<T, Approach>) return MessageType::kApproach;
-        if constexpr (std::is_same_v<T, GetRobotModel>) return MessageType::kGetRobotModel;
-        if constexpr (std::is_same_v<T, ResetLoopStatistics>)
-          return MessageType::kResetLoopStatistics;
-        if constexpr (std::is_same_v<T, RobotModel>) return MessageType::kRobotModel;
-      },
-      m);
+  return detail::kMessageTable[m.index()].type;
 }
 
 bool is_request(MessageType t) noexcept {
-  switch (t) {
-    case MessageType::kHello:
-    case MessageType::kPing:
-    case MessageType::kMeasureDoorWidth:
-    case MessageType::kMeasureHandle:
-    case MessageType::kMeasureDoorPlane:
-    case MessageType::kSetContactPoint:
-    case MessageType::kAlignBase:
-    case MessageType::kEngage:
-    case MessageType::kStop:
-    case MessageType::kEmergencyStop:
-    case MessageType::kReset:
-    case MessageType::kGetStatus:
-    case MessageType::kSubscribe:
-    case MessageType::kDrive:
-    case MessageType::kApproach:
-    case MessageType::kGetRobotModel:
-    case MessageType::kResetLoopStatistics:
-      return true;
-    case MessageType::kWelcome:
-    case MessageType::kPong:
-    case MessageType::kAck:
-    case MessageType::kError:
-    case MessageType::kEvent:
-    case MessageType::kStatus:
-    case MessageType::kTelemetry:
-    case MessageType::kRobotModel:
-      return false;
-  }
-  return false;
+  const auto* row = detail::find_message(t);
+  return row != nullptr && row->direction == detail::Direction::kHostToDaemon;
 }
 
 std::uint8_t minor_of(MessageType t) noexcept {
-  switch (t) {
-    case MessageType::kHello:
-    case MessageType::kPing:
-    case MessageType::kMeasureDoorWidth:
-    case MessageType::kMeasureHandle:
-    case MessageType::kMeasureDoorPlane:
-    case MessageType::kSetContactPoint:
-    case MessageType::kAlignBase:
-    case MessageType::kEngage:
-    case MessageType::kStop:
-    case MessageType::kEmergencyStop:
-    case MessageType::kReset:
-    case MessageType::kGetStatus:
-    case MessageType::kSubscribe:
-    case MessageType::kWelcome:
-    case MessageType::kPong:
-    case MessageType::kAck:
-    case MessageType::kError:
-    case MessageType::kEvent:
-    case MessageType::kStatus:
-    case MessageType::kTelemetry:
-      return 0;
-    case MessageType::kDrive:
-    case MessageType::kApproach:
-    case MessageType::kGetRobotModel:
-    case MessageType::kResetLoopStatistics:
-    case MessageType::kRobotModel:
-      return 1;
-  }
-  return 255;
+  const auto* row = detail::find_message(t);
+  return row == nullptr ? 255 : row->since;
 }
 
 std::string_view to_string(MessageType t) noexcept {
-  switch (t) {
-    case MessageType::kHello:
-      return "Hello";
-    case MessageType::kPing:
-      return "Ping";
-    case MessageType::kMeasureDoorWidth:
-      return "MeasureDoorWidth";
-    case MessageType::kMeasureHandle:
-      return "MeasureHandle";
-    case MessageType::kMeasureDoorPlane:
-      return "MeasureDoorPlane";
-    case MessageType::kSetContactPoint:
-      return "SetContactPoint";
-    case MessageType::kAlignBase:
-      return "AlignBase";
-    case MessageType::kEngage:
-      return "Engage";
-    case MessageType::kStop:
-      return "Stop";
-    case MessageType::kEmergencyStop:
-      return "EmergencyStop";
-    case MessageType::kReset:
-      return "Reset";
-    case MessageType::kGetStatus:
-      return "GetStatus";
-    case MessageType::kSubscribe:
-      return "Subscribe";
-    case MessageType::kWelcome:
-      return "Welcome";
-    case MessageType::kPong:
-      return "Pong";
-    case MessageType::kAck:
-      return "Ack";
-    case MessageType::kError:
-      return "Error";
-    case MessageType::kEvent:
-      return "Event";
-    case MessageType::kStatus:
-      return "Status";
-    case MessageType::kTelemetry:
-      return "Telemetry";
-    case MessageType::kDrive:
-      return "Drive";
-    case MessageType::kApproach:
-      return "Approach";
-    case MessageType::kGetRobotModel:
-      return "GetRobotModel";
-    case MessageType::kResetLoopStatistics:
-      return "ResetLoopStatistics";
-    case MessageType::kRobotModel:
-      return "RobotModel";
-  }
-  return "Unknown";
-}
-
-std::string_view to_string(ProcedureState s) noexcept {
-  switch (s) {
-    case ProcedureState::kAwaitingWidth:
-      return "awaiting_width";
-    case ProcedureState::kAwaitingHandle:
-      return "awaiting_handle";
-    case ProcedureState::kAwaitingPlane:
-      return "awaiting_plane";
-    case ProcedureState::kReadyToAlign:
-      return "ready_to_align";
-    case ProcedureState::kAligning:
-      return "aligning";
-    case ProcedureState::kAligned:
-      return "aligned";
-    case ProcedureState::kReadyToEngage:
-      return "ready_to_engage";
-    case ProcedureState::kEngaging:
-      return "engaging";
-    case ProcedureState::kEngaged:
-      return "engaged";
-    case ProcedureState::kFault:
-      return "fault";
-  }
-  return "unknown";
-}
-
-std::string_view to_string(EventKind k) noexcept {
-  switch (k) {
-    case EventKind::kStateChanged:
-      return "state_changed";
-    case EventKind::kMotionStarted:
-      return "motion_started";
-    case EventKind::kMotionFinished:
-      return "motion_finished";
-    case EventKind::kMotionStopped:
-      return "motion_stopped";
-    case EventKind::kFaultLatched:
-      return "fault_latched";
-    case EventKind::kFaultCleared:
-      return "fault_cleared";
-    case EventKind::kControlChanged:
-      return "control_changed";
-  }
-  return "unknown";
-}
-
-std::string_view to_string(Role r) noexcept {
-  switch (r) {
-    case Role::kController:
-      return "controller";
-    case Role::kObserver:
-      return "observer";
-  }
-  return "unknown";
-}
-
-std::string_view to_string(ArmState s) noexcept {
-  switch (s) {
-    case ArmState::kDisconnected:
-      return "disconnected";
-    case ArmState::kIdle:
-      return "idle";
-    case ArmState::kBusy:
-      return "busy";
-    case ArmState::kDone:
-      return "done";
-    case ArmState::kFault:
-      return "fault";
-  }
-  return "unknown";
-}
-
-std::string_view to_string(DriverState s) noexcept {
-  switch (s) {
-    case DriverState::kUnconfigured:
-      return "unconfigured";
-    case DriverState::kInactive:
-      return "inactive";
-    case DriverState::kActive:
-      return "active";
-    case DriverState::kFault:
-      return "fault";
-  }
-  return "unknown";
-}
-
-std::string_view to_string(DriverKind k) noexcept {
-  switch (k) {
-    case DriverKind::kSim:
-      return "sim";
-    case DriverKind::kMock:
-      return "mock";
-    case DriverKind::kReal:
-      return "real";
-  }
-  return "unknown";
-}
-
-std::string_view to_string(SchedulingPolicy p) noexcept {
-  switch (p) {
-    case SchedulingPolicy::kOther:
-      return "other";
-    case SchedulingPolicy::kFifo:
-      return "fifo";
-    case SchedulingPolicy::kRoundRobin:
-      return "rr";
-  }
-  return "unknown";
+  const auto* row = detail::find_message(t);
+  return row == nullptr ? "Unknown" : row->name;
 }
 
 }  // namespace ajar::protocol

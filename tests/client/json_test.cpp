@@ -193,6 +193,102 @@ TEST(Json, EventsAndTelemetryAreObjects) {
   EXPECT_EQ(v["wheel_counts"]["right"].number(), -100);
 }
 
+// Protocol 1.1: the MotionBlock (odometry, door, staleness, commanded velocity, loop timing) under
+// the wire names, in Status and Telemetry alike; the door's values only when known.
+TEST(Json, StatusAndTelemetryCarryTheMotionBlock) {
+  Response r;
+  auto& s = reply_as<protocol::Status>(r);
+  s.odometry_x_m = 0.5;
+  s.odometry_y_m = -0.25;
+  s.door.has_distance = true;
+  s.door.distance_m = 1.25;
+  s.staleness.plane = true;
+  s.staleness.travel_since_plane_m = 0.31;
+  s.has_plane = true;
+  s.commanded_linear_m_s = 0.2;
+  s.commanded_angular_rad_s = -0.1;
+  s.timing.window_s = 1.0f;
+  s.timing.recent.samples = 500;
+  s.timing.recent.latency.p99_ns = 12345;
+  s.realtime.policy = protocol::SchedulingPolicy::kFifo;
+  s.realtime.priority = 80;
+  s.realtime.memory_locked = true;
+  auto v = parse(response_object("status", r));
+  const auto& st = v["status"];
+  EXPECT_EQ(st["odometry_x_m"].number(), 0.5);
+  EXPECT_EQ(st["odometry_y_m"].number(), -0.25);
+  EXPECT_EQ(st["door"]["distance_m"].number(), 1.25);
+  EXPECT_FALSE(st["door"].has("yaw_rad")) << "no plane: the yaw is unknown";
+  EXPECT_TRUE(st["staleness"]["plane"].boolean());
+  EXPECT_FALSE(st["staleness"]["contact"].boolean());
+  EXPECT_EQ(st["staleness"]["travel_since_plane_m"].number(), 0.31);
+  EXPECT_EQ(st["commanded_linear_m_s"].number(), 0.2);
+  EXPECT_EQ(st["commanded_angular_rad_s"].number(), -0.1);
+  EXPECT_EQ(st["timing"]["recent"]["samples"].number(), 500);
+  EXPECT_EQ(st["timing"]["recent"]["latency"]["p99_ns"].number(), 12345);
+  EXPECT_EQ(st["realtime"]["policy"].string(), "fifo");
+  EXPECT_EQ(st["realtime"]["priority"].number(), 80);
+  EXPECT_NE(status_text(s).find("plane (base moved"), std::string::npos) << status_text(s);
+
+  protocol::Telemetry t;
+  t.odometry_x_m = 0.1;
+  t.door.has_distance = true;
+  t.door.distance_m = 0.75;
+  t.door.has_yaw = true;
+  t.door.yaw_rad = 0.02;
+  t.commanded_linear_m_s = 0.05;
+  v = parse(telemetry_object(t));
+  EXPECT_EQ(v["odometry_x_m"].number(), 0.1);
+  EXPECT_EQ(v["door"]["distance_m"].number(), 0.75);
+  EXPECT_EQ(v["door"]["yaw_rad"].number(), 0.02);
+  EXPECT_EQ(v["commanded_linear_m_s"].number(), 0.05);
+  EXPECT_FALSE(v["staleness"]["plane"].boolean());
+  const std::string text = telemetry_text(t);
+  EXPECT_NE(text.find("door 0.7500 m"), std::string::npos) << text;
+  EXPECT_NE(text.find("commanded +0.050 m/s"), std::string::npos) << text;
+  // Without a known distance the door is absent, not 0.
+  t.door = {};
+  EXPECT_FALSE(parse(telemetry_object(t))["door"].has("distance_m"));
+  EXPECT_EQ(telemetry_text(t).find("door"), std::string::npos);
+}
+
+TEST(Json, RobotModelApproachAckAndDriverKind) {
+  Response r;
+  auto& m = reply_as<protocol::RobotModel>(r);
+  m.camera_to_base = {0, 0, 1, 0.15, -1, 0, 0, 0.015, 0, -1, 0, -0.22};
+  m.wheel_radius_m = 0.1;
+  m.right.polarity = -1;
+  m.right.card_axis = 2;
+  m.drive_command_timeout_s = 0.5;
+  auto v = parse(response_object("model", r));
+  EXPECT_EQ(v["type"].string(), "robot_model");
+  const auto& rm = v["robot_model"];
+  EXPECT_EQ(rm["camera_to_base"].array()[1].array()[0].number(), -1);
+  EXPECT_EQ(rm["camera_to_base"].array()[2].array()[3].number(), -0.22);
+  EXPECT_EQ(rm["wheel_radius_m"].number(), 0.1);
+  EXPECT_EQ(rm["right"]["polarity"].number(), -1);
+  EXPECT_EQ(rm["right"]["card_axis"].number(), 2);
+  EXPECT_EQ(rm["drive_command_timeout_s"].number(), 0.5);
+  EXPECT_NE(response_text("model", r).find("drive_command_timeout_s:"), std::string::npos);
+
+  Response a;
+  auto& body =
+      ack_as<protocol::ApproachAck>(a, MessageType::kApproach, ProcedureState::kAwaitingWidth);
+  body.travel_m = 0.25;
+  body.start_distance_m = 1.0;
+  body.left_counts = 198944;
+  body.right_counts = -198944;
+  v = parse(response_object("approach", a));
+  EXPECT_EQ(v["acknowledged"].string(), "Approach");
+  EXPECT_EQ(v["travel_m"].number(), 0.25);
+  EXPECT_EQ(v["start_distance_m"].number(), 1.0);
+  EXPECT_EQ(v["wheel_counts"]["right"].number(), -198944);
+
+  protocol::Welcome w;
+  w.driver_kind = protocol::DriverKind::kReal;
+  EXPECT_EQ(parse(welcome_object(w))["driver_kind"].string(), "real");
+}
+
 TEST(Json, MiniParserRejectsNonJson) {
   EXPECT_THROW(mini_json::parse("{\"a\": nan}"), std::runtime_error);
   EXPECT_THROW(mini_json::parse("{\"a\": 1,}"), std::runtime_error);

@@ -25,8 +25,13 @@ JsonObject error_object(const protocol::ErrorReply& error);
 void add_span_fields(JsonObject& o, const protocol::SpanAck& span, std::string_view length_key);
 void add_plane_fields(JsonObject& o, const protocol::PlaneAck& plane);
 void add_contact_fields(JsonObject& o, const protocol::ContactAck& contact);
+void add_approach_fields(JsonObject& o, const protocol::ApproachAck& approach);
 JsonObject status_object(const protocol::Status& status);
 JsonObject welcome_object(const protocol::Welcome& welcome);
+// GetRobotModel's reply under the wire names of docs/protocol.md 5.22 (camera_to_base as three
+// rows of four).
+JsonObject robot_model_object(const protocol::RobotModel& model);
+std::string robot_model_text(const protocol::RobotModel& model);
 
 // One reply to `command` (e.g. "measure_width"): {"type": "ack"|"error"|"status"|..., "command",
 // "ok", ...}.

@@ -51,6 +51,11 @@ struct FixedString {
   }
 };
 
+// The words of a wire enum, in value order (the values are 0..words.size()-1); `last` is its last
+// enumerator, so that an enumerator added without its word fails to compile (to_string below).
+template <typename E>
+struct EnumWords;
+
 enum class MessageType : std::uint16_t {
   // host -> daemon
   kHello = 0x0101,
@@ -84,6 +89,11 @@ enum class MessageType : std::uint16_t {
 };
 
 enum class Role : std::uint8_t { kController = 0, kObserver = 1 };
+template <>
+struct EnumWords<Role> {
+  static constexpr std::array<std::string_view, 2> words = {"controller", "observer"};
+  static constexpr auto last = Role::kObserver;
+};
 
 // The procedure (paper Fig. 4) as the daemon enforces it.
 enum class ProcedureState : std::uint8_t {
@@ -98,6 +108,13 @@ enum class ProcedureState : std::uint8_t {
   kEngaged = 8,         // arm accepted/finished the hand-off
   kFault = 9,           // a fault is latched: only Stop, EmergencyStop, Reset, GetStatus, ...
 };
+template <>
+struct EnumWords<ProcedureState> {
+  static constexpr std::array<std::string_view, 10> words = {
+      "awaiting_width", "awaiting_handle", "awaiting_plane", "ready_to_align", "aligning",
+      "aligned",        "ready_to_engage", "engaging",       "engaged",        "fault"};
+  static constexpr auto last = ProcedureState::kFault;
+};
 
 enum class EventKind : std::uint8_t {
   kStateChanged = 0,
@@ -108,6 +125,13 @@ enum class EventKind : std::uint8_t {
   kFaultCleared = 5,
   kControlChanged = 6,  // the controller session changed (take-over, disconnect)
 };
+template <>
+struct EnumWords<EventKind> {
+  static constexpr std::array<std::string_view, 7> words = {
+      "state_changed", "motion_started", "motion_finished", "motion_stopped",
+      "fault_latched", "fault_cleared",  "control_changed"};
+  static constexpr auto last = EventKind::kControlChanged;
+};
 
 enum class ArmState : std::uint8_t {
   kDisconnected = 0,
@@ -115,6 +139,12 @@ enum class ArmState : std::uint8_t {
   kBusy = 2,  // executing a door task
   kDone = 3,
   kFault = 4,
+};
+template <>
+struct EnumWords<ArmState> {
+  static constexpr std::array<std::string_view, 5> words = {"disconnected", "idle", "busy", "done",
+                                                            "fault"};
+  static constexpr auto last = ArmState::kFault;
 };
 
 // Lifecycle of a driver as reported on the wire (mirrors drivers::LifecycleState).
@@ -124,12 +154,28 @@ enum class DriverState : std::uint8_t {
   kActive = 2,
   kFault = 3,
 };
+template <>
+struct EnumWords<DriverState> {
+  static constexpr std::array<std::string_view, 4> words = {"unconfigured", "inactive", "active",
+                                                            "fault"};
+  static constexpr auto last = DriverState::kFault;
+};
 
 // Which drivers the daemon runs (Welcome, 1.1; mirrors drivers::DriverKind).
 enum class DriverKind : std::uint8_t { kSim = 0, kMock = 1, kReal = 2 };
+template <>
+struct EnumWords<DriverKind> {
+  static constexpr std::array<std::string_view, 3> words = {"sim", "mock", "real"};
+  static constexpr auto last = DriverKind::kReal;
+};
 
 // The control thread's scheduling policy (Status.realtime, 1.1).
 enum class SchedulingPolicy : std::uint8_t { kOther = 0, kFifo = 1, kRoundRobin = 2 };
+template <>
+struct EnumWords<SchedulingPolicy> {
+  static constexpr std::array<std::string_view, 3> words = {"other", "fifo", "rr"};
+  static constexpr auto last = SchedulingPolicy::kRoundRobin;
+};
 
 using core::FramedPoint;
 
@@ -407,13 +453,18 @@ MessageType type_of(const Message& m) noexcept;
 bool is_request(MessageType t) noexcept;
 // The minor version that defined `t` (0 for the 1.0 types, 1 for the 1.1 ones); 255 when unknown.
 std::uint8_t minor_of(MessageType t) noexcept;
-std::string_view to_string(MessageType t) noexcept;     // "MeasureDoorWidth", ...
-std::string_view to_string(ProcedureState s) noexcept;  // "awaiting_width", ...
-std::string_view to_string(EventKind k) noexcept;
-std::string_view to_string(Role r) noexcept;
-std::string_view to_string(ArmState s) noexcept;
-std::string_view to_string(DriverState s) noexcept;
-std::string_view to_string(DriverKind k) noexcept;        // "sim", "mock", "real"
-std::string_view to_string(SchedulingPolicy p) noexcept;  // "other", "fifo", "rr"
+std::string_view to_string(MessageType t) noexcept;  // "MeasureDoorWidth", ...; "Unknown"
+// The word of a wire enum value ("awaiting_width", "controller", "sim", "rr", ...); "unknown" for a
+// value the enum does not have.
+template <typename E>
+requires requires {
+  EnumWords<E>::words;
+}
+constexpr std::string_view to_string(E value) noexcept {
+  static_assert(EnumWords<E>::words.size() == static_cast<std::size_t>(EnumWords<E>::last) + 1,
+                "every enumerator has its word, in value order");
+  const auto i = static_cast<std::size_t>(value);
+  return i < EnumWords<E>::words.size() ? EnumWords<E>::words[i] : "unknown";
+}
 
 }  // namespace ajar::protocol

@@ -1,0 +1,378 @@
+// The message table: one Schema per message (row: type, name, direction, the minor version that
+// defined it; fields with their names and the minor that appended them) and per shared structure,
+// and the words of every enum. Encoding, decoding, the names in decode errors, type <-> name,
+// is_request(), minor_of(), the layout listing (and through it the golden vector generator and the
+// test of docs/protocol.md's layout tables) all read these tables; nothing else lists a field.
+#pragma once
+
+#include <array>
+#include <string_view>
+#include <utility>
+#include <variant>
+
+#include "schema.hpp"
+
+namespace ajar::protocol::detail {
+
+using enum Direction;
+
+// ---- enums ----------------------------------------------------------------------------------
+// The protocol's enums have their words next to them (EnumWords, messages.hpp); core's enums are
+// printed by core::to_string, here only their last enumerator matters (the value count).
+
+template <>
+struct EnumLast<core::Frame> {
+  static constexpr auto last = core::Frame::kBase;
+};
+template <>
+struct EnumLast<core::RotationDirection> {
+  static constexpr auto last = core::RotationDirection::kCounterClockwise;
+};
+
+// ---- shared structures (docs/protocol.md section 5.0) ---------------------------------------
+// Vec3 (x, y, z) and Point (frame, x, y, z) are written by walk.hpp directly.
+
+template <>
+struct Schema<SpanAck> {  // SpanBody
+  using fields =
+      Fields<Field<"length_m", &SpanAck::length_m>, Field<"direction", &SpanAck::direction>,
+             Field<"p1_base_m", &SpanAck::p1_base_m>, Field<"p2_base_m", &SpanAck::p2_base_m>>;
+};
+template <>
+struct Schema<PlaneAck> {  // PlaneBody
+  using fields = Fields<
+      Field<"normal", &PlaneAck::normal>, Field<"yaw_deviation_rad", &PlaneAck::yaw_deviation_rad>,
+      Field<"left_wheel_rad", &PlaneAck::left_wheel_rad>,
+      Field<"right_wheel_rad", &PlaneAck::right_wheel_rad>,
+      Field<"left_counts", &PlaneAck::left_counts>, Field<"right_counts", &PlaneAck::right_counts>,
+      Field<"residual_yaw_rad", &PlaneAck::residual_yaw_rad>,
+      Field<"rms_residual_m", &PlaneAck::rms_residual_m>,
+      Field<"point_count", &PlaneAck::point_count>>;
+};
+template <>
+struct Schema<ContactAck> {  // ContactBody
+  using fields = Fields<Field<"contact_base_m", &ContactAck::contact_base_m>,
+                        Field<"reach_margin_m", &ContactAck::reach_margin_m>>;
+};
+template <>
+struct Schema<ApproachAck> {  // ApproachBody (1.1)
+  using fields = Fields<Field<"travel_m", &ApproachAck::travel_m>,
+                        Field<"start_distance_m", &ApproachAck::start_distance_m>,
+                        Field<"left_counts", &ApproachAck::left_counts>,
+                        Field<"right_counts", &ApproachAck::right_counts>>;
+};
+template <>
+struct Schema<EmptyAck> {
+  using fields = Fields<>;
+};
+template <>
+struct Schema<LoopStatistics> {
+  using fields =
+      Fields<Field<"rate_hz", &LoopStatistics::rate_hz>, Field<"cycles", &LoopStatistics::cycles>,
+             Field<"overruns", &LoopStatistics::overruns>,
+             Field<"period_p50_ns", &LoopStatistics::period_p50_ns>,
+             Field<"period_p99_ns", &LoopStatistics::period_p99_ns>,
+             Field<"period_max_ns", &LoopStatistics::period_max_ns>,
+             Field<"jitter_p99_ns", &LoopStatistics::jitter_p99_ns>>;
+};
+template <>
+struct Schema<Quantiles> {
+  using fields = Fields<Field<"p50_ns", &Quantiles::p50_ns>, Field<"p99_ns", &Quantiles::p99_ns>,
+                        Field<"p999_ns", &Quantiles::p999_ns>, Field<"max_ns", &Quantiles::max_ns>>;
+};
+template <>
+struct Schema<TimingWindow> {
+  using fields =
+      Fields<Field<"samples", &TimingWindow::samples>, Field<"latency", &TimingWindow::latency>,
+             Field<"execution", &TimingWindow::execution>, Field<"period", &TimingWindow::period>>;
+};
+template <>
+struct Schema<LoopTiming> {
+  using fields = Fields<Field<"window_s", &LoopTiming::window_s>, Field<"all", &LoopTiming::all>,
+                        Field<"recent", &LoopTiming::recent>>;
+};
+template <>
+struct Schema<DoorRelation> {
+  using fields =
+      Fields<Field<"has_distance", &DoorRelation::has_distance>,
+             Field<"distance_m", &DoorRelation::distance_m>,
+             Field<"has_yaw", &DoorRelation::has_yaw>, Field<"yaw_rad", &DoorRelation::yaw_rad>>;
+};
+template <>
+struct Schema<Staleness> {
+  using fields = Fields<Field<"plane", &Staleness::plane>, Field<"contact", &Staleness::contact>,
+                        Field<"travel_since_plane_m", &Staleness::travel_since_plane_m>>;
+};
+template <>
+struct Schema<RealtimeState> {
+  using fields =
+      Fields<Field<"policy", &RealtimeState::policy>, Field<"priority", &RealtimeState::priority>,
+             Field<"memory_locked", &RealtimeState::memory_locked>>;
+};
+template <>
+struct Schema<WheelModel> {
+  using fields = Fields<Field<"card_axis", &WheelModel::card_axis>,
+                        Field<"polarity", &WheelModel::polarity, 0, Polarity>>;
+};
+
+// The MotionBlock 1.1 appended to Status and Telemetry (the same fields in both).
+template <typename T>
+using MotionBlock =
+    Fields<Field<"odometry_x_m", &T::odometry_x_m, 1>, Field<"odometry_y_m", &T::odometry_y_m, 1>,
+           Field<"door", &T::door, 1>, Field<"staleness", &T::staleness, 1>,
+           Field<"commanded_linear_m_s", &T::commanded_linear_m_s, 1>,
+           Field<"commanded_angular_rad_s", &T::commanded_angular_rad_s, 1>,
+           Field<"timing", &T::timing, 1>>;
+
+// ---- host -> daemon -------------------------------------------------------------------------
+
+template <>
+struct Schema<Hello> : MessageRow<MessageType::kHello, "Hello", kHostToDaemon, 0> {
+  using fields =
+      Fields<Field<"version_major", &Hello::version_major>,
+             Field<"version_minor", &Hello::version_minor>,
+             Field<"requested_role", &Hello::requested_role>, Field<"take_over", &Hello::take_over>,
+             Field<"client_instance_id", &Hello::client_instance_id>,
+             Field<"client_name", &Hello::client_name>>;
+};
+template <>
+struct Schema<Ping> : MessageRow<MessageType::kPing, "Ping", kHostToDaemon, 0> {
+  using fields = Fields<Field<"client_time_ns", &Ping::client_time_ns>>;
+};
+template <>
+struct Schema<MeasureDoorWidth>
+    : MessageRow<MessageType::kMeasureDoorWidth, "MeasureDoorWidth", kHostToDaemon, 0> {
+  using ack_body = SpanAck;
+  using fields = Fields<Field<"p1", &MeasureDoorWidth::p1_hinge>,
+                        Field<"p2", &MeasureDoorWidth::p2_moving_edge>>;
+};
+template <>
+struct Schema<MeasureHandle>
+    : MessageRow<MessageType::kMeasureHandle, "MeasureHandle", kHostToDaemon, 0> {
+  using ack_body = SpanAck;
+  using fields =
+      Fields<Field<"p1", &MeasureHandle::p1_axis>, Field<"p2", &MeasureHandle::p2_free_end>>;
+};
+template <>
+struct Schema<MeasureDoorPlane>
+    : MessageRow<MessageType::kMeasureDoorPlane, "MeasureDoorPlane", kHostToDaemon, 0> {
+  using ack_body = PlaneAck;
+  using fields =
+      Fields<Field<"count", &MeasureDoorPlane::count, 0, PlaneCount>,
+             Field<"points", &MeasureDoorPlane::points, 0, CountedBy<&MeasureDoorPlane::count>>>;
+};
+template <>
+struct Schema<SetContactPoint>
+    : MessageRow<MessageType::kSetContactPoint, "SetContactPoint", kHostToDaemon, 0> {
+  using ack_body = ContactAck;
+  using fields = Fields<Field<"contact", &SetContactPoint::contact>>;
+};
+template <>
+struct Schema<AlignBase> : MessageRow<MessageType::kAlignBase, "AlignBase", kHostToDaemon, 0> {
+  using fields = Fields<>;
+};
+template <>
+struct Schema<Engage> : MessageRow<MessageType::kEngage, "Engage", kHostToDaemon, 0> {
+  using fields = Fields<>;
+};
+template <>
+struct Schema<Stop> : MessageRow<MessageType::kStop, "Stop", kHostToDaemon, 0> {
+  using fields = Fields<>;
+};
+template <>
+struct Schema<EmergencyStop>
+    : MessageRow<MessageType::kEmergencyStop, "EmergencyStop", kHostToDaemon, 0> {
+  using fields = Fields<>;
+};
+template <>
+struct Schema<Reset> : MessageRow<MessageType::kReset, "Reset", kHostToDaemon, 0> {
+  using fields = Fields<Field<"clear_parameters", &Reset::clear_parameters>>;
+};
+template <>
+struct Schema<GetStatus> : MessageRow<MessageType::kGetStatus, "GetStatus", kHostToDaemon, 0> {
+  using fields = Fields<>;
+};
+template <>
+struct Schema<Subscribe> : MessageRow<MessageType::kSubscribe, "Subscribe", kHostToDaemon, 0> {
+  using fields = Fields<Field<"telemetry_rate_hz", &Subscribe::telemetry_rate_hz>>;
+};
+template <>
+struct Schema<Drive> : MessageRow<MessageType::kDrive, "Drive", kHostToDaemon, 1> {
+  using fields = Fields<Field<"linear_m_s", &Drive::linear_m_s>,
+                        Field<"angular_rad_s", &Drive::angular_rad_s>>;
+};
+template <>
+struct Schema<Approach> : MessageRow<MessageType::kApproach, "Approach", kHostToDaemon, 1> {
+  using ack_body = ApproachAck;
+  using fields = Fields<Field<"standoff_m", &Approach::standoff_m>>;
+};
+template <>
+struct Schema<GetRobotModel>
+    : MessageRow<MessageType::kGetRobotModel, "GetRobotModel", kHostToDaemon, 1> {
+  using fields = Fields<>;
+};
+template <>
+struct Schema<ResetLoopStatistics>
+    : MessageRow<MessageType::kResetLoopStatistics, "ResetLoopStatistics", kHostToDaemon, 1> {
+  using fields = Fields<>;
+};
+
+// ---- daemon -> host -------------------------------------------------------------------------
+
+template <>
+struct Schema<Welcome> : MessageRow<MessageType::kWelcome, "Welcome", kDaemonToHost, 0> {
+  using fields = Fields<Field<"version_major", &Welcome::version_major>,
+                        Field<"version_minor", &Welcome::version_minor>,
+                        Field<"granted_role", &Welcome::granted_role>,
+                        Field<"session_id", &Welcome::session_id>,
+                        Field<"daemon_version", &Welcome::daemon_version>,
+                        Field<"loop_rate_hz", &Welcome::loop_rate_hz>,
+                        Field<"deadman_timeout_s", &Welcome::deadman_timeout_s>,
+                        Field<"min_door_width_m", &Welcome::min_door_width_m>,
+                        Field<"max_door_width_m", &Welcome::max_door_width_m>,
+                        Field<"min_handle_length_m", &Welcome::min_handle_length_m>,
+                        Field<"max_handle_length_m", &Welcome::max_handle_length_m>,
+                        Field<"max_yaw_correction_rad", &Welcome::max_yaw_correction_rad>,
+                        Field<"driver_kind", &Welcome::driver_kind, 1>>;
+};
+template <>
+struct Schema<Pong> : MessageRow<MessageType::kPong, "Pong", kDaemonToHost, 0> {
+  using fields = Fields<Field<"client_time_ns", &Pong::client_time_ns>,
+                        Field<"daemon_time_ns", &Pong::daemon_time_ns>>;
+};
+template <>
+struct Schema<Ack> : MessageRow<MessageType::kAck, "Ack", kDaemonToHost, 0> {
+  using fields =
+      Fields<Field<"acknowledged", &Ack::acknowledged, 0, AckedType>, Field<"state", &Ack::state>,
+             Field<"body", &Ack::body, 0, AckBodyOf<&Ack::acknowledged>>>;
+};
+template <>
+struct Schema<ErrorReply> : MessageRow<MessageType::kError, "Error", kDaemonToHost, 0> {
+  using fields =
+      Fields<Field<"code", &ErrorReply::code>, Field<"offending_type", &ErrorReply::offending_type>,
+             Field<"field", &ErrorReply::field>, Field<"message", &ErrorReply::message>>;
+};
+template <>
+struct Schema<Event> : MessageRow<MessageType::kEvent, "Event", kDaemonToHost, 0> {
+  using fields =
+      Fields<Field<"kind", &Event::kind>, Field<"state", &Event::state>,
+             Field<"fault", &Event::fault>, Field<"daemon_time_ns", &Event::daemon_time_ns>,
+             Field<"detail", &Event::detail>>;
+};
+template <>
+struct Schema<Status> : MessageRow<MessageType::kStatus, "Status", kDaemonToHost, 0> {
+  using fields =
+      Concat<Fields<Field<"state", &Status::state>, Field<"latched_fault", &Status::latched_fault>,
+                    Field<"restored_from_disk", &Status::restored_from_disk>,
+                    Field<"controller_connected", &Status::controller_connected>,
+                    Field<"session_count", &Status::session_count>,
+                    Field<"has_width", &Status::has_width>, Field<"width", &Status::width>,
+                    Field<"has_handle", &Status::has_handle>, Field<"handle", &Status::handle>,
+                    Field<"has_plane", &Status::has_plane>, Field<"plane", &Status::plane>,
+                    Field<"has_contact", &Status::has_contact>, Field<"contact", &Status::contact>,
+                    Field<"base_yaw_odometry_rad", &Status::base_yaw_odometry_rad>,
+                    Field<"card", &Status::card>, Field<"arm", &Status::arm>,
+                    Field<"arm_state", &Status::arm_state>, Field<"loop", &Status::loop>>,
+             MotionBlock<Status>, Fields<Field<"realtime", &Status::realtime, 1>>>;
+};
+template <>
+struct Schema<Telemetry> : MessageRow<MessageType::kTelemetry, "Telemetry", kDaemonToHost, 0> {
+  using fields =
+      Concat<Fields<Field<"daemon_time_ns", &Telemetry::daemon_time_ns>,
+                    Field<"state", &Telemetry::state>, Field<"moving", &Telemetry::moving>,
+                    Field<"left_wheel_rad", &Telemetry::left_wheel_rad>,
+                    Field<"right_wheel_rad", &Telemetry::right_wheel_rad>,
+                    Field<"left_counts", &Telemetry::left_counts>,
+                    Field<"right_counts", &Telemetry::right_counts>,
+                    Field<"base_yaw_odometry_rad", &Telemetry::base_yaw_odometry_rad>,
+                    Field<"arm_state", &Telemetry::arm_state>, Field<"loop", &Telemetry::loop>>,
+             MotionBlock<Telemetry>>;
+};
+template <>
+struct Schema<RobotModel> : MessageRow<MessageType::kRobotModel, "RobotModel", kDaemonToHost, 1> {
+  using R = RobotModel;
+  using fields = Fields<
+      Field<"camera_to_base", &R::camera_to_base>, Field<"wheel_radius_m", &R::wheel_radius_m>,
+      Field<"turning_radius_m", &R::turning_radius_m>,
+      Field<"encoder_counts_per_rev", &R::encoder_counts_per_rev>,
+      Field<"gear_ratio", &R::gear_ratio>, Field<"left", &R::left>, Field<"right", &R::right>,
+      Field<"max_wheel_speed_rad_s", &R::max_wheel_speed_rad_s>,
+      Field<"max_wheel_accel_rad_s2", &R::max_wheel_accel_rad_s2>,
+      Field<"max_linear_speed_m_s", &R::max_linear_speed_m_s>,
+      Field<"max_angular_speed_rad_s", &R::max_angular_speed_rad_s>,
+      Field<"max_linear_accel_m_s2", &R::max_linear_accel_m_s2>,
+      Field<"max_angular_accel_rad_s2", &R::max_angular_accel_rad_s2>,
+      Field<"drive_command_timeout_s", &R::drive_command_timeout_s>,
+      Field<"approach_max_travel_m", &R::approach_max_travel_m>,
+      Field<"approach_square_tolerance_rad", &R::approach_square_tolerance_rad>,
+      Field<"approach_min_standoff_m", &R::approach_min_standoff_m>,
+      Field<"stale_travel_m", &R::stale_travel_m>, Field<"stale_yaw_rad", &R::stale_yaw_rad>,
+      Field<"arm_shoulder_m", &R::arm_shoulder_m>, Field<"arm_min_reach_m", &R::arm_min_reach_m>,
+      Field<"arm_max_reach_m", &R::arm_max_reach_m>, Field<"arm_min_z_m", &R::arm_min_z_m>,
+      Field<"arm_max_z_m", &R::arm_max_z_m>, Field<"min_depth_m", &R::min_depth_m>,
+      Field<"max_depth_m", &R::max_depth_m>, Field<"min_door_width_m", &R::min_door_width_m>,
+      Field<"max_door_width_m", &R::max_door_width_m>,
+      Field<"min_handle_length_m", &R::min_handle_length_m>,
+      Field<"max_handle_length_m", &R::max_handle_length_m>,
+      Field<"max_yaw_correction_rad", &R::max_yaw_correction_rad>,
+      Field<"aligned_tolerance_rad", &R::aligned_tolerance_rad>,
+      Field<"min_point_separation_m", &R::min_point_separation_m>,
+      Field<"min_lateral_fraction", &R::min_lateral_fraction>,
+      Field<"collinearity", &R::collinearity>, Field<"max_plane_rms_m", &R::max_plane_rms_m>,
+      Field<"max_door_tilt_rad", &R::max_door_tilt_rad>>;
+};
+
+// ---- the message table, in the order of the Message variant ---------------------------------
+
+struct MessageInfo {
+  MessageType type;
+  std::string_view name;
+  Direction direction;
+  std::uint8_t since;  // the minor version that defined the type
+};
+
+template <typename T>
+using Alternative = std::type_identity<T>;
+
+template <std::size_t... I>
+constexpr auto make_message_table(std::index_sequence<I...>) {
+  return std::array<MessageInfo, sizeof...(I)>{
+      MessageInfo{Schema<std::variant_alternative_t<I, Message>>::type,
+                  Schema<std::variant_alternative_t<I, Message>>::name.view(),
+                  Schema<std::variant_alternative_t<I, Message>>::direction,
+                  Schema<std::variant_alternative_t<I, Message>>::since}...};
+}
+inline constexpr auto kMessageTable =
+    make_message_table(std::make_index_sequence<std::variant_size_v<Message>>{});
+
+constexpr bool types_are_unique() {
+  for (std::size_t i = 0; i < kMessageTable.size(); ++i) {
+    for (std::size_t k = i + 1; k < kMessageTable.size(); ++k) {
+      if (kMessageTable[i].type == kMessageTable[k].type) return false;
+    }
+  }
+  return true;
+}
+static_assert(types_are_unique(), "one message type per Message alternative");
+
+// The row of `t`, or nullptr for a type this version does not know.
+constexpr const MessageInfo* find_message(MessageType t) noexcept {
+  for (const MessageInfo& m : kMessageTable) {
+    if (m.type == t) return &m;
+  }
+  return nullptr;
+}
+
+// Calls f(std::type_identity<T>{}) with the message struct T of type `t`; false when `t` is
+// unknown.
+template <typename F>
+bool with_message_type(MessageType t, F&& f) {
+  return [&]<std::size_t... I>(std::index_sequence<I...>) {
+    return ((kMessageTable[I].type == t &&
+             (f(Alternative<std::variant_alternative_t<I, Message>>{}), true)) ||
+            ...);
+  }
+  (std::make_index_sequence<std::variant_size_v<Message>>{});
+}
+
+}  // namespace ajar::protocol::detail

@@ -1,0 +1,142 @@
+// The vocabulary of the message tables (message_schema.hpp): a field is a name, a member and the
+// minor version that appended it; a message is a row (type, name, direction, minor) plus its
+// fields. walk.hpp turns one such description into the writer, the reader with its checks, and
+// the layout listing, so none of them repeats a field.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string_view>
+#include <type_traits>
+
+#include "ajar/protocol/messages.hpp"
+
+namespace ajar::protocol::detail {
+
+// A string usable as a template argument. Names compose at compile time ("width" + "." +
+// "length_m"); every composed name is a template parameter object, so it has static storage
+// (DecodeError::field is a const char*).
+template <std::size_t N>
+struct Text {
+  std::array<char, N> chars{};  // zero terminated
+  constexpr Text() = default;
+  constexpr Text(const char (&s)[N]) {  // NOLINT: implicit, from a literal
+    for (std::size_t i = 0; i < N; ++i)
+      chars[i] = s[i];
+  }
+  constexpr std::string_view view() const { return {chars.data(), N - 1}; }
+};
+template <std::size_t A, std::size_t B>
+constexpr Text<A + B - 1> operator+(const Text<A>& a, const Text<B>& b) {
+  Text<A + B - 1> out;
+  for (std::size_t i = 0; i + 1 < A; ++i)
+    out.chars[i] = a.chars[i];
+  for (std::size_t i = 0; i < B; ++i)
+    out.chars[A - 1 + i] = b.chars[i];
+  return out;
+}
+// "[I]", for array elements.
+template <std::size_t I>
+constexpr auto index_text() {
+  static_assert(I < 100);
+  if constexpr (I < 10) {
+    Text<4> t;
+    t.chars = {'[', static_cast<char>('0' + I), ']', '\0'};
+    return t;
+  } else {
+    Text<5> t;
+    t.chars = {'[', static_cast<char>('0' + I / 10), static_cast<char>('0' + I % 10), ']', '\0'};
+    return t;
+  }
+}
+// The static, zero-terminated storage of a name.
+template <Text N>
+constexpr const char* c_str() noexcept {
+  return N.chars.data();
+}
+
+// How a field goes on the wire. kPlain: as its C++ type says (integers, f32/f64, bool, enums with
+// their value count, ErrorCode and MessageType as raw u16, FixedString<N>, Vec3, FramedPoint,
+// std::array, or a struct with its own Schema, whose field names get this field's name as prefix).
+struct Plain {};
+struct Polarity {};    // i8, +1 or -1
+struct PlaneCount {};  // u8 3..16 that sizes the payload (BAD_COUNT)
+struct AckedType {};   // u16 host -> daemon type of the frame's minor that sizes the Ack body
+template <auto CountMember>
+struct CountedBy {};  // array elements [0, parent.*CountMember)
+template <auto TypeMember>
+struct AckBodyOf {};  // the body Schema<request>::ack_body of the request type parent.*TypeMember
+
+// One field: its wire name, the member it reads and writes, the minor version that appended it
+// (0: in the 1.0 layout), how it is written.
+template <Text Name, auto Member, std::uint8_t Since = 0, typename Kind = Plain>
+struct Field {
+  static constexpr auto name = Name;
+  static constexpr auto member = Member;
+  static constexpr std::uint8_t since = Since;
+  using kind = Kind;
+};
+
+template <typename... F>
+struct Fields {};
+template <typename... Lists>
+struct ConcatFields;
+template <typename... A>
+struct ConcatFields<Fields<A...>> {
+  using type = Fields<A...>;
+};
+template <typename... A, typename... B, typename... Rest>
+struct ConcatFields<Fields<A...>, Fields<B...>, Rest...> {
+  using type = typename ConcatFields<Fields<A..., B...>, Rest...>::type;
+};
+template <typename... Lists>
+using Concat = typename ConcatFields<Lists...>::type;
+
+// Fields appended by a minor version come after every field of the older layout, so the older
+// layout is the newer one cut where the appended fields start (docs/protocol.md section 7).
+template <typename... F>
+constexpr bool appended_at_the_end(Fields<F...>) {
+  const std::array<std::uint8_t, sizeof...(F) + 1> since{0, F::since...};
+  for (std::size_t i = 1; i < since.size(); ++i) {
+    if (since[i] < since[i - 1] || since[i] > kVersionMinor) return false;
+  }
+  return true;
+}
+
+enum class Direction : std::uint8_t { kHostToDaemon, kDaemonToHost };
+
+// The row of a message in the message table. Schema<T> of a message derives from its row and adds
+// `fields` (and, for a request, `ack_body`: what its Ack carries).
+template <MessageType Type, Text Name, Direction Dir, std::uint8_t Since>
+struct MessageRow {
+  static constexpr MessageType type = Type;
+  static constexpr auto name = Name;
+  static constexpr Direction direction = Dir;
+  static constexpr std::uint8_t since = Since;
+  using ack_body = EmptyAck;
+  static_assert((static_cast<std::uint16_t>(Type) >> 8) ==
+                    (Dir == Direction::kHostToDaemon ? 1 : 2),
+                "host -> daemon types are 0x01xx, daemon -> host types 0x02xx");
+};
+
+// Schema<T>::fields lists T's wire fields in wire order; a message's Schema also is its row.
+template <typename T>
+struct Schema;
+
+// The number of values of an enum on the wire (values are 0..count-1): from the words of a protocol
+// enum (EnumWords, messages.hpp), from the last enumerator of a core enum (EnumLast).
+template <typename E>
+struct EnumLast {
+  static constexpr auto last = EnumWords<E>::last;
+};
+template <typename E>
+constexpr std::uint8_t enum_count() {
+  constexpr auto count = static_cast<std::size_t>(EnumLast<E>::last) + 1;
+  if constexpr (requires { EnumWords<E>::words; }) {
+    static_assert(EnumWords<E>::words.size() == count, "every enumerator has its word");
+  }
+  return static_cast<std::uint8_t>(count);
+}
+
+}  // namespace ajar::protocol::detail

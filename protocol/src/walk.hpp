@@ -1,0 +1,136 @@
+// Walks a value along its Schema (message_schema.hpp) and hands every wire field, with its
+// composed name, to an IO: the Writer (encode), the Reader (decode and check), the layout lister.
+// IO provides since(minor), u8/u16/u32/u64/i64/f32/f64/boolean/polarity(value, name),
+// enumeration(value, name, count), error_code, raw_type, str, and for the fields that size a
+// payload plane_count/ack_type (false: stop) and body<T>(variant) (nullptr: stop). S is `const T`
+// when encoding and `T` when decoding. A walk returns false where it stopped early: at the first
+// field a minor version appended that the layout being walked does not have, or at a size field
+// that failed.
+#pragma once
+
+#include <cstddef>
+#include <type_traits>
+#include <utility>
+
+#include "message_schema.hpp"
+
+namespace ajar::protocol::detail {
+
+template <typename T>
+struct IsStdArray : std::false_type {};
+template <typename T, std::size_t N>
+struct IsStdArray<std::array<T, N>> : std::true_type {};
+template <typename T>
+struct IsFixedString : std::false_type {};
+template <std::size_t N>
+struct IsFixedString<FixedString<N>> : std::true_type {};
+template <typename T>
+struct KindArgument;
+template <template <auto> typename K, auto M>
+struct KindArgument<K<M>> {
+  static constexpr auto member = M;
+};
+
+template <Text Prefix, typename IO, typename S>
+bool walk(IO& io, S& s) noexcept;
+
+// Elements [0, count) of an array, named Name[i].
+template <Text Name, typename IO, typename A, std::size_t... I>
+void walk_elements(IO& io, A& array, std::size_t count, std::index_sequence<I...>) noexcept;
+
+// One value named Name, by its C++ type.
+template <Text Name, typename IO, typename V>
+bool walk_value(IO& io, V& v) noexcept {
+  using T = std::remove_const_t<V>;
+  constexpr const char* n = c_str<Name>();
+  if constexpr (std::is_same_v<T, bool>) {
+    io.boolean(v, n);
+  } else if constexpr (std::is_same_v<T, std::uint8_t>) {
+    io.u8(v, n);
+  } else if constexpr (std::is_same_v<T, std::uint16_t>) {
+    io.u16(v, n);
+  } else if constexpr (std::is_same_v<T, std::uint32_t>) {
+    io.u32(v, n);
+  } else if constexpr (std::is_same_v<T, std::uint64_t>) {
+    io.u64(v, n);
+  } else if constexpr (std::is_same_v<T, std::int64_t>) {
+    io.i64(v, n);
+  } else if constexpr (std::is_same_v<T, float>) {
+    io.f32(v, n);
+  } else if constexpr (std::is_same_v<T, double>) {
+    io.f64(v, n);
+  } else if constexpr (std::is_same_v<T, ErrorCode>) {
+    io.error_code(v, n);
+  } else if constexpr (std::is_same_v<T, MessageType>) {
+    io.raw_type(v, n);
+  } else if constexpr (std::is_enum_v<T>) {
+    io.enumeration(v, n, enum_count<T>());
+  } else if constexpr (IsFixedString<T>::value) {
+    io.str(v, n);
+  } else if constexpr (std::is_same_v<T, core::Vec3>) {
+    io.f64(v.x(), c_str<Name + Text(".x")>());
+    io.f64(v.y(), c_str<Name + Text(".y")>());
+    io.f64(v.z(), c_str<Name + Text(".z")>());
+  } else if constexpr (std::is_same_v<T, core::FramedPoint>) {  // Point: frame, x, y, z
+    walk_value<Name + Text(".frame")>(io, v.frame);
+    walk_value<Name>(io, v.position_m);
+  } else if constexpr (IsStdArray<T>::value) {
+    walk_elements<Name>(io, v, v.size(), std::make_index_sequence<std::tuple_size_v<T>>{});
+  } else {
+    return walk<Name + Text(".")>(io, v);
+  }
+  return true;
+}
+
+template <Text Name, typename IO, typename A, std::size_t... I>
+void walk_elements(IO& io, A& array, std::size_t count, std::index_sequence<I...>) noexcept {
+  ((I < count ? static_cast<void>(walk_value<Name + index_text<I>()>(io, array[I]))
+              : static_cast<void>(0)),
+   ...);
+}
+
+template <Text Prefix, typename F, typename IO, typename S>
+bool walk_field(IO& io, S& s) noexcept {
+  if (!io.since(F::since)) return false;  // the layout ends where this minor's fields start
+  auto& v = s.*(F::member);
+  constexpr auto name = Prefix + F::name;
+  using K = typename F::kind;
+  if constexpr (std::is_same_v<K, Plain>) {
+    return walk_value<name>(io, v);
+  } else if constexpr (std::is_same_v<K, Polarity>) {
+    io.polarity(v, c_str<name>());
+    return true;
+  } else if constexpr (std::is_same_v<K, PlaneCount>) {
+    return io.plane_count(v, c_str<name>());
+  } else if constexpr (std::is_same_v<K, AckedType>) {
+    return io.ack_type(v, c_str<name>());
+  } else if constexpr (std::is_same_v<K, CountedBy<KindArgument<K>::member>>) {
+    using A = std::remove_cvref_t<decltype(v)>;
+    walk_elements<name>(io, v, s.*(KindArgument<K>::member),
+                        std::make_index_sequence<std::tuple_size_v<A>>{});
+    return true;
+  } else {
+    static_assert(std::is_same_v<K, AckBodyOf<KindArgument<K>::member>>);
+    // The body's fields are named without a prefix ("length_m", "normal.x").
+    bool walked = true;
+    with_message_type(s.*(KindArgument<K>::member), [&]<typename R>(Alternative<R>) {
+      using Body = typename Schema<R>::ack_body;
+      auto* body = io.template body<Body>(v);
+      walked = body != nullptr && walk<Text("")>(io, *body);
+    });
+    return walked;
+  }
+}
+
+template <Text Prefix, typename IO, typename S, typename... F>
+bool walk_fields(IO& io, S& s, Fields<F...> fields) noexcept {
+  static_assert(appended_at_the_end(fields), "appended fields come last, newest last");
+  return (walk_field<Prefix, F>(io, s) && ...);
+}
+
+template <Text Prefix, typename IO, typename S>
+bool walk(IO& io, S& s) noexcept {
+  return walk_fields<Prefix>(io, s, typename Schema<std::remove_const_t<S>>::fields{});
+}
+
+}  // namespace ajar::protocol::detail
