@@ -195,6 +195,29 @@ constexpr CommandInfo kCommands[] = {
      "waits until it is engaged, printing the arm's state and the elapsed time every 0.5 s.\n"
      "Options as for align. Controller role.",
      "--no-wait --wait-timeout", ""},
+    {"drive", "drive [--linear V --angular W --for S]",
+     "jog the base: keys in a terminal, or a velocity for S seconds",
+     "Without options: terminal teleop. Up/Down arrows (or w/s) change the linear velocity,\n"
+     "Left/Right (or a/d) the angular velocity (left = CCW), in steps of a tenth of the robot\n"
+     "model's max_linear_speed_m_s / max_angular_speed_rad_s and clamped to them; space stops\n"
+     "(velocity 0 and a Stop); q, Esc or Ctrl-C leave (Drive 0 and Stop, the terminal is\n"
+     "restored). While the velocity is not zero the Drive is re-sent every third of the model's\n"
+     "drive_command_timeout_s (0.1 s if 0). The line shows the velocity set, what the loop\n"
+     "commands, and the live distance and yaw to the door.\n"
+     "With --for S (for scripts): drives at --linear V m/s (+ forward) and --angular W rad/s\n"
+     "(CCW +) for S seconds, re-sending at the same rate, then Drive 0; waits until the base is\n"
+     "at rest and prints the odometry before and after. A refusal exits 1 with the daemon's\n"
+     "message. Controller role.",
+     "--linear --angular --for", ""},
+    {"approach", "approach STANDOFF_M [--no-wait] [--wait-timeout S]",
+     "drive straight to STANDOFF_M from the door; waits",
+     "Drives straight (both wheels alike) until the base origin is STANDOFF_M metres from the\n"
+     "door plane (from the stored plane, or before one from the width points). Prints the\n"
+     "accepted move (travel, start distance, wheel counts), then waits for motion_finished,\n"
+     "motion_stopped or fault_latched (default at most 120 s, --wait-timeout), printing the\n"
+     "distance to the door every 0.5 s, and reports the final distance. Ctrl-C while waiting\n"
+     "sends Stop. Controller role.",
+     "--no-wait --wait-timeout", ""},
     {"stop", "stop", "stop motion (any role)", "Smooth stop of any motion. Any role.", "", ""},
     {"estop", "estop", "emergency stop (any role; Reset to continue)",
      "Emergency stop: latches EMERGENCY_STOPPED until `reset`. Any role.", "", ""},
@@ -205,12 +228,17 @@ constexpr CommandInfo kCommands[] = {
     {"sleep", "sleep S", "(script mode) pause S seconds, keeping the session alive",
      "Script mode: pauses S seconds (0..1000000) while heartbeat Pings keep the session alive.", "",
      ""},
-    {"conformance", "conformance [--vectors DIR]",
+    {"conformance", "conformance [--vectors DIR] [--allow-motion-on-real-robot]",
      "hold the daemon to the protocol; ends \"N passed, N failed\"",
      "Runs the protocol conformance suite against the daemon (takes control) with the golden\n"
      "vectors in DIR (default: the installed vectors, or this source tree's). Prints one line\n"
-     "per check and ends with \"N passed, N failed\"; exit 0 only with 0 failed.",
-     "--vectors", ""},
+     "per check (PASS, FAIL, or SKIP with the reason) and ends with \"N passed, N failed\"\n"
+     "(\", N skipped\" when some were skipped); exit 0 only with 0 failed. The checks that turn\n"
+     "or drive the base or engage the arm are refused (skipped, saying why) when the daemon\n"
+     "runs the real robot (Welcome.driver_kind real, or a 1.0 daemon that does not say) unless\n"
+     "--allow-motion-on-real-robot. Checks of Drive/Approach are skipped while the daemon\n"
+     "refuses them with NOT_SUPPORTED.",
+     "--vectors --allow-motion-on-real-robot", ""},
     {"simulate", "simulate SCENARIO.yaml [OPTIONS]",
      "rehearse the whole procedure on a simulated door",
      "Rehearses the whole procedure against the daemon with a simulated door and sensor noise and\n"
@@ -335,8 +363,9 @@ Options:
     }
   }
   u += R"(
-measure, contact, align, engage, reset and script mode take the controller role; a one-shot
-'align --no-wait' disconnects during the motion, which the deadman stops: use it in script mode.
+measure, contact, align, engage, drive, approach, reset and script mode take the controller
+role; a one-shot 'align --no-wait' disconnects during the motion, which the deadman stops: use it
+in script mode.
 
 exit codes: 0 success, 1 the daemon refused (or a check/tolerance failed), 2 usage,
             3 connection failure or timeout.
@@ -661,6 +690,40 @@ CommandParse parse_command(std::span<const std::string> words_in, core::Frame fr
     } else {
       c.request = protocol::Engage{};
     }
+    return {c, {}};
+  }
+  if (name == "drive") {
+    c.kind = Command::Kind::kDrive;
+    c.needs_controller = true;
+    bool velocity = false;
+    for (std::size_t i = 0; i < rest.size(); ++i) {
+      if ((rest[i] == "--linear" || rest[i] == "--angular") && i + 1 < rest.size() &&
+          parse_double(rest[i + 1], rest[i] == "--linear" ? c.linear_m_s : c.angular_rad_s)) {
+        velocity = true;
+        ++i;
+      } else if (rest[i] == "--for" && i + 1 < rest.size() &&
+                 parse_seconds(rest[i + 1], c.duration_s, true)) {
+        ++i;
+      } else {
+        return fail(
+            "drive takes nothing (keys), or [--linear M/S] [--angular RAD/S] --for S "
+            "(0 < S <= 1000000), got " +
+            quoted(rest, i));
+      }
+    }
+    if (velocity && c.duration_s <= 0) return fail("drive --linear/--angular needs --for S");
+    if (!velocity && c.duration_s > 0) return fail("drive --for needs --linear and/or --angular");
+    return {c, {}};
+  }
+  if (name == "approach") {
+    double standoff_m = 0;
+    if (rest.empty() || !parse_double(rest[0], standoff_m)) {
+      return fail("approach wants STANDOFF_M: the distance to the door plane in metres");
+    }
+    if (auto e = wait_options(rest.subspan(1)); !e.empty()) return fail(e);
+    c.kind = Command::Kind::kApproach;
+    c.needs_controller = true;
+    c.request = protocol::Approach{standoff_m};
     return {c, {}};
   }
   if (name == "stop" || name == "estop") {

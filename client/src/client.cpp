@@ -13,14 +13,11 @@
 #include <unordered_map>
 #include <thread>
 
-#include <sys/stat.h>
-
-#include <cerrno>
-#include <cstring>
-
 #include <boost/asio.hpp>
 #include <boost/asio/ssl.hpp>
 #include <openssl/x509.h>
+
+#include "ajar/security/tls_files.hpp"
 
 namespace ajar::client {
 
@@ -32,16 +29,10 @@ using TlsSocket = ssl::stream<tcp::socket&>;
 
 namespace {
 
-// Empty when `path` may be used; a private key must not be accessible to group or others.
+// Empty when `path` may be used (the rule ajard applies too: ajar/security/tls_files.hpp).
 std::string file_problem(const std::string& path, const char* what, bool secret) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0)
-    return std::string("cannot read ") + what + " '" + path + "': " + std::strerror(errno);
-  if (!S_ISREG(st.st_mode)) return std::string(what) + " '" + path + "' is not a regular file";
-  if (secret && (st.st_mode & 0077U) != 0)
-    return std::string(what) + " '" + path +
-           "' is accessible to group or others: refused (chmod 600 it)";
-  return {};
+  const std::string problem = security::tls_file_problem(path, secret);
+  return problem.empty() ? problem : std::string(what) + ": " + problem;
 }
 
 // The client's TLS context, or an error message.
@@ -147,6 +138,37 @@ struct Client::Impl {
 
   std::atomic<std::uint32_t> next_id{1};
 
+  // record_headers(): guarded by `mutex`.
+  bool recording_headers = false;
+  std::vector<protocol::FrameHeader> headers;
+  // I/O thread only: where the frame boundaries are in the received byte stream.
+  std::array<std::uint8_t, protocol::kHeaderSize> track_header{};
+  std::size_t track_filled = 0;
+  std::size_t track_skip = 0;
+
+  // Follows the frame boundaries of the received bytes and keeps each header while recording.
+  void track_frames(std::span<const std::uint8_t> in) {
+    while (!in.empty()) {
+      if (track_skip > 0) {
+        const std::size_t k = std::min(track_skip, in.size());
+        track_skip -= k;
+        in = in.subspan(k);
+        continue;
+      }
+      const std::size_t k = std::min(protocol::kHeaderSize - track_filled, in.size());
+      std::copy_n(in.begin(), k, track_header.begin() + static_cast<std::ptrdiff_t>(track_filled));
+      track_filled += k;
+      in = in.subspan(k);
+      if (track_filled < protocol::kHeaderSize) return;
+      track_filled = 0;
+      const protocol::FrameHeader h = protocol::decode_header(track_header);
+      // An oversize length loses the framing: the decoder closes the connection.
+      track_skip = h.payload_length <= protocol::kMaxPayloadSize ? h.payload_length : 0;
+      std::lock_guard lock(mutex);
+      if (recording_headers && headers.size() < kMaxQueuedReplies) headers.push_back(h);
+    }
+  }
+
   // I/O thread only.
   std::shared_ptr<tcp::socket> socket;
   std::shared_ptr<TlsSocket> tls;  // over *socket when TLS is on
@@ -178,6 +200,10 @@ struct Client::Impl {
   void on_closed(const std::string& why) {
     if (!socket) return;
     boost::system::error_code ignored;
+    if (tls && !writing) {  // close_notify, not waiting for the daemon's (non-blocking: no hang)
+      socket->non_blocking(true, ignored);
+      tls->shutdown(ignored);
+    }
     socket->shutdown(tcp::socket::shutdown_both, ignored);
     socket->close(ignored);
     socket.reset();
@@ -260,6 +286,7 @@ struct Client::Impl {
               return;
             }
             std::span<const std::uint8_t> in(read_buffer.data(), n);
+            track_frames(in);
             while (!in.empty()) {
               protocol::StreamDecoder::Outcome outcome;
               const std::size_t used = decoder.feed(in, outcome);
@@ -383,6 +410,8 @@ std::string Client::connect(const Endpoint& endpoint, Milliseconds timeout) {
   asio::post(impl->io, [impl, endpoint, timeout, promise, tls_context, server_name] {
     impl->on_closed("");
     impl->decoder.reset();
+    impl->track_filled = 0;
+    impl->track_skip = 0;
     auto sock = std::make_shared<tcp::socket>(impl->io);
     auto timer = std::make_shared<asio::steady_timer>(impl->io, timeout);
     auto resolver = std::make_shared<tcp::resolver>(impl->io);
@@ -653,6 +682,17 @@ bool Client::wait_closed(Milliseconds timeout) {
 void Client::discard_replies() {
   std::lock_guard lock(impl_->mutex);
   impl_->replies.clear();
+}
+
+void Client::record_headers(bool on) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->recording_headers = on;
+  if (on) impl_->headers.clear();
+}
+
+std::vector<protocol::FrameHeader> Client::recorded_headers() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->headers;
 }
 
 }  // namespace ajar::client

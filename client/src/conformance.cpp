@@ -11,12 +11,16 @@
 #include <numbers>
 #include <ostream>
 #include <random>
+#include <set>
 #include <sstream>
 #include <thread>
+
+#include <Eigen/LU>
 
 #include "ajar/client/cli.hpp"
 #include "ajar/client/client.hpp"
 #include "ajar/client/output.hpp"
+#include "ajar/client/teleop.hpp"
 #include "ajar/protocol/vectors.hpp"
 
 namespace ajar::client {
@@ -30,9 +34,10 @@ using protocol::Role;
 
 // ---- Frame surgery -----------------------------------------------------------------------------
 
-std::vector<std::uint8_t> frame_bytes(const protocol::Envelope& e) {
+std::vector<std::uint8_t> frame_bytes(const protocol::Envelope& e,
+                                      std::uint8_t minor = protocol::kVersionMinor) {
   std::vector<std::uint8_t> out;
-  (void)protocol::encode_append(e, out);
+  (void)protocol::encode_append(e, out, minor);
   return out;
 }
 
@@ -50,6 +55,25 @@ void fix_crc(std::vector<std::uint8_t>& f) {
   std::vector<std::uint8_t> covered(f.begin(), f.begin() + 18);
   covered.insert(covered.end(), f.begin() + 22, f.end());
   put_u32(f, 18, protocol::crc32c(covered));
+}
+
+void put_f64(std::vector<std::uint8_t>& f, std::size_t at, std::uint64_t bits) {
+  for (std::size_t i = 0; i < 8; ++i)
+    f[at + i] = static_cast<std::uint8_t>(bits >> (8 * i));
+}
+
+// A check that cannot run against this daemon returns kSkip + why: counted as skipped, not passed.
+constexpr std::string_view kSkip = "SKIP ";
+std::string skip(const std::string& why) {
+  return std::string(kSkip) + why;
+}
+// The daemon does not do Drive/Approach yet (protocol 1.1 lets it refuse them NOT_SUPPORTED).
+std::string not_supported(const Response& r) {
+  if (r.outcome == Outcome::kRefused && r.error.code == ErrorCode::kNotSupported) {
+    return skip("skipped: daemon refuses with NOT_SUPPORTED (" +
+                std::string(r.error.message.view()) + ")");
+  }
+  return {};
 }
 
 protocol::FramedPoint base_point(double x, double y, double z) {
@@ -157,8 +181,12 @@ bool near(double a, double b, double tol) {
 
 class Suite {
  public:
-  Suite(const GlobalOptions& options, std::string vectors_dir, std::ostream& out)
-      : options_(options), vectors_dir_(std::move(vectors_dir)), out_(out) {}
+  Suite(const GlobalOptions& options, std::string vectors_dir, bool allow_motion_on_real_robot,
+        std::ostream& out)
+      : options_(options),
+        vectors_dir_(std::move(vectors_dir)),
+        allow_motion_on_real_robot_(allow_motion_on_real_robot),
+        out_(out) {}
 
   int run() {
     // Reachability first: nothing else makes sense without it.
@@ -170,13 +198,28 @@ class Suite {
         return kExitConnection;
       }
     }
+    // Which drivers: the checks that move the base refuse to run on real hardware unless told.
+    {
+      auto c = open();
+      const Response r = c ? c->hello(Role::kObserver) : Response{};
+      const auto* w = r.get<protocol::Welcome>();
+      std::optional<protocol::DriverKind> kind;
+      if (w && w->version_minor >= 1) kind = w->driver_kind;
+      motion_refused_ = motion_refusal(kind, allow_motion_on_real_robot_);
+      out_ << "daemon drivers: "
+           << (kind ? std::string(protocol::to_string(*kind)) : std::string("not said (1.0)"))
+           << '\n';
+      if (!motion_refused_.empty()) out_ << "REFUSED motion checks: " << motion_refused_ << '\n';
+    }
     clean("initial reset");
     golden_vectors();
     decode_errors();
     session_rules();
+    protocol_1_1();
     roles();
     telemetry();
     procedure();
+    driving();
     duplicates();
     faults();
     garbage();
@@ -194,7 +237,10 @@ class Suite {
       }
       return std::string{};
     });
-    out_ << passed_ << " passed, " << failed_ << " failed\n";
+    if (!motion_refused_.empty()) out_ << "REFUSED motion checks: " << motion_refused_ << '\n';
+    out_ << passed_ << " passed, " << failed_ << " failed";
+    if (skipped_ > 0) out_ << ", " << skipped_ << " skipped";
+    out_ << '\n';
     out_.flush();
     return failed_ == 0 ? kExitOk : kExitRefused;
   }
@@ -211,11 +257,23 @@ class Suite {
     if (why.empty()) {
       ++passed_;
       out_ << "PASS " << name << '\n';
+    } else if (why.starts_with(kSkip)) {
+      ++skipped_;
+      out_ << "SKIP " << name << ": " << why.substr(kSkip.size()) << '\n';
     } else {
       ++failed_;
       out_ << "FAIL " << name << ": " << why << '\n';
     }
     out_.flush();
+  }
+
+  // A check that moves the base or the arm: skipped (with the reason) when motion is refused.
+  void moving(const std::string& name, const std::function<std::string()>& body) {
+    if (!motion_refused_.empty()) {
+      check(name, [&] { return skip(motion_refused_); });
+      return;
+    }
+    check(name, body);
   }
 
   std::unique_ptr<Client> open() {
@@ -753,15 +811,19 @@ class Suite {
     (void)c->request(protocol::Reset{true});
     auto refuse = [&](const std::string& name, const protocol::Message& m, ErrorCode code,
                       const char* field = nullptr) {
-      check("procedure: " + name + " -> " + std::string(ajar::to_string(code)), [&] {
-        const auto before = status(*c);
-        if (auto e = want_error(c->request(m), code, field); !e.empty()) return e;
-        const auto after = status(*c);
-        if (!before || !after || before->state != after->state) {
-          return std::string("the refusal changed the state");
-        }
-        return std::string{};
-      });
+      const auto type = protocol::type_of(m);
+      // A daemon that wrongly accepted one of these would move the base or the arm.
+      const bool moves = type == MessageType::kAlignBase || type == MessageType::kEngage;
+      std::invoke(moves ? &Suite::moving : &Suite::check, this,
+                  "procedure: " + name + " -> " + std::string(ajar::to_string(code)), [&] {
+                    const auto before = status(*c);
+                    if (auto e = want_error(c->request(m), code, field); !e.empty()) return e;
+                    const auto after = status(*c);
+                    if (!before || !after || before->state != after->state) {
+                      return std::string("the refusal changed the state");
+                    }
+                    return std::string{};
+                  });
     };
     const protocol::SetContactPoint reachable{base_point(0.8, 0.0, 0.3)};
     // Nothing measured yet.
@@ -857,6 +919,10 @@ class Suite {
     });
     refuse("SetContactPoint before aligning", reachable, ErrorCode::kNotAligned);
     refuse("Engage before aligning", protocol::Engage{}, ErrorCode::kNotAligned);
+    if (!motion_refused_.empty()) {  // the rest turns the base and engages the arm
+      check("procedure: align, contact point, engage", [&] { return skip(motion_refused_); });
+      return;
+    }
     check("procedure: AlignBase accepted; a command during the motion gets MOTION_IN_PROGRESS",
           [&] {
             const auto before = status(*c);
@@ -912,6 +978,480 @@ class Suite {
       }
       return std::string{};
     });
+  }
+
+  // ---- protocol 1.1: versions, the robot model, loop statistics ----
+  // Says Hello 1.0 (header and payload minor 0) on `c` as an observer; "" when welcomed.
+  std::string hello_1_0(Client& c) {
+    protocol::Hello hello;
+    hello.version_minor = 0;
+    hello.requested_role = Role::kObserver;
+    hello.client_instance_id = c.client_instance_id();
+    hello.client_name = "ajarctl conformance 1.0";
+    const std::uint32_t id = c.next_request_id();
+    auto welcome = raw(c, frame_bytes(protocol::Envelope{id, 0, hello}, 0), id);
+    if (!welcome || !std::holds_alternative<protocol::Welcome>(welcome->message)) {
+      return "Hello 1.0: " + describe(welcome);
+    }
+    return {};
+  }
+
+  void protocol_1_1() {
+    check("1.1: Welcome says minor 1 and a defined driver_kind", [&] {
+      auto c = open();
+      if (!c) return std::string("cannot connect");
+      const Response r = c->hello(Role::kObserver);
+      const auto* w = r.get<protocol::Welcome>();
+      if (!w) return "Hello: " + describe(r);
+      if (w->version_minor < 1) {
+        return "Welcome.version_minor is " + std::to_string(w->version_minor) + ": a 1.0 daemon";
+      }
+      const auto kind = static_cast<unsigned>(w->driver_kind);
+      if (kind > static_cast<unsigned>(protocol::DriverKind::kReal)) {
+        return "driver_kind " + std::to_string(kind) + " is not defined";
+      }
+      return std::string{};
+    });
+    check(
+        "1.1: a 1.0 session gets 1.0 frames (header minor 0; Welcome 72, Status 285, "
+        "Telemetry 87 bytes)",
+        [&] {
+          std::atomic<int> telemetry{0};  // before the client: its callback may run until then
+          auto c = open();
+          if (!c) return std::string("cannot connect");
+          c->on_telemetry([&](const protocol::Telemetry&) { ++telemetry; });
+          c->record_headers(true);
+          if (auto e = hello_1_0(*c); !e.empty()) return e;
+          const std::uint32_t sub = c->next_request_id();
+          auto ack =
+              raw(*c, frame_bytes(protocol::Envelope{sub, 0, protocol::Subscribe{50.0f}}, 0), sub);
+          if (!ack || !std::holds_alternative<protocol::Ack>(ack->message)) {
+            return "Subscribe: " + describe(ack);
+          }
+          const auto deadline = Clock::now() + timeout();
+          while (telemetry.load() < 2 && Clock::now() < deadline)
+            std::this_thread::sleep_for(Milliseconds{10});
+          const std::uint32_t get = c->next_request_id();
+          auto st = raw(*c, frame_bytes(protocol::Envelope{get, 0, protocol::GetStatus{}}, 0), get);
+          const std::uint32_t off = c->next_request_id();
+          (void)raw(*c, frame_bytes(protocol::Envelope{off, 0, protocol::Subscribe{0.0f}}, 0), off);
+          c->on_telemetry(nullptr);
+          const auto headers = c->recorded_headers();
+          c->record_headers(false);
+          const std::map<MessageType, std::uint32_t> layout{{MessageType::kWelcome, 72},
+                                                            {MessageType::kStatus, 285},
+                                                            {MessageType::kTelemetry, 87}};
+          std::set<MessageType> seen;
+          for (const auto& h : headers) {
+            const auto type = static_cast<MessageType>(h.type);
+            const std::string name(protocol::to_string(type));
+            if (h.version_minor != 0) {
+              return name + " frame says minor " + std::to_string(h.version_minor) +
+                     " in a 1.0 session";
+            }
+            if (auto it = layout.find(type); it != layout.end()) {
+              if (h.payload_length != it->second) {
+                return name + " has " + std::to_string(h.payload_length) + " bytes; 1.0 has " +
+                       std::to_string(it->second);
+              }
+              seen.insert(type);
+            }
+          }
+          if (!st || !std::holds_alternative<protocol::Status>(st->message)) {
+            return "GetStatus: " + describe(st);
+          }
+          if (seen.size() != layout.size()) {
+            return "saw " + std::to_string(seen.size()) +
+                   " of Welcome, Status, Telemetry (Telemetry frames decoded: " +
+                   std::to_string(telemetry.load()) + ")";
+          }
+          return std::string{};
+        });
+    check(
+        "1.1: in a 1.0 session Drive, Approach, GetRobotModel, ResetLoopStatistics are "
+        "UNKNOWN_MESSAGE_TYPE (header.type), in 1.0 and in 1.1 frames",
+        [&] {
+          auto c = open();
+          if (!c) return std::string("cannot connect");
+          if (auto e = hello_1_0(*c); !e.empty()) return e;
+          for (const protocol::Message& m : {protocol::Message{protocol::Drive{0.05, 0}},
+                                             protocol::Message{protocol::Approach{1.0}},
+                                             protocol::Message{protocol::GetRobotModel{}},
+                                             protocol::Message{protocol::ResetLoopStatistics{}}}) {
+            for (const int minor : {1, 0}) {
+              const std::uint32_t id = c->next_request_id();
+              auto f = frame_bytes(protocol::Envelope{id, 0, m});
+              if (minor == 0) {
+                f[5] = 0;
+                fix_crc(f);
+              }
+              if (auto e =
+                      want_error(raw(*c, f, id), ErrorCode::kUnknownMessageType, "header.type", id);
+                  !e.empty()) {
+                return std::string(protocol::to_string(protocol::type_of(m))) + " in a 1." +
+                       std::to_string(minor) + " frame: " + e;
+              }
+            }
+          }
+          return still_usable(*c);
+        });
+    check(
+        "1.1: GetRobotModel answers a plausible RobotModel (rigid camera_to_base, the Welcome's "
+        "limits)",
+        [&] {
+          auto c = open();
+          if (!c) return std::string("cannot connect");
+          const Response h = c->hello(Role::kObserver);
+          const auto* w = h.get<protocol::Welcome>();
+          if (!w) return "Hello: " + describe(h);
+          const Response r = c->request(protocol::GetRobotModel{});
+          const auto* m = r.get<protocol::RobotModel>();
+          if (!m) return "GetRobotModel: " + describe(r);
+          model_ = *m;
+          return robot_model_problems(*m, *w);
+        });
+    check("1.1: ResetLoopStatistics needs the controller role and restarts the statistics", [&] {
+      auto obs = greeted(Role::kObserver);
+      auto ctl = greeted(Role::kController, true);
+      if (!obs || !ctl) return std::string("cannot connect");
+      if (auto e =
+              want_error(obs->request(protocol::ResetLoopStatistics{}), ErrorCode::kNotController);
+          !e.empty()) {
+        return "observer: " + e;
+      }
+      const auto before = status(*ctl);
+      const Response r = ctl->request(protocol::ResetLoopStatistics{});
+      const auto* ack = r.get<protocol::Ack>();
+      if (!ack || ack->acknowledged != MessageType::kResetLoopStatistics) {
+        return "controller: expected Ack of ResetLoopStatistics, got " + describe(r);
+      }
+      const auto after = status(*ctl);
+      if (!before || !after) return std::string("no status");
+      if (before->timing.all.samples > 100 &&
+          !(after->timing.all.samples < before->timing.all.samples)) {
+        return "timing.all.samples went from " + std::to_string(before->timing.all.samples) +
+               " to " + std::to_string(after->timing.all.samples) + ": not restarted";
+      }
+      return std::string{};
+    });
+    check("1.1: Drive with a NaN / infinite velocity is NON_FINITE_NUMBER naming the field", [&] {
+      auto c = greeted(Role::kObserver);
+      if (!c) return std::string("cannot connect");
+      const std::pair<const char*, std::uint64_t> cases[] = {
+          {"linear_m_s", 0x7ff8000000000000ull}, {"angular_rad_s", 0x7ff0000000000000ull}};
+      std::size_t offset = 0;
+      for (const auto& [field, bits] : cases) {
+        const std::uint32_t id = c->next_request_id();
+        auto f = frame_bytes(protocol::Envelope{id, 0, protocol::Drive{0.05, 0.1}});
+        put_f64(f, protocol::kHeaderSize + offset, bits);
+        offset += 8;
+        fix_crc(f);
+        const auto reply = raw(*c, f, id);
+        if (auto e = want_error(reply, ErrorCode::kNonFiniteNumber, field, id); !e.empty())
+          return e;
+        const auto& message = std::get<protocol::ErrorReply>(reply->message).message;
+        if (message.view().find(field) == std::string_view::npos) {
+          return "the sentence does not name " + std::string(field) + ": '" +
+                 std::string(message.view()) + "'";
+        }
+      }
+      return still_usable(*c);
+    });
+  }
+
+  // "" when the model is plausible, else what is not.
+  static std::string robot_model_problems(const protocol::RobotModel& m,
+                                          const protocol::Welcome& w) {
+    std::string wrong;
+    auto need = [&](bool ok, const std::string& what) {
+      if (!ok) wrong += (wrong.empty() ? "" : "; ") + what;
+    };
+    need(m.wheel_radius_m > 0 && m.wheel_radius_m <= 1,
+         "wheel_radius_m " + json_number(m.wheel_radius_m) + " not in (0, 1]");
+    need(m.turning_radius_m > 0 && m.turning_radius_m <= 5,
+         "turning_radius_m " + json_number(m.turning_radius_m) + " not in (0, 5]");
+    need(m.encoder_counts_per_rev >= 1, "encoder_counts_per_rev below 1");
+    need(m.gear_ratio > 0, "gear_ratio not positive");
+    need(m.left.card_axis >= 1 && m.right.card_axis >= 1 && m.left.card_axis != m.right.card_axis,
+         "wheel card axes not distinct axes from 1");
+    Eigen::Matrix3d rotation;
+    Eigen::Vector3d translation;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c)
+        rotation(r, c) = m.camera_to_base[static_cast<std::size_t>(r * 4 + c)];
+      translation(r) = m.camera_to_base[static_cast<std::size_t>(r * 4 + 3)];
+    }
+    const double orthogonality =
+        (rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+    need(orthogonality < 1e-6 && std::abs(rotation.determinant() - 1) < 1e-6,
+         "camera_to_base is not rigid (|R Rt - I| = " + json_number(orthogonality) +
+             ", det R = " + json_number(rotation.determinant()) + ")");
+    need(translation.norm() < 5, "camera_to_base translation above 5 m");
+    need(m.min_door_width_m < m.max_door_width_m, "door width range empty");
+    need(m.min_handle_length_m < m.max_handle_length_m, "handle length range empty");
+    need(m.min_depth_m < m.max_depth_m, "depth range empty");
+    need(m.arm_min_reach_m < m.arm_max_reach_m && m.arm_min_z_m < m.arm_max_z_m,
+         "arm workspace empty");
+    for (const double v :
+         {m.max_linear_speed_m_s, m.max_angular_speed_rad_s, m.max_linear_accel_m_s2,
+          m.max_angular_accel_rad_s2, m.drive_command_timeout_s, m.approach_max_travel_m,
+          m.approach_square_tolerance_rad, m.approach_min_standoff_m, m.stale_travel_m,
+          m.stale_yaw_rad, m.max_wheel_speed_rad_s, m.max_wheel_accel_rad_s2}) {
+      need(v >= 0, "a drive/approach/staleness limit is negative (" + json_number(v) + ")");
+    }
+    // The Welcome's f32 limits are the model's, rounded to f32.
+    const std::pair<const char*, std::pair<double, float>> same[] = {
+        {"min_door_width_m", {m.min_door_width_m, w.min_door_width_m}},
+        {"max_door_width_m", {m.max_door_width_m, w.max_door_width_m}},
+        {"min_handle_length_m", {m.min_handle_length_m, w.min_handle_length_m}},
+        {"max_handle_length_m", {m.max_handle_length_m, w.max_handle_length_m}},
+        {"max_yaw_correction_rad", {m.max_yaw_correction_rad, w.max_yaw_correction_rad}}};
+    for (const auto& [name, values] : same) {
+      need(static_cast<float>(values.first) == values.second,
+           std::string(name) + " differs from the Welcome's");
+    }
+    return wrong;
+  }
+
+  // ---- driving (1.1): Drive and Approach ----
+  // Keeps the newest Telemetry; shared with the client's callback (which may outlive a check).
+  struct TelemetryWatch {
+    std::mutex mutex;
+    protocol::Telemetry last;
+    std::uint64_t count = 0;
+    double max_commanded_linear_m_s = 0;
+  };
+  struct EventWatch {
+    std::mutex mutex;
+    std::vector<protocol::EventKind> kinds;
+  };
+
+  static std::shared_ptr<TelemetryWatch> watch_telemetry(Client& c) {
+    auto w = std::make_shared<TelemetryWatch>();
+    c.on_telemetry([w](const protocol::Telemetry& t) {
+      std::lock_guard lock(w->mutex);
+      w->last = t;
+      ++w->count;
+      w->max_commanded_linear_m_s = std::max(w->max_commanded_linear_m_s, t.commanded_linear_m_s);
+    });
+    return w;
+  }
+
+  // Waits (bounded) for a Telemetry after `after_count` samples that shows the base at rest.
+  static bool wait_at_rest(TelemetryWatch& w, std::uint64_t after_count, double seconds) {
+    const auto deadline = Clock::now() + Milliseconds{static_cast<std::int64_t>(seconds * 1e3)};
+    while (Clock::now() < deadline) {
+      {
+        std::lock_guard lock(w.mutex);
+        if (w.count > after_count && !w.last.moving && w.last.commanded_linear_m_s == 0 &&
+            w.last.commanded_angular_rad_s == 0) {
+          return true;
+        }
+      }
+      std::this_thread::sleep_for(Milliseconds{10});
+    }
+    return false;
+  }
+
+  void driving() {
+    check("drive: an observer's Drive gets NOT_CONTROLLER", [&] {
+      auto obs = greeted(Role::kObserver);
+      if (!obs) return std::string("cannot connect");
+      const Response r = obs->request(protocol::Drive{0.05, 0});
+      if (auto s = not_supported(r); !s.empty()) return s;
+      return want_error(r, ErrorCode::kNotController);
+    });
+    // Everything below is sent by the controller: a daemon that wrongly accepted it would move the
+    // base, so it runs only where motion is allowed.
+    std::unique_ptr<Client> c;
+    if (motion_refused_.empty()) {
+      c = greeted(Role::kController, true);
+      if (c) {
+        c->set_heartbeat(Milliseconds{100});
+        (void)c->request(protocol::Reset{true});
+      }
+    }
+    auto controller = [&](const std::string& name,
+                          const std::function<std::string(Client&)>& body) {
+      moving(name, [&] { return c ? body(*c) : std::string("cannot take control"); });
+    };
+    const double min_standoff_m = model_ ? model_->approach_min_standoff_m : 0.0;
+    const double timeout_s = model_ ? model_->drive_command_timeout_s : 0.0;
+    auto measure_width_at = [&](Client& k, double x_m) {
+      return want_ack(k.request(protocol::MeasureDoorWidth{base_point(x_m, 0.45, 0.3),
+                                                           base_point(x_m, -0.45, 0.3)}),
+                      ProcedureState::kAwaitingHandle);
+    };
+    controller("approach: with nothing measured -> NO_DOOR_DISTANCE", [&](Client& k) {
+      (void)k.request(protocol::Reset{true});
+      const Response r = k.request(protocol::Approach{1.0});
+      if (auto s = not_supported(r); !s.empty()) return s;
+      return want_error(r, ErrorCode::kNoDoorDistance);
+    });
+    controller(
+        "approach: standoff below approach_min_standoff_m -> STANDOFF_OUT_OF_RANGE "
+        "(standoff_m)",
+        [&](Client& k) {
+          if (auto e = measure_width_at(k, 1.2); !e.empty()) return "width: " + e;
+          const Response r = k.request(protocol::Approach{min_standoff_m - 0.05});
+          if (auto s = not_supported(r); !s.empty()) return s;
+          return want_error(r, ErrorCode::kStandoffOutOfRange, "standoff_m");
+        });
+    controller(
+        "drive: Drive is accepted, Telemetry shows the commanded velocity (within the limit), the "
+        "base moves forward; Drive{0, 0} brings it to rest",
+        [&](Client& k) {
+          auto tm = watch_telemetry(k);
+          if (auto e = want<protocol::Ack>(k.request(protocol::Subscribe{50.0f})); !e.empty())
+            return "Subscribe: " + e;
+          const auto before = status(k);
+          const double speed = 0.05;
+          const auto period = teleop::resend_period(timeout_s);
+          const auto end = Clock::now() + Milliseconds{600};
+          while (Clock::now() < end) {
+            const Response r = k.request(protocol::Drive{speed, 0});
+            if (auto s = not_supported(r); !s.empty()) {
+              k.on_telemetry(nullptr);
+              return s;
+            }
+            if (!r.ok()) return "Drive: " + describe(r);
+            std::this_thread::sleep_for(period);
+          }
+          std::uint64_t count = 0;
+          {
+            std::lock_guard lock(tm->mutex);
+            count = tm->count;
+          }
+          if (auto e = want<protocol::Ack>(k.request(protocol::Drive{0, 0})); !e.empty())
+            return "Drive{0, 0}: " + e;
+          const bool rest = wait_at_rest(*tm, count, 10);
+          (void)k.request(protocol::Subscribe{0.0f});
+          k.on_telemetry(nullptr);
+          const auto after = status(k);
+          if (!rest) return std::string("not at rest 10 s after Drive{0, 0}");
+          if (!before || !after) return std::string("no status");
+          double max_commanded = 0;
+          {
+            std::lock_guard lock(tm->mutex);
+            max_commanded = tm->max_commanded_linear_m_s;
+          }
+          if (!(max_commanded > 0))
+            return std::string("Telemetry never showed a commanded velocity");
+          if (max_commanded > speed + 1e-9) {
+            return "commanded " + json_number(max_commanded) + " m/s, more than the " +
+                   json_number(speed) + " m/s asked";
+          }
+          const double moved = after->odometry_x_m - before->odometry_x_m;
+          if (!(moved > 0.002)) return "odometry x moved " + json_number(moved) + " m";
+          return std::string{};
+        });
+    controller(
+        "drive: a Drive that is not re-sent stops after drive_command_timeout_s", [&](Client& k) {
+          auto tm = watch_telemetry(k);
+          if (auto e = want<protocol::Ack>(k.request(protocol::Subscribe{50.0f})); !e.empty())
+            return "Subscribe: " + e;
+          const Response r = k.request(protocol::Drive{0.05, 0});
+          if (auto s = not_supported(r); !s.empty()) {
+            k.on_telemetry(nullptr);
+            return s;
+          }
+          if (!r.ok()) return "Drive: " + describe(r);
+          // Only heartbeat Pings from here on: the timeout alone must stop the base.
+          const bool rest = wait_at_rest(*tm, 0, std::max(timeout_s, 0.5) + 10);
+          (void)k.request(protocol::Subscribe{0.0f});
+          k.on_telemetry(nullptr);
+          if (!rest) {
+            (void)k.request(protocol::Stop{});
+            return "still moving " + json_number(std::max(timeout_s, 0.5) + 10) +
+                   " s after the only Drive (Stop sent)";
+          }
+          return std::string{};
+        });
+    controller(
+        "approach: from 1.2 m to the standoff: ApproachBody (travel, start distance, counts), "
+        "motion_finished, then the door distance is the standoff",
+        [&](Client& k) {
+          (void)k.request(protocol::Reset{true});
+          if (auto e = measure_width_at(k, 1.2); !e.empty()) return "width: " + e;
+          const auto before = status(k);
+          if (!before || !before->door.has_distance) {
+            // A daemon that does not drive yet has no distance either: say so rather than fail.
+            if (auto s = not_supported(k.request(protocol::Approach{1.0})); !s.empty()) return s;
+            return std::string("Status has no door distance after the width was measured");
+          }
+          const double start = before->door.distance_m;
+          double standoff = std::max(min_standoff_m, 1.0);
+          if (model_ && model_->approach_max_travel_m > 0 &&
+              start - standoff > model_->approach_max_travel_m) {
+            standoff = start - model_->approach_max_travel_m / 2;
+          }
+          auto events = std::make_shared<EventWatch>();
+          k.on_event([events](const protocol::Event& e) {
+            std::lock_guard lock(events->mutex);
+            events->kinds.push_back(e.kind);
+          });
+          const Response r = k.request(protocol::Approach{standoff});
+          if (auto s = not_supported(r); !s.empty()) {
+            k.on_event(nullptr);
+            return s;
+          }
+          const auto* ack = r.get<protocol::Ack>();
+          const auto* body = ack ? std::get_if<protocol::ApproachAck>(&ack->body) : nullptr;
+          if (!body) {
+            k.on_event(nullptr);
+            return "expected Ack with an ApproachBody, got " + describe(r);
+          }
+          std::string wrong;
+          if (!near(body->start_distance_m, start, 1e-3)) {
+            wrong = "start_distance_m " + json_number(body->start_distance_m) + ", Status said " +
+                    json_number(start);
+          } else if (!near(body->travel_m, body->start_distance_m - standoff, 1e-9)) {
+            wrong = "travel_m " + json_number(body->travel_m) + " is not start - standoff";
+          } else if (model_) {
+            const double counts = body->travel_m / model_->wheel_radius_m / (2 * std::numbers::pi) *
+                                  model_->gear_ratio * model_->encoder_counts_per_rev;
+            const double left = static_cast<double>(body->left_counts) * model_->left.polarity;
+            const double right = static_cast<double>(body->right_counts) * model_->right.polarity;
+            if (!near(left, counts, 1.0) || !near(right, counts, 1.0)) {
+              wrong = "wheel counts " + std::to_string(body->left_counts) + " / " +
+                      std::to_string(body->right_counts) + " (card), expected " +
+                      json_number(counts) + " motor counts x polarity";
+            }
+          }
+          // Wait for the end of the move, feeding the deadman.
+          std::optional<protocol::EventKind> end;
+          const auto deadline = Clock::now() + Milliseconds{60000};
+          while (!end && Clock::now() < deadline) {
+            {
+              std::lock_guard lock(events->mutex);
+              for (const auto kind : events->kinds) {
+                if (kind == protocol::EventKind::kMotionFinished ||
+                    kind == protocol::EventKind::kMotionStopped ||
+                    kind == protocol::EventKind::kFaultLatched) {
+                  end = kind;
+                }
+              }
+            }
+            std::this_thread::sleep_for(Milliseconds{20});
+          }
+          k.on_event(nullptr);
+          if (!wrong.empty()) return wrong;
+          if (!end) return std::string("no motion_finished within 60 s");
+          if (*end != protocol::EventKind::kMotionFinished) {
+            return "the approach ended with " + std::string(protocol::to_string(*end));
+          }
+          const auto after = status(k);
+          if (!after || !after->door.has_distance) return std::string("no door distance after");
+          if (!near(after->door.distance_m, standoff, 0.01)) {
+            return "door distance " + json_number(after->door.distance_m) + " m, standoff " +
+                   json_number(standoff) + " m";
+          }
+          return std::string{};
+        });
+    if (c) {
+      (void)c->request(protocol::Stop{});
+      (void)c->request(protocol::Reset{true});
+    }
   }
 
   // ---- exactly-once execution ----
@@ -983,7 +1523,7 @@ class Suite {
           }
           return std::string{};
         });
-    check("faults: the controller leaving during motion stops it and latches DEADMAN", [&] {
+    moving("faults: the controller leaving during motion stops it and latches DEADMAN", [&] {
       auto watcher = greeted(Role::kObserver);
       {
         auto c = greeted(Role::kController, true);
@@ -1092,26 +1632,50 @@ class Suite {
 
   const GlobalOptions& options_;
   std::string vectors_dir_;
+  bool allow_motion_on_real_robot_ = false;
   std::ostream& out_;
   int passed_ = 0;
   int failed_ = 0;
+  int skipped_ = 0;
+  // Non-empty: the checks that move the base (or the arm) are refused, and this says why.
+  std::string motion_refused_;
+  std::optional<protocol::RobotModel> model_;
   double yaw_before_align_ = 0;
 };
 
 }  // namespace
 
+std::string motion_refusal(std::optional<protocol::DriverKind> kind,
+                           bool allow_motion_on_real_robot) {
+  if (allow_motion_on_real_robot) return {};
+  if (!kind) {
+    return "the daemon speaks protocol 1.0 and does not say whether it drives real hardware; "
+           "the checks that move the base are not run without --allow-motion-on-real-robot";
+  }
+  if (*kind == protocol::DriverKind::kReal) {
+    return "the daemon drives the real robot (Welcome.driver_kind = real): the checks that turn "
+           "or drive the base and engage the arm are not run without "
+           "--allow-motion-on-real-robot (clear the robot's surroundings first)";
+  }
+  return {};
+}
+
 int run_conformance(const Command& command, const GlobalOptions& options, std::ostream& out,
                     std::ostream& err) {
   std::string vectors = default_vectors_dir();
+  bool allow_motion_on_real_robot = false;
   for (std::size_t i = 0; i < command.args.size(); ++i) {
     if (command.args[i] == "--vectors" && i + 1 < command.args.size()) {
       vectors = command.args[++i];
+    } else if (command.args[i] == "--allow-motion-on-real-robot") {
+      allow_motion_on_real_robot = true;
     } else {
-      err << "ajarctl: conformance takes [--vectors DIR], got '" << command.args[i] << "'\n";
+      err << "ajarctl: conformance takes [--vectors DIR] [--allow-motion-on-real-robot], got '"
+          << command.args[i] << "'\n";
       return kExitUsage;
     }
   }
-  Suite suite(options, vectors, out);
+  Suite suite(options, vectors, allow_motion_on_real_robot, out);
   return suite.run();
 }
 

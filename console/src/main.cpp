@@ -30,6 +30,10 @@ constexpr const char* kUsage = R"(usage: ajar-console [options]
   --device URI          live: the OpenNI2 device URI (default: the first sensor)
   --fps HZ              sim: frame rate (default 15)
   --web DIR             the page's files (default: the installed/source web folder)
+  --ca FILE             mutual TLS to ajard: the CA that signed ajard's certificate (PEM)
+  --cert FILE           with --ca: this console's certificate (PEM), made by scripts/make-certs
+  --key FILE            with --ca: its private key (mode 0600: refused when group/world readable)
+  --server-name NAME    with --ca: the name in ajard's certificate (default: the --connect host)
   --observer            connect as an observer (default: controller)
   --take-over           take control from the current controller
   --record DIR          sim: write --frames rendered frames in the TUM layout to DIR and exit
@@ -118,6 +122,14 @@ Args parse(int argc, char** argv) {
       if (!(a.fps >= 0.5 && a.fps <= 60)) usage_error("--fps: 0.5..60");
     } else if (o == "--web") {
       a.options.web_dir = value();
+    } else if (o == "--ca") {
+      a.options.tls.ca = value();
+    } else if (o == "--cert") {
+      a.options.tls.certificate = value();
+    } else if (o == "--key") {
+      a.options.tls.private_key = value();
+    } else if (o == "--server-name") {
+      a.options.tls.server_name = value();
     } else if (o == "--observer") {
       a.options.role = ajar::protocol::Role::kObserver;
     } else if (o == "--take-over") {
@@ -220,9 +232,10 @@ int main(int argc, char** argv) {
     const auto port = server.listen();
     std::string host = a.options.listen_host;
     if (host.find(':') != std::string::npos) host = "[" + host + "]";
-    std::printf("ajar-console: open http://%s:%u/ in a browser (ajard at %s:%u)\n", host.c_str(),
-                static_cast<unsigned>(port), a.options.daemon.host.c_str(),
-                static_cast<unsigned>(a.options.daemon.port));
+    std::printf("ajar-console: open http://%s:%u/ in a browser (ajard at %s:%u, %s)\n",
+                host.c_str(), static_cast<unsigned>(port), a.options.daemon.host.c_str(),
+                static_cast<unsigned>(a.options.daemon.port),
+                a.options.tls.enabled() ? "mutual TLS" : "plaintext");
     std::fflush(stdout);
     server.run();
     return 0;

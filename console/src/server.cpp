@@ -38,6 +38,7 @@
 #include "ajar/console/image_io.hpp"
 #include "ajar/console/page_message.hpp"
 #include "ajar/core/geometry.hpp"
+#include "ajar/security/tls_files.hpp"
 
 namespace ajar::console {
 namespace {
@@ -350,11 +351,8 @@ struct ConsoleServer::Impl {
         sim(sim_source),
         acceptor(ioc),
         client(client::ClientOptions{std::chrono::milliseconds(2000),
-                                     std::chrono::milliseconds(3000),
-                                     1,
-                                     0,
-                                     "ajar-console",
-                                     {}}),
+                                     std::chrono::milliseconds(3000), 1, 0, "ajar-console",
+                                     options.tls}),
         role(options.role),
         take_over_next(options.take_over) {}
 
@@ -1247,6 +1245,21 @@ ConsoleServer::~ConsoleServer() {
 
 std::uint16_t ConsoleServer::listen() {
   auto& d = *impl_;
+  // Before anything listens: a bad key is a start-up error, not a retry loop on the page.
+  const auto& tls = d.options.tls;
+  if (!tls.enabled() && (!tls.certificate.empty() || !tls.private_key.empty()))
+    throw std::runtime_error("--cert/--key need --ca (the CA that signed ajard's certificate)");
+  if (tls.enabled()) {
+    if (tls.certificate.empty() != tls.private_key.empty())
+      throw std::runtime_error("TLS: a client certificate needs both --cert and --key");
+    const std::pair<const std::string*, const char*> files[] = {
+        {&tls.ca, "--ca"}, {&tls.certificate, "--cert"}, {&tls.private_key, "--key"}};
+    for (const auto& [path, option] : files) {
+      if (path->empty()) continue;
+      const std::string problem = security::tls_file_problem(*path, path == &tls.private_key);
+      if (!problem.empty()) throw std::runtime_error(std::string(option) + ": " + problem);
+    }
+  }
   error_code ec;
   const auto address = asio::ip::make_address(d.options.listen_host, ec);
   if (ec)

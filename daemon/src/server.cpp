@@ -2,6 +2,8 @@
 
 #include "ajar/daemon/server.hpp"
 
+#include <map>
+
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/steady_timer.hpp>
@@ -83,24 +85,68 @@ struct Server::Impl {
       const auto limit = static_cast<std::size_t>(std::max(options.max_clients, 0));
       if (hub.session_count() + tls->pending() >= limit)
         tls->drop_oldest("dropped unfinished: max_clients reached");
-      tls->handshake(std::move(socket), peer, [this, id, peer](TlsStream stream, PeerAccess a) {
-        if (!accepting) return;
-        start_session<TlsStream>(std::move(stream), id, peer, std::move(a));
-      });
+      tls->handshake(std::move(socket), peer,
+                     [this, id, peer](TlsStream stream, PeerAccess a, PeerCertificate c) {
+                       if (!accepting) return;
+                       track(id,
+                             start_session<TlsStream>(std::move(stream), id, peer, std::move(a)),
+                             std::move(c));
+                     });
       return;
     }
     start_session<tcp::socket>(std::move(socket), id, peer, PeerAccess{});
   }
 
   template <typename Stream>
-  void start_session(Stream stream, std::uint64_t id, const std::string& peer, PeerAccess access) {
-    if (!has_room()) {
-      refuse(std::move(stream), id, peer, std::move(access));
-      return;
+  std::shared_ptr<Session<Stream>> start_session(Stream stream, std::uint64_t id,
+                                                 const std::string& peer, PeerAccess access) {
+    if (!has_room()) return refuse(std::move(stream), id, peer, std::move(access));
+    auto session = std::make_shared<Session<Stream>>(std::move(stream), id, peer, &hub,
+                                                     options.session, std::move(access));
+    session->start();
+    return session;
+  }
+
+  // TLS sessions and the certificates they authenticated with, re-checked on reload_tls().
+  struct Tracked {
+    std::weak_ptr<TlsSession> session;
+    PeerCertificate certificate;
+  };
+  void track(std::uint64_t id, const std::shared_ptr<TlsSession>& session, PeerCertificate c) {
+    // Forget closed sessions now and then, so that the table stays about max_clients long.
+    if (tls_sessions.size() >= 2 * static_cast<std::size_t>(std::max(options.max_clients, 8)))
+      std::erase_if(tls_sessions, [](const auto& t) { return t.second.session.expired(); });
+    tls_sessions[id] = Tracked{session, std::move(c)};
+  }
+
+  // After a reload: a session whose certificate the new policy refuses (revoked, denied, expired,
+  // no longer listed) or grants less gets ERROR NOT_CONTROLLER (field "certificate", naming the
+  // identity and the reason) and is closed after it; the deadman stops a controller's motion.
+  void recheck_tls_sessions() {
+    for (auto it = tls_sessions.begin(); it != tls_sessions.end();) {
+      const auto session = it->second.session.lock();
+      if (!session) {
+        it = tls_sessions.erase(it);
+        continue;
+      }
+      const std::string why = tls->recheck(it->second.certificate, session->access());
+      if (why.empty()) {
+        ++it;
+        continue;
+      }
+      const std::string& identity = session->access().identity;
+      spdlog::warn("TLS: closing session {} from {} ({}): after the reload: {}", it->first,
+                   session->peer(), identity, why);
+      protocol::ErrorReply error;
+      error.code = ErrorCode::kNotController;
+      error.offending_type = protocol::MessageType::kHello;
+      error.field.assign("certificate");
+      error.message.assign("certificate " + identity + " no longer admitted: " + why + "; closing");
+      if (auto frame = encode_frame(protocol::Envelope{0, 0, error}, hub.minor_of(it->first)))
+        session->send(std::move(frame));
+      session->close_after_flush("certificate no longer admitted: " + why);
+      it = tls_sessions.erase(it);
     }
-    std::make_shared<Session<Stream>>(std::move(stream), id, peer, &hub, options.session,
-                                      std::move(access))
-        ->start();
   }
 
   // A newcomer is always read: at max_clients the hub closes an idle session to make room.
@@ -112,7 +158,8 @@ struct Server::Impl {
   // Nothing to evict (only the controller): TOO_MANY_CLIENTS, but the newcomer's first frames are
   // still read for refused_read_window, so its Stop/EmergencyStop is executed.
   template <typename Stream>
-  void refuse(Stream stream, std::uint64_t id, const std::string& peer, PeerAccess access) {
+  std::shared_ptr<Session<Stream>> refuse(Stream stream, std::uint64_t id, const std::string& peer,
+                                          PeerAccess access) {
     spdlog::warn(
         "refused {}: {} clients connected (network.max_clients); its Stop and "
         "EmergencyStop are still executed",
@@ -126,6 +173,7 @@ struct Server::Impl {
         std::move(stream), id, peer, &hub.refusal_handler(), options.session, std::move(access));
     session->refuse(encode_frame(protocol::Envelope{0, 0, error}), "too many clients",
                     options.refused_read_window);
+    return session;
   }
 
   void schedule_poll() {
@@ -159,6 +207,7 @@ struct Server::Impl {
   std::unique_ptr<asio::steady_timer> retry_timer;
   SessionHub hub;
   std::unique_ptr<TlsAcceptor> tls;  // null: plaintext
+  std::map<std::uint64_t, Tracked> tls_sessions;
   Clock::time_point next_poll{};
   std::uint64_t last_session_id = 0;
   std::uint16_t bound_port = 0;
@@ -239,6 +288,7 @@ void Server::reload_tls(const TlsConfig& tls) {
   if (!d.tls) return;
   d.tls->reload(tls);
   d.options.tls = tls;
+  d.recheck_tls_sessions();
 }
 
 void Server::stop() {

@@ -4,19 +4,21 @@
 
 #include <arpa/inet.h>
 #include <openssl/err.h>
+#include <openssl/pem.h>
 #include <openssl/ssl.h>
 #include <openssl/x509.h>
 #include <openssl/x509v3.h>
-#include <sys/stat.h>
 
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
+#include <cstdio>
+#include <ctime>
 #include <map>
 
 #include <boost/asio/ssl/context.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <spdlog/spdlog.h>
+
+#include "ajar/security/tls_files.hpp"
 
 namespace ajar::daemon {
 namespace {
@@ -84,7 +86,50 @@ struct Generation {
   explicit Generation(const TlsConfig& c) : config(c) {}
   TlsConfig config;
   ssl::context context{ssl::context::tls_server};
+  std::vector<std::string> warnings;  // logged at start and on every reload
 };
+
+std::string utc_text(const ASN1_TIME* t) {
+  std::tm tm{};
+  if (t == nullptr || ASN1_TIME_to_tm(t, &tm) != 1) return "(unreadable time)";
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M:%S UTC", &tm);
+  return text;
+}
+
+// The CRLs of `path` whose nextUpdate has passed (OpenSSL then refuses every certificate of that
+// CA: "CRL has expired") or comes within kCrlWarningDays.
+constexpr int kCrlWarningDays = 7;
+std::vector<std::string> crl_warnings(const std::string& path) {
+  std::vector<std::string> out;
+  std::FILE* file = std::fopen(path.c_str(), "r");
+  if (file == nullptr) return out;  // load() has just read it; a race is reported by OpenSSL
+  while (X509_CRL* crl = PEM_read_X509_CRL(file, nullptr, nullptr, nullptr)) {
+    const ASN1_TIME* next = X509_CRL_get0_nextUpdate(crl);
+    std::string issuer = "(no CN)";
+    const X509_NAME* name = X509_CRL_get_issuer(crl);
+    if (const int cn = X509_NAME_get_index_by_NID(name, NID_commonName, -1); cn >= 0)
+      issuer = text_of(X509_NAME_ENTRY_get_data(X509_NAME_get_entry(name, cn)));
+    int days = 0;
+    int seconds = 0;
+    if (next != nullptr && ASN1_TIME_diff(&days, &seconds, nullptr, next) == 1) {
+      const std::string what = "network.tls.crl: '" + path + "': the CRL of '" + issuer + "' ";
+      if (days < 0 || seconds < 0) {
+        out.push_back(what + "EXPIRED at " + utc_text(next) +
+                      " (nextUpdate): every client certificate of that CA is refused until a "
+                      "fresh CRL is installed (scripts/make-certs crl, then SIGHUP)");
+      } else if (days < kCrlWarningDays) {
+        out.push_back(what + "expires at " + utc_text(next) +
+                      " (nextUpdate): then every client certificate of that CA is refused; "
+                      "install a fresh CRL before (scripts/make-certs crl, then SIGHUP)");
+      }
+    }
+    X509_CRL_free(crl);
+  }
+  ERR_clear_error();  // the end of the file reads as a PEM "no start line"
+  std::fclose(file);
+  return out;
+}
 
 // The handshake's scratch pad, reachable from the verify callback through the SSL's ex data.
 constexpr int kExIndex = 0;
@@ -92,11 +137,18 @@ struct Scratch {
   std::string refused;  // the identity and reason of a refused certificate
 };
 
+// The file rule shared with ajar_client (ajar/security/tls_files.hpp), as a StartupError naming
+// `key`.
+void check_file(const std::string& path, std::string_view key, bool secret) {
+  if (const std::string problem = security::tls_file_problem(path, secret); !problem.empty())
+    throw StartupError(std::string(key) + ": " + problem);
+}
+
 std::shared_ptr<Generation> load(const TlsConfig& config) {
-  check_file_permissions(config.private_key, "network.tls.private_key", true);
-  check_file_permissions(config.certificate, "network.tls.certificate", false);
-  check_file_permissions(config.ca, "network.tls.ca", false);
-  if (!config.crl.empty()) check_file_permissions(config.crl, "network.tls.crl", false);
+  check_file(config.private_key, "network.tls.private_key", true);
+  check_file(config.certificate, "network.tls.certificate", false);
+  check_file(config.ca, "network.tls.ca", false);
+  if (!config.crl.empty()) check_file(config.crl, "network.tls.crl", false);
 
   auto g = std::make_shared<Generation>(config);
   SSL_CTX* ctx = g->context.native_handle();
@@ -128,6 +180,7 @@ std::shared_ptr<Generation> load(const TlsConfig& config) {
     if (lookup == nullptr || X509_load_crl_file(lookup, config.crl.c_str(), X509_FILETYPE_PEM) <= 0)
       fail("network.tls.crl", config.crl, "not a PEM CRL: " + openssl_error());
     X509_STORE_set_flags(store, X509_V_FLAG_CRL_CHECK);
+    g->warnings = crl_warnings(config.crl);
   }
   g->context.set_verify_mode(ssl::verify_peer | ssl::verify_fail_if_no_peer_cert);
   const TlsConfig* policy = &g->config;
@@ -158,6 +211,18 @@ std::shared_ptr<Generation> load(const TlsConfig& config) {
 }
 
 }  // namespace
+
+struct PeerCertificate::Chain {
+  X509* leaf = nullptr;
+  STACK_OF(X509) * untrusted = nullptr;  // what the peer sent besides the leaf
+  Chain() = default;
+  Chain(const Chain&) = delete;
+  Chain& operator=(const Chain&) = delete;
+  ~Chain() {
+    X509_free(leaf);
+    sk_X509_pop_free(untrusted, X509_free);
+  }
+};
 
 std::string CertificateIdentity::text() const {
   std::string t = common_name.empty() ? std::string("(no CN)") : "cn:" + common_name;
@@ -203,25 +268,6 @@ Admission admit(const TlsConfig& policy, const CertificateIdentity& certificate)
   a.access.may_control = false;
   a.access.may_stop = true;
   return a;
-}
-
-void check_file_permissions(const std::string& path, std::string_view key, bool secret) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) {
-    throw StartupError(std::string(key) + ": cannot read '" + path + "': " + std::strerror(errno));
-  }
-  if (!S_ISREG(st.st_mode))
-    throw StartupError(std::string(key) + ": '" + path + "' is not a regular file");
-  const unsigned mode = st.st_mode & 07777U;
-  const unsigned forbidden = secret ? 0077U : 0022U;
-  if ((mode & forbidden) != 0) {
-    char octal[8];
-    std::snprintf(octal, sizeof octal, "%04o", mode);
-    throw StartupError(std::string(key) + ": '" + path + "' has mode " + octal + ": " +
-                       (secret ? "a private key must not be accessible to group or others "
-                                 "(chmod 600, owned by the user ajard runs as)"
-                               : "must not be writable by group or others (chmod 644)"));
-  }
 }
 
 struct TlsAcceptor::Impl {
@@ -274,7 +320,14 @@ struct TlsAcceptor::Impl {
     spdlog::info("TLS: {} authenticated as {} ({}{})", p->peer, a.access.identity,
                  a.access.may_control ? "controller" : "observer",
                  a.access.may_stop ? "" : ", may not stop");
-    p->done(TlsStream(std::move(p->stream)), a.access);
+    PeerCertificate certificate;
+    auto chain = std::make_shared<PeerCertificate::Chain>();
+    chain->leaf = SSL_get1_peer_certificate(handle);
+    if (STACK_OF(X509)* sent = SSL_get_peer_cert_chain(handle))
+      chain->untrusted = X509_chain_up_ref(sent);
+    certificate.identity_ = identity_of(chain->leaf);
+    certificate.chain_ = std::move(chain);
+    p->done(TlsStream(std::move(p->stream)), a.access, std::move(certificate));
   }
 
   // Closes an unfinished handshake; it completes with an error and finish() logs `reason`.
@@ -297,6 +350,12 @@ TlsAcceptor::TlsAcceptor(const TlsConfig& config) : impl_(std::make_shared<Impl>
   spdlog::info("TLS 1.3 with client certificates: CA {}, {} identities, {} denied{}", config.ca,
                config.identities.size(), config.deny.size(),
                config.crl.empty() ? "" : ", CRL " + config.crl);
+  for (const auto& w : impl_->current->warnings)
+    spdlog::warn("{}", w);
+}
+
+const std::vector<std::string>& TlsAcceptor::warnings() const noexcept {
+  return impl_->current->warnings;
 }
 
 TlsAcceptor::~TlsAcceptor() {
@@ -307,6 +366,8 @@ void TlsAcceptor::reload(const TlsConfig& config) {
   impl_->current = load(config);
   spdlog::warn("TLS policy reloaded: {} identities, {} denied{}", config.identities.size(),
                config.deny.size(), config.crl.empty() ? "" : ", CRL " + config.crl);
+  for (const auto& w : impl_->current->warnings)
+    spdlog::warn("{}", w);
 }
 
 void TlsAcceptor::handshake(tcp::socket socket, std::string peer, Done done) {
@@ -345,6 +406,36 @@ void TlsAcceptor::handshake(tcp::socket socket, std::string peer, Done done) {
                              [weak, p](const boost::system::error_code& ec) {
                                if (const auto impl = weak.lock()) impl->finish(p, ec);
                              });
+}
+
+std::string TlsAcceptor::recheck(const PeerCertificate& peer, const PeerAccess& granted) const {
+  Generation& g = *impl_->current;
+  if (!peer.chain_ || peer.chain_->leaf == nullptr) return "no certificate";
+  // The chain, CRL and validity dates, as the handshake's verification does (same store, flags
+  // and purpose); then the identities and the deny list.
+  std::string refused;
+  X509_STORE_CTX* verify = X509_STORE_CTX_new();
+  if (verify == nullptr ||
+      X509_STORE_CTX_init(verify, SSL_CTX_get_cert_store(g.context.native_handle()),
+                          peer.chain_->leaf, peer.chain_->untrusted) != 1) {
+    refused = "cannot verify: " + openssl_error();
+  } else {
+    X509_STORE_CTX_set_default(verify, "ssl_client");
+    if (X509_verify_cert(verify) != 1) {
+      refused = std::string(X509_verify_cert_error_string(X509_STORE_CTX_get_error(verify))) +
+                " (depth " + std::to_string(X509_STORE_CTX_get_error_depth(verify)) + ")";
+    }
+  }
+  X509_STORE_CTX_free(verify);
+  ERR_clear_error();
+  if (!refused.empty()) return refused;
+  const Admission a = admit(g.config, peer.identity());
+  if (!a.admitted) return a.refusal;
+  if (granted.may_control && !a.access.may_control)
+    return "no longer granted the controller role (network.tls.identities)";
+  if (granted.may_stop && !a.access.may_stop)
+    return "no longer granted stopping (network.tls.identities: may_stop false)";
+  return {};
 }
 
 std::size_t TlsAcceptor::pending() const noexcept {

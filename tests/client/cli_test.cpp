@@ -123,13 +123,36 @@ TEST(Commands, EveryCommandParses) {
   EXPECT_EQ(parse({"conformance", "--vectors", "d"}).command->args, words({"--vectors", "d"}));
   EXPECT_EQ(parse({"simulate", "s.yaml"}).command->kind, Command::Kind::kSimulate);
   EXPECT_EQ(parse({"sleep", "0.5"}).command->kind, Command::Kind::kSleep);
+  EXPECT_TRUE(std::holds_alternative<protocol::GetRobotModel>(parse({"model"}).command->request));
+  auto keys = parse({"drive"});
+  ASSERT_TRUE(keys.command);
+  EXPECT_EQ(keys.command->kind, Command::Kind::kDrive);
+  EXPECT_EQ(keys.command->duration_s, 0) << "no --for: keys";
+  EXPECT_TRUE(keys.command->needs_controller);
+  auto timed = parse({"drive", "--linear", "0.2", "--angular", "-0.1", "--for", "1.5"});
+  ASSERT_TRUE(timed.command);
+  EXPECT_EQ(timed.command->linear_m_s, 0.2);
+  EXPECT_EQ(timed.command->angular_rad_s, -0.1);
+  EXPECT_EQ(timed.command->duration_s, 1.5);
+  auto approach = parse({"approach", "0.75", "--wait-timeout", "30"});
+  ASSERT_TRUE(approach.command);
+  EXPECT_EQ(approach.command->kind, Command::Kind::kApproach);
+  EXPECT_EQ(std::get<protocol::Approach>(approach.command->request).standoff_m, 0.75);
+  EXPECT_EQ(approach.command->wait_timeout_s, 30);
+  EXPECT_TRUE(approach.command->needs_controller);
+  EXPECT_EQ(parse({"conformance", "--allow-motion-on-real-robot"}).command->args,
+            words({"--allow-motion-on-real-robot"}));
 }
 
 TEST(Commands, UsageErrors) {
   for (auto w : {words({"frobnicate"}), words({"measure"}), words({"measure", "door"}),
                  words({"measure", "width", "1", "2", "3"}), words({"ping", "-n", "0"}),
                  words({"status", "now"}), words({"reset", "--all"}), words({"align", "--later"}),
-                 words({"simulate"}), words({"sleep"})}) {
+                 words({"simulate"}), words({"sleep"}), words({"model", "x"}),
+                 words({"drive", "--linear", "0.1"}), words({"drive", "--for", "1"}),
+                 words({"drive", "--linear", "nan", "--for", "1"}),
+                 words({"drive", "--linear", "0.1", "--for", "0"}), words({"approach"}),
+                 words({"approach", "near"}), words({"approach", "0.75", "--soon"})}) {
     const auto p = parse_command(w, core::Frame::kCamera);
     EXPECT_FALSE(p.command) << w[0];
     EXPECT_FALSE(p.error.empty());

@@ -14,148 +14,16 @@
 
 #include "ajar/client/cli.hpp"
 #include "ajar/client/client.hpp"
+#include "fake_daemon.hpp"
 
 namespace ajar::client {
 namespace {
 
 namespace asio = boost::asio;
 using tcp = asio::ip::tcp;
+using fake::FakeDaemon;
+using fake::polite;
 using protocol::MessageType;
-
-class FakeDaemon {
- public:
-  using Handler = std::function<std::vector<protocol::Envelope>(const protocol::Envelope&)>;
-
-  explicit FakeDaemon(Handler handler)
-      : handler_(std::move(handler)),
-        acceptor_(io_, tcp::endpoint(asio::ip::make_address("127.0.0.1"), 0)) {
-    port_ = acceptor_.local_endpoint().port();
-    accept();
-    thread_ = std::thread([this] { io_.run(); });
-  }
-  ~FakeDaemon() {
-    asio::post(io_, [this] {
-      boost::system::error_code ignored;
-      acceptor_.close(ignored);
-      for (auto& c : connections_)
-        c->socket.close(ignored);
-      io_.stop();
-    });
-    thread_.join();
-  }
-
-  std::uint16_t port() const { return port_; }
-  Endpoint endpoint() const { return Endpoint{"127.0.0.1", port_}; }
-
-  std::vector<protocol::Envelope> received() const {
-    std::lock_guard lock(mutex_);
-    return received_;
-  }
-  std::size_t count(MessageType type) const {
-    std::size_t n = 0;
-    for (const auto& e : received())
-      if (protocol::type_of(e.message) == type) ++n;
-    return n;
-  }
-  // Waits (bounded) until `pred(received())` holds.
-  bool wait_for(const std::function<bool(const std::vector<protocol::Envelope>&)>& pred) {
-    std::unique_lock lock(mutex_);
-    return changed_.wait_for(lock, std::chrono::seconds(10), [&] { return pred(received_); });
-  }
-  // Sends a frame to every connection.
-  void push(const protocol::Envelope& e) {
-    asio::post(io_, [this, e] {
-      for (auto& c : connections_)
-        write(*c, {e});
-    });
-  }
-  void close_all() {
-    asio::post(io_, [this] {
-      boost::system::error_code ignored;
-      for (auto& c : connections_)
-        c->socket.close(ignored);
-      connections_.clear();
-    });
-  }
-
- private:
-  struct Connection {
-    explicit Connection(tcp::socket s) : socket(std::move(s)) {}
-    tcp::socket socket;
-    protocol::StreamDecoder decoder;
-    std::array<std::uint8_t, 4096> buffer{};
-  };
-
-  void accept() {
-    acceptor_.async_accept([this](boost::system::error_code ec, tcp::socket socket) {
-      if (ec) return;
-      auto c = std::make_shared<Connection>(std::move(socket));
-      connections_.push_back(c);
-      read(c);
-      accept();
-    });
-  }
-
-  void read(const std::shared_ptr<Connection>& c) {
-    c->socket.async_read_some(asio::buffer(c->buffer),
-                              [this, c](boost::system::error_code ec, std::size_t n) {
-                                if (ec) return;
-                                std::span<const std::uint8_t> in(c->buffer.data(), n);
-                                while (!in.empty()) {
-                                  protocol::StreamDecoder::Outcome out;
-                                  in = in.subspan(c->decoder.feed(in, out));
-                                  if (out.kind != protocol::StreamDecoder::Kind::kMessage) continue;
-                                  {
-                                    std::lock_guard lock(mutex_);
-                                    received_.push_back(out.envelope);
-                                  }
-                                  changed_.notify_all();
-                                  write(*c, handler_(out.envelope));
-                                }
-                                read(c);
-                              });
-  }
-
-  static void write(Connection& c, const std::vector<protocol::Envelope>& frames) {
-    std::vector<std::uint8_t> bytes;
-    for (const auto& f : frames)
-      ASSERT_TRUE(protocol::encode_append(f, bytes));
-    boost::system::error_code ignored;
-    if (!bytes.empty()) asio::write(c.socket, asio::buffer(bytes), ignored);
-  }
-
-  Handler handler_;
-  asio::io_context io_;
-  tcp::acceptor acceptor_;
-  std::uint16_t port_ = 0;
-  std::vector<std::shared_ptr<Connection>> connections_;
-  std::thread thread_;
-  mutable std::mutex mutex_;
-  std::condition_variable changed_;
-  std::vector<protocol::Envelope> received_;
-};
-
-// A well-behaved daemon: Welcome, Pong, Status, Ack.
-std::vector<protocol::Envelope> polite(const protocol::Envelope& e) {
-  const auto type = protocol::type_of(e.message);
-  switch (type) {
-    case MessageType::kHello: {
-      protocol::Welcome w;
-      w.granted_role = std::get<protocol::Hello>(e.message).requested_role;
-      w.deadman_timeout_s = 0.5f;
-      return {{e.request_id, 0, w}};
-    }
-    case MessageType::kPing:
-      return {
-          {e.request_id, 0, protocol::Pong{std::get<protocol::Ping>(e.message).client_time_ns, 1}}};
-    case MessageType::kGetStatus:
-      return {{e.request_id, 0, protocol::Status{}}};
-    default:
-      return {
-          {e.request_id, 0,
-           protocol::Ack{type, protocol::ProcedureState::kAwaitingWidth, protocol::EmptyAck{}}}};
-  }
-}
 
 ClientOptions fast_options() {
   ClientOptions o;
@@ -404,6 +272,36 @@ TEST(Client, RawBytesAndWaitReplyForConformanceWork) {
   const auto reply = c.wait_reply(4242, Milliseconds{10000});
   ASSERT_TRUE(reply);
   EXPECT_TRUE(std::holds_alternative<protocol::Pong>(reply->message));
+}
+
+// Conformance reads the layout the daemon wrote: every received frame's header, in order, also
+// when frames arrive split or several in one read.
+TEST(Client, RecordedHeadersFollowTheFrameBoundaries) {
+  FakeDaemon daemon(polite);
+  Client c(fast_options());
+  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.request(protocol::Ping{1}).ok());  // not recorded: before record_headers
+  c.record_headers(true);
+  ASSERT_TRUE(c.request(protocol::GetStatus{}).ok());
+  ASSERT_TRUE(c.request(protocol::Ping{2}).ok());
+  daemon.push({0, 0, protocol::Telemetry{}});
+  daemon.push({0, 0, protocol::Event{}});
+  ASSERT_TRUE(c.request(protocol::GetStatus{}).ok());  // after the pushed frames
+  const auto headers = c.recorded_headers();
+  ASSERT_EQ(headers.size(), 5u);
+  const std::pair<MessageType, std::uint32_t> expected[] = {{MessageType::kStatus, 464},
+                                                            {MessageType::kPong, 16},
+                                                            {MessageType::kTelemetry, 263},
+                                                            {MessageType::kEvent, 133},
+                                                            {MessageType::kStatus, 464}};
+  for (std::size_t i = 0; i < headers.size(); ++i) {
+    EXPECT_EQ(headers[i].type, static_cast<std::uint16_t>(expected[i].first)) << i;
+    EXPECT_EQ(headers[i].payload_length, expected[i].second) << i;
+    EXPECT_EQ(headers[i].version_minor, 1) << i;
+  }
+  c.record_headers(false);
+  ASSERT_TRUE(c.request(protocol::Ping{3}).ok());
+  EXPECT_EQ(c.recorded_headers().size(), 5u) << "nothing recorded once off";
 }
 
 // `ajarctl align --wait-timeout`: the base is still turning when the wait ends. ajarctl sends Stop

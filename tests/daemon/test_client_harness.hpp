@@ -63,6 +63,10 @@ class ServerThread {
     return call([this] { return server_->session_count(); });
   }
 
+  // The server itself: use it only inside call() (the I/O thread), e.g.
+  // call([&] { thread.server().reload_tls(tls); return 0; }).
+  daemon::Server& server() { return *server_; }
+
  private:
   daemon::Engine& engine_;
   boost::asio::io_context io_{1};

@@ -14,183 +14,18 @@
 
 #include <boost/asio/ip/tcp.hpp>
 #include <gtest/gtest.h>
-#include <spdlog/sinks/ringbuffer_sink.h>
-#include <spdlog/spdlog.h>
 
-#include "ajar/client/client.hpp"
-#include "ajar/daemon/config.hpp"
 #include "ajar/daemon/engine.hpp"
-#include "ajar/daemon/tls.hpp"
-#include "fake_door.hpp"
-#include "test_client_harness.hpp"
+#include "tls_support.hpp"
 
 namespace ajar::test {
 namespace {
 
-using namespace std::chrono_literals;
-using ajar::testing::TempDir;
 using client::Client;
 using client::ClientOptions;
 using client::Outcome;
 using protocol::MessageType;
 using protocol::Role;
-
-// The certificates of one test: a CA (with a CRL revoking "eve"), the daemon's certificate for
-// 127.0.0.1, operators, an expired one, and an operator of another CA.
-class Pki {
- public:
-  Pki() {
-    const std::string& d = dir_.path();
-    run("ca");
-    run("daemon 127.0.0.1 localhost");
-    for (const char* op : {"alice controller", "bob observer", "carol observer", "dave controller",
-                           "eve controller"}) {
-      run(std::string("operator ") + op);
-    }
-    run("--valid 20200101000000Z 20200102000000Z operator old controller");
-    run("revoke eve");
-    other_ = d + "/other";
-    run("ca --name Other", other_);
-    run("operator mallory controller", other_);
-  }
-
-  std::string path(const std::string& file) const { return dir_.path() + "/" + file; }
-
-  // The daemon's TLS policy of these tests.
-  daemon::TlsConfig server_config() const {
-    daemon::TlsConfig t;
-    t.enabled = true;
-    t.certificate = path("ajard.crt");
-    t.private_key = path("ajard.key");
-    t.ca = path("ca.crt");
-    t.crl = path("ca.crl");
-    t.handshake_timeout_s = 10;
-    using K = daemon::TlsIdentity::Kind;
-    t.identities = {{{K::kCommonName, "alice"}, true, true},
-                    {{K::kCommonName, "bob"}, false, true},
-                    {{K::kCommonName, "carol"}, false, false}};
-    t.deny = {{K::kCommonName, "dave"}};
-    t.unlisted_may_observe = false;
-    return t;
-  }
-
-  // Client options presenting NAME's certificate ("" = none; other CA's names with `other`).
-  client::TlsOptions client_tls(const std::string& name, bool other_ca = false) const {
-    client::TlsOptions o;
-    o.ca = path("ca.crt");
-    if (!name.empty()) {
-      const std::string base = other_ca ? other_ + "/" + name : path(name);
-      o.certificate = base + ".crt";
-      o.private_key = base + ".key";
-    }
-    return o;
-  }
-
- private:
-  void run(const std::string& args, const std::string& dir = "") {
-    const std::string command = std::string(AJAR_SOURCE_DIR "/scripts/make-certs --dir ") +
-                                (dir.empty() ? dir_.path() : dir) + " " + args + " >/dev/null";
-    ASSERT_EQ(std::system(command.c_str()), 0) << command;
-  }
-
-  TempDir dir_;
-  std::string other_;
-};
-
-// Runs a Server on its own I/O thread (like ServerThread) and lets a test reload its TLS policy.
-class TlsServer {
- public:
-  TlsServer(daemon::Engine& engine, daemon::ServerOptions options) : engine_(engine) {
-    options.bind_address = "127.0.0.1";
-    options.port = 0;
-    server_ = std::make_unique<daemon::Server>(io_, engine, std::move(options));
-    port_ = server_->bind();
-    engine_.start();
-    server_->start();
-    thread_ = std::thread([this] { io_.run(); });
-  }
-  ~TlsServer() {
-    boost::asio::post(io_, [this] {  // the daemon's order (daemon.cpp)
-      server_->stop_accepting();
-      engine_.shutdown();
-      server_->stop();
-    });
-    thread_.join();
-  }
-  std::uint16_t port() const { return port_; }
-  template <typename F>
-  auto call(F f) -> decltype(f()) {
-    std::packaged_task<decltype(f())()> task(std::move(f));
-    auto result = task.get_future();
-    boost::asio::post(io_, [&task] { task(); });
-    return result.get();
-  }
-  std::size_t session_count() {
-    return call([this] { return server_->session_count(); });
-  }
-  void reload(const daemon::TlsConfig& tls) {
-    call([&] {
-      server_->reload_tls(tls);
-      return 0;
-    });
-  }
-
- private:
-  daemon::Engine& engine_;
-  boost::asio::io_context io_{1};
-  std::unique_ptr<daemon::Server> server_;
-  std::uint16_t port_ = 0;
-  std::thread thread_;
-};
-
-// The daemon's log lines, to check that a refusal names the peer and the reason.
-class LogCapture {
- public:
-  LogCapture() : sink_(std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(512)) {
-    spdlog::default_logger()->sinks().push_back(sink_);
-  }
-  ~LogCapture() {
-    auto& sinks = spdlog::default_logger()->sinks();
-    sinks.erase(std::remove(sinks.begin(), sinks.end(), sink_), sinks.end());
-  }
-  bool contains(const std::string& a, const std::string& b = "") const {
-    for (const auto& line : sink_->last_formatted()) {
-      if (line.find(a) != std::string::npos && line.find(b) != std::string::npos) return true;
-    }
-    return false;
-  }
-  std::string all() const {
-    std::string text;
-    for (const auto& line : sink_->last_formatted())
-      text += line;
-    return text;
-  }
-
- private:
-  std::shared_ptr<spdlog::sinks::ringbuffer_sink_mt> sink_;
-};
-
-ClientOptions options_with(const client::TlsOptions& tls, const std::string& name = "tls-test") {
-  ClientOptions o;
-  o.connect_timeout = 5000ms;
-  o.request_timeout = 5000ms;
-  o.retries = 0;
-  o.client_name = name;
-  o.tls = tls;
-  return o;
-}
-
-daemon::ServerOptions server_options(const Pki& pki) {
-  daemon::ServerOptions o;
-  o.max_clients = 8;
-  o.session.linger = 500ms;
-  o.tls = pki.server_config();
-  return o;
-}
-
-const protocol::ErrorReply* error_of(const client::Response& r) {
-  return r.outcome == Outcome::kRefused ? &r.error : nullptr;
-}
 
 class Tls : public ::testing::Test {
  protected:
@@ -306,7 +141,7 @@ TEST_F(Tls, ARevocationReloadedAtRuntimeRefusesTheNextConnection) {
   }
   auto policy = pki_.server_config();
   policy.deny.push_back({daemon::TlsIdentity::Kind::kCommonName, "alice"});
-  server_->reload(policy);
+  reload(*server_, policy);
   Client alice(options_with(pki_.client_tls("alice")));
   if (alice.connect({"127.0.0.1", server_->port()}).empty()) {
     EXPECT_FALSE(alice.hello(Role::kController).ok());

@@ -56,18 +56,22 @@ struct Command {
     kSimulate,
     kScript,
     kSleep,
-    kHelp,  // `help [COMMAND]` or `COMMAND --help`: args holds the COMMAND (or nothing)
+    kDrive,     // drive: keys in a terminal (duration_s == 0), or --linear --angular --for S
+    kApproach,  // approach STANDOFF_M: request holds the Approach
+    kHelp,      // `help [COMMAND]` or `COMMAND --help`: args holds the COMMAND (or nothing)
   };
   Kind kind = Kind::kStatus;
   std::string name;           // "measure_width", "contact", "align", ...
   protocol::Message request;  // kRequest, kAlign, kEngage
   bool needs_controller = false;
-  bool wait = true;               // align / engage: wait for the outcome (--no-wait)
-  double wait_timeout_s = 120;    // align / engage: --wait-timeout S
-  int count = 4;                  // ping -n N
-  double interval_s = 0;          // ping -i S
-  double duration_s = 0;          // watch --duration S (0: until interrupted); sleep S
-  double rate_hz = 10;            // watch --rate HZ
+  bool wait = true;             // align / engage / approach: wait for the outcome (--no-wait)
+  double wait_timeout_s = 120;  // align / engage / approach: --wait-timeout S
+  int count = 4;                // ping -n N
+  double interval_s = 0;        // ping -i S
+  double duration_s = 0;        // watch --duration S (0: until interrupted); sleep S; drive --for S
+  double rate_hz = 10;          // watch --rate HZ
+  double linear_m_s = 0;        // drive --linear V (m/s, + forward)
+  double angular_rad_s = 0;     // drive --angular W (rad/s, CCW +)
   std::vector<std::string> args;  // conformance / simulate / script: their own arguments
 };
 

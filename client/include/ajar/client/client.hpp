@@ -141,6 +141,11 @@ class Client {
   bool wait_closed(Milliseconds timeout);
   // Drops every queued, unclaimed reply.
   void discard_replies();
+  // While on, the header of every frame received (also of frames that fail to decode) is kept in
+  // arrival order: which minor version and payload length the daemon wrote. Turning it on clears
+  // what was kept.
+  void record_headers(bool on);
+  std::vector<protocol::FrameHeader> recorded_headers() const;
 
   const ClientOptions& options() const { return options_; }
 

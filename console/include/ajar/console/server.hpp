@@ -34,6 +34,10 @@ struct ConsoleOptions {
   protocol::Role role = protocol::Role::kController;
   bool take_over = false;
   float telemetry_rate_hz = 20;
+  // Mutual TLS to ajard (docs/security.md), on when tls.ca is set: --ca, --cert, --key. The files
+  // are checked by listen() with ajarctl's rule (a private key readable by group or others is
+  // refused). The page itself is plain HTTP: keep listen_host on loopback (docs/console.md).
+  client::TlsOptions tls;
 };
 
 class ConsoleServer {
@@ -45,8 +49,9 @@ class ConsoleServer {
   ConsoleServer(const ConsoleServer&) = delete;
   ConsoleServer& operator=(const ConsoleServer&) = delete;
 
-  // Binds the listening socket (throws std::runtime_error naming the address on failure) and
-  // returns the bound port.
+  // Checks the TLS files (throws std::runtime_error naming the option: --ca, --cert, --key), binds
+  // the listening socket (throws std::runtime_error naming the address on failure) and returns the
+  // bound port.
   std::uint16_t listen();
   // Runs until stop() or SIGINT/SIGTERM; then closes the pages, stops the heartbeat and
   // disconnects from ajard.

@@ -73,8 +73,11 @@ class Server {
   void start();
   void stop_accepting();
   void stop();
-  // Re-reads network.tls (SIGHUP): files, CRL, deny list, identities; new connections use it.
-  // Throws StartupError (the running policy stays). Nothing to do without TLS.
+  // Re-reads network.tls (SIGHUP): files, CRL, deny list, identities; new connections use it, and
+  // every connected TLS session is re-checked as if it connected now (TlsAcceptor::recheck): one
+  // the new policy refuses or grants less gets ERROR NOT_CONTROLLER (field "certificate", the
+  // message names the identity and why) and is closed after it (Session::close_after_flush).
+  // Throws StartupError (the running policy and sessions stay). Nothing to do without TLS.
   void reload_tls(const TlsConfig& tls);
 
   std::uint16_t port() const noexcept;

@@ -252,12 +252,14 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
     }
   }
 
-  // Everything queued is written: send FIN, keep reading until the peer closes (or linger ends).
+  // Everything queued is written: send FIN (a TLS stream sends close_notify first, tls.hpp), keep
+  // reading until the peer closes (or linger ends).
   void half_close() {
     if (!queue_.empty()) {
       write_more();
       return;
     }
+    if constexpr (requires { stream_.close_notify(); }) stream_.close_notify();
     boost::system::error_code ignored;
     stream_.lowest_layer().shutdown(boost::asio::socket_base::shutdown_send, ignored);
   }

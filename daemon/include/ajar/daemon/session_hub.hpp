@@ -101,6 +101,11 @@ class SessionHub final : public SessionHandler {
   SessionHandler& refusal_handler() noexcept { return refusal_; }
 
   std::size_t session_count() const noexcept { return sessions_.size(); }
+  // The protocol minor spoken with session `id` (ours before its Hello, or when unknown).
+  std::uint8_t minor_of(std::uint64_t id) const noexcept {
+    const auto it = sessions_.find(id);
+    return it == sessions_.end() ? protocol::kVersionMinor : it->second.minor;
+  }
   std::optional<std::uint64_t> controller() const noexcept { return controller_; }
   const RequestLedger& ledger() const noexcept { return ledger_; }
 

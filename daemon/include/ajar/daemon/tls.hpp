@@ -10,9 +10,11 @@
 //   beyond, the OLDEST unfinished handshake is dropped, so sockets that never finish (slowloris)
 //   cannot keep a real client out. The Server counts pending() against max_clients.
 // - reload() (SIGHUP) re-reads the CRL, deny list, identities and unlisted (and the files):
-//   new connections use them; on error the running policy stays and reload() throws.
-// - Files: the private key is refused when group/world accessible; certificate, CA and CRL when
-//   group/world writable.
+//   new connections use them, and the Server re-checks every connected TLS session with
+//   recheck() (server.hpp); on error the running policy stays and reload() throws.
+// - An expired CRL (nextUpdate passed) is a warning at start and on every reload (warnings()).
+// - Files: the rule of ajar/security/tls_files.hpp (shared with ajar_client): the private key is
+//   refused when group/world accessible; certificate, CA and CRL when group/world writable.
 //
 // Threading: I/O thread only (the thread running the io_context).
 #pragma once
@@ -56,6 +58,18 @@ class TlsStream {
     return state_->ssl->async_read_some(buffers, std::forward<Handler>(handler));
   }
 
+  // Clean close (Session::half_close, once everything queued is written): sends the TLS
+  // close_notify alert now. Not asio's async_shutdown, which would read the peer's close_notify
+  // while the session's own read is pending on the same stream: the session keeps reading until
+  // the peer closes (its close_notify reads as eof) or its linger ends - that is the deadline. The
+  // socket is non-blocking for this call, so a peer that does not read cannot hold it (the alert
+  // is then lost; the FIN and the linger follow as without TLS).
+  void close_notify() {
+    boost::system::error_code ec;
+    state_->ssl->next_layer().non_blocking(true, ec);
+    if (!ec) state_->ssl->shutdown(ec);  // "would block" waiting for the peer's: expected
+  }
+
   template <typename Buffers, typename Handler>
   auto async_write_some(const Buffers& buffers, Handler&& handler) {
     auto& joined = state_->write_buffer;
@@ -97,13 +111,22 @@ struct Admission {
 };
 Admission admit(const TlsConfig& policy, const CertificateIdentity& certificate);
 
-// Refuses a secret (private key) that is group/world accessible, or another file that is
-// group/world writable; throws StartupError naming `key` (the config key) and the path.
-void check_file_permissions(const std::string& path, std::string_view key, bool secret);
+// The certificate chain a session authenticated with, kept by the Server to re-check the session
+// when the policy is reloaded (TlsAcceptor::recheck). Cheap to copy (shared, immutable).
+class PeerCertificate {
+ public:
+  const CertificateIdentity& identity() const noexcept { return identity_; }
+
+ private:
+  friend class TlsAcceptor;
+  struct Chain;  // the OpenSSL objects (tls.cpp)
+  std::shared_ptr<const Chain> chain_;
+  CertificateIdentity identity_;
+};
 
 class TlsAcceptor {
  public:
-  using Done = std::function<void(TlsStream stream, PeerAccess access)>;
+  using Done = std::function<void(TlsStream stream, PeerAccess access, PeerCertificate peer)>;
 
   // Loads certificate, key, CA, CRL. Throws StartupError naming the config key and file.
   explicit TlsAcceptor(const TlsConfig& config);
@@ -113,6 +136,15 @@ class TlsAcceptor {
 
   // Throws StartupError (the running policy stays).
   void reload(const TlsConfig& config);
+  // Of the running policy, logged (warn) at construction and on every reload(): a CRL whose
+  // nextUpdate has passed (every certificate of its CA is refused: fail closed) or comes within
+  // 7 days.
+  const std::vector<std::string>& warnings() const noexcept;
+
+  // A connected session under the running policy, as if it connected now: why it must be closed
+  // (its certificate revoked by the CRL, expired, denied, no longer admitted, or `granted` more
+  // than the policy now grants it), or "" when it may stay.
+  std::string recheck(const PeerCertificate& peer, const PeerAccess& granted) const;
 
   // Runs the server handshake on `socket`; `done` is called (on the I/O thread) only on success.
   // First drops the oldest pending handshake when max_pending_handshakes are running.

@@ -1,0 +1,114 @@
+// The operator console over mutual TLS (issue 13): ajar-console's --ca/--cert/--key reach ajard
+// through ajar_client; a private key readable by others is refused before the console listens.
+#include <utility>  // before Asio (asio issue 944)
+
+#include <sys/stat.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <gtest/gtest.h>
+
+#include "ajar/console/server.hpp"
+#include "tls_support.hpp"
+
+namespace ajar::test {
+namespace {
+
+namespace asio = boost::asio;
+namespace http = boost::beast::http;
+
+// A grey wall 2 m away: the console needs a camera, this test does not look at it.
+class Wall final : public console::FrameSource {
+ public:
+  std::string describe() const override { return "test wall"; }
+  double rate_hz() const override { return 5; }
+  bool next(const console::BasePose&, console::Frame& out, std::string&) override {
+    out.intrinsics.width_px = 16;
+    out.intrinsics.height_px = 12;
+    out.intrinsics.fx_px = out.intrinsics.fy_px = 15;
+    out.intrinsics.cx_px = 7.5;
+    out.intrinsics.cy_px = 5.5;
+    out.rgb.assign(16 * 12 * 3, 128);
+    out.depth_m.assign(16 * 12, 2.0F);
+    out.sequence = ++sequence_;
+    return true;
+  }
+
+ private:
+  std::uint64_t sequence_ = 0;
+};
+
+class TlsConsole : public ::testing::Test {
+ protected:
+  console::ConsoleOptions console_options(const std::string& operator_name) {
+    std::ofstream(web_.path() + "/index.html") << "<html>console</html>";
+    console::ConsoleOptions o;
+    o.daemon = {"127.0.0.1", server_.port()};
+    o.listen_port = 0;
+    o.web_dir = web_.path();
+    o.tls = pki_.client_tls(operator_name);
+    return o;
+  }
+
+  static std::string state_json(std::uint16_t port) {
+    asio::io_context io;
+    asio::ip::tcp::socket s(io);
+    s.connect({asio::ip::make_address("127.0.0.1"), port});
+    http::request<http::string_body> request{http::verb::get, "/api/state", 11};
+    request.set(http::field::host, "127.0.0.1:" + std::to_string(port));
+    http::write(s, request);
+    boost::beast::flat_buffer buffer;
+    http::response<http::string_body> response;
+    http::read(s, buffer, response);
+    return response.body();
+  }
+
+  LogCapture log_;
+  Pki pki_;
+  FakeEngine engine_;
+  TlsServer server_{engine_, server_options(pki_)};
+  TempDir web_;
+};
+
+TEST_F(TlsConsole, TheConsoleConnectsToATlsDaemonWithItsCertificate) {
+  console::ConsoleServer console(console_options("alice"), std::make_unique<Wall>(), nullptr);
+  const std::uint16_t port = console.listen();
+  std::thread runner([&] { console.run(); });
+  EXPECT_TRUE(eventually([&] {
+    return state_json(port).find("\"connected\": true") != std::string::npos;
+  })) << state_json(port);
+  EXPECT_TRUE(log_.contains("authenticated as cn:alice", "controller"));
+  EXPECT_TRUE(log_.contains("(ajar-console) greeted", "as controller")) << log_.all();
+  console.stop();
+  runner.join();
+}
+
+TEST_F(TlsConsole, AKeyReadableByOthersIsRefusedBeforeTheConsoleListens) {
+  ASSERT_EQ(::chmod(pki_.path("alice.key").c_str(), 0640), 0);
+  console::ConsoleServer console(console_options("alice"), std::make_unique<Wall>(), nullptr);
+  try {
+    console.listen();
+    ADD_FAILURE() << "a group-readable key was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("--key"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("0640"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(server_.session_count(), 0U);
+}
+
+TEST_F(TlsConsole, ACertificateWithoutItsKeyIsRefused) {
+  auto o = console_options("alice");
+  o.tls.private_key.clear();
+  console::ConsoleServer console(o, std::make_unique<Wall>(), nullptr);
+  EXPECT_THROW(console.listen(), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace ajar::test
