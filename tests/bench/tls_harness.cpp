@@ -2,7 +2,8 @@
 // the same over plaintext, in one run, interleaved in batches (plaintext, TLS, plaintext, ...) so
 // both see the same machine load. Certificates are made by scripts/make-certs in a temporary
 // directory. Prints p50/p99 of each and the TLS/plaintext ratio (target p99 <= 1.3x,
-// docs/performance.md). --smoke: a few hundred samples (ctest), --samples N otherwise.
+// docs/performance.md), and the ROW lines scripts/bench puts in its table (harness.hpp).
+// --smoke: a few hundred samples (ctest), --samples N otherwise (default 20000).
 #include <utility>  // before Asio (asio issue 944)
 
 #include <algorithm>
@@ -16,18 +17,12 @@
 #include <spdlog/spdlog.h>
 
 #include "ajar/client/client.hpp"
+#include "harness.hpp"
 #include "test_client_harness.hpp"
 
 namespace {
 
 using namespace std::chrono_literals;
-using Clock = std::chrono::steady_clock;
-
-double percentile_us(std::vector<double> v, double p) {
-  std::sort(v.begin(), v.end());
-  const auto i = static_cast<std::size_t>(p * static_cast<double>(v.size() - 1));
-  return v[i];
-}
 
 int fail(const std::string& what) {
   std::fprintf(stderr, "tls_harness: %s\n", what.c_str());
@@ -78,37 +73,43 @@ int main(int argc, char** argv) {
       !tls.hello(ajar::protocol::Role::kObserver).ok())
     return fail("Hello refused");
 
-  std::vector<double> plain_us;
-  std::vector<double> tls_us;
+  std::vector<std::int64_t> plain_ns;
+  std::vector<std::int64_t> tls_ns;
   constexpr int kBatch = 100;
-  auto run = [](ajar::client::Client& c, std::vector<double>& out, int n) {
+  auto run = [](ajar::client::Client& c, std::vector<std::int64_t>& out, int n) {
     for (int i = 0; i < n; ++i) {
-      const auto start = Clock::now();
+      const auto start = ajar::bench::now_ns();
       const auto r = c.request(ajar::protocol::Ping{static_cast<std::uint64_t>(i)});
-      const auto us = std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+      const auto ns = ajar::bench::now_ns() - start;
       if (!r.ok()) return false;
-      out.push_back(us);
+      out.push_back(ns);
     }
     return true;
   };
-  run(plain, plain_us, kBatch);  // warm-up, discarded
-  run(tls, tls_us, kBatch);
-  plain_us.clear();
-  tls_us.clear();
+  run(plain, plain_ns, kBatch);  // warm-up, discarded
+  run(tls, tls_ns, kBatch);
+  plain_ns.clear();
+  tls_ns.clear();
   for (int done = 0; done < samples; done += kBatch) {
-    if (!run(plain, plain_us, kBatch) || !run(tls, tls_us, kBatch)) return fail("Ping failed");
+    if (!run(plain, plain_ns, kBatch) || !run(tls, tls_ns, kBatch)) return fail("Ping failed");
   }
-  const double p50_plain = percentile_us(plain_us, 0.50);
-  const double p99_plain = percentile_us(plain_us, 0.99);
-  const double p50_tls = percentile_us(tls_us, 0.50);
-  const double p99_tls = percentile_us(tls_us, 0.99);
-  std::printf("Ping round trip through the server (ajar_client, loopback), %zu samples each\n",
-              plain_us.size());
-  std::printf("%-10s %10s %10s\n", "transport", "p50 us", "p99 us");
-  std::printf("%-10s %10.1f %10.1f\n", "plaintext", p50_plain, p99_plain);
-  std::printf("%-10s %10.1f %10.1f\n", "TLS 1.3", p50_tls, p99_tls);
-  std::printf("TLS/plaintext: p50 %.2fx, p99 %.2fx (target p99 <= 1.3x)\n", p50_tls / p50_plain,
+  const auto plain_q = ajar::bench::quantiles(plain_ns);
+  const auto tls_q = ajar::bench::quantiles(tls_ns);
+  const double p50_plain = plain_q.p50 / 1e3;
+  const double p99_plain = plain_q.p99 / 1e3;
+  const double p50_tls = tls_q.p50 / 1e3;
+  const double p99_tls = tls_q.p99 / 1e3;
+  std::printf("# Ping round trip through the server (ajar_client, loopback), %zu samples each\n",
+              plain_ns.size());
+  std::printf("# %-10s %10s %10s\n", "transport", "p50 us", "p99 us");
+  std::printf("# %-10s %10.1f %10.1f\n", "plaintext", p50_plain, p99_plain);
+  std::printf("# %-10s %10.1f %10.1f\n", "TLS 1.3", p50_tls, p99_tls);
+  std::printf("# TLS/plaintext: p50 %.2fx, p99 %.2fx (target p99 <= 1.3x)\n", p50_tls / p50_plain,
               p99_tls / p99_plain);
+  const std::string note = "vs plaintext, same run (" + std::to_string(plain_ns.size()) +
+                           " Pings each, ajar_client, in-process server)";
+  ajar::bench::row("Ping RTT over mutual TLS 1.3, p50", p50_tls, "us", p50_plain, "", note);
+  ajar::bench::row("Ping RTT over mutual TLS 1.3, p99", p99_tls, "us", p99_plain, "<= 1.3x", note);
   std::error_code ignored;
   std::filesystem::remove_all(dir, ignored);
   return 0;

@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "ajar/client/cli.hpp"
-#include "ajar/client/conformance.hpp"
+#include "ajar/conformance/conformance.hpp"
 #include "fake_daemon.hpp"
 
 namespace ajar::client {
@@ -41,6 +41,7 @@ protocol::Envelope refusal(const protocol::Envelope& e, ErrorCode code, const ch
 }
 
 TEST(MotionRefusal, OnlyRealOrUnsaidDriversAreRefusedUnlessAllowed) {
+  using conformance::motion_refusal;
   using protocol::DriverKind;
   EXPECT_EQ(motion_refusal(DriverKind::kSim, false), "");
   EXPECT_EQ(motion_refusal(DriverKind::kMock, false), "");

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "ajar/protocol/layout.hpp"
 #include "ajar/protocol/vectors.hpp"
 #include "samples.hpp"
 
@@ -21,15 +22,20 @@ using ajar::ErrorCode;
 using namespace ajar::protocol;
 using Bytes = std::vector<std::uint8_t>;
 
-Bytes encode_sample(const std::string& name, std::uint8_t minor = kVersionMinor) {
-  for (const auto& s : samples::all()) {
-    if (s.name == name) {
-      Bytes out;
-      if (!encode_append(s.envelope, out, minor)) throw std::runtime_error("cannot encode " + name);
-      return out;
-    }
+const samples::Sample& sample(const std::string& name) {
+  static const std::vector<samples::Sample> all = samples::all();
+  for (const auto& s : all) {
+    if (s.name == name) return s;
   }
   throw std::runtime_error("no sample " + name);
+}
+
+Bytes encode_sample(const std::string& name, std::uint8_t minor = kVersionMinor) {
+  Bytes out;
+  if (!encode_append(sample(name).envelope, out, minor)) {
+    throw std::runtime_error("cannot encode " + name);
+  }
+  return out;
 }
 
 void put_u16(Bytes& b, std::size_t at, std::uint16_t v) {
@@ -105,41 +111,46 @@ int main(int argc, char** argv) {
                    "ignored.\nRe-encoding gives the v1.1 frame (roundtrip: no)."});
   }
 
+  // A refused frame: the sample `base` with `patch` applied. `at` is the frame offset of `field`
+  // in the sample (payload_layout(), the codec's own tables), so the field a vector corrupts and
+  // the field the decoder must name are one fact; header fields are patched at fixed offsets.
   const auto bad = [&out](std::string name, std::string base, ErrorCode code, bool framing_lost,
-                          std::string field, const std::function<void(Bytes&)>& patch,
+                          std::string field,
+                          const std::function<void(Bytes&, std::size_t at)>& patch,
                           std::string comment) {
     GoldenVector v;
     v.name = std::move(name);
     v.expect_ok = false;
     v.expected_error = code;
     v.framing_lost = framing_lost;
-    v.field = std::move(field);
     v.bytes = encode_sample(base);
-    patch(v.bytes);
-    for (const auto& s : samples::all()) {
-      if (s.name == base) {
-        v.direction = is_request(type_of(s.envelope.message))
-                          ? GoldenVector::Direction::kHostToDaemon
-                          : GoldenVector::Direction::kDaemonToHost;
-      }
+    const Message& m = sample(base).envelope.message;
+    v.direction = is_request(type_of(m)) ? GoldenVector::Direction::kHostToDaemon
+                                         : GoldenVector::Direction::kDaemonToHost;
+    const std::ptrdiff_t offset = offset_of(m, field);
+    if (!field.starts_with("header.") && offset < 0) {
+      throw std::runtime_error(base + " has no field " + field);
     }
+    patch(v.bytes, offset < 0 ? 0 : kHeaderSize + static_cast<std::size_t>(offset));
+    v.field = std::move(field);
     out.push_back({v, std::move(comment)});
   };
   constexpr std::size_t P = kHeaderSize;  // payload offset
 
   bad(
-      "bad_magic", "ping", ErrorCode::kBadMagic, true, "header.magic", [](Bytes& b) { b[3] = 'X'; },
+      "bad_magic", "ping", ErrorCode::kBadMagic, true, "header.magic",
+      [](Bytes& b, std::size_t) { b[3] = 'X'; },
       "Magic \"AJAX\" instead of \"AJAR\": framing lost, close.");
   bad(
       "unsupported_version", "ping", ErrorCode::kUnsupportedVersion, true, "header.version_major",
-      [](Bytes& b) {
+      [](Bytes& b, std::size_t) {
         b[4] = 2;
         refresh(b);
       },
       "Major version 2: reply UNSUPPORTED_VERSION, then close.");
   bad(
       "payload_too_large", "ping", ErrorCode::kPayloadTooLarge, true, "header.payload_length",
-      [](Bytes& b) {
+      [](Bytes& b, std::size_t) {
         b.resize(kHeaderSize);
         put_u32(b, 14, 1025);
       },
@@ -147,14 +158,16 @@ int main(int argc, char** argv) {
       "framing lost. The vector is the header only.");
   bad(
       "crc_mismatch", "measure_door_width", ErrorCode::kCrcMismatch, false, "header.crc",
-      [](Bytes& b) { b[P + 3] ^= 0x01; }, "One payload bit flipped; the CRC no longer matches.");
+      [](Bytes& b, std::size_t) { b[P + 3] ^= 0x01; },
+      "One payload bit flipped; the CRC no longer matches.");
   bad(
       "crc_mismatch_header", "ping", ErrorCode::kCrcMismatch, false, "header.crc",
-      [](Bytes& b) { b[10] ^= 0x80; }, "Request id bit flipped: the CRC covers the header too.");
+      [](Bytes& b, std::size_t) { b[10] ^= 0x80; },
+      "Request id bit flipped: the CRC covers the header too.");
   bad(
       "bad_payload_length_short", "ping", ErrorCode::kBadPayloadLength, false,
       "header.payload_length",
-      [](Bytes& b) {
+      [](Bytes& b, std::size_t) {
         b.pop_back();
         refresh(b);
       },
@@ -162,7 +175,7 @@ int main(int argc, char** argv) {
   bad(
       "bad_payload_length_long", "stop", ErrorCode::kBadPayloadLength, false,
       "header.payload_length",
-      [](Bytes& b) {
+      [](Bytes& b, std::size_t) {
         b.push_back(0);
         refresh(b);
       },
@@ -170,21 +183,21 @@ int main(int argc, char** argv) {
   bad(
       "bad_payload_length_plane", "measure_door_plane_3", ErrorCode::kBadPayloadLength, false,
       "header.payload_length",
-      [](Bytes& b) {
+      [](Bytes& b, std::size_t) {
         b[P] = 4;  // count says 4 points, payload holds 3
         refresh(b);
       },
       "MeasureDoorPlane with count 4 but three points of payload.");
   bad(
       "unknown_message_type", "stop", ErrorCode::kUnknownMessageType, false, "header.type",
-      [](Bytes& b) {
+      [](Bytes& b, std::size_t) {
         put_u16(b, 6, 0x0199);
         refresh(b);
       },
       "Type 0x0199 is not defined in v1: reply UNKNOWN_MESSAGE_TYPE, session continues.");
   bad(
       "unknown_flags", "ping", ErrorCode::kUnknownFlags, false, "header.flags",
-      [](Bytes& b) {
+      [](Bytes& b, std::size_t) {
         put_u16(b, 8, 0x8001);
         refresh(b);
       },
@@ -192,89 +205,89 @@ int main(int argc, char** argv) {
   bad(
       "invalid_enum_plane_frame", "measure_door_plane_3", ErrorCode::kInvalidEnumValue, false,
       "points[2].frame",
-      [](Bytes& b) {
-        b[P + 1 + 2 * 25] = 7;
+      [](Bytes& b, std::size_t at) {
+        b[at] = 7;
         refresh(b);
       },
       "Third plane point names frame 7 (only 0 camera, 1 base exist).");
   bad(
       "invalid_enum_hello_role", "hello_controller", ErrorCode::kInvalidEnumValue, false,
       "requested_role",
-      [](Bytes& b) {
-        b[P + 2] = 2;
+      [](Bytes& b, std::size_t at) {
+        b[at] = 2;
         refresh(b);
       },
       "Hello asks for role 2.");
   bad(
       "invalid_enum_bool", "reset", ErrorCode::kInvalidEnumValue, false, "clear_parameters",
-      [](Bytes& b) {
-        b[P] = 2;
+      [](Bytes& b, std::size_t at) {
+        b[at] = 2;
         refresh(b);
       },
       "Booleans are 0 or 1.");
   bad(
       "invalid_enum_ack_acknowledged", "ack_align_base", ErrorCode::kInvalidEnumValue, false,
       "acknowledged",
-      [](Bytes& b) {
-        put_u16(b, P, 0x0201);
+      [](Bytes& b, std::size_t at) {
+        put_u16(b, at, 0x0201);
         refresh(b);
       },
       "Ack acknowledging a Welcome (not a request type).");
   bad(
       "non_finite_nan", "measure_door_width", ErrorCode::kNonFiniteNumber, false, "p2.z",
-      [](Bytes& b) {
-        put_f64(b, P + 25 + 1 + 16, std::numeric_limits<double>::quiet_NaN());
+      [](Bytes& b, std::size_t at) {
+        put_f64(b, at, std::numeric_limits<double>::quiet_NaN());
         refresh(b);
       },
       "P2's z (depth) is NaN.");
   bad(
       "non_finite_infinity", "subscribe", ErrorCode::kNonFiniteNumber, false, "telemetry_rate_hz",
-      [](Bytes& b) {
-        put_u32(b, P, 0x7F800000);
+      [](Bytes& b, std::size_t at) {
+        put_u32(b, at, 0x7F800000);
         refresh(b);
       },
       "Subscribe at +infinity Hz.");
   bad(
       "bad_count_low", "measure_door_plane_3", ErrorCode::kBadCount, false, "count",
-      [](Bytes& b) {
-        b[P] = 2;
-        b.resize(P + 1 + 2 * 25);
+      [](Bytes& b, std::size_t at) {
+        b[at] = 2;
+        b.resize(at + 1 + 2 * 25);  // count, then two 25-byte points
         refresh(b);
       },
       "Door plane with 2 points (3..16).");
   bad(
       "bad_count_high", "measure_door_plane_16", ErrorCode::kBadCount, false, "count",
-      [](Bytes& b) {
-        b[P] = 17;
+      [](Bytes& b, std::size_t at) {
+        b[at] = 17;
         refresh(b);
       },
       "Door plane with count 17 (3..16).");
   bad(
       "bad_string_too_long", "hello_controller", ErrorCode::kBadString, false, "client_name",
-      [](Bytes& b) {
-        b[P + 12] = 33;
+      [](Bytes& b, std::size_t at) {
+        b[at] = 33;
         refresh(b);
       },
       "client_name length 33 (capacity 32).");
   bad(
       "bad_string_padding", "hello_controller", ErrorCode::kBadString, false, "client_name",
-      [](Bytes& b) {
-        b[P + 12 + 1 + 31] = 'x';
+      [](Bytes& b, std::size_t at) {
+        b[at + 1 + 31] = 'x';  // the last byte of the 32
         refresh(b);
       },
       "Bytes after client_name's length must be zero.");
   bad(
       "bad_string_utf8", "error_points_collinear", ErrorCode::kBadString, false, "message",
-      [](Bytes& b) {
-        b[P + 4 + 33 + 1] = 0xC3;
-        b[P + 4 + 33 + 2] = 0x28;
+      [](Bytes& b, std::size_t at) {
+        b[at + 1] = 0xC3;
+        b[at + 2] = 0x28;
         refresh(b);
       },
       "Error.message starting with an invalid UTF-8 sequence (C3 28).");
   bad(
       "bad_string_control", "hello_controller", ErrorCode::kBadString, false, "client_name",
-      [](Bytes& b) {
-        b[P + 12 + 1 + 4] = '\n';
+      [](Bytes& b, std::size_t at) {
+        b[at + 1 + 4] = '\n';
         refresh(b);
       },
       "Control characters (U+0000..U+001F, U+007F) are not allowed in strings.");
@@ -282,7 +295,7 @@ int main(int argc, char** argv) {
   bad(
       "v1_0_status_with_1_1_length", "status", ErrorCode::kBadPayloadLength, false,
       "header.payload_length",
-      [](Bytes& b) {
+      [](Bytes& b, std::size_t) {
         b[5] = 0;
         refresh(b);
       },
@@ -290,36 +303,36 @@ int main(int argc, char** argv) {
       "length exactly (only a NEWER minor may be longer).");
   bad(
       "v1_0_drive", "drive", ErrorCode::kUnknownMessageType, false, "header.type",
-      [](Bytes& b) {
+      [](Bytes& b, std::size_t) {
         b[5] = 0;
         refresh(b);
       },
       "Drive (0x0122) in a frame that says 1.0: 1.0 has no such type.");
   bad(
       "invalid_polarity", "robot_model", ErrorCode::kInvalidEnumValue, false, "left.polarity",
-      [](Bytes& b) {
-        b[P + 12 * 8 + 4 * 8 + 1] = 0;
+      [](Bytes& b, std::size_t at) {
+        b[at] = 0;
         refresh(b);
       },
       "RobotModel with left wheel polarity 0 (only +1 and -1 exist).");
   bad(
       "invalid_enum_driver_kind", "welcome", ErrorCode::kInvalidEnumValue, false, "driver_kind",
-      [](Bytes& b) {
-        b.back() = 3;
+      [](Bytes& b, std::size_t at) {
+        b[at] = 3;
         refresh(b);
       },
       "Welcome with driver_kind 3 (0 sim, 1 mock, 2 real).");
   bad(
       "non_finite_drive", "drive", ErrorCode::kNonFiniteNumber, false, "angular_rad_s",
-      [](Bytes& b) {
-        put_f64(b, P + 8, -std::numeric_limits<double>::infinity());
+      [](Bytes& b, std::size_t at) {
+        put_f64(b, at, -std::numeric_limits<double>::infinity());
         refresh(b);
       },
       "Drive with angular velocity -infinity.");
   bad(
       "bad_payload_length_approach", "approach", ErrorCode::kBadPayloadLength, false,
       "header.payload_length",
-      [](Bytes& b) {
+      [](Bytes& b, std::size_t) {
         b.resize(b.size() - 4);
         refresh(b);
       },

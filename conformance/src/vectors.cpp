@@ -1,0 +1,118 @@
+// Golden vectors: each is checked against this client's codec and sent to the daemon.
+#include "suite.hpp"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace ajar::conformance {
+
+// ---- golden vectors ----
+void Suite::golden_vectors() {
+  namespace fs = std::filesystem;
+  std::vector<fs::path> files;
+  std::error_code ec;
+  if (fs::is_directory(options_.vectors_dir, ec)) {
+    for (const auto& entry : fs::directory_iterator(options_.vectors_dir, ec)) {
+      if (entry.path().extension() == ".vec") files.push_back(entry.path());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  check("vectors: found in " + options_.vectors_dir, [&] {
+    return files.empty() ? std::string("no *.vec files (use --vectors DIR)") : std::string{};
+  });
+  for (const auto& path : files) {
+    std::ifstream f(path);
+    std::stringstream text;
+    text << f.rdbuf();
+    auto parsed = protocol::parse_vector(text.str());
+    const std::string name = "vector " + path.stem().string();
+    if (!parsed) {
+      check(name + ": parse", [&] { return parsed.error().message; });
+      continue;
+    }
+    const protocol::GoldenVector& v = *parsed;
+    check(name + ": this client's codec", [&] {
+      auto s = protocol::check_vector(v);
+      return s ? std::string{} : s.error().message;
+    });
+    if (v.direction == protocol::GoldenVector::Direction::kHostToDaemon) {
+      check(name + ": daemon", [&] { return send_vector(v); });
+    }
+  }
+}
+
+std::string Suite::send_vector(const protocol::GoldenVector& v) {
+  std::array<std::uint8_t, protocol::kHeaderSize> header{};
+  std::copy_n(v.bytes.begin(), std::min(v.bytes.size(), header.size()), header.begin());
+  const protocol::FrameHeader h = protocol::decode_header(header);
+  const auto type = static_cast<MessageType>(h.type);
+  if (v.expect_ok && type == MessageType::kHello) {
+    // As the first frame of a fresh session; no controller holds control at this point.
+    auto c = open();
+    if (!c) return "cannot connect";
+    auto reply = raw(*c, v.bytes, h.request_id);
+    if (!reply || !std::holds_alternative<protocol::Welcome>(reply->message)) {
+      return "expected Welcome with request id " + std::to_string(h.request_id) + ", got " +
+             describe(reply);
+    }
+    return {};
+  }
+  auto c = greeted(Role::kObserver);
+  if (!c) return "cannot open an observer session";
+  if (v.expect_ok) {
+    auto reply = raw(*c, v.bytes, h.request_id);
+    if (!reply) return "no reply with request id " + std::to_string(h.request_id);
+    const auto* err = std::get_if<protocol::ErrorReply>(&reply->message);
+    switch (type) {
+      case MessageType::kPing:
+        if (!std::holds_alternative<protocol::Pong>(reply->message))
+          return "got " + describe(reply);
+        break;
+      case MessageType::kGetStatus:
+        if (!std::holds_alternative<protocol::Status>(reply->message)) {
+          return "got " + describe(reply);
+        }
+        break;
+      case MessageType::kGetRobotModel:
+        if (!std::holds_alternative<protocol::RobotModel>(reply->message)) {
+          return "got " + describe(reply);
+        }
+        break;
+      case MessageType::kSubscribe:
+      case MessageType::kStop:
+      case MessageType::kEmergencyStop:
+        if (!std::holds_alternative<protocol::Ack>(reply->message)) return "got " + describe(reply);
+        break;
+      default:  // commands: decoded, then refused by the session rules (observer)
+        if (!err || err->code != ErrorCode::kNotController) {
+          return "expected Error NOT_CONTROLLER (decoded, observer), got " + describe(reply);
+        }
+    }
+    if (type == MessageType::kEmergencyStop) {
+      auto ctl = greeted(Role::kController, true);
+      if (!ctl || !ctl->request(protocol::Reset{false}).ok()) return "cannot Reset after it";
+    }
+    if (type == MessageType::kSubscribe) (void)c->request(protocol::Subscribe{});
+    return still_usable(*c);
+  }
+  const std::string code(ajar::to_string(v.expected_error));
+  auto reply = raw(*c, v.bytes, std::nullopt);
+  const auto* err = reply ? std::get_if<protocol::ErrorReply>(&reply->message) : nullptr;
+  if (!err || err->code != v.expected_error)
+    return "expected Error " + code + ", got " + describe(reply);
+  if (!v.field.empty() && err->field.view() != v.field) {
+    return "expected field '" + v.field + "', got '" + std::string(err->field.view()) + "'";
+  }
+  if (v.framing_lost) {
+    if (!c->wait_closed(timeout())) return "connection not closed after framing was lost";
+    return {};
+  }
+  if (v.expected_error != ErrorCode::kCrcMismatch && reply->request_id != h.request_id) {
+    return "reply request id " + std::to_string(reply->request_id) + ", expected " +
+           std::to_string(h.request_id);
+  }
+  return still_usable(*c);
+}
+
+}  // namespace ajar::conformance
