@@ -162,6 +162,20 @@ void limits_fields(Io& io, C& l) {
 }
 
 template <typename Io, typename C>
+void drive_fields(Io& io, C& d) {
+  io.number("max_linear_speed_m_s", d.max_linear_speed_m_s, 0.001, 5, "m/s");
+  io.number("max_angular_speed_rad_s", d.max_angular_speed_rad_s, 0.001, 10, "rad/s");
+  io.number("max_linear_accel_m_s2", d.max_linear_accel_m_s2, 0.001, 20, "m/s^2");
+  io.number("max_angular_accel_rad_s2", d.max_angular_accel_rad_s2, 0.001, 50, "rad/s^2");
+  io.number("command_timeout_s", d.command_timeout_s, 0.05, 5, "s");
+  io.number("approach_max_travel_m", d.approach_max_travel_m, 0.01, 20, "m");
+  io.number("approach_square_tolerance_rad", d.approach_square_tolerance_rad, 0.001, 1.0, "rad");
+  io.number("approach_min_standoff_m", d.approach_min_standoff_m, 0.05, 10, "m");
+  io.number("stale_travel_m", d.stale_travel_m, 0.001, 1.0, "m");
+  io.number("stale_yaw_rad", d.stale_yaw_rad, 0.001, 1.0, "rad");
+}
+
+template <typename Io, typename C>
 void drivers_fields(Io& io, C& d) {
   io.choice("kind", d.kind, kDriverKinds);
   io.section("card", [&] {
@@ -207,6 +221,7 @@ void fields(Io& io, C& c) {
   io.section("frames", [&] { io.transform("camera_to_base_m", c.camera_to_base_m); });
   io.section("base", [&] { base_fields(io, c.base); });
   io.section("limits", [&] { limits_fields(io, c.limits); });
+  io.section("drive", [&] { drive_fields(io, c.drive); });
   io.section("drivers", [&] { drivers_fields(io, c.drivers); });
   io.section("control", [&] { control_fields(io, c.control); });
   io.section("safety", [&] {

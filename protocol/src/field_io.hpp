@@ -1,17 +1,17 @@
 // The two ends of a payload: the Writer (message -> bytes) and the Reader (bytes -> message, with
-// every check of docs/protocol.md section 3). walk.hpp drives both along the same message tables,
-// so they cannot disagree; this file says only how each wire type is written, read and checked.
+// every check of docs/protocol.md section 3). walk.hpp drives both along the message tables, so
+// they cannot disagree; a scalar's size, conversion and check come from its wire type
+// (schema.hpp). This file says only how bytes are put, taken and refused.
 #pragma once
 
 #include <algorithm>
 #include <array>
-#include <bit>
-#include <cmath>
 #include <cstring>
 #include <span>
 
 #include "ajar/protocol/codec.hpp"
 #include "little_endian.hpp"
+#include "schema.hpp"
 
 namespace ajar::protocol::detail {
 
@@ -22,33 +22,15 @@ class Writer {
   Writer(std::uint8_t* out, std::size_t capacity, std::uint8_t minor) noexcept
       : p_(out), cap_(capacity), minor_(minor) {}
   bool ok() const noexcept { return ok_; }
+  std::uint8_t minor() const noexcept { return minor_; }
   // True when the layout being written has the fields that minor version `m` appended.
   bool since(std::uint8_t m) const noexcept { return minor_ >= m; }
   std::size_t size() const noexcept { return pos_; }
 
-  void u8(std::uint8_t v, const char*) noexcept {
-    if (std::uint8_t* q = take(1)) q[0] = v;
+  template <typename W, typename V>
+  void scalar(const V& v, const char*) noexcept {
+    if (std::uint8_t* q = take(sizeof(typename W::raw))) store(q, W::to_raw(v));
   }
-  void u16(std::uint16_t v, const char*) noexcept {
-    if (std::uint8_t* q = take(2)) put_u16(q, v);
-  }
-  void u32(std::uint32_t v, const char*) noexcept {
-    if (std::uint8_t* q = take(4)) put_u32(q, v);
-  }
-  void u64(std::uint64_t v, const char*) noexcept {
-    if (std::uint8_t* q = take(8)) put_u64(q, v);
-  }
-  void i64(std::int64_t v, const char* f) noexcept { u64(static_cast<std::uint64_t>(v), f); }
-  void f32(float v, const char* f) noexcept { u32(std::bit_cast<std::uint32_t>(v), f); }
-  void f64(double v, const char* f) noexcept { u64(std::bit_cast<std::uint64_t>(v), f); }
-  void boolean(bool v, const char* f) noexcept { u8(v ? 1 : 0, f); }
-  void polarity(std::int8_t v, const char* f) noexcept { u8(static_cast<std::uint8_t>(v), f); }
-  template <typename E>
-  void enumeration(E v, const char* f, std::uint8_t) noexcept {
-    u8(static_cast<std::uint8_t>(v), f);
-  }
-  void error_code(ErrorCode v, const char* f) noexcept { u16(static_cast<std::uint16_t>(v), f); }
-  void raw_type(MessageType v, const char* f) noexcept { u16(static_cast<std::uint16_t>(v), f); }
   template <std::size_t N>
   void str(const FixedString<N>& s, const char*) noexcept {
     std::uint8_t* q = take(1 + N);
@@ -58,15 +40,9 @@ class Writer {
     std::memcpy(q + 1, s.bytes.data(), n);
     std::memset(q + 1 + n, 0, N - n);
   }
-  // Fields that size the payload: the writer refuses values the reader would refuse.
-  bool plane_count(std::uint8_t count, const char* f) noexcept {
-    if (count < kMinPlanePoints || count > kMaxPlanePoints) ok_ = false;
-    u8(count, f);
-    return ok_;
-  }
-  bool ack_type(MessageType t, const char* f) noexcept {
-    if (!is_request(t) || minor_of(t) > minor_) ok_ = false;
-    raw_type(t, f);
+  // A field that sizes the payload (count, acknowledged): the writer refuses what the reader would.
+  bool sizes(bool valid, ErrorCode, const char*, std::uint64_t, const char*) noexcept {
+    if (!valid) ok_ = false;
     return ok_;
   }
   template <typename T>
@@ -101,47 +77,17 @@ class Reader {
  public:
   Reader(std::span<const std::uint8_t> payload, std::uint8_t minor) noexcept
       : p_(payload.data()), size_(payload.size()), minor_(minor) {}
+  std::uint8_t minor() const noexcept { return minor_; }
   bool since(std::uint8_t m) const noexcept { return minor_ >= m; }
 
-  void u8(std::uint8_t& v, const char*) noexcept { v = take(1)[0]; }
-  void u16(std::uint16_t& v, const char*) noexcept { v = get_u16(take(2)); }
-  void u32(std::uint32_t& v, const char*) noexcept { v = get_u32(take(4)); }
-  void u64(std::uint64_t& v, const char*) noexcept { v = get_u64(take(8)); }
-  void i64(std::int64_t& v, const char*) noexcept {
-    v = static_cast<std::int64_t>(get_u64(take(8)));
-  }
-  void f32(float& v, const char* f) noexcept {
-    v = std::bit_cast<float>(get_u32(take(4)));
-    if (!std::isfinite(v)) fail(ErrorCode::kNonFiniteNumber, f, std::bit_cast<std::uint32_t>(v), 4);
-  }
-  void f64(double& v, const char* f) noexcept {
-    v = std::bit_cast<double>(get_u64(take(8)));
-    if (!std::isfinite(v)) fail(ErrorCode::kNonFiniteNumber, f, std::bit_cast<std::uint64_t>(v), 8);
-  }
-  void boolean(bool& v, const char* f) noexcept {
-    const std::uint8_t raw = take(1)[0];
-    if (raw > 1) fail(ErrorCode::kInvalidEnumValue, f, raw, 2, "bool");
-    v = raw != 0;
-  }
-  // +1 or -1 as a signed byte.
-  void polarity(std::int8_t& v, const char* f) noexcept {
-    const std::uint8_t raw = take(1)[0];
-    v = static_cast<std::int8_t>(raw);
-    if (v != 1 && v != -1) fail(ErrorCode::kInvalidEnumValue, f, raw, 0, "polarity");
-  }
-  template <typename E>
-  void enumeration(E& v, const char* f, std::uint8_t count) noexcept {
-    const std::uint8_t raw = take(1)[0];
-    if (raw >= count) fail(ErrorCode::kInvalidEnumValue, f, raw, count);
-    v = static_cast<E>(raw);
-  }
-  // Error codes and raw message types are not validated: newer peers may send codes this version
-  // does not know (clients treat unknown codes as a generic failure).
-  void error_code(ErrorCode& v, const char*) noexcept {
-    v = static_cast<ErrorCode>(get_u16(take(2)));
-  }
-  void raw_type(MessageType& v, const char*) noexcept {
-    v = static_cast<MessageType>(get_u16(take(2)));
+  template <typename W, typename V>
+  void scalar(V& v, const char* f) noexcept {
+    using Raw = typename W::raw;
+    const Raw raw = load<Raw>(take(sizeof(Raw)));
+    v = W::template from_raw<V>(raw);
+    if (const Problem p = W::check(raw); p.code != ErrorCode::kOk) {
+      fail(p.code, f, raw, p.limit, p.reason);
+    }
   }
   template <std::size_t N>
   void str(FixedString<N>& s, const char* f) noexcept {
@@ -169,20 +115,13 @@ class Reader {
       fail(ErrorCode::kBadString, f, n, N, "invalid UTF-8 or a control character");
     }
   }
-  bool plane_count(std::uint8_t& count, const char* f) noexcept {
-    count = take(1)[0];
+  // A field that sizes the payload: a wrong value is reported before the length check (it decides
+  // the length) and stops the walk.
+  bool sizes(bool valid, ErrorCode code, const char* f, std::uint64_t value,
+             const char* reason) noexcept {
     if (truncated_) return false;
-    if (count < kMinPlanePoints || count > kMaxPlanePoints) {
-      structural(ErrorCode::kBadCount, f, count);
-      return false;
-    }
-    return true;
-  }
-  bool ack_type(MessageType& t, const char* f) noexcept {
-    t = static_cast<MessageType>(get_u16(take(2)));
-    if (truncated_) return false;
-    if (!is_request(t) || minor_of(t) > minor_) {
-      structural(ErrorCode::kInvalidEnumValue, f, static_cast<std::uint16_t>(t), 0, "acknowledged");
+    if (!valid) {
+      structural(code, f, value, reason);
       return false;
     }
     return true;
@@ -211,16 +150,10 @@ class Reader {
   }
 
  private:
+  // The next n bytes; past the end (a truncated payload) zeros, which never fail a check.
   const std::uint8_t* take(std::size_t n) noexcept {
-    needed_ += n;
-    if (size_ - pos_ < n) {
-      truncated_ = true;
-      pos_ = size_;
-      return kZeros.data();
-    }
-    const std::uint8_t* q = p_ + pos_;
-    pos_ += n;
-    return q;
+    const std::uint8_t* q = take_block(n);
+    return q == nullptr ? kZeros.data() : q;
   }
   const std::uint8_t* take_block(std::size_t n) noexcept {
     needed_ += n;
@@ -233,7 +166,7 @@ class Reader {
     pos_ += n;
     return q;
   }
-  // The first failing field wins (wire order). A truncated payload reads zeros, which never fail.
+  // The first failing field wins (wire order).
   void fail(ErrorCode c, const char* f, std::uint64_t value, std::uint64_t limit,
             const char* reason = "") noexcept {
     if (code_ == ErrorCode::kOk && !truncated_) {
@@ -244,10 +177,9 @@ class Reader {
       reason_ = reason;
     }
   }
-  void structural(ErrorCode c, const char* f, std::uint64_t value, std::uint64_t limit = 0,
-                  const char* reason = "") noexcept {
+  void structural(ErrorCode c, const char* f, std::uint64_t value, const char* reason) noexcept {
     code_ = ErrorCode::kOk;
-    fail(c, f, value, limit, reason);
+    fail(c, f, value, 0, reason);
     structural_ = true;
   }
   void set(DecodeError& e) const noexcept {

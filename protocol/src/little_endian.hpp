@@ -30,4 +30,30 @@ inline std::uint64_t get_u64(const std::uint8_t* p) noexcept {
          (static_cast<std::uint64_t>(get_u32(p + 4)) << 32);
 }
 
+// The same by the size of Raw (an unsigned integer of 1, 2, 4 or 8 bytes).
+template <typename Raw>
+inline void store(std::uint8_t* p, Raw v) noexcept {
+  if constexpr (sizeof(Raw) == 1) {
+    p[0] = v;
+  } else if constexpr (sizeof(Raw) == 2) {
+    put_u16(p, v);
+  } else if constexpr (sizeof(Raw) == 4) {
+    put_u32(p, v);
+  } else {
+    put_u64(p, v);
+  }
+}
+template <typename Raw>
+inline Raw load(const std::uint8_t* p) noexcept {
+  if constexpr (sizeof(Raw) == 1) {
+    return p[0];
+  } else if constexpr (sizeof(Raw) == 2) {
+    return get_u16(p);
+  } else if constexpr (sizeof(Raw) == 4) {
+    return get_u32(p);
+  } else {
+    return get_u64(p);
+  }
+}
+
 }  // namespace ajar::protocol::detail

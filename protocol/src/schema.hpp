@@ -5,6 +5,8 @@
 #pragma once
 
 #include <array>
+#include <bit>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <string_view>
@@ -59,8 +61,8 @@ constexpr const char* c_str() noexcept {
 // How a field goes on the wire. kPlain: as its C++ type says (integers, f32/f64, bool, enums with
 // their value count, ErrorCode and MessageType as raw u16, FixedString<N>, Vec3, FramedPoint,
 // std::array, or a struct with its own Schema, whose field names get this field's name as prefix).
+// A Wire type (below) as Kind writes the field as that type.
 struct Plain {};
-struct Polarity {};    // i8, +1 or -1
 struct PlaneCount {};  // u8 3..16 that sizes the payload (BAD_COUNT)
 struct AckedType {};   // u16 host -> daemon type of the frame's minor that sizes the Ack body
 template <auto CountMember>
@@ -137,6 +139,111 @@ constexpr std::uint8_t enum_count() {
     static_assert(EnumWords<E>::words.size() == count, "every enumerator has its word");
   }
   return static_cast<std::uint8_t>(count);
+}
+
+// ---- wire types -----------------------------------------------------------------------------
+// Every scalar field goes on the wire as one of these: its raw unsigned type (the size), the name
+// the layout tables of docs/protocol.md use, and the check a decoded raw value must pass. The
+// Writer, the Reader and the layout lister know nothing else about a scalar.
+
+// What is wrong with a decoded raw value (code kOk: nothing), as DecodeError reports it.
+struct Problem {
+  ErrorCode code = ErrorCode::kOk;
+  std::uint64_t limit = 0;
+  const char* reason = "";
+};
+using Check = Problem (*)(std::uint64_t raw) noexcept;
+
+constexpr Problem any_value(std::uint64_t) noexcept {
+  return {};
+}
+constexpr Problem zero_or_one(std::uint64_t raw) noexcept {
+  return raw <= 1 ? Problem{} : Problem{ErrorCode::kInvalidEnumValue, 2, "bool"};
+}
+constexpr Problem plus_or_minus_one(std::uint64_t raw) noexcept {
+  const auto v = static_cast<std::int8_t>(raw);
+  return v == 1 || v == -1 ? Problem{} : Problem{ErrorCode::kInvalidEnumValue, 0, "polarity"};
+}
+template <std::uint8_t Count>
+constexpr Problem below(std::uint64_t raw) noexcept {
+  return raw < Count ? Problem{} : Problem{ErrorCode::kInvalidEnumValue, Count};
+}
+template <typename Float, typename Raw>
+Problem finite(std::uint64_t raw) noexcept {  // limit: the size, for describe()
+  return std::isfinite(std::bit_cast<Float>(static_cast<Raw>(raw)))
+             ? Problem{}
+             : Problem{ErrorCode::kNonFiniteNumber, sizeof(Raw)};
+}
+
+// A value to its raw bits and back: floats bit for bit, integers, bools and enums by value.
+template <typename To, typename From>
+constexpr To convert(From v) noexcept {
+  if constexpr (std::is_floating_point_v<To> || std::is_floating_point_v<From>) {
+    return std::bit_cast<To>(v);
+  } else {
+    return static_cast<To>(v);
+  }
+}
+
+template <typename Raw, Text Name, Check Validate = &any_value>
+struct Wire {
+  using raw = Raw;
+  static constexpr auto name = Name;
+  template <typename V>
+  static Raw to_raw(V v) noexcept {
+    return convert<Raw>(v);
+  }
+  template <typename V>
+  static V from_raw(Raw r) noexcept {
+    return convert<V>(r);
+  }
+  static Problem check(Raw r) noexcept { return Validate(r); }
+};
+template <typename T>
+struct IsWire : std::false_type {};
+template <typename Raw, Text Name, Check Validate>
+struct IsWire<Wire<Raw, Name, Validate>> : std::true_type {};
+
+template <std::size_t N>
+constexpr auto decimal_text() {
+  if constexpr (N < 10) {
+    Text<2> t;
+    t.chars = {static_cast<char>('0' + N), '\0'};
+    return t;
+  } else {
+    return decimal_text<N / 10>() + decimal_text<N % 10>();
+  }
+}
+
+// A WheelModel polarity: +1 or -1 as a signed byte.
+using Polarity = Wire<std::uint8_t, "i8", &plus_or_minus_one>;
+
+// The wire type of a C++ field type (void: not a scalar).
+template <typename T>
+constexpr auto wire_of() {
+  if constexpr (std::is_same_v<T, bool>) {
+    return Wire<std::uint8_t, "bool", &zero_or_one>{};
+  } else if constexpr (std::is_floating_point_v<T>) {
+    using Raw = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
+    return Wire<Raw, Text("f") + decimal_text<8 * sizeof(T)>(), &finite<T, Raw>>{};
+  } else if constexpr (std::is_same_v<T, std::int64_t>) {
+    return Wire<std::uint64_t, "i64">{};  // two's complement
+  } else if constexpr (std::is_same_v<T, ErrorCode> || std::is_same_v<T, MessageType>) {
+    // Not checked: a newer peer may send codes and types this version does not know (clients
+    // treat an unknown code as a generic failure; Ack.acknowledged is checked as a size field).
+    return Wire<std::uint16_t, "u16">{};
+  } else if constexpr (std::is_enum_v<T>) {
+    return Wire<std::uint8_t, "u8", &below<enum_count<T>()>>{};
+  } else if constexpr (std::is_unsigned_v<T>) {
+    return Wire<T, Text("u") + decimal_text<8 * sizeof(T)>()>{};
+  }
+}
+template <typename T>
+using WireOf = decltype(wire_of<T>());
+
+// The fields that size a payload, checked alike by every end.
+constexpr bool valid_plane_count(std::uint8_t count) noexcept {
+  return count >= kMinPlanePoints && count <= kMaxPlanePoints;
 }
 
 }  // namespace ajar::protocol::detail

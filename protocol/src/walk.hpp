@@ -1,8 +1,8 @@
 // Walks a value along its Schema (message_schema.hpp) and hands every wire field, with its
 // composed name, to an IO: the Writer (encode), the Reader (decode and check), the layout lister.
-// IO provides since(minor), u8/u16/u32/u64/i64/f32/f64/boolean/polarity(value, name),
-// enumeration(value, name, count), error_code, raw_type, str, and for the fields that size a
-// payload plane_count/ack_type (false: stop) and body<T>(variant) (nullptr: stop). S is `const T`
+// IO provides since(minor) and minor(), scalar<WireType>(value, name), str(value, name), and for
+// the fields that size a payload sizes(valid, code, name, value, reason) (false: stop) and
+// body<T>(variant) (nullptr: stop). S is `const T`
 // when encoding and `T` when decoding. A walk returns false where it stopped early: at the first
 // field a minor version appended that the layout being walked does not have, or at a size field
 // that failed.
@@ -43,34 +43,14 @@ template <Text Name, typename IO, typename V>
 bool walk_value(IO& io, V& v) noexcept {
   using T = std::remove_const_t<V>;
   constexpr const char* n = c_str<Name>();
-  if constexpr (std::is_same_v<T, bool>) {
-    io.boolean(v, n);
-  } else if constexpr (std::is_same_v<T, std::uint8_t>) {
-    io.u8(v, n);
-  } else if constexpr (std::is_same_v<T, std::uint16_t>) {
-    io.u16(v, n);
-  } else if constexpr (std::is_same_v<T, std::uint32_t>) {
-    io.u32(v, n);
-  } else if constexpr (std::is_same_v<T, std::uint64_t>) {
-    io.u64(v, n);
-  } else if constexpr (std::is_same_v<T, std::int64_t>) {
-    io.i64(v, n);
-  } else if constexpr (std::is_same_v<T, float>) {
-    io.f32(v, n);
-  } else if constexpr (std::is_same_v<T, double>) {
-    io.f64(v, n);
-  } else if constexpr (std::is_same_v<T, ErrorCode>) {
-    io.error_code(v, n);
-  } else if constexpr (std::is_same_v<T, MessageType>) {
-    io.raw_type(v, n);
-  } else if constexpr (std::is_enum_v<T>) {
-    io.enumeration(v, n, enum_count<T>());
+  if constexpr (!std::is_void_v<WireOf<T>>) {
+    io.template scalar<WireOf<T>>(v, n);
   } else if constexpr (IsFixedString<T>::value) {
     io.str(v, n);
   } else if constexpr (std::is_same_v<T, core::Vec3>) {
-    io.f64(v.x(), c_str<Name + Text(".x")>());
-    io.f64(v.y(), c_str<Name + Text(".y")>());
-    io.f64(v.z(), c_str<Name + Text(".z")>());
+    walk_value<Name + Text(".x")>(io, v.x());
+    walk_value<Name + Text(".y")>(io, v.y());
+    walk_value<Name + Text(".z")>(io, v.z());
   } else if constexpr (std::is_same_v<T, core::FramedPoint>) {  // Point: frame, x, y, z
     walk_value<Name + Text(".frame")>(io, v.frame);
     walk_value<Name>(io, v.position_m);
@@ -97,13 +77,16 @@ bool walk_field(IO& io, S& s) noexcept {
   using K = typename F::kind;
   if constexpr (std::is_same_v<K, Plain>) {
     return walk_value<name>(io, v);
-  } else if constexpr (std::is_same_v<K, Polarity>) {
-    io.polarity(v, c_str<name>());
+  } else if constexpr (IsWire<K>::value) {
+    io.template scalar<K>(v, c_str<name>());
     return true;
   } else if constexpr (std::is_same_v<K, PlaneCount>) {
-    return io.plane_count(v, c_str<name>());
+    walk_value<name>(io, v);
+    return io.sizes(valid_plane_count(v), ErrorCode::kBadCount, c_str<name>(), v, "");
   } else if constexpr (std::is_same_v<K, AckedType>) {
-    return io.ack_type(v, c_str<name>());
+    walk_value<name>(io, v);
+    return io.sizes(is_request(v) && minor_of(v) <= io.minor(), ErrorCode::kInvalidEnumValue,
+                    c_str<name>(), static_cast<std::uint16_t>(v), "acknowledged");
   } else if constexpr (std::is_same_v<K, CountedBy<KindArgument<K>::member>>) {
     using A = std::remove_cvref_t<decltype(v)>;
     walk_elements<name>(io, v, s.*(KindArgument<K>::member),

@@ -9,6 +9,7 @@
 
 #include "ajar/core/measurements.hpp"
 #include "ajar/protocol/codec.hpp"
+#include "ajar/protocol/robot_model.hpp"
 
 namespace ajar::protocol::samples {
 
@@ -75,22 +76,8 @@ inline const core::CameraToBase& sample_transform();
 // The RobotModel of the robot the samples are measured on (what ajard would send for it), with
 // example values for the 1.1 drive/approach/staleness limits.
 inline RobotModel robot_model() {
-  RobotModel r;
-  const Eigen::Matrix4d t = sample_transform().isometry().matrix();
-  for (int row = 0; row < 3; ++row) {
-    for (int col = 0; col < 4; ++col)
-      r.camera_to_base[static_cast<std::size_t>(row * 4 + col)] = t(row, col);
-  }
-  const core::BaseGeometry b = sample_base();
-  r.wheel_radius_m = b.wheel_radius_m;
-  r.turning_radius_m = b.turning_radius_m;
-  r.encoder_counts_per_rev = b.encoder_counts_per_rev;
-  r.gear_ratio = b.gear_ratio;
-  r.left = {static_cast<std::uint8_t>(b.left.card_axis), static_cast<std::int8_t>(b.left.polarity)};
-  r.right = {static_cast<std::uint8_t>(b.right.card_axis),
-             static_cast<std::int8_t>(b.right.polarity)};
-  r.max_wheel_speed_rad_s = b.max_wheel_speed_rad_s;
-  r.max_wheel_accel_rad_s2 = b.max_wheel_accel_rad_s2;
+  RobotModel r =
+      robot_model_from(sample_transform().isometry().matrix(), sample_base(), sample_limits());
   r.max_linear_speed_m_s = 0.3;
   r.max_angular_speed_rad_s = 0.5;
   r.max_linear_accel_m_s2 = 0.4;
@@ -101,25 +88,7 @@ inline RobotModel robot_model() {
   r.approach_min_standoff_m = 0.5;
   r.stale_travel_m = 0.05;
   r.stale_yaw_rad = 0.02;
-  const core::Limits l = sample_limits();
-  r.arm_shoulder_m = l.arm.shoulder_m;
-  r.arm_min_reach_m = l.arm.min_reach_m;
-  r.arm_max_reach_m = l.arm.max_reach_m;
-  r.arm_min_z_m = l.arm.min_z_m;
-  r.arm_max_z_m = l.arm.max_z_m;
-  r.min_depth_m = l.min_depth_m;
-  r.max_depth_m = l.max_depth_m;
-  r.min_door_width_m = l.min_door_width_m;
-  r.max_door_width_m = l.max_door_width_m;
-  r.min_handle_length_m = l.min_handle_length_m;
-  r.max_handle_length_m = l.max_handle_length_m;
-  r.max_yaw_correction_rad = l.max_yaw_correction_rad;
   r.aligned_tolerance_rad = 0.01;
-  r.min_point_separation_m = l.tolerances.min_point_separation_m;
-  r.min_lateral_fraction = l.tolerances.min_lateral_fraction;
-  r.collinearity = l.tolerances.collinearity;
-  r.max_plane_rms_m = l.tolerances.max_plane_rms_m;
-  r.max_door_tilt_rad = l.tolerances.max_door_tilt_rad;
   return r;
 }
 

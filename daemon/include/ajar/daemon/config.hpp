@@ -111,6 +111,7 @@ struct Config {
   Eigen::Matrix4d camera_to_base_m = Eigen::Matrix4d::Identity();
   core::BaseGeometry base;
   core::Limits limits;
+  core::DriveLimits drive;  // jog and approach limits, staleness thresholds
   drivers::DriverSettings drivers;
   ControlConfig control;
   SafetyConfig safety;
