@@ -105,9 +105,9 @@ Scenario load_scenario(const std::string& path) {
     throw std::runtime_error(path + ": cannot read the scenario: " + e.what());
   }
   Scenario s;
-  r.check_keys(
-      root, "",
-      {"name", "description", "door", "sensor", "operator", "run", "tolerances", "expect"});
+  r.check_keys(root, "",
+               {"name", "description", "door", "sensor", "operator", "run", "tolerances", "expect",
+                "drive"});
   s.name = root["name"] ? root["name"].as<std::string>() : path;
   if (root["description"]) s.description = root["description"].as<std::string>();
   const auto door = root["door"];
@@ -169,12 +169,25 @@ Scenario load_scenario(const std::string& path) {
   }
   if (const auto tol = root["tolerances"]) {
     r.check_keys(tol, "tolerances",
-                 {"width_m", "handle_length_m", "residual_yaw_rad", "contact_m"});
+                 {"width_m", "handle_length_m", "residual_yaw_rad", "contact_m", "standoff_m"});
+    r.number(tol["standoff_m"], "tolerances.standoff_m", s.standoff_tolerance_m, 0, 1);
     r.number(tol["width_m"], "tolerances.width_m", s.width_tolerance_m, 0, 1);
     r.number(tol["handle_length_m"], "tolerances.handle_length_m", s.handle_tolerance_m, 0, 1);
     r.number(tol["residual_yaw_rad"], "tolerances.residual_yaw_rad", s.residual_yaw_tolerance_rad,
              0, 1);
     r.number(tol["contact_m"], "tolerances.contact_m", s.contact_tolerance_m, 0, 1);
+  }
+  if (const auto drive = root["drive"]) {
+    s.drive = true;
+    r.check_keys(drive, "drive",
+                 {"jog_m", "jog_speed_m_s", "width_standoff_m", "handle_standoff_m", "wheel_slip",
+                  "encoder_noise_rad"});
+    r.number(drive["jog_m"], "drive.jog_m", s.jog_m, 0, 5);
+    r.number(drive["jog_speed_m_s"], "drive.jog_speed_m_s", s.jog_speed_m_s, 0.01, 1);
+    r.number(drive["width_standoff_m"], "drive.width_standoff_m", s.width_standoff_m, 0.2, 5);
+    r.number(drive["handle_standoff_m"], "drive.handle_standoff_m", s.handle_standoff_m, 0.2, 5);
+    r.number(drive["wheel_slip"], "drive.wheel_slip", s.wheel_slip, 0, 0.5);
+    r.number(drive["encoder_noise_rad"], "drive.encoder_noise_rad", s.encoder_noise_rad, 0, 0.1);
   }
   if (const auto expect = root["expect"]) {
     r.check_keys(expect, "expect", {"engaged"});
@@ -289,12 +302,24 @@ std::vector<core::Vec3> SimWorld::plane_points(int count) {
 }
 
 core::Vec3 SimWorld::to_camera(const core::Vec3& world_point, double base_yaw_rad) const {
-  const core::Vec3 base = Eigen::AngleAxisd(-base_yaw_rad, core::Vec3::UnitZ()) * world_point;
-  return camera_to_base_.inverse() * base;
+  return to_camera(world_point, core::PlanarPose{0, 0, base_yaw_rad});
+}
+
+core::Vec3 SimWorld::to_camera(const core::Vec3& world_point, const core::PlanarPose& base) const {
+  return camera_to_base_.inverse() * core::rebase(world_point, core::PlanarPose{}, base);
+}
+
+double SimWorld::true_distance_m(const core::PlanarPose& base) const {
+  return door_normal().dot(core::Vec3(base.x_m, base.y_m, 0) - door_point(0, 0));
 }
 
 core::Vec3 SimWorld::pick(const core::Vec3& world_point, double base_yaw_rad) {
-  const core::Vec3 p = to_camera(world_point, base_yaw_rad);
+  return pick(world_point, core::PlanarPose{0, 0, base_yaw_rad});
+}
+
+core::Vec3 SimWorld::pick(const core::Vec3& world_point, const core::PlanarPose& base) {
+  const double base_yaw_rad = base.yaw_rad;
+  const core::Vec3 p = to_camera(world_point, base);
   if (p.z() <= 1e-3) return p;  // behind the camera: nothing sensible to add
   std::normal_distribution<double> unit(0.0, 1.0);
   const double f = scenario_.focal_length_px;
@@ -352,6 +377,7 @@ struct RunResult {
   std::int64_t cmd_left_counts = 0, cmd_right_counts = 0;
   double enc_left_rad = 0, enc_right_rad = 0;
   double contact_error_m = 0, reach_margin_m = 0;
+  double final_standoff_m = std::nan("");  // true, after the procedure (driving scenarios)
   std::string final_state;
   bool ok() const { return completed && missed.empty(); }
 };
@@ -378,6 +404,7 @@ class Rehearsal {
       std::lock_guard lock(telemetry_mutex_);
       last_telemetry_ = t;
       has_telemetry_ = true;
+      const core::PlanarPose truth = integrate_truth(t);
       if (recording_) {
         // Not row_now(): base_yaw_ belongs to the main thread.
         TraceRow row;
@@ -385,7 +412,7 @@ class Rehearsal {
         row.t_s = std::chrono::duration<double>(Clock::now() - start_).count();
         row.step = "telemetry";
         row.state = std::string(protocol::to_string(t.state));
-        row.base_yaw_rad = wrap(t.base_yaw_odometry_rad - yaw0_);
+        row.base_yaw_rad = wrap(truth.yaw_rad);
         row.true_yaw_error_rad = world_.true_yaw_error_rad(row.base_yaw_rad);
         row.left_wheel_rad = t.left_wheel_rad;
         row.right_wheel_rad = t.right_wheel_rad;
@@ -398,6 +425,15 @@ class Rehearsal {
     if (!expect_reply("hello", client.hello(protocol::Role::kController, options_.take_over))) {
       return result_;
     }
+    {
+      const Response model = client.request(protocol::GetRobotModel{});
+      if (const auto* m = model.get<protocol::RobotModel>()) {
+        geometry_.wheel_radius_m = m->wheel_radius_m;
+        geometry_.turning_radius_m = m->turning_radius_m;
+      } else if (noisy()) {
+        return fail("get_robot_model: " + response_text("get_robot_model", model), false);
+      }
+    }
     start_ = Clock::now();
     protocol::Reset reset;
     reset.clear_parameters = true;
@@ -406,20 +442,20 @@ class Rehearsal {
     (void)client.request(protocol::Subscribe{50.0f});
     recording_ = true;
 
+    // 0. Fig. 4 from afar: jog toward the door, measure the width, Approach to the width standoff.
+    if (scenario_.drive) {
+      if (scenario_.jog_m > 0 && !jog(scenario_.jog_m, scenario_.jog_speed_m_s)) return result_;
+      if (!measure_width("measure_width_far")) return result_;
+      if (!approach(scenario_.width_standoff_m, "approach_width")) return result_;
+    }
     // 1. Door width.
-    {
-      protocol::MeasureDoorWidth m;
-      m.p1_hinge = camera(world_.hinge_edge_point());
-      m.p2_moving_edge = camera(world_.moving_edge_point());
-      const Response r = client.request(m);
-      if (!expect_reply("measure_width", r)) return result_;
-      const auto& span = std::get<protocol::SpanAck>(r.get<protocol::Ack>()->body);
-      result_.measured_width_m = span.length_m;
-      result_.direction = core::to_string(span.direction);
-      add_row("measure_width", r, result_.true_width_m, span.length_m, result_.direction);
+    if (!measure_width("measure_width")) return result_;
+    if (scenario_.drive && !approach(scenario_.handle_standoff_m, "approach_handle")) {
+      return result_;
     }
     // 2. Handle.
     {
+      if (!refresh_pose(false)) return result_;
       protocol::MeasureHandle m;
       m.p1_axis = camera(world_.handle_axis_point());
       m.p2_free_end = camera(world_.handle_free_end_point());
@@ -433,7 +469,7 @@ class Rehearsal {
     // 3. Plane.
     const auto first = measure_plane("measure_plane");
     if (!first) return result_;
-    result_.yaw_before_true_rad = world_.true_yaw_error_rad(base_yaw_);
+    result_.yaw_before_true_rad = world_.true_yaw_error_rad(pose_.yaw_rad);
     result_.yaw_before_measured_rad = first->yaw_deviation_rad;
     result_.plane_rms_m = first->rms_residual_m;
     result_.cmd_left_rad = first->left_wheel_rad;
@@ -450,7 +486,7 @@ class Rehearsal {
       if (!align()) return result_;
       const auto again = measure_plane("remeasure_plane");
       if (!again) return result_;
-      result_.yaw_after_true_rad = world_.true_yaw_error_rad(base_yaw_);
+      result_.yaw_after_true_rad = world_.true_yaw_error_rad(pose_.yaw_rad);
       result_.yaw_after_measured_rad = again->yaw_deviation_rad;
       aligned = last_state_ == protocol::ProcedureState::kAligned;
     }
@@ -472,8 +508,7 @@ class Rehearsal {
       const Response r = client.request(m);
       if (!expect_reply("contact", r)) return result_;
       const auto& contact = std::get<protocol::ContactAck>(r.get<protocol::Ack>()->body);
-      const core::Vec3 truth_base =
-          Eigen::AngleAxisd(-base_yaw_, core::Vec3::UnitZ()) * truth_world;
+      const core::Vec3 truth_base = core::rebase(truth_world, core::PlanarPose{}, pose_);
       result_.contact_error_m = (contact.contact_base_m - truth_base).norm();
       result_.reach_margin_m = contact.reach_margin_m;
       add_row("contact", r, 0, result_.contact_error_m, "value: contact error (m)");
@@ -491,6 +526,7 @@ class Rehearsal {
         return fail("engage ended in state " + result_.final_state, false);
       }
     }
+    if (scenario_.drive) result_.final_standoff_m = world_.true_distance_m(pose_);
     recording_ = false;
     (void)client.request(protocol::Subscribe{});
     result_.completed = true;
@@ -544,18 +580,151 @@ class Rehearsal {
   }
 
   protocol::FramedPoint camera(const core::Vec3& world_point) {
-    const core::Vec3 p = world_.pick(world_point, base_yaw_);
+    const core::Vec3 p = world_.pick(world_point, pose_);
     return framed(core::Frame::kCamera, p.x(), p.y(), p.z());
+  }
+
+  bool noisy() const { return scenario_.wheel_slip > 0 || scenario_.encoder_noise_rad > 0; }
+
+  static core::PlanarPose odometry_of(const protocol::Status& s) {
+    return {s.odometry_x_m, s.odometry_y_m, s.base_yaw_odometry_rad};
+  }
+
+  // The base pose in the world (the base frame at the start of the run) from an odometry pose.
+  core::PlanarPose world_pose(const core::PlanarPose& odometry) const {
+    const core::Vec3 p = core::rebase(core::Vec3::Zero(), odometry, odom0_);
+    return {p.x(), p.y(), odometry.yaw_rad - odom0_.yaw_rad};
+  }
+
+  // Called with every telemetry sample (telemetry_mutex_ held): advances the true pose by the
+  // encoder deltas with the scenario's slip and noise. Returns the truth.
+  core::PlanarPose integrate_truth(const protocol::Telemetry& t) {
+    if (!noisy()) return world_pose({t.odometry_x_m, t.odometry_y_m, t.base_yaw_odometry_rad});
+    if (have_wheels_) {
+      std::normal_distribution<double> noise(0.0, scenario_.encoder_noise_rad);
+      const double keep = 1.0 - scenario_.wheel_slip;
+      const double dl = (t.left_wheel_rad - wheels_[0]) * keep +
+                        (scenario_.encoder_noise_rad > 0 ? noise(truth_rng_) : 0.0);
+      const double dr = (t.right_wheel_rad - wheels_[1]) * keep +
+                        (scenario_.encoder_noise_rad > 0 ? noise(truth_rng_) : 0.0);
+      truth_ = core::integrate_odometry(truth_, dl, dr, geometry_);
+    }
+    have_wheels_ = true;
+    wheels_[0] = t.left_wheel_rad;
+    wheels_[1] = t.right_wheel_rad;
+    return truth_;
   }
 
   bool refresh_pose(bool first) {
     const Response r = client_->request(protocol::GetStatus{});
     if (!expect_reply("status", r)) return false;
     const auto& s = *r.get<protocol::Status>();
-    if (first) yaw0_ = s.base_yaw_odometry_rad;
-    base_yaw_ = wrap(s.base_yaw_odometry_rad - yaw0_);
+    if (first) {
+      std::lock_guard lock(telemetry_mutex_);
+      odom0_ = odometry_of(s);
+    }
     last_state_ = s.state;
+    if (!noisy()) {
+      std::lock_guard lock(telemetry_mutex_);
+      pose_ = world_pose(odometry_of(s));
+      return true;
+    }
+    if (!first && !fresh_telemetry()) return false;  // the truth is integrated from telemetry
+    std::lock_guard lock(telemetry_mutex_);
+    pose_ = truth_;
     return true;
+  }
+
+  bool measure_width(const std::string& step) {
+    if (!refresh_pose(false)) return false;
+    protocol::MeasureDoorWidth m;
+    m.p1_hinge = camera(world_.hinge_edge_point());
+    m.p2_moving_edge = camera(world_.moving_edge_point());
+    const Response r = client_->request(m);
+    if (!expect_reply(step, r)) return false;
+    const auto& span = std::get<protocol::SpanAck>(r.get<protocol::Ack>()->body);
+    result_.measured_width_m = span.length_m;
+    result_.direction = core::to_string(span.direction);
+    add_row(step, r, result_.true_width_m, span.length_m, result_.direction);
+    return true;
+  }
+
+  // Teleop: Drive straight at `speed` re-sent every 0.1 s (a held key) until the odometry says
+  // `distance` was covered, then release (Drive 0) and wait for the base to rest.
+  bool jog(double distance_m, double speed_m_s) {
+    if (!refresh_pose(false)) return false;
+    const core::PlanarPose from = pose_;
+    client_->set_heartbeat(Milliseconds{100});
+    const auto deadline =
+        Clock::now() +
+        Milliseconds{static_cast<std::int64_t>((distance_m / speed_m_s * 3 + 5) * 1e3)};
+    bool ok = true;
+    while (Clock::now() < deadline) {
+      const Response r = client_->request(protocol::Drive{speed_m_s, 0.0});
+      if (!expect_reply("drive", r)) {
+        ok = false;
+        break;
+      }
+      const Response st = client_->request(protocol::GetStatus{});
+      if (!expect_reply("status", st)) {
+        ok = false;
+        break;
+      }
+      const core::PlanarPose now = world_pose(odometry_of(*st.get<protocol::Status>()));
+      if (core::travel_m(from, now) >= distance_m) break;
+      std::this_thread::sleep_for(Milliseconds{100});
+    }
+    if (ok) ok = expect_reply("drive_release", client_->request(protocol::Drive{0.0, 0.0}));
+    client_->set_heartbeat(Milliseconds{0});
+    if (!ok) return false;
+    if (!wait_at_rest("jog", 30.0)) return false;
+    if (!refresh_pose(false)) return false;
+    add_state_row("jog",
+                  "true distance to the door " + fixed(world_.true_distance_m(pose_), 3) + " m");
+    return true;
+  }
+
+  bool approach(double standoff_m, const std::string& step) {
+    const Response r = client_->request(protocol::Approach{standoff_m});
+    if (!expect_reply(step, r)) return false;
+    const auto& body = std::get<protocol::ApproachAck>(r.get<protocol::Ack>()->body);
+    if (!wait_at_rest(step, 60.0)) return false;
+    if (!refresh_pose(false)) return false;
+    add_row(
+        step, r, standoff_m, world_.true_distance_m(pose_),
+        "value: true distance to the door (m) after travelling " + fixed(body.travel_m, 3) + " m");
+    return true;
+  }
+
+  // Polls the status (which also feeds the deadman) until the wheels rest (Telemetry `moving`
+  // false on two fresh samples), failing on a latched fault.
+  bool wait_at_rest(const std::string& step, double timeout_s) {
+    client_->set_heartbeat(Milliseconds{100});
+    const auto deadline = Clock::now() + Milliseconds{static_cast<std::int64_t>(timeout_s * 1e3)};
+    int resting = 0;
+    bool ok = false;
+    while (Clock::now() < deadline) {
+      const Response st = client_->request(protocol::GetStatus{});
+      if (!expect_reply("status", st)) break;
+      if (st.get<protocol::Status>()->latched_fault != ErrorCode::kOk) {
+        fail(step + ": fault latched: " +
+                 std::string(ajar::to_string(st.get<protocol::Status>()->latched_fault)),
+             false);
+        break;
+      }
+      const auto t = fresh_telemetry();
+      if (t && !t->moving) {
+        if (++resting >= 2) {
+          ok = true;
+          break;
+        }
+      } else {
+        resting = 0;
+      }
+    }
+    client_->set_heartbeat(Milliseconds{0});
+    if (!ok && result_.failure.empty()) fail(step + ": the base did not come to rest", false);
+    return ok;
   }
 
   std::optional<protocol::PlaneAck> measure_plane(const std::string& step) {
@@ -568,7 +737,7 @@ class Rehearsal {
     const Response r = client_->request(m);
     if (!expect_reply(step, r)) return std::nullopt;
     const auto plane = std::get<protocol::PlaneAck>(r.get<protocol::Ack>()->body);
-    add_row(step, r, world_.true_yaw_error_rad(base_yaw_), plane.yaw_deviation_rad,
+    add_row(step, r, world_.true_yaw_error_rad(pose_.yaw_rad), plane.yaw_deviation_rad,
             "value: yaw deviation (rad)");
     return plane;
   }
@@ -597,7 +766,7 @@ class Rehearsal {
       const Response r = client_->request(protocol::GetStatus{});
       if (!expect_reply("status", r)) break;
       const auto& s = *r.get<protocol::Status>();
-      base_yaw_ = wrap(s.base_yaw_odometry_rad - yaw0_);
+      if (!noisy()) pose_ = world_pose(odometry_of(s));
       last_state_ = s.state;
       if (s.state != busy) {
         if (s.latched_fault != ErrorCode::kOk) {
@@ -624,8 +793,8 @@ class Rehearsal {
     row.t_s = std::chrono::duration<double>(Clock::now() - start_).count();
     row.step = step;
     row.state = state;
-    row.base_yaw_rad = base_yaw_;
-    row.true_yaw_error_rad = world_.true_yaw_error_rad(base_yaw_);
+    row.base_yaw_rad = pose_.yaw_rad;
+    row.true_yaw_error_rad = world_.true_yaw_error_rad(pose_.yaw_rad);
     return row;
   }
 
@@ -661,6 +830,10 @@ class Rehearsal {
           scenario_.handle_tolerance_m);
     check("residual yaw", result_.yaw_after_true_rad, scenario_.residual_yaw_tolerance_rad);
     check("contact", result_.contact_error_m, scenario_.contact_tolerance_m);
+    if (scenario_.drive) {
+      check("final standoff", result_.final_standoff_m - scenario_.handle_standoff_m,
+            scenario_.standoff_tolerance_m);
+    }
     if (result_.direction != result_.expected_direction) {
       result_.missed.push_back("direction " + result_.direction + ", expected " +
                                result_.expected_direction);
@@ -674,8 +847,14 @@ class Rehearsal {
   Client* client_ = nullptr;
   RunResult result_;
   bool connection_failed_ = false;
-  double yaw0_ = 0;
-  double base_yaw_ = 0;
+  core::PlanarPose odom0_;       // the daemon's odometry when the run started
+  core::PlanarPose pose_;        // the true base pose in the world, as of the last refresh_pose()
+  core::BaseGeometry geometry_;  // R_W, R_B from the daemon's RobotModel
+  // The truth integrated from telemetry (slip, noise); guarded by telemetry_mutex_.
+  core::PlanarPose truth_;
+  bool have_wheels_ = false;
+  double wheels_[2] = {0, 0};
+  std::mt19937_64 truth_rng_{scenario_.seed ^ 0x5eedULL};
   protocol::ProcedureState last_state_ = protocol::ProcedureState::kAwaitingWidth;
   Clock::time_point start_ = Clock::now();
   std::mutex telemetry_mutex_;
@@ -736,6 +915,9 @@ JsonObject report_json(const Scenario& s, const RunResult& r) {
   o.add("true_yaw_after_rad", r.yaw_after_true_rad)
       .add("yaw_after_measured_rad", r.yaw_after_measured_rad);
   o.add("contact_error_m", r.contact_error_m).add("reach_margin_m", r.reach_margin_m);
+  if (s.drive) {
+    o.add("standoff_target_m", s.handle_standoff_m).add("true_standoff_m", r.final_standoff_m);
+  }
   o.add("final_state", r.final_state);
   std::string missed = "[";
   for (std::size_t i = 0; i < r.missed.size(); ++i) {
@@ -774,6 +956,13 @@ std::string report_text(const Scenario& s, const RunResult& r) {
        " alignment(s)\n";
   t += "  contact        error " + fixed(r.contact_error_m, 4) + " m, reach margin " +
        fixed(r.reach_margin_m, 4) + " m\n";
+  if (s.drive) {
+    t += "  standoff       true " + fixed(r.final_standoff_m, 4) + " m, target " +
+         fixed(s.handle_standoff_m, 4) + " m (error " +
+         fixed(r.final_standoff_m - s.handle_standoff_m, 4, true) + ", tolerance " +
+         fixed(s.standoff_tolerance_m, 4) + "); started " + fixed(s.distance_m, 3) +
+         " m away, jogged " + fixed(s.jog_m, 3) + " m\n";
+  }
   t += "  final state    " + (r.final_state.empty() ? std::string("-") : r.final_state);
   for (const auto& m : r.missed)
     t += "\n  MISSED: " + m;

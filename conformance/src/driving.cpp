@@ -108,8 +108,23 @@ void Suite::driving() {
                  return s;
                }
                if (!r.ok()) return "Drive: " + describe(r);
-               // Only heartbeat Pings from here on: the timeout alone must stop the base.
-               const bool rest = wait_at_rest(*tm, 0, std::max(timeout_s, 0.5) + 10);
+               // Only heartbeat Pings from here on: the timeout alone must stop the base. First
+               // the jog must show in Telemetry, then the base must come to rest after it.
+               std::uint64_t seen = 0;
+               const auto deadline = Clock::now() + Milliseconds{5000};
+               while (seen == 0 && Clock::now() < deadline) {
+                 {
+                   std::lock_guard lock(tm->mutex);
+                   if (tm->max_commanded_linear_m_s > 0) seen = tm->count;
+                 }
+                 std::this_thread::sleep_for(Milliseconds{5});
+               }
+               if (seen == 0) {
+                 (void)k.request(protocol::Stop{});
+                 k.on_telemetry(nullptr);
+                 return std::string("Telemetry never showed the jog's commanded velocity");
+               }
+               const bool rest = wait_at_rest(*tm, seen, std::max(timeout_s, 0.5) + 10);
                (void)k.request(protocol::Subscribe{0.0f});
                k.on_telemetry(nullptr);
                if (!rest) {

@@ -1,5 +1,5 @@
 // Protocol 1.1: a 1.0 session gets 1.0 frames, the robot model, loop statistics, non-finite
-// Drive velocities.
+// Drive velocities, absent structures all zero, one clock for every stamp.
 #include "suite.hpp"
 
 #include <set>
@@ -182,6 +182,74 @@ void Suite::protocol_1_1() {
       }
     }
     return still_usable(*c);
+  });
+  check("1.1: absent structures are all zero (after Reset{clear} the plane's normal is (0, 0, 0))",
+        [&] {
+          auto c = greeted(Role::kController, true);
+          if (!c) return std::string("cannot take control");
+          if (auto e = want_ack(c->request(protocol::Reset{true}), ProcedureState::kAwaitingWidth);
+              !e.empty()) {
+            return "Reset: " + e;
+          }
+          const auto s = status(*c);
+          if (!s) return std::string("no status");
+          if (s->has_width || s->has_handle || s->has_plane || s->has_contact) {
+            return std::string("a measurement is still stored");
+          }
+          if (!s->plane.normal.isZero(0) || !s->width.p1_base_m.isZero(0) ||
+              !s->contact.contact_base_m.isZero(0) || s->plane.yaw_deviation_rad != 0) {
+            return "absent values are not zero (plane.normal = " + json_vec3(s->plane.normal) + ")";
+          }
+          return std::string{};
+        });
+  check("1.1: one clock: Pong, Event and Telemetry stamps all count from daemon start", [&] {
+    std::mutex m;  // before the clients: their callbacks may run until they are gone
+    std::optional<std::uint64_t> telemetry_ns, event_ns;
+    auto obs = greeted(Role::kObserver);
+    if (!obs) return std::string("cannot connect");
+    obs->on_telemetry([&](const protocol::Telemetry& t) {
+      std::lock_guard lock(m);
+      if (!telemetry_ns) telemetry_ns = t.daemon_time_ns;
+    });
+    obs->on_event([&](const protocol::Event& e) {
+      std::lock_guard lock(m);
+      if (e.kind == protocol::EventKind::kControlChanged && !event_ns) event_ns = e.daemon_time_ns;
+    });
+    const Response pong = obs->request(protocol::Ping{1});
+    const auto* p = pong.get<protocol::Pong>();
+    if (!p) return "Ping: " + describe(pong);
+    if (auto e = want<protocol::Ack>(obs->request(protocol::Subscribe{50.0f})); !e.empty())
+      return "Subscribe: " + e;
+    {
+      auto ctl = greeted(Role::kController, true);  // a control_changed for the observer
+      if (!ctl) return std::string("cannot take control");
+    }
+    const auto deadline = Clock::now() + timeout();
+    bool both = false;
+    while (!both && Clock::now() < deadline) {
+      {
+        std::lock_guard lock(m);
+        both = telemetry_ns && event_ns;
+      }
+      std::this_thread::sleep_for(Milliseconds{10});
+    }
+    (void)obs->request(protocol::Subscribe{0.0f});
+    obs->on_telemetry(nullptr);
+    obs->on_event(nullptr);
+    std::lock_guard lock(m);
+    if (!telemetry_ns || !event_ns) return std::string("no Telemetry or no control_changed Event");
+    // Stamps of one clock taken within this check lie within seconds of each other; a stamp
+    // since boot would be off by the machine's uptime at the daemon's start.
+    const double pong_s = static_cast<double>(p->daemon_time_ns) * 1e-9;
+    const double telemetry_s = static_cast<double>(*telemetry_ns) * 1e-9;
+    const double event_s = static_cast<double>(*event_ns) * 1e-9;
+    const double spread =
+        std::max({pong_s, telemetry_s, event_s}) - std::min({pong_s, telemetry_s, event_s});
+    if (spread > 30) {
+      return "stamps " + json_number(pong_s) + " s (Pong), " + json_number(telemetry_s) +
+             " s (Telemetry), " + json_number(event_s) + " s (Event): not one clock";
+    }
+    return std::string{};
   });
 }
 

@@ -32,6 +32,7 @@ using client::Client;
 using client::ClientOptions;
 using client::framed;
 using client::json_number;
+using client::json_vec3;
 using client::Milliseconds;
 using client::Outcome;
 using client::Response;

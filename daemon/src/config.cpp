@@ -437,6 +437,20 @@ void read_limits(Section s, core::Limits& l) {
   s.finish();
 }
 
+void read_drive(Section s, core::DriveLimits& d) {
+  s.number("max_linear_speed_m_s", d.max_linear_speed_m_s, 0.001, 5, " m/s");
+  s.number("max_angular_speed_rad_s", d.max_angular_speed_rad_s, 0.001, 10, " rad/s");
+  s.number("max_linear_accel_m_s2", d.max_linear_accel_m_s2, 0.001, 20, " m/s^2");
+  s.number("max_angular_accel_rad_s2", d.max_angular_accel_rad_s2, 0.001, 50, " rad/s^2");
+  s.number("command_timeout_s", d.command_timeout_s, 0.05, 5, " s");
+  s.number("approach_max_travel_m", d.approach_max_travel_m, 0.01, 20, " m");
+  s.number("approach_square_tolerance_rad", d.approach_square_tolerance_rad, 0.001, 1.0, " rad");
+  s.number("approach_min_standoff_m", d.approach_min_standoff_m, 0.05, 10, " m");
+  s.number("stale_travel_m", d.stale_travel_m, 0.001, 1.0, " m");
+  s.number("stale_yaw_rad", d.stale_yaw_rad, 0.001, 1.0, " rad");
+  s.finish();
+}
+
 void read_drivers(Section s, drivers::DriverSettings& d) {
   using drivers::DriverKind;
   using drivers::MockFault;
@@ -567,6 +581,7 @@ Config load_config(const std::string& path) {
   read_frames(top.section("frames"), c);
   read_base(top.section("base"), c.base);
   read_limits(top.section("limits"), c.limits);
+  read_drive(top.section("drive"), c.drive);
   read_drivers(top.section("drivers"), c.drivers);
   read_control(top.section("control"), c.control);
   {
@@ -771,6 +786,20 @@ std::string to_yaml(const Config& c) {
   out << YAML::Key << "sim" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "speedup" << YAML::Value << d.sim_speedup;
   out << YAML::EndMap << YAML::EndMap;
+
+  out << YAML::Key << "drive" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "max_linear_speed_m_s" << YAML::Value << c.drive.max_linear_speed_m_s;
+  out << YAML::Key << "max_angular_speed_rad_s" << YAML::Value << c.drive.max_angular_speed_rad_s;
+  out << YAML::Key << "max_linear_accel_m_s2" << YAML::Value << c.drive.max_linear_accel_m_s2;
+  out << YAML::Key << "max_angular_accel_rad_s2" << YAML::Value << c.drive.max_angular_accel_rad_s2;
+  out << YAML::Key << "command_timeout_s" << YAML::Value << c.drive.command_timeout_s;
+  out << YAML::Key << "approach_max_travel_m" << YAML::Value << c.drive.approach_max_travel_m;
+  out << YAML::Key << "approach_square_tolerance_rad" << YAML::Value
+      << c.drive.approach_square_tolerance_rad;
+  out << YAML::Key << "approach_min_standoff_m" << YAML::Value << c.drive.approach_min_standoff_m;
+  out << YAML::Key << "stale_travel_m" << YAML::Value << c.drive.stale_travel_m;
+  out << YAML::Key << "stale_yaw_rad" << YAML::Value << c.drive.stale_yaw_rad;
+  out << YAML::EndMap;
 
   out << YAML::Key << "control" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "rate_hz" << YAML::Value << c.control.rate_hz;

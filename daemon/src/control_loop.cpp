@@ -34,6 +34,20 @@ drivers::TrapezoidProfile wheel_profile(const core::BaseGeometry& base) noexcept
   return profile;
 }
 
+drivers::TrapezoidProfile straight_profile(const core::BaseGeometry& base,
+                                           const core::DriveLimits& drive) noexcept {
+  const double per_rad = counts_per_wheel_rad(base);
+  drivers::TrapezoidProfile profile = wheel_profile(base);
+  profile.velocity_counts_per_ms =
+      std::min(profile.velocity_counts_per_ms,
+               drive.max_linear_speed_m_s / base.wheel_radius_m * per_rad / 1e3);
+  profile.acceleration_counts_per_ms2 =
+      std::min(profile.acceleration_counts_per_ms2,
+               drive.max_linear_accel_m_s2 / base.wheel_radius_m * per_rad / 1e6);
+  profile.deceleration_counts_per_ms2 = profile.acceleration_counts_per_ms2;
+  return profile;
+}
+
 double planned_duration_s(std::int64_t distance_counts,
                           const drivers::TrapezoidProfile& profile) noexcept {
   const double d = std::abs(static_cast<double>(distance_counts));
@@ -51,6 +65,10 @@ ControlLoop::ControlLoop(drivers::MotionCard& card, const ControlLoopSettings& s
       settings_(settings),
       axes_{settings.base.left.card_axis, settings.base.right.card_axis},
       profile_(wheel_profile(settings.base)),
+      straight_profile_(straight_profile(settings.base, settings.drive)),
+      jog_profile_{profile_.acceleration_counts_per_ms2, profile_.deceleration_counts_per_ms2, 0},
+      counts_per_wheel_rad_(counts_per_wheel_rad(settings.base)),
+      drive_timeout_ns_(seconds_to_ns(settings.drive.command_timeout_s)),
       period_ns_(std::max<std::int64_t>(1, std::llround(kNsPerS / settings.rate_hz))),
       deadman_ns_(seconds_to_ns(settings.deadman_timeout_s)),
       stop_timeout_ns_(
@@ -116,6 +134,16 @@ bool ControlLoop::post_move(const MoveCommand& move) noexcept {
   c.latch_stamp = latch_generation_.load();
   return commands_.push(c);
 }
+bool ControlLoop::post_drive(const DriveCommand& drive) noexcept {
+  Command c;
+  c.kind = drive.start ? CommandKind::kDriveStart : CommandKind::kDriveUpdate;
+  c.id = drive.motion_id;
+  c.velocity = drive.velocity;
+  c.stamp_ns = drive.stamp_ns;
+  c.stop_stamp = stop_generation_.load();
+  c.latch_stamp = latch_generation_.load();
+  return commands_.push(c);
+}
 bool ControlLoop::request_recover(std::uint32_t sequence) noexcept {
   Command c;
   c.kind = CommandKind::kRecover;
@@ -170,13 +198,15 @@ void ControlLoop::latch(ErrorCode code, int axis) noexcept {
   if (recovery_ != Recovery::kNone) end_recovery(code);  // a fault during recovery ends it
 }
 
-void ControlLoop::finish(LoopReportKind kind, ErrorCode code) noexcept {
-  report({kind, code, motion_id_, 0, 0});
+void ControlLoop::finish(LoopReportKind kind, ErrorCode code, bool command_timeout) noexcept {
+  report({kind, code, motion_id_, 0, 0, command_timeout});
   snapshot_.last_motion_id = motion_id_;
   motion_ = Motion::kIdle;
+  jog_command_ = {};
 }
 
 void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
+  jog_command_ = {};
   if ((card_.smooth_stop(axes_)) != ErrorCode::kOk) (void)(card_.emergency_stop(axes_));
   motion_ = Motion::kStopping;
   motion_deadline_ns_ = now_ns + stop_timeout_ns_;
@@ -188,6 +218,7 @@ void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
   if (const std::uint32_t e = emergency_generation_.load(); e != handled_emergency_) {
     handled_emergency_ = e;
     (void)(card_.emergency_stop(axes_));
+    jog_command_ = {};
     if (motion_ != Motion::kIdle) {
       stop_reason_ = ErrorCode::kEmergencyStopped;
       motion_ = Motion::kStopping;
@@ -199,14 +230,14 @@ void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
     handled_latch_ = latches;
     ErrorCode queued = ErrorCode::kOk;
     while (fault_codes_.pop(queued)) {
-      if (motion_ == Motion::kMoving) {
+      if (moving()) {
         stop_reason_ = queued;
         begin_stop(now_ns);
       }
       latch(queued, 0);
     }
     if (const auto overflow = fault_overflow_code_.exchange(0); overflow != 0) {
-      if (motion_ == Motion::kMoving) {
+      if (moving()) {
         stop_reason_ = static_cast<ErrorCode>(overflow);
         begin_stop(now_ns);
       }
@@ -215,7 +246,7 @@ void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
   }
   if (const std::uint32_t s = stop_generation_.load(); s != handled_stop_) {
     handled_stop_ = s;
-    if (motion_ == Motion::kMoving) {
+    if (moving()) {
       stop_reason_ = ErrorCode::kOk;
       begin_stop(now_ns);
     }
@@ -232,6 +263,22 @@ void ControlLoop::execute(const Command& c, std::int64_t now_ns) noexcept {
         return;
       }
       start_move(c, now_ns);
+      return;
+    case CommandKind::kDriveStart:
+      if (c.stop_stamp != handled_stop_) {  // a stop was posted after this jog: never started
+        report({LoopReportKind::kMoveCancelled, fault_, c.id, 0, 0});
+        snapshot_.last_motion_id = c.id;
+        return;
+      }
+      start_jog(c, now_ns);
+      return;
+    case CommandKind::kDriveUpdate:
+      // Dropped when a stop was posted after it (the stop ends the jog), or when its jog already
+      // ended (its terminal report is on the way).
+      if (c.stop_stamp != handled_stop_ || motion_ != Motion::kJogging || c.id != motion_id_)
+        return;
+      jog_target_ = c.velocity;
+      jog_stamp_ns_ = c.stamp_ns;
       return;
     case CommandKind::kRecover:
       if (recovery_ != Recovery::kNone) end_recovery(ErrorCode::kOk);  // cannot happen: queue waits
@@ -288,14 +335,16 @@ void ControlLoop::advance_recovery(std::int64_t now_ns) noexcept {
   }
 }
 
-void ControlLoop::start_move(const Command& move, std::int64_t now_ns) noexcept {
-  const auto refuse = [&](ErrorCode code, int axis) {
-    report({LoopReportKind::kMoveRefused, code, move.id, axis, 0});
-    snapshot_.last_motion_id = move.id;
-  };
-  if (motion_ != Motion::kIdle) return refuse(ErrorCode::kMotionInProgress, 0);
-  if (fault_ != ErrorCode::kOk) return refuse(ErrorCode::kFaultLatched, 0);
-  for (int i = 0; answered_ && i < 2; ++i) {  // a drive fault seen this cycle: do not start
+// Why no motion may start in this cycle (kOk: it may). A drive fault seen in this cycle's status
+// latches; a status read that failed in this cycle refuses without latching (supervision decides
+// about a card that stays silent).
+ErrorCode ControlLoop::check_can_start() noexcept {
+  refused_axis_ = 0;
+  if (motion_ != Motion::kIdle) return ErrorCode::kMotionInProgress;
+  if (fault_ != ErrorCode::kOk) return ErrorCode::kFaultLatched;
+  if (!answered_)
+    return read_error_ == ErrorCode::kOk ? ErrorCode::kCardCommunication : read_error_;
+  for (int i = 0; i < 2; ++i) {
     const drivers::AxisStatus& st = status_[i];
     const ErrorCode code = st.alarm                                   ? ErrorCode::kAxisAlarm
                            : st.following_error                       ? ErrorCode::kFollowingError
@@ -303,11 +352,23 @@ void ControlLoop::start_move(const Command& move, std::int64_t now_ns) noexcept 
                                                                       : ErrorCode::kOk;
     if (code != ErrorCode::kOk) {
       latch(code, axes_[i]);
-      return refuse(code, axes_[i]);
+      refused_axis_ = axes_[i];
+      return code;
     }
   }
+  return ErrorCode::kOk;
+}
+
+void ControlLoop::start_move(const Command& move, std::int64_t now_ns) noexcept {
+  const auto refuse = [&](ErrorCode code, int axis) {
+    report({LoopReportKind::kMoveRefused, code, move.id, axis, 0});
+    snapshot_.last_motion_id = move.id;
+  };
+  if (const ErrorCode e = check_can_start(); e != ErrorCode::kOk) return refuse(e, refused_axis_);
+  const drivers::TrapezoidProfile& profile =
+      move.profile == MoveProfile::kStraight ? straight_profile_ : profile_;
   const drivers::AxisMove moves[2] = {{axes_[0], move.left_counts}, {axes_[1], move.right_counts}};
-  if (const ErrorCode e = (card_.move_relative(moves, profile_)); e != ErrorCode::kOk) {
+  if (const ErrorCode e = (card_.move_relative(moves, profile)); e != ErrorCode::kOk) {
     latch(e, 0);
     return refuse(e, 0);
   }
@@ -317,13 +378,68 @@ void ControlLoop::start_move(const Command& move, std::int64_t now_ns) noexcept 
   seen_moving_ = false;
   stop_reason_ = ErrorCode::kOk;
   motion_ = Motion::kMoving;
-  const double planned = std::max(planned_duration_s(move.left_counts, profile_),
-                                  planned_duration_s(move.right_counts, profile_));
+  const double planned = std::max(planned_duration_s(move.left_counts, profile),
+                                  planned_duration_s(move.right_counts, profile));
   motion_deadline_ns_ = now_ns + seconds_to_ns(planned * 1.5 + settings_.motion_timeout_margin_s);
   // A stop posted while the card took the move (vendor calls take time) acts in this cycle.
   if (stop_generation_.load() != handled_stop_ ||
       emergency_generation_.load() != handled_emergency_)
     handle_stops(now_ns);
+}
+
+void ControlLoop::start_jog(const Command& drive, std::int64_t now_ns) noexcept {
+  if (const ErrorCode e = check_can_start(); e != ErrorCode::kOk) {
+    report({LoopReportKind::kMoveRefused, e, drive.id, refused_axis_, 0});
+    snapshot_.last_motion_id = drive.id;
+    return;
+  }
+  motion_id_ = drive.id;
+  motion_ = Motion::kJogging;
+  stop_reason_ = ErrorCode::kOk;
+  jog_target_ = drive.velocity;
+  jog_stamp_ns_ = drive.stamp_ns;
+  jog_command_ = {};
+  jog_last_ns_ = now_ns;
+  jog_sent_ = false;
+  advance_jog(now_ns);
+  // A stop posted while the card took the jog acts in this cycle.
+  if (stop_generation_.load() != handled_stop_ ||
+      emergency_generation_.load() != handled_emergency_)
+    handle_stops(now_ns);
+}
+
+void ControlLoop::advance_jog(std::int64_t now_ns) noexcept {
+  const bool timed_out = now_ns - jog_stamp_ns_ > drive_timeout_ns_;
+  const core::BodyVelocity target = timed_out ? core::BodyVelocity{} : jog_target_;
+  const double dt_s =
+      static_cast<double>(std::clamp<std::int64_t>(now_ns - jog_last_ns_, 0, 10 * period_ns_)) /
+      kNsPerS;
+  jog_last_ns_ = now_ns;
+  const core::BodyVelocity next = core::limit_velocity(target, jog_command_, dt_s, settings_.drive);
+  const bool changed = next.linear_m_s != jog_command_.linear_m_s ||
+                       next.angular_rad_s != jog_command_.angular_rad_s;
+  jog_command_ = next;
+  if (changed || !jog_sent_) {
+    const core::WheelVelocity w = core::wheel_velocity(next, settings_.base);
+    const double per_ms = counts_per_wheel_rad_ / 1e3;
+    const drivers::AxisVelocity axes[2] = {
+        {axes_[0], w.left_rad_s * per_ms * (settings_.base.left.polarity < 0 ? -1 : 1)},
+        {axes_[1], w.right_rad_s * per_ms * (settings_.base.right.polarity < 0 ? -1 : 1)}};
+    if (const ErrorCode e = card_.jog(axes, jog_profile_); e != ErrorCode::kOk) {
+      latch(e, 0);
+      stop_reason_ = e;
+      begin_stop(now_ns);
+      return;
+    }
+    jog_sent_ = true;
+  }
+  const bool at_rest = answered_ && !status_[0].moving && !status_[1].moving;
+  if (next.linear_m_s == 0 && next.angular_rad_s == 0 && target.linear_m_s == 0 &&
+      target.angular_rad_s == 0 && at_rest && !changed) {
+    // The timeout ended it only when the last Drive still asked for motion.
+    finish(LoopReportKind::kMotionFinished, ErrorCode::kOk,
+           timed_out && (jog_target_.linear_m_s != 0 || jog_target_.angular_rad_s != 0));
+  }
 }
 
 void ControlLoop::cycle(std::int64_t now_ns) noexcept {
@@ -337,10 +453,13 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   }
 
   supervise(now_ns);
+  if (motion_ == Motion::kJogging) advance_jog(now_ns);
 
   ++snapshot_.cycles;
   snapshot_.time_ns = now_ns;
   snapshot_.motion_active = motion_ != Motion::kIdle;
+  snapshot_.jogging = motion_ == Motion::kJogging;
+  snapshot_.commanded = jog_command_;
   snapshot_.fault = fault_;
   snapshot_.recover_sequence = recover_sequence_;
   snapshot_.recovering = recovery_ != Recovery::kNone;
@@ -391,6 +510,12 @@ void ControlLoop::read_axes() noexcept {
                                   settings_.base.right, settings_.base);
     snapshot_.base_yaw_rad = core::base_yaw_from_wheels_rad(
         snapshot_.left_wheel_rad, snapshot_.right_wheel_rad, settings_.base);
+    snapshot_.pose =
+        core::integrate_odometry(snapshot_.pose, snapshot_.left_wheel_rad - last_wheel_rad_[0],
+                                 snapshot_.right_wheel_rad - last_wheel_rad_[1], settings_.base);
+    snapshot_.pose.yaw_rad = snapshot_.base_yaw_rad;  // exact: linear in the wheel angles
+    last_wheel_rad_[0] = snapshot_.left_wheel_rad;
+    last_wheel_rad_[1] = snapshot_.right_wheel_rad;
     snapshot_.moving = status_[0].moving || status_[1].moving;
     snapshot_profile_counts_[0] = status_[0].profile_position_counts;
     snapshot_profile_counts_[1] = status_[1].profile_position_counts;
@@ -403,7 +528,8 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
   const ErrorCode read_error = read_error_;
   const bool silent = now_ns - heartbeat_ns_.load(std::memory_order_acquire) > deadman_ns_;
   switch (motion_) {
-    case Motion::kMoving: {
+    case Motion::kMoving:
+    case Motion::kJogging: {
       ErrorCode fault = ErrorCode::kOk;
       int axis = 0;
       if (!answered) {
@@ -420,7 +546,7 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
         }
       }
       if (fault == ErrorCode::kOk && silent) fault = ErrorCode::kDeadman;
-      if (fault == ErrorCode::kOk && now_ns > motion_deadline_ns_)
+      if (fault == ErrorCode::kOk && motion_ == Motion::kMoving && now_ns > motion_deadline_ns_)
         fault = ErrorCode::kMotionTimeout;
       if (fault != ErrorCode::kOk) {
         latch(fault, axis);
@@ -428,6 +554,7 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
         begin_stop(now_ns);
         break;
       }
+      if (motion_ == Motion::kJogging) break;  // advance_jog ends a jog
       if (status[0].moving || status[1].moving) seen_moving_ = true;
       const bool at_rest =
           !status[0].moving && !status[1].moving && status[0].in_position && status[1].in_position;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -44,7 +45,13 @@ ControlLoopSettings loop_settings(const Config& c) {
   s.motion_timeout_margin_s = c.control.motion_timeout_margin_s;
   s.recovery_timeout_s = std::max(0.1, c.drivers.card.poll_timeout_ms / 1000.0);
   s.base = c.base;
+  s.drive = c.drive;
   return s;
+}
+
+// The words of the events that close a wheel motion.
+const char* what_moves(bool jog, bool approach) {
+  return jog ? "driving" : approach ? "approach" : "alignment";
 }
 
 protocol::DriverState to_wire(drivers::LifecycleState s) {
@@ -77,6 +84,14 @@ protocol::ArmState to_wire(drivers::ArmPhase p) {
   return protocol::ArmState::kFault;
 }
 
+std::string fixed(double v, int digits) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
+  return buf;
+}
+
+enum class WheelKind : std::uint8_t { kAlign, kApproach, kJog };
+
 std::string describe(const Error& e) {
   std::string s(to_string(e.code));
   if (!e.field.empty()) s += " (" + e.field + ")";
@@ -93,7 +108,8 @@ class EngineImpl final : public Engine {
         manual_loop_(options.manual_loop),
         keepalive_(std::move(drivers.keepalive)),
         procedure_(camera_to_base_or_throw(config), config.limits, config.base,
-                   ProcedureLimits{config.control.aligned_tolerance_rad}),
+                   ProcedureLimits{config.control.aligned_tolerance_rad,
+                                   config.drive.stale_travel_m, config.drive.stale_yaw_rad}),
         store_(config.state.directory,
                StateStore::Options{std::chrono::milliseconds(config.state.debug_write_delay_ms)}),
         start_ns_(clock_()) {
@@ -191,7 +207,8 @@ class EngineImpl final : public Engine {
     drain_reports();
     const Phase phase = procedure_.phase();
     cancel_held_move(ErrorCode::kDeadman);
-    if (phase == Phase::kAligning || phase == Phase::kEngaging) {
+    if (phase == Phase::kAligning || phase == Phase::kEngaging || wheel_motion_ != 0) {
+      if (wheel_motion_ != 0) wheel_stopping_ = true;
       loop_->request_fault_stop(ErrorCode::kDeadman);
       (void)arm_->stop();
       latch(ErrorCode::kDeadman, "the controller went away during motion: stopped");
@@ -203,10 +220,20 @@ class EngineImpl final : public Engine {
 
   void end_read_batch() override {
     in_read_batch_ = false;
-    if (!held_move_) return;
-    const MoveCommand move = *held_move_;
-    held_move_.reset();
-    if (!loop_->post_move(move)) close_unstarted_move(move.motion_id, ErrorCode::kQueueFull, false);
+    if (held_move_) {
+      const MoveCommand move = *held_move_;
+      held_move_.reset();
+      if (!loop_->post_move(move)) {
+        close_unstarted_move(move.motion_id, ErrorCode::kQueueFull, false);
+      }
+    }
+    if (held_drive_) {
+      const DriveCommand drive = *held_drive_;
+      held_drive_.reset();
+      if (!loop_->post_drive(drive) && drive.start) {
+        close_unstarted_move(drive.motion_id, ErrorCode::kQueueFull, false);
+      }
+    }
     flush();
   }
 
@@ -228,6 +255,7 @@ class EngineImpl final : public Engine {
     if (procedure_.plane()) s.has_plane = true, s.plane = *procedure_.plane();
     if (procedure_.contact()) s.has_contact = true, s.contact = *procedure_.contact();
     s.base_yaw_odometry_rad = snap.base_yaw_rad;
+    fill_motion(snap, s);
     s.card = to_wire(snap.card_state);
     s.arm = to_wire(arm_->state());
     s.arm_state = to_wire(arm_->status().phase);
@@ -248,6 +276,7 @@ class EngineImpl final : public Engine {
     t.left_counts = snap.left_counts;
     t.right_counts = snap.right_counts;
     t.base_yaw_odometry_rad = snap.base_yaw_rad;
+    fill_motion(snap, t);
     t.arm_state = to_wire(arm_->status().phase);
     t.loop = loop_->statistics().summary();
     t.timing = loop_->statistics().timing(monotonic_now_ns());
@@ -300,6 +329,15 @@ class EngineImpl final : public Engine {
 
   protocol::Message dispatch(const protocol::Message& request) {
     const MessageType type = protocol::type_of(request);
+    const bool measures_or_moves = std::holds_alternative<protocol::MeasureDoorWidth>(request) ||
+                                   std::holds_alternative<protocol::MeasureHandle>(request) ||
+                                   std::holds_alternative<protocol::MeasureDoorPlane>(request) ||
+                                   std::holds_alternative<protocol::SetContactPoint>(request) ||
+                                   std::holds_alternative<protocol::AlignBase>(request) ||
+                                   std::holds_alternative<protocol::Engage>(request);
+    if (measures_or_moves && procedure_.fault() == ErrorCode::kOk) {
+      if (auto s = check_wheels_at_rest(); !s) return refuse(type, s.error());
+    }
     if (const auto* m = std::get_if<protocol::MeasureDoorWidth>(&request)) {
       return answer(type, procedure_.measure_width(*m));
     }
@@ -317,11 +355,8 @@ class EngineImpl final : public Engine {
     if (std::holds_alternative<protocol::Stop>(request)) return stop(type);
     if (std::holds_alternative<protocol::EmergencyStop>(request)) return emergency_stop(type);
     if (const auto* m = std::get_if<protocol::Reset>(&request)) return reset(type, *m);
-    if (type == MessageType::kDrive || type == MessageType::kApproach) {
-      return refuse(type, make_error(ErrorCode::kNotSupported, "",
-                                     std::string(protocol::to_string(type)) +
-                                         ": this daemon does not drive the base yet"));
-    }
+    if (const auto* m = std::get_if<protocol::Drive>(&request)) return drive(type, *m);
+    if (const auto* m = std::get_if<protocol::Approach>(&request)) return approach(type, *m);
     if (type == MessageType::kResetLoopStatistics) {
       loop_->statistics().reset(monotonic_now_ns());
       return ack(type, protocol::EmptyAck{});
@@ -375,12 +410,170 @@ class EngineImpl final : public Engine {
                                      "control loop command queue full: retry later"));
     }
     procedure_.alignment_started();
-    wheel_motion_ = move.motion_id;
+    begin_wheel_motion(move.motion_id, WheelKind::kAlign);
     emit(EventKind::kMotionStarted, ErrorCode::kOk,
          "aligning: left " + std::to_string(move.left_counts) + " counts, right " +
              std::to_string(move.right_counts) + " counts");
     dirty_ = true;
     return ack(type, protocol::EmptyAck{});
+  }
+
+  // Drive (jog): a start opens a jog motion, later ones update its velocity (docs/procedure.md).
+  protocol::Message drive(MessageType type, const protocol::Drive& m) {
+    if (auto s = check_base_may_drive(true); !s) return refuse(type, s.error());
+    loop_->heartbeat(now_ns());
+    const core::BodyVelocity velocity{m.linear_m_s, m.angular_rad_s};
+    const std::int64_t stamp = now_ns();
+    if (wheel_motion_ != 0) {  // a running jog: update it
+      if (held_drive_ && held_drive_->motion_id == wheel_motion_) {
+        held_drive_->velocity = velocity;
+        held_drive_->stamp_ns = stamp;
+      } else {
+        const DriveCommand update{wheel_motion_, false, velocity, stamp};
+        if (in_read_batch_) {
+          held_drive_ = update;
+        } else if (!loop_->post_drive(update)) {
+          return refuse(type, make_error(ErrorCode::kQueueFull, "",
+                                         "control loop command queue full: retry later"));
+        }
+      }
+      return ack(type, protocol::EmptyAck{});
+    }
+    if (velocity.linear_m_s == 0 && velocity.angular_rad_s == 0) {
+      return ack(type, protocol::EmptyAck{});  // at rest already: nothing to do
+    }
+    const DriveCommand start{motion_id_ + 1, true, velocity, stamp};
+    if (in_read_batch_) {
+      held_drive_ = start;  // handed to the loop at the end of this read, unless a stop cancels it
+    } else if (!loop_->post_drive(start)) {
+      return refuse(type, make_error(ErrorCode::kQueueFull, "",
+                                     "control loop command queue full: retry later"));
+    }
+    ++motion_id_;
+    begin_wheel_motion(start.motion_id, WheelKind::kJog);
+    emit(EventKind::kMotionStarted, ErrorCode::kOk,
+         "driving: " + fixed(m.linear_m_s, 3) + " m/s, " + fixed(m.angular_rad_s, 3) +
+             " rad/s asked (limits " + fixed(config_.drive.max_linear_speed_m_s, 3) + " m/s, " +
+             fixed(config_.drive.max_angular_speed_rad_s, 3) + " rad/s)");
+    return ack(type, protocol::EmptyAck{});
+  }
+
+  // Approach: one straight trapezoidal move to `standoff_m` from the door plane.
+  protocol::Message approach(MessageType type, const protocol::Approach& m) {
+    if (auto s = check_base_may_drive(false); !s) return refuse(type, s.error());
+    const core::DriveLimits& limits = config_.drive;
+    if (!(m.standoff_m >= limits.approach_min_standoff_m)) {
+      return refuse(type, make_error(ErrorCode::kStandoffOutOfRange, "standoff_m",
+                                     "standoff " + fixed(m.standoff_m, 3) +
+                                         " m is below drive.approach_min_standoff_m (" +
+                                         fixed(limits.approach_min_standoff_m, 3) + " m)"));
+    }
+    const core::PlanarPose pose = loop_->snapshot().pose;
+    if (procedure_.plane()) {
+      if (auto s = procedure_.plane_fresh(); !s) return refuse(type, s.error());
+    }
+    const protocol::DoorRelation door = procedure_.door(pose);
+    if (!door.has_distance) {
+      return refuse(type, make_error(ErrorCode::kNoDoorDistance, "",
+                                     "no distance to the door is known: measure the door width "
+                                     "(or the door plane) first"));
+    }
+    if (std::abs(door.yaw_rad) > limits.approach_square_tolerance_rad) {
+      return refuse(type, make_error(ErrorCode::kNotSquareToDoor, "door.yaw_rad",
+                                     "the base is " + fixed(door.yaw_rad, 3) +
+                                         " rad off square to the door (tolerance " +
+                                         fixed(limits.approach_square_tolerance_rad, 3) +
+                                         " rad): align or jog square first"));
+    }
+    protocol::ApproachAck body;
+    body.start_distance_m = door.distance_m;
+    body.travel_m = door.distance_m - m.standoff_m;
+    if (std::abs(body.travel_m) > limits.approach_max_travel_m) {
+      return refuse(
+          type, make_error(ErrorCode::kApproachTooFar, "standoff_m",
+                           "the approach would travel " + fixed(body.travel_m, 3) +
+                               " m, more than drive.approach_max_travel_m (" +
+                               fixed(limits.approach_max_travel_m, 3) + " m): jog closer first"));
+    }
+    const core::StraightCommand wheels = core::straight_command(body.travel_m, config_.base);
+    body.left_counts = wheels.left_counts;
+    body.right_counts = wheels.right_counts;
+    if (wheels.left_counts == 0 && wheels.right_counts == 0) return ack(type, body);  // there
+    loop_->heartbeat(now_ns());
+    const MoveCommand move{motion_id_ + 1, wheels.left_counts, wheels.right_counts,
+                           MoveProfile::kStraight};
+    if (in_read_batch_) {
+      held_move_ = move;
+    } else if (!loop_->post_move(move)) {
+      return refuse(type, make_error(ErrorCode::kQueueFull, "",
+                                     "control loop command queue full: retry later"));
+    }
+    ++motion_id_;
+    begin_wheel_motion(move.motion_id, WheelKind::kApproach);
+    emit(EventKind::kMotionStarted, ErrorCode::kOk,
+         "approaching: " + fixed(body.travel_m, 3) + " m to " + fixed(m.standoff_m, 3) +
+             " m from the door (left " + std::to_string(move.left_counts) + " counts, right " +
+             std::to_string(move.right_counts) + " counts)");
+    return ack(type, body);
+  }
+
+  // Whether Drive (jog = true) or Approach may move the base now.
+  Status check_base_may_drive(bool jog) const {
+    if (procedure_.fault() != ErrorCode::kOk) {
+      return make_error(
+          ErrorCode::kFaultLatched, "",
+          "a fault is latched (" + std::string(to_string(procedure_.fault())) + "): Reset first");
+    }
+    const Phase phase = procedure_.phase();
+    if (phase == Phase::kAligning) {
+      return make_error(ErrorCode::kMotionInProgress, "",
+                        "the base is aligning: wait for motion_finished, or Stop");
+    }
+    if (phase == Phase::kEngaging || phase == Phase::kEngaged ||
+        arm_->status().phase == drivers::ArmPhase::kBusy) {
+      return make_error(ErrorCode::kDriveNotAllowed, "",
+                        "the arm is at the door (engaging or engaged): the base must not move; "
+                        "re-measure or Reset first");
+    }
+    if (wheel_motion_ == 0) return Ok{};
+    if (wheel_stopping_) {
+      return make_error(ErrorCode::kDriveNotAllowed, "",
+                        "the wheels are still stopping: wait for motion_stopped");
+    }
+    if (wheel_kind_ == WheelKind::kApproach) {
+      return make_error(ErrorCode::kMotionInProgress, "",
+                        "an approach is running: wait for motion_finished, or Stop");
+    }
+    if (jog) return Ok{};  // updates the running jog
+    return make_error(ErrorCode::kMotionInProgress, "",
+                      "the base is being driven: release the drive keys (or Stop) and wait for "
+                      "motion_finished");
+  }
+
+  void begin_wheel_motion(std::uint32_t id, WheelKind kind) {
+    wheel_motion_ = id;
+    wheel_kind_ = kind;
+    wheel_stopping_ = false;
+  }
+
+  // Measurements, AlignBase and Engage while a Drive or Approach moves the wheels.
+  Status check_wheels_at_rest() const {
+    if (wheel_motion_ == 0 || wheel_kind_ == WheelKind::kAlign) return Ok{};
+    return make_error(
+        ErrorCode::kMotionInProgress, "",
+        std::string("the base is moving (") +
+            what_moves(wheel_kind_ == WheelKind::kJog, wheel_kind_ == WheelKind::kApproach) +
+            "): wait for it to come to rest (motion_finished), or Stop");
+  }
+
+  template <typename Message>
+  void fill_motion(const LoopSnapshot& snap, Message& m) const {
+    m.odometry_x_m = snap.pose.x_m;
+    m.odometry_y_m = snap.pose.y_m;
+    m.door = procedure_.door(snap.pose);
+    m.staleness = procedure_.staleness(snap.pose);
+    m.commanded_linear_m_s = snap.commanded.linear_m_s;
+    m.commanded_angular_rad_s = snap.commanded.angular_rad_s;
   }
 
   protocol::Message engage(MessageType type) {
@@ -412,6 +605,7 @@ class EngineImpl final : public Engine {
 
   void stop_motion() {
     cancel_held_move(ErrorCode::kOk);
+    if (wheel_motion_ != 0) wheel_stopping_ = true;
     loop_->request_stop();
     (void)arm_->stop();
     loop_->set_arm_moving(false);
@@ -428,6 +622,7 @@ class EngineImpl final : public Engine {
 
   protocol::Message emergency_stop(MessageType type) {
     cancel_held_move(ErrorCode::kEmergencyStopped);
+    if (wheel_motion_ != 0) wheel_stopping_ = true;
     loop_->request_emergency_stop();
     (void)arm_->stop();
     latch(ErrorCode::kEmergencyStopped, "emergency stop: wheels and arm stopped");
@@ -479,18 +674,31 @@ class EngineImpl final : public Engine {
   // Every wheel motion the engine announced (motion_started) is closed by exactly one event, from
   // the loop's terminal report for that motion id.
   void drain_reports() {
+    const LoopSnapshot snap = loop_->snapshot();
+    if (procedure_.observe_pose(snap.pose)) dirty_ = true;
     LoopReport r;
     while (loop_->pop_report(r)) {
       switch (r.kind) {
-        case LoopReportKind::kMotionFinished:
+        case LoopReportKind::kMotionFinished: {
           if (r.motion_id != wheel_motion_) break;
           wheel_motion_ = 0;
           if (procedure_.phase() == Phase::kAligning) {
             procedure_.alignment_finished();
             dirty_ = true;
           }
-          emit(EventKind::kMotionFinished, ErrorCode::kOk, "base aligned");
+          std::string detail = "base aligned";
+          if (wheel_kind_ == WheelKind::kApproach) {
+            const auto door = procedure_.door(snap.pose);
+            detail = "approach finished: the door is " + fixed(door.distance_m, 3) + " m away";
+          } else if (wheel_kind_ == WheelKind::kJog) {
+            detail = r.command_timeout
+                         ? "driving ended: no Drive command within drive.command_timeout_s "
+                           "(the base decelerated to rest)"
+                         : "driving ended: the base is at rest";
+          }
+          emit(EventKind::kMotionFinished, ErrorCode::kOk, detail);
           break;
+        }
         case LoopReportKind::kMotionStopped:
           if (r.motion_id != wheel_motion_) break;
           wheel_motion_ = 0;
@@ -505,7 +713,13 @@ class EngineImpl final : public Engine {
           close_unstarted_move(r.motion_id, r.code, r.kind == LoopReportKind::kMoveCancelled);
           break;
         case LoopReportKind::kFault:
-          if (r.sequence != recover_sequence_) break;  // latched before our last Reset cleared it
+          if (r.sequence != recover_sequence_) {
+            // Latched before the loop took our last Reset's recovery, which clears it (and
+            // fails, latching again, if the cause persists). Not lost: the journal has it.
+            warnings_.push_back("control loop fault " + std::string(to_string(r.code)) +
+                                " before the Reset's recovery ran: that recovery clears it");
+            break;
+          }
           latch(r.code,
                 r.axis != 0 ? "axis " + std::to_string(r.axis) : std::string("control loop"));
           break;
@@ -521,7 +735,9 @@ class EngineImpl final : public Engine {
   void close_unstarted_move(std::uint32_t motion_id, ErrorCode code, bool cancelled) {
     if (motion_id != wheel_motion_) return;
     wheel_motion_ = 0;
-    procedure_.alignment_not_started();  // also after a stop interrupted it: nothing turned
+    if (wheel_kind_ == WheelKind::kAlign) {
+      procedure_.alignment_not_started();  // also after a stop interrupted it: nothing turned
+    }
     dirty_ = true;
     emit(EventKind::kMotionStopped, code,
          (cancelled ? "the move was cancelled before it started" : "the move did not start") +
@@ -530,6 +746,11 @@ class EngineImpl final : public Engine {
 
   // A move held for the end of this read is dropped: no wheel has turned.
   void cancel_held_move(ErrorCode code) {
+    if (held_drive_) {  // an update needs nothing more: the stop ends its jog
+      const DriveCommand drive = *held_drive_;
+      held_drive_.reset();
+      if (drive.start) close_unstarted_move(drive.motion_id, code, true);
+    }
     if (!held_move_) return;
     const std::uint32_t id = held_move_->motion_id;
     held_move_.reset();
@@ -595,6 +816,7 @@ class EngineImpl final : public Engine {
   // event, and a warning for the journal through take_warnings()).
   void latch(ErrorCode code, const std::string& detail) {
     const bool was_clear = procedure_.fault() == ErrorCode::kOk;
+    if (wheel_motion_ != 0) wheel_stopping_ = true;  // the loop stops the wheels for a fault
     procedure_.latch_fault(code);
     (void)arm_->stop();  // whatever latched, the arm does not go on
     if (arm_motion_) {
@@ -702,7 +924,10 @@ class EngineImpl final : public Engine {
   std::uint32_t motion_id_ = 0;
   std::uint32_t wheel_motion_ = 0;  // the announced wheel motion the loop has not ended (0: none)
   bool in_read_batch_ = false;
-  std::optional<MoveCommand> held_move_;  // accepted in this read, not yet handed to the loop
+  std::optional<MoveCommand> held_move_;      // accepted in this read, not yet handed to the loop
+  std::optional<DriveCommand> held_drive_;    // likewise (the last Drive of this read)
+  WheelKind wheel_kind_ = WheelKind::kAlign;  // what wheel_motion_ is
+  bool wheel_stopping_ = false;               // a stop was asked for wheel_motion_
   std::uint32_t arm_task_id_ = 0;
   bool arm_motion_ = false;  // an announced arm task not yet ended
   bool arm_seen_busy_ = false;

@@ -1,6 +1,7 @@
 #include "ajar/daemon/procedure.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <span>
 #include <string>
 
@@ -36,6 +37,12 @@ protocol::PlaneAck to_ack(const core::PlaneMeasurement& m) {
 
 Error missing(ErrorCode code, const char* message) {
   return make_error(code, "", message);
+}
+
+std::string fixed(double v, int digits) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
+  return buf;
 }
 
 }  // namespace
@@ -93,11 +100,71 @@ Status Procedure::check_prerequisites(bool need_width, bool need_handle, bool ne
   return Ok{};
 }
 
+Status Procedure::check_fresh(bool plane, bool contact) const {
+  const auto moved = [&](const core::PlanarPose& since) {
+    return "the base moved " + fixed(core::travel_m(since, pose_), 3) + " m and turned " +
+           fixed(std::abs(core::turn_rad(since, pose_)), 3) + " rad since it was ";
+  };
+  if (plane && plane_stale_) {
+    return make_error(ErrorCode::kMeasurementStale, "plane",
+                      "re-measure the door plane: " + moved(plane_ref_) + "measured");
+  }
+  if (contact && contact_stale_) {
+    return make_error(ErrorCode::kMeasurementStale, "contact",
+                      "set the contact point again: " + moved(contact_pose_) + "set");
+  }
+  return Ok{};
+}
+
+bool Procedure::observe_pose(const core::PlanarPose& now) {
+  pose_ = now;
+  if (record_.phase == Phase::kAligning) return false;  // AlignBase's own turn
+  const auto beyond = [&](const core::PlanarPose& since) {
+    return core::travel_m(since, pose_) > procedure_limits_.stale_travel_m ||
+           std::abs(core::turn_rad(since, pose_)) > procedure_limits_.stale_yaw_rad;
+  };
+  bool changed = false;
+  if (contact_ && !contact_stale_ && beyond(contact_pose_)) contact_stale_ = true;
+  if (plane_ && !plane_stale_ && beyond(plane_ref_)) {
+    plane_stale_ = true;
+    changed = record_.aligned || !record_.plane_consumed;
+    record_.aligned = false;
+    record_.plane_consumed = true;
+  }
+  return changed;
+}
+
+protocol::DoorRelation Procedure::door(const core::PlanarPose& now) const noexcept {
+  protocol::DoorRelation d;
+  std::optional<core::DoorView> view;
+  if (plane_fit_) {
+    view = core::door_from_plane(*plane_fit_, plane_pose_, now);
+    view->yaw_rad = plane_->yaw_deviation_rad - (now.yaw_rad - plane_pose_.yaw_rad);  // as measured
+  } else if (width_) {
+    view = core::door_from_width(width_->p1_base_m, width_->p2_base_m, width_pose_, now);
+  }
+  if (view) {
+    d.has_distance = d.has_yaw = true;
+    d.distance_m = view->distance_m;
+    d.yaw_rad = view->yaw_rad;
+  }
+  return d;
+}
+
+protocol::Staleness Procedure::staleness(const core::PlanarPose& now) const noexcept {
+  protocol::Staleness st;
+  st.plane = plane_stale_;
+  st.contact = contact_stale_;
+  if (plane_) st.travel_since_plane_m = core::travel_m(plane_ref_, now);
+  return st;
+}
+
 Result<protocol::SpanAck> Procedure::measure_width(const protocol::MeasureDoorWidth& m) {
   if (auto s = check_measure_allowed(); !s) return std::move(s).error();
   auto r = core::measure_door_width(m.p1_hinge, m.p2_moving_edge, camera_to_base_, limits_);
   if (!r) return std::move(r).error();
   width_ = to_ack(*r);
+  width_pose_ = pose_;
   record_.width = m;
   if (record_.phase == Phase::kEngaged) record_.phase = Phase::kIdle;
   return *width_;
@@ -128,12 +195,16 @@ Result<protocol::PlaneAck> Procedure::measure_plane(const protocol::MeasureDoorP
       record_.aligned && std::abs(r->yaw_deviation_rad) <= procedure_limits_.aligned_tolerance_rad;
   plane_ = to_ack(*r);
   wheels_ = r->wheels;
+  plane_fit_ = r->plane;
+  plane_pose_ = plane_ref_ = pose_;
+  plane_stale_ = false;
   record_.plane = m;
   record_.plane_consumed = false;
   if (!keeps_alignment) {
     record_.aligned = false;
     contact_.reset();
     record_.contact.reset();
+    contact_stale_ = false;
   }
   if (record_.phase == Phase::kEngaged) record_.phase = Phase::kIdle;
   return *plane_;
@@ -141,6 +212,7 @@ Result<protocol::PlaneAck> Procedure::measure_plane(const protocol::MeasureDoorP
 
 Result<protocol::ContactAck> Procedure::set_contact(const protocol::SetContactPoint& m) {
   if (auto s = check_measure_allowed(); !s) return std::move(s).error();
+  if (auto s = check_fresh(true, false); !s) return std::move(s).error();
   if (auto s = check_prerequisites(true, true, true, true); !s) return std::move(s).error();
   auto r = core::measure_contact_point(m.contact, camera_to_base_, limits_);
   if (!r) return std::move(r).error();
@@ -148,6 +220,8 @@ Result<protocol::ContactAck> Procedure::set_contact(const protocol::SetContactPo
   ack.contact_base_m = r->contact_base_m;
   ack.reach_margin_m = r->reach_margin_m;
   contact_ = ack;
+  contact_pose_ = pose_;
+  contact_stale_ = false;
   record_.contact = m;
   if (record_.phase == Phase::kEngaged) record_.phase = Phase::kIdle;
   return *contact_;
@@ -155,6 +229,7 @@ Result<protocol::ContactAck> Procedure::set_contact(const protocol::SetContactPo
 
 Result<core::WheelCommand> Procedure::check_align() const {
   if (auto s = check_measure_allowed(); !s) return std::move(s).error();
+  if (auto s = check_fresh(true, false); !s) return std::move(s).error();
   if (auto s = check_prerequisites(true, true, true, false); !s) return std::move(s).error();
   if (record_.plane_consumed) {
     return make_error(ErrorCode::kMissingPlane, "",
@@ -164,7 +239,12 @@ Result<core::WheelCommand> Procedure::check_align() const {
     return make_error(ErrorCode::kWrongState, "",
                       "the base is already aligned: measure the door plane again to re-align");
   }
-  return *wheels_;
+  // The plane's yaw seen from where the base is now (the same as measured unless it moved).
+  const double turned = pose_.yaw_rad - plane_pose_.yaw_rad;
+  if (turned == 0) return *wheels_;
+  const double yaw_now = plane_->yaw_deviation_rad - turned;
+  if (auto s = core::check_yaw(yaw_now, limits_); !s) return std::move(s).error();
+  return core::wheel_command(yaw_now, base_);
 }
 
 void Procedure::alignment_started() {
@@ -176,6 +256,7 @@ void Procedure::alignment_finished() {
   if (record_.phase == Phase::kAligning) record_.phase = Phase::kIdle;
   record_.aligned = true;
   record_.plane_consumed = false;
+  plane_ref_ = pose_;  // the turn AlignBase made does not make the plane stale
 }
 
 void Procedure::alignment_interrupted() {
@@ -191,6 +272,7 @@ void Procedure::alignment_not_started() {
 
 Result<drivers::DoorTask> Procedure::check_engage() const {
   if (auto s = check_measure_allowed(); !s) return std::move(s).error();
+  if (auto s = check_fresh(true, true); !s) return std::move(s).error();
   if (auto s = check_prerequisites(true, true, true, true); !s) return std::move(s).error();
   if (!contact_) return missing(ErrorCode::kMissingContactPoint, "set the contact point first");
   if (record_.phase == Phase::kEngaged) {
@@ -237,10 +319,13 @@ void Procedure::clear_parameters() {
   plane_.reset();
   wheels_.reset();
   contact_.reset();
+  plane_fit_.reset();
+  plane_stale_ = contact_stale_ = false;
 }
 
 Status Procedure::restore(const ProcedureRecord& record) {
   Procedure replay(camera_to_base_, limits_, base_, procedure_limits_);
+  replay.pose_ = pose_;  // restored measurements count as taken where the base is now
   if (record.width) {
     if (auto r = replay.measure_width(*record.width); !r) return std::move(r).error();
   }

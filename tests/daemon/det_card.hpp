@@ -3,8 +3,10 @@
 // their target; a smooth stop comes to rest `stop_delay_ns` later; an emergency stop halts at once.
 // Fault menu (what the mock card offers, made deterministic): drive alarm, following error, limit,
 // the card not answering for the next N calls, a refused move, a move that never progresses, a stop
-// that never comes to rest. Every call is logged with the test's step counter (`tick`) so that the
-// test can order card calls against acknowledged commands. One thread (the test's).
+// that never comes to rest. A jog (velocity mode) takes its new velocity at once and holds it; its
+// smooth stop rests `stop_delay_ns` later like a move's. Every call is logged with the test's step
+// counter (`tick`) so that the test can order card calls against acknowledged commands. One thread
+// (the test's).
 #pragma once
 
 #include <cstdint>
@@ -24,11 +26,15 @@ struct DetCardState {
     bool alarm = false, following_error = false, positive_limit = false, negative_limit = false;
     bool emergency_stopped = false;
     std::uint64_t move_tick = 0;  // tick of the move_relative that set it moving
+    bool jogging = false;         // velocity mode
+    double velocity_counts_per_ns = 0;
+    std::int64_t last_ns = 0;  // jog: position integrated up to here
   };
   struct Call {
-    enum Kind { kMove, kSmoothStop, kEmergencyStop, kClearFaults, kEnable } kind;
+    enum Kind { kMove, kSmoothStop, kEmergencyStop, kClearFaults, kEnable, kJog } kind;
     std::uint64_t tick;
-    std::int64_t left = 0, right = 0;  // kMove: distances
+    std::int64_t left = 0, right = 0;              // kMove: distances
+    double left_velocity = 0, right_velocity = 0;  // kJog: counts/ms
   };
 
   const std::int64_t* now_ns = nullptr;  // the test's clock
@@ -52,6 +58,17 @@ struct DetCardState {
   void advance(Axis& a) const {
     if (!a.moving) return;
     const std::int64_t t = *now_ns;
+    if (a.jogging) {
+      const std::int64_t until = a.stopping && t >= a.rest_at_ns ? a.rest_at_ns : t;
+      if (!a.stuck) a.position += a.velocity_counts_per_ns * static_cast<double>(until - a.last_ns);
+      a.last_ns = until;
+      a.target = a.position;
+      if (a.stopping && !stops_never_rest && t >= a.rest_at_ns) {
+        a.moving = a.stopping = a.jogging = false;
+        a.velocity_counts_per_ns = 0;
+      }
+      return;
+    }
     if (a.stopping) {
       if (!stops_never_rest && t >= a.rest_at_ns) a.moving = false, a.stopping = false;
       return;
@@ -68,6 +85,8 @@ struct DetCardState {
   }
   void halt(Axis& a) const {
     advance(a);
+    a.jogging = false;
+    a.velocity_counts_per_ns = 0;
     a.moving = false;
     a.stopping = false;
     a.stuck = false;
@@ -135,10 +154,32 @@ class DetCard final : public drivers::MotionCard {
     }
     return ErrorCode::kOk;
   }
-  // The loop does not jog in these tests (driving comes later): a jog here is a test bug.
-  ErrorCode jog(std::span<const drivers::AxisVelocity>,
+  ErrorCode jog(std::span<const drivers::AxisVelocity> axes,
                 const drivers::JogProfile&) noexcept override {
-    return ErrorCode::kInternal;
+    if (failing()) return comm();
+    DetCardState::Call call{DetCardState::Call::kJog, *s_.tick};
+    for (const auto& v : axes)
+      (v.axis == s_.left_axis ? call.left_velocity : call.right_velocity) =
+          v.velocity_counts_per_ms;
+    s_.calls.push_back(call);
+    for (const auto& v : axes) {
+      auto& a = s_.axes[v.axis];
+      s_.advance(a);
+      if (!a.enabled || a.alarm || a.following_error) return ErrorCode::kDriverError;
+      if (a.moving && !a.jogging) return ErrorCode::kDriverError;  // a trapezoid runs
+    }
+    for (const auto& v : axes) {
+      auto& a = s_.axes[v.axis];
+      a.jogging = true;
+      a.stopping = false;
+      a.velocity_counts_per_ns = v.velocity_counts_per_ms / 1e6;
+      a.last_ns = *s_.now_ns;
+      a.moving = v.velocity_counts_per_ms != 0;
+      if (!a.moving) a.jogging = false;
+      a.target = a.position;
+      a.move_tick = *s_.tick;
+    }
+    return ErrorCode::kOk;
   }
   ErrorCode move_relative(std::span<const drivers::AxisMove> moves,
                           const drivers::TrapezoidProfile&) noexcept override {
@@ -154,8 +195,8 @@ class DetCard final : public drivers::MotionCard {
     for (const auto& m : moves) {
       auto& a = s_.axes[m.axis];
       s_.advance(a);
-      if (!a.enabled || a.alarm || a.following_error) {
-        return ErrorCode::kDriverError;  // servo off or faulted
+      if (!a.enabled || a.alarm || a.following_error || (a.jogging && a.moving)) {
+        return ErrorCode::kDriverError;  // servo off, faulted, or jogging
       }
     }
     for (const auto& m : moves) {
@@ -166,6 +207,7 @@ class DetCard final : public drivers::MotionCard {
       a.moving = m.distance_counts != 0;
       a.stopping = false;
       a.stuck = s_.stick_next_move;
+      a.jogging = false;
       a.move_tick = *s_.tick;
     }
     s_.stick_next_move = false;

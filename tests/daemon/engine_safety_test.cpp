@@ -4,91 +4,13 @@
 
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/engine.hpp"
-#include "det_card.hpp"
-#include "fake_door.hpp"
-#include "fake_engine_fixture.hpp"
-#include "fake_manipulator.hpp"
+#include "manual_engine.hpp"
 
 namespace ajar::testing {
 namespace {
 
 using protocol::EventKind;
 using protocol::ProcedureState;
-
-constexpr std::int64_t kPeriodNs = 2'000'000;
-
-class ManualEngine : public ::testing::Test {
- protected:
-  void SetUp() override {
-    config.safety.deadman_timeout_s = 0.05;
-    config.safety.arm_task_timeout_s = 0.5;
-    config.control.motion_timeout_margin_s = 0.2;
-    card.now_ns = &now;
-    card.tick = &tick;
-    card.left_axis = config.base.left.card_axis;
-    card.right_axis = config.base.right.card_axis;
-    drivers::DriverSet set;
-    set.card = std::make_unique<DetCard>(card);
-    set.arm = std::make_unique<FakeManipulator>(arm);
-    daemon::EngineOptions options;
-    options.now_ns = [this] { return now; };
-    options.manual_loop = true;
-    engine = daemon::make_engine(config, std::move(set), std::move(options));
-    engine->set_event_sink([this](const protocol::Event& e) { events.push_back(e); });
-    engine->start();
-  }
-  void TearDown() override { engine.reset(); }
-
-  protocol::Message send(const protocol::Message& m) {
-    ++tick;
-    engine->controller_heartbeat();
-    return engine->handle_command(m);
-  }
-  void cycles(int n, bool alive = true) {
-    for (int i = 0; i < n; ++i) {
-      ++tick;
-      now += kPeriodNs;
-      if (alive) engine->controller_heartbeat();
-      engine->run_loop_cycle();
-      engine->poll();
-    }
-  }
-  ProcedureState state() { return engine->status().state; }
-  int count(EventKind kind) const {
-    int n = 0;
-    for (const auto& e : events)
-      n += e.kind == kind ? 1 : 0;
-    return n;
-  }
-  int moves() const {
-    int n = 0;
-    for (const auto& c : card.calls)
-      n += c.kind == DetCardState::Call::kMove ? 1 : 0;
-    return n;
-  }
-  void to_ready_to_align() {
-    cycles(3);
-    expect_ack(send(good_width()), ProcedureState::kAwaitingHandle);
-    expect_ack(send(good_handle()), ProcedureState::kAwaitingPlane);
-    expect_ack(send(plane_at_yaw(0.1)), ProcedureState::kReadyToAlign);
-  }
-  void to_ready_to_engage() {
-    to_ready_to_align();
-    expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
-    cycles(1000);
-    ASSERT_EQ(state(), ProcedureState::kAligned);
-    expect_ack(send(good_contact()), ProcedureState::kReadyToEngage);
-  }
-
-  TempDir tmp;
-  daemon::Config config = test_config(tmp.path());
-  std::int64_t now = 1'000'000'000;
-  std::uint64_t tick = 0;
-  DetCardState card;
-  std::shared_ptr<FakeArmControl> arm = std::make_shared<FakeArmControl>();
-  std::unique_ptr<daemon::Engine> engine;
-  std::vector<protocol::Event> events;
-};
 
 TEST_F(ManualEngine, TwoResetsInOneReadDuringAFaultThenLaterFaultsStillLatch) {
   to_ready_to_engage();

@@ -282,11 +282,16 @@ class World {
     }
     if (const auto* p = std::get_if<protocol::MeasureDoorPlane>(&m); p && ack) {
       plane_ = std::get<protocol::PlaneAck>(ack->body);
+      plane_yaw_odometry_rad_ = before.base_yaw_odometry_rad;
     }
     if (std::holds_alternative<protocol::AlignBase>(m) && ack &&
         ack->state == ProcedureState::kAligning) {
       if (before.latched_fault != ErrorCode::kOk) fail("AlignBase accepted with a fault latched");
-      allowed_moves_.push_back({plane_.left_counts, plane_.right_counts});
+      // The plane's yaw seen from where the base is now (a stop may have let it turn on since).
+      const double turned = before.base_yaw_odometry_rad - plane_yaw_odometry_rad_;
+      const auto wheels = core::wheel_command(plane_.yaw_deviation_rad - turned, config_.base);
+      allowed_moves_.push_back(turned == 0 ? std::pair{plane_.left_counts, plane_.right_counts}
+                                           : std::pair{wheels.left_counts, wheels.right_counts});
     }
     check_now();
   }
@@ -407,6 +412,7 @@ class World {
   bool alive_ = true;
   std::optional<protocol::Message> last_command_;
   protocol::PlaneAck plane_;
+  double plane_yaw_odometry_rad_ = 0;  // odometry when plane_ was measured
   std::deque<std::pair<std::int64_t, std::int64_t>> allowed_moves_;
   bool stop_due_ = false, estop_due_ = false;
   std::uint64_t stop_tick_ = 0;

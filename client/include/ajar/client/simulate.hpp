@@ -1,10 +1,14 @@
 // ajarctl simulate: a closed-loop rehearsal of the whole door procedure against ajard on simulated
 // hardware. The scenario (config/scenarios/*.yaml, docs/simulation.md) places a door in the world;
-// the simulated operator picks points in the CAMERA frame, with sensor noise, from the robot pose
-// the daemon's odometry reports; the robot turns in place about the base origin.
+// the simulated operator picks points in the CAMERA frame, with sensor noise, from where the base
+// truly is. A scenario with a `drive` section runs the whole of Fig. 4 from afar: jog toward the
+// door, Approach to the width standoff, measure the width, Approach to the handle standoff, measure
+// the handle, then plane, align, contact, engage.
 //
-// World frame: the base frame at the start of the run (odometry yaw y0). The base origin never
-// moves; the base's yaw in the world is odometry - y0.
+// World frame: the base frame at the start of the run. The true base pose is the daemon's odometry
+// relative to where the run started, unless the scenario models wheel slip or encoder noise: then
+// it is integrated from the encoder deltas of every telemetry sample with the slip and the noise
+// applied (so the daemon's odometry and the truth drift apart, as on a real floor).
 #pragma once
 
 #include <cstdint>
@@ -15,6 +19,7 @@
 
 #include <Eigen/Geometry>
 
+#include "ajar/core/driving.hpp"
 #include "ajar/core/types.hpp"
 
 namespace ajar::client {
@@ -54,6 +59,15 @@ struct Scenario {
   double residual_yaw_tolerance_rad = 0.02;  // true yaw left after alignment
   double contact_tolerance_m = 0.03;
   bool expect_engaged = true;
+  // Driving (Fig. 4 from afar); off unless the scenario has a `drive` section.
+  bool drive = false;
+  double jog_m = 0;                    // teleop forward this far first (Drive, re-sent while held)
+  double jog_speed_m_s = 0.2;          //
+  double width_standoff_m = 1.0;       // Approach here, then measure the width
+  double handle_standoff_m = 0.75;     // Approach here, then measure the handle
+  double wheel_slip = 0;               // fraction of each wheel's travel the floor does not follow
+  double encoder_noise_rad = 0;        // per wheel and telemetry sample (random walk of the truth)
+  double standoff_tolerance_m = 0.05;  // true final standoff vs handle_standoff_m
 };
 
 // Loads a scenario; throws std::runtime_error naming the file and key on a mistake (unknown keys
@@ -81,8 +95,12 @@ class SimWorld {
   // surface the point lies on (the plane through the point parallel to the door), then depth noise
   // scales the point along its ray.
   core::Vec3 pick(const core::Vec3& world_point, double base_yaw_rad);
+  core::Vec3 pick(const core::Vec3& world_point, const core::PlanarPose& base);
   // Without noise (for tests).
   core::Vec3 to_camera(const core::Vec3& world_point, double base_yaw_rad) const;
+  core::Vec3 to_camera(const core::Vec3& world_point, const core::PlanarPose& base) const;
+  // Perpendicular distance from the base origin at `base` to the door plane.
+  double true_distance_m(const core::PlanarPose& base) const;
 
   // The true yaw the base still has to turn when it has turned by `base_yaw_rad`.
   double true_yaw_error_rad(double base_yaw_rad) const { return scenario_.yaw_rad - base_yaw_rad; }

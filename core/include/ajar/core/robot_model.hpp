@@ -48,6 +48,21 @@ struct Tolerances {
   double max_door_tilt_rad = 0.35;       // door normal may tilt this far from horizontal
 };
 
+// Driving the base (jog and approach) and when stored measurements go stale (docs/procedure.md,
+// "Driving and stale measurements").
+struct DriveLimits {
+  double max_linear_speed_m_s = 0.3;           // jog: body speed along +x
+  double max_angular_speed_rad_s = 0.6;        // jog: body yaw rate
+  double max_linear_accel_m_s2 = 0.5;          // jog: speeding up and slowing down
+  double max_angular_accel_rad_s2 = 1.2;       //
+  double command_timeout_s = 0.5;              // a Drive command is valid this long
+  double approach_max_travel_m = 1.5;          // longest accepted Approach move
+  double approach_square_tolerance_rad = 0.2;  // |yaw to the door| above this: not square
+  double approach_min_standoff_m = 0.4;        // smallest accepted standoff
+  double stale_travel_m = 0.05;  // base origin displacement after which plane/contact are stale
+  double stale_yaw_rad = 0.05;   // base turn (other than AlignBase's own) after which they are
+};
+
 struct Limits {
   double min_door_width_m = 0.5;
   double max_door_width_m = 2.0;

@@ -106,6 +106,7 @@ struct Config {
   Eigen::Matrix4d camera_to_base_m = Eigen::Matrix4d::Identity();  // ^B_C T in metres
   core::BaseGeometry base;
   core::Limits limits;
+  core::DriveLimits drive;  // jog and approach limits, staleness thresholds
   drivers::DriverSettings drivers;
   ControlConfig control;
   SafetyConfig safety;

@@ -5,7 +5,8 @@
 // shut-down while the thread is not running.
 //
 // One ordered command path (the I/O thread is the single producer):
-//   - moves (and Reset's recover requests) go through one bounded lock-free SPSC queue, in order;
+//   - moves, jog (Drive) commands and Reset's recover requests go through one bounded lock-free
+//     SPSC queue, in order;
 //   - stops never wait in that queue and can never be refused by it: request_stop(),
 //     request_emergency_stop() and request_fault_stop() bump atomic generation counters (and a
 //     fault stop queues its code in a second small queue, with a first-wins overflow slot), which
@@ -18,21 +19,32 @@
 // Every cycle (cycle(), noexcept, no allocation, no locks, no waiting, no logging), in this order:
 //   1. axis status of both wheels (odometry; what supervision and a new move start from);
 //   2. stops: emergency stop (card emergency stop in this cycle), fault stops (smooth stop, latch
-//      the code: the first latched code stays, later ones are still reported), smooth stop;
+//      the code: the first latched code is the one reported and kept), smooth stop (also of a
+//      jog);
 //   3. one step of a running recovery (Reset), a state machine advanced once per cycle: wait for
-//   the
-//      wheels to rest, clear faults, enable the axes, then poll their status every cycle until the
-//      servo is on without alarm, or fail at recovery_timeout_s. While it runs the command queue
-//      waits (moves queued behind a Reset start after it); stops still act at once;
-//   4. queued commands, in order (stops re-checked before each): a move is refused (kMoveRefused)
-//      while a fault is latched in the loop or a motion runs, cancelled (kMoveCancelled) when a
-//      stop was posted after it; a recover starts the recovery (step 3);
+//      the wheels to rest, clear faults, enable the axes, then poll their status every cycle until
+//      the servo is on without alarm, or fail at recovery_timeout_s. While it runs the command
+//      queue waits (moves queued behind a Reset start after it); stops still act at once;
+//   4. queued commands, in order (stops re-checked before each): a move or a jog start is refused
+//      (kMoveRefused) while a fault is latched in the loop, a motion runs, or this cycle's axis
+//      status could not be read; cancelled (kMoveCancelled) when a stop was posted after it. A jog
+//      update sets the running jog's target velocity (dropped when that jog already ended or a
+//      stop was posted after it). A recover starts the recovery (step 3);
+//   4b. a running jog: the target is the last Drive velocity while it is younger than
+//      drive.command_timeout_s, else zero; the speed limiter (core::limit_velocity) clamps speed
+//      and acceleration; the card gets the wheel velocities when they change. At zero target and
+//      zero command with both axes at rest the jog ends (kMotionFinished; command_timeout says
+//      whether the timeout ended it);
 //   5. supervision: card not answering, alarm, following error, limits, deadman, motion deadline
-//      -> smooth stop + latched fault; completion (both axes at rest and in position); end of a
-//      stop (both at rest; a stop overrunning its own deadline becomes an emergency stop);
+//      (not for a jog: its command timeout ends it) -> smooth stop + latched fault; completion
+//      (both axes at rest and in position); end of a stop (both at rest; a stop overrunning its own
+//      deadline becomes an emergency stop);
 //   6. the published snapshot (seqlock). The thread then records the cycle's timing (deadline,
 //      wake-up, end) in statistics(): readable from any other thread.
 // Card errors on this path are ErrorCodes only; text is made on the I/O side.
+//
+// Odometry (read_axes, every cycle the card answers): the planar pose by dead reckoning from the
+// encoder deltas (core::integrate_odometry), in the frame of the base at daemon start.
 //
 // Reports (motion finished/stopped, move refused/cancelled, fault, recovered) go back through a
 // second bounded SPSC queue (the loop is the single producer); if it is full the report is dropped
@@ -54,6 +66,7 @@
 
 #include <boost/lockfree/spsc_queue.hpp>
 
+#include "ajar/core/driving.hpp"
 #include "ajar/core/robot_model.hpp"
 #include "ajar/daemon/loop_statistics.hpp"
 #include "ajar/daemon/seqlock.hpp"
@@ -71,14 +84,28 @@ struct ControlLoopSettings {
   double motion_timeout_margin_s = 2.0;
   double recovery_timeout_s = 2.0;  // a recovery must see the servo on within this
   core::BaseGeometry base;
+  core::DriveLimits drive;  // jog limits and command timeout; the straight move's speed
 };
 
 // A coordinated relative move of both wheels (counts include each axis' polarity, as from
-// core::wheel_command).
+// core::wheel_command). kTurn uses the wheel limits (base.max_wheel_*); kStraight (Approach) also
+// keeps the body within drive.max_linear_speed_m_s / max_linear_accel_m_s2.
+enum class MoveProfile : std::uint8_t { kTurn = 0, kStraight = 1 };
 struct MoveCommand {
   std::uint32_t motion_id = 0;
   std::int64_t left_counts = 0;
   std::int64_t right_counts = 0;
+  MoveProfile profile = MoveProfile::kTurn;
+};
+
+// A jog (Drive) command. `start` opens a new jog motion `motion_id` (refused while another motion
+// runs); otherwise it updates the running jog with that id. Valid from `stamp_ns` (the loop's
+// clock) for drive.command_timeout_s.
+struct DriveCommand {
+  std::uint32_t motion_id = 0;
+  bool start = false;
+  core::BodyVelocity velocity;
+  std::int64_t stamp_ns = 0;
 };
 
 enum class LoopReportKind : std::uint8_t {
@@ -95,8 +122,9 @@ struct LoopReport {
   LoopReportKind kind = LoopReportKind::kFault;
   ErrorCode code = ErrorCode::kOk;
   std::uint32_t motion_id = 0;
-  int axis = 0;                // the offending axis for axis faults, 0 otherwise
-  std::uint32_t sequence = 0;  // kRecovered: its recover; kFault: the last recover taken
+  int axis = 0;                  // the offending axis for axis faults, 0 otherwise
+  std::uint32_t sequence = 0;    // kRecovered: its recover; kFault: the last recover taken
+  bool command_timeout = false;  // kMotionFinished of a jog: no Drive came within the timeout
 };
 
 // What the loop publishes every cycle.
@@ -106,8 +134,11 @@ struct LoopSnapshot {
   std::int64_t left_counts = 0, right_counts = 0;  // encoder counts as read
   double left_wheel_rad = 0, right_wheel_rad = 0;  // since start, wheel-forward positive
   double base_yaw_rad = 0;                         // since start, CCW positive
+  core::PlanarPose pose;                           // odometry (yaw as base_yaw_rad)
+  core::BodyVelocity commanded;                    // the jog's limited velocity; 0 otherwise
   bool moving = false;                             // an axis reports profile motion
   bool motion_active = false;                      // a motion (or its stop) is being supervised
+  bool jogging = false;                            // that motion is a jog
   std::uint32_t last_motion_id = 0;    // the last motion that ended (any terminal report)
   ErrorCode fault = ErrorCode::kOk;    // latched in the loop
   std::uint32_t recover_sequence = 0;  // the last recover request taken from the queue
@@ -121,6 +152,9 @@ struct LoopSnapshot {
 // Trapezoid profile for the wheels from the base's wheel speed/acceleration limits (rad/s,
 // rad/s^2 at the wheel) converted to motor counts/ms and counts/ms^2.
 drivers::TrapezoidProfile wheel_profile(const core::BaseGeometry& base) noexcept;
+// The straight (Approach) profile: the wheel profile, slower where the body limits ask for it.
+drivers::TrapezoidProfile straight_profile(const core::BaseGeometry& base,
+                                           const core::DriveLimits& drive) noexcept;
 // Planned duration (s) of a trapezoidal (or triangular) move of `distance_counts`.
 double planned_duration_s(std::int64_t distance_counts,
                           const drivers::TrapezoidProfile& profile) noexcept;
@@ -143,7 +177,8 @@ class ControlLoop {
   void stop_thread() noexcept;  // asks the thread to exit and joins it. Idempotent.
 
   // ---- I/O thread (the single producer) ----
-  bool post_move(const MoveCommand& move) noexcept;  // false: queue full (nothing queued)
+  bool post_move(const MoveCommand& move) noexcept;     // false: queue full (nothing queued)
+  bool post_drive(const DriveCommand& drive) noexcept;  // false: queue full (nothing queued)
   // Starts a recovery (Reset): clears the loop's latch, recovers the card. Answered by exactly
   // one kRecovered report carrying `sequence`. false: queue full (nothing queued).
   bool request_recover(std::uint32_t sequence) noexcept;
@@ -166,13 +201,16 @@ class ControlLoop {
   void cycle(std::int64_t now_ns) noexcept;
 
  private:
-  enum class Motion : std::uint8_t { kIdle, kMoving, kStopping };
+  enum class Motion : std::uint8_t { kIdle, kMoving, kJogging, kStopping };
   enum class Recovery : std::uint8_t { kNone, kWaitRest, kClear, kEnable, kPoll };
-  enum class CommandKind : std::uint8_t { kMove, kRecover };
+  enum class CommandKind : std::uint8_t { kMove, kRecover, kDriveStart, kDriveUpdate };
   struct Command {
     CommandKind kind = CommandKind::kMove;
-    std::uint32_t id = 0;  // motion id (kMove) or recover sequence (kRecover)
+    std::uint32_t id = 0;  // motion id (kMove, kDrive*) or recover sequence (kRecover)
     std::int64_t left_counts = 0, right_counts = 0;
+    MoveProfile profile = MoveProfile::kTurn;
+    core::BodyVelocity velocity;    // kDrive*
+    std::int64_t stamp_ns = 0;      // kDrive*
     std::uint32_t stop_stamp = 0;   // stop generation when posted
     std::uint32_t latch_stamp = 0;  // emergency/fault stop generation when posted
   };
@@ -181,11 +219,15 @@ class ControlLoop {
   void handle_stops(std::int64_t now_ns) noexcept;
   void execute(const Command& command, std::int64_t now_ns) noexcept;
   void start_move(const Command& move, std::int64_t now_ns) noexcept;
+  void start_jog(const Command& drive, std::int64_t now_ns) noexcept;
+  ErrorCode check_can_start() noexcept;  // kOk, or why no motion may start in this cycle
+  void advance_jog(std::int64_t now_ns) noexcept;
   void advance_recovery(std::int64_t now_ns) noexcept;
   void end_recovery(ErrorCode code) noexcept;
   void begin_stop(std::int64_t now_ns) noexcept;
   void latch(ErrorCode code, int axis) noexcept;
-  void finish(LoopReportKind kind, ErrorCode code) noexcept;
+  void finish(LoopReportKind kind, ErrorCode code, bool command_timeout = false) noexcept;
+  bool moving() const noexcept { return motion_ == Motion::kMoving || motion_ == Motion::kJogging; }
   void report(const LoopReport& r) noexcept;
   void read_axes() noexcept;
   void supervise(std::int64_t now_ns) noexcept;
@@ -195,6 +237,10 @@ class ControlLoop {
   ControlLoopSettings settings_;
   int axes_[2];
   drivers::TrapezoidProfile profile_;
+  drivers::TrapezoidProfile straight_profile_;
+  drivers::JogProfile jog_profile_;
+  double counts_per_wheel_rad_;
+  std::int64_t drive_timeout_ns_;
   std::int64_t period_ns_;
   std::int64_t deadman_ns_;
   std::int64_t stop_timeout_ns_;
@@ -228,6 +274,7 @@ class ControlLoop {
   bool seen_moving_ = false;
   drivers::AxisStatus status_[2];  // read at the start of this cycle
   bool answered_ = false;
+  int refused_axis_ = 0;  // the axis check_can_start() refused for (0: none)
   ErrorCode read_error_ = ErrorCode::kOk;
   ErrorCode fault_ = ErrorCode::kOk;
   ErrorCode stop_reason_ = ErrorCode::kOk;
@@ -236,6 +283,13 @@ class ControlLoop {
   std::int64_t recovery_deadline_ns_ = 0;
   bool have_origin_ = false;
   std::int64_t origin_counts_[2] = {0, 0};
+  double last_wheel_rad_[2] = {0, 0};  // for the odometry deltas
+  // The running jog.
+  core::BodyVelocity jog_target_;
+  std::int64_t jog_stamp_ns_ = 0;
+  core::BodyVelocity jog_command_;  // limited, last sent to the card
+  std::int64_t jog_last_ns_ = 0;    // the cycle that computed jog_command_
+  bool jog_sent_ = false;           // the card has been given jog_command_
   std::uint64_t reports_dropped_ = 0;
   LoopStatisticsRecorder statistics_;
   LoopSnapshot snapshot_;

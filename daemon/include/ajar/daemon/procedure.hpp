@@ -27,11 +27,23 @@
 // with the plane shown but consumed: the base turned by an unknown part of the correction, so
 // AlignBase is refused with kMissingPlane until the plane is measured again.
 // AlignBase on an aligned base: kWrongState (re-measure the plane to align again).
+//
+// Driving (docs/procedure.md "Driving and stale measurements"): the engine reports the odometry
+// pose (observe_pose) before every command and report. Width, handle length and directions are
+// scalars: never stale. The plane and the contact point are base-frame measurements: once the base
+// origin has moved more than stale_travel_m (straight line) or turned more than stale_yaw_rad since
+// they were taken (AlignBase's own turn does not count), they are stale, for good (moving back does
+// not revive them): AlignBase, SetContactPoint and Engage refuse with kMeasurementStale (field
+// "plane" / "contact") and say how far the base moved. A stale plane also ends the alignment (the
+// base is no longer known to be square: kReadyToAlign, plane consumed). Below the thresholds,
+// AlignBase turns by the plane's yaw seen from where the base is now. Restored measurements count
+// as taken where the base is at start (odometry restarts with the daemon).
 #pragma once
 
 #include <cstdint>
 #include <optional>
 
+#include "ajar/core/driving.hpp"
 #include "ajar/core/geometry.hpp"
 #include "ajar/drivers/manipulator.hpp"
 #include "ajar/protocol/messages.hpp"
@@ -55,6 +67,8 @@ struct ProcedureRecord {
 
 struct ProcedureLimits {
   double aligned_tolerance_rad = 0.005;
+  double stale_travel_m = 0.05;  // see "Driving" above
+  double stale_yaw_rad = 0.05;
 };
 
 class Procedure {
@@ -97,6 +111,16 @@ class Procedure {
   const std::optional<protocol::PlaneAck>& plane() const noexcept { return plane_; }
   const std::optional<protocol::ContactAck>& contact() const noexcept { return contact_; }
 
+  // The odometry pose now. Returns true when it made a measurement stale (the record changed:
+  // persist it).
+  bool observe_pose(const core::PlanarPose& now);
+  // Where the door is seen from the base at pose `now`: from the plane, else from the width points.
+  protocol::DoorRelation door(const core::PlanarPose& now) const noexcept;
+  // The stale flags as of the last observe_pose; the travel since the plane as of `now`.
+  protocol::Staleness staleness(const core::PlanarPose& now) const noexcept;
+  // kMeasurementStale (field "plane", saying how far the base moved) when the plane is stale.
+  Status plane_fresh() const { return check_fresh(true, false); }
+
   // Replays a persisted record through core's validation. Aligning at the time of the record ->
   // kReadyToAlign with the plane consumed; engaging -> kReadyToEngage; engaged and faults are kept.
   // On an error nothing is restored (the procedure stays clean) and the error says what failed.
@@ -104,6 +128,7 @@ class Procedure {
 
  private:
   Status check_measure_allowed() const;
+  Status check_fresh(bool plane, bool contact) const;
   Status check_prerequisites(bool need_width, bool need_handle, bool need_plane,
                              bool need_aligned) const;
 
@@ -116,6 +141,14 @@ class Procedure {
   std::optional<protocol::PlaneAck> plane_;
   std::optional<core::WheelCommand> wheels_;
   std::optional<protocol::ContactAck> contact_;
+  // Driving: where each base-frame measurement was taken, and whether it is stale.
+  core::PlanarPose pose_;        // now
+  core::PlanarPose width_pose_;  // where the width points were taken
+  std::optional<core::Plane> plane_fit_;
+  core::PlanarPose plane_pose_;  // where the plane was measured (its geometry)
+  core::PlanarPose plane_ref_;   // staleness reference: plane_pose_, then the end of AlignBase
+  core::PlanarPose contact_pose_;
+  bool plane_stale_ = false, contact_stale_ = false;
 };
 
 }  // namespace ajar::daemon

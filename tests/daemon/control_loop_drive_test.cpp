@@ -1,0 +1,236 @@
+// The loop's jog (Drive): the speed limiter, the command timeout (while the controller keeps
+// pinging), stops and the deadman ending a jog, odometry while driving, and a move refused in a
+// cycle whose status read failed. Cycle by cycle on a fake clock over the deterministic card.
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "ajar/daemon/control_loop.hpp"
+#include "det_card.hpp"
+
+namespace ajar::daemon {
+namespace {
+
+using ajar::testing::DetCard;
+using ajar::testing::DetCardState;
+
+constexpr std::int64_t kMs = 1'000'000;
+
+class LoopDrive : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    settings.rate_hz = 500;
+    settings.deadman_timeout_s = 30;
+    settings.base.max_wheel_speed_rad_s = 10;  // the body limits below are what binds
+    settings.drive.max_linear_speed_m_s = 0.3;
+    settings.drive.max_linear_accel_m_s2 = 0.5;
+    settings.drive.max_angular_speed_rad_s = 0.6;
+    settings.drive.max_angular_accel_rad_s2 = 1.0;
+    settings.drive.command_timeout_s = 0.5;
+    card.now_ns = &now;
+    card.tick = &tick;
+    card.left_axis = settings.base.left.card_axis;
+    card.right_axis = settings.base.right.card_axis;
+    card.axes[card.left_axis].enabled = true;
+    card.axes[card.right_axis].enabled = true;
+    loop = std::make_unique<ControlLoop>(impl, settings);
+  }
+  void run(int n, bool heartbeat = true) {
+    for (int i = 0; i < n; ++i) {
+      ++tick;
+      now += 2 * kMs;
+      if (heartbeat) loop->heartbeat(now);
+      loop->cycle(now);
+    }
+  }
+  DriveCommand drive(std::uint32_t id, bool start, double v, double w) const {
+    return DriveCommand{id, start, {v, w}, now};
+  }
+  std::vector<LoopReport> reports() {
+    std::vector<LoopReport> out;
+    LoopReport r;
+    while (loop->pop_report(r))
+      out.push_back(r);
+    return out;
+  }
+  std::vector<DetCardState::Call> jogs() const {
+    std::vector<DetCardState::Call> out;
+    for (const auto& c : card.calls)
+      if (c.kind == DetCardState::Call::kJog) out.push_back(c);
+    return out;
+  }
+  // counts/ms at the card for a wheel speed (rad/s), polarity applied.
+  double card_velocity(double wheel_rad_s, int polarity) const {
+    const auto& b = settings.base;
+    return wheel_rad_s * b.gear_ratio * b.encoder_counts_per_rev / (2 * std::numbers::pi) / 1e3 *
+           polarity;
+  }
+
+  ControlLoopSettings settings;
+  std::int64_t now = 1'000 * kMs;
+  std::uint64_t tick = 0;
+  DetCardState card;
+  DetCard impl{card};
+  std::unique_ptr<ControlLoop> loop;
+};
+
+TEST_F(LoopDrive, LimiterRampsAtTheAccelerationAndClampsTheSpeed) {
+  ASSERT_TRUE(loop->post_drive(drive(1, true, 5.0, 0.0)));  // far above the speed limit
+  double previous = 0;
+  for (int i = 0; i < 400; ++i) {  // 0.8 s: 0.6 s to reach the speed limit
+    if (i % 50 == 0) {
+      ASSERT_TRUE(loop->post_drive(drive(1, false, 5.0, 0.0)));  // held key
+    }
+    run(1);
+    const double v = loop->snapshot().commanded.linear_m_s;
+    EXPECT_LE(v - previous, 0.5 * 0.002 + 1e-12) << "cycle " << i;  // acceleration limit
+    EXPECT_LE(v, 0.3 + 1e-12) << "cycle " << i;                     // speed limit
+    previous = v;
+  }
+  EXPECT_DOUBLE_EQ(previous, 0.3);
+  // The card got the wheel velocities of the limited body velocity (both wheels forward).
+  const auto last = jogs().back();
+  const double wheel = 0.3 / settings.base.wheel_radius_m;
+  EXPECT_NEAR(last.left_velocity, card_velocity(wheel, settings.base.left.polarity), 1e-9);
+  EXPECT_NEAR(last.right_velocity, card_velocity(wheel, settings.base.right.polarity), 1e-9);
+  EXPECT_TRUE(reports().empty());  // still jogging
+  EXPECT_TRUE(loop->snapshot().jogging);
+}
+
+TEST_F(LoopDrive, CommandTimeoutStopsAJogWhileTheControllerKeepsPinging) {
+  ASSERT_TRUE(loop->post_drive(drive(7, true, 0.2, 0.3)));
+  run(250);  // 0.5 s: just within the timeout, at speed
+  EXPECT_NEAR(loop->snapshot().commanded.linear_m_s, 0.2, 1e-9);
+  EXPECT_NEAR(loop->snapshot().commanded.angular_rad_s, 0.3, 1e-9);
+  EXPECT_TRUE(reports().empty());
+  run(400);  // past 0.5 s without a new Drive (heartbeats go on): decelerate to rest
+  const auto snap = loop->snapshot();
+  EXPECT_EQ(snap.commanded.linear_m_s, 0.0);
+  EXPECT_EQ(snap.commanded.angular_rad_s, 0.0);
+  run(10);
+  const auto rs = reports();
+  ASSERT_EQ(rs.size(), 1U);
+  EXPECT_EQ(rs[0].kind, LoopReportKind::kMotionFinished);
+  EXPECT_EQ(rs[0].motion_id, 7U);
+  EXPECT_TRUE(rs[0].command_timeout);
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kOk);  // a timeout is not a fault
+  EXPECT_FALSE(loop->snapshot().motion_active);
+  EXPECT_EQ(jogs().back().left_velocity, 0.0);
+  EXPECT_FALSE(card.any_moving());
+}
+
+TEST_F(LoopDrive, ZeroVelocityIsASmoothStopThatEndsTheJog) {
+  ASSERT_TRUE(loop->post_drive(drive(3, true, 0.3, 0.0)));
+  for (int i = 0; i < 4; ++i) {  // held for 0.8 s
+    ASSERT_TRUE(loop->post_drive(drive(3, false, 0.3, 0.0)));
+    run(100);
+  }
+  ASSERT_TRUE(loop->post_drive(drive(3, false, 0.0, 0.0)));
+  run(1);
+  const double first = loop->snapshot().commanded.linear_m_s;
+  EXPECT_NEAR(first, 0.3 - 0.5 * 0.002, 1e-12);  // decelerating, not a jump to zero
+  run(400);
+  const auto rs = reports();
+  ASSERT_EQ(rs.size(), 1U);
+  EXPECT_EQ(rs[0].kind, LoopReportKind::kMotionFinished);
+  EXPECT_FALSE(rs[0].command_timeout);
+}
+
+TEST_F(LoopDrive, StopEndsAJogInTheNextCycleAndNothingJogsAfterIt) {
+  ASSERT_TRUE(loop->post_drive(drive(2, true, 0.3, 0.0)));
+  run(50);
+  loop->request_stop();
+  ASSERT_TRUE(loop->post_drive(drive(2, false, 0.3, 0.0)));  // an update behind the stop
+  const std::uint64_t stop_tick = tick + 1;
+  run(20);
+  bool smooth_stop = false;
+  for (const auto& c : card.calls) {
+    if (c.kind == DetCardState::Call::kSmoothStop && c.tick == stop_tick) smooth_stop = true;
+    if (c.kind == DetCardState::Call::kJog && c.tick >= stop_tick) {
+      ADD_FAILURE() << "a jog after the stop, tick " << c.tick;
+    }
+  }
+  EXPECT_TRUE(smooth_stop);
+  const auto rs = reports();
+  ASSERT_EQ(rs.size(), 1U);
+  EXPECT_EQ(rs[0].kind, LoopReportKind::kMotionStopped);
+  EXPECT_EQ(loop->snapshot().commanded.linear_m_s, 0.0);
+}
+
+TEST_F(LoopDrive, AJogStartPostedBeforeAStopNeverReachesTheCard) {
+  ASSERT_TRUE(loop->post_drive(drive(4, true, 0.3, 0.0)));
+  loop->request_stop();
+  run(5);
+  EXPECT_TRUE(jogs().empty());
+  const auto rs = reports();
+  ASSERT_EQ(rs.size(), 1U);
+  EXPECT_EQ(rs[0].kind, LoopReportKind::kMoveCancelled);
+  EXPECT_EQ(rs[0].motion_id, 4U);
+}
+
+TEST_F(LoopDrive, DeadmanStopsAJogAndLatches) {
+  settings.deadman_timeout_s = 0.1;
+  loop = std::make_unique<ControlLoop>(impl, settings);
+  loop->heartbeat(now);
+  ASSERT_TRUE(loop->post_drive(drive(5, true, 0.3, 0.0)));
+  for (int i = 0; i < 100; ++i) {  // Drive updates keep coming, but the controller is silent
+    if (i % 20 == 0) {
+      ASSERT_TRUE(loop->post_drive(drive(5, false, 0.3, 0.0)));
+    }
+    run(1, false);
+  }
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kDeadman);
+  const auto rs = reports();
+  ASSERT_GE(rs.size(), 2U);
+  EXPECT_EQ(rs[0].kind, LoopReportKind::kFault);
+  EXPECT_EQ(rs[0].code, ErrorCode::kDeadman);
+  EXPECT_EQ(rs[1].kind, LoopReportKind::kMotionStopped);
+}
+
+TEST_F(LoopDrive, AJogIsRefusedWhileAMoveRunsAndAMoveWhileAJogRuns) {
+  ASSERT_TRUE(loop->post_move({1, 50000, 50000}));
+  ASSERT_TRUE(loop->post_drive(drive(2, true, 0.3, 0.0)));
+  run(1);
+  auto rs = reports();
+  ASSERT_EQ(rs.size(), 1U);
+  EXPECT_EQ(rs[0].kind, LoopReportKind::kMoveRefused);
+  EXPECT_EQ(rs[0].motion_id, 2U);
+  EXPECT_EQ(rs[0].code, ErrorCode::kMotionInProgress);
+  EXPECT_TRUE(jogs().empty());
+}
+
+TEST_F(LoopDrive, OdometryFollowsTheWheelsWhileDriving) {
+  ASSERT_TRUE(loop->post_drive(drive(1, true, 0.2, 0.0)));
+  for (int i = 0; i < 500; ++i) {
+    if (i % 50 == 0) {
+      ASSERT_TRUE(loop->post_drive(drive(1, false, 0.2, 0.0)));
+    }
+    run(1);
+  }
+  const auto snap = loop->snapshot();
+  // Straight ahead: x is the distance the wheels rolled, y and yaw stay 0.
+  const double rolled = settings.base.wheel_radius_m * snap.left_wheel_rad;
+  EXPECT_GT(snap.pose.x_m, 0.15);
+  EXPECT_NEAR(snap.pose.x_m, rolled, 1e-6);
+  EXPECT_NEAR(snap.pose.y_m, 0.0, 1e-9);
+  EXPECT_NEAR(snap.base_yaw_rad, 0.0, 1e-9);
+}
+
+TEST_F(LoopDrive, AMoveIsRefusedInACycleWhoseStatusReadFailed) {
+  run(1);
+  card.fail_calls = 2;  // both axis_status reads of the next cycle fail
+  ASSERT_TRUE(loop->post_move({9, 1000, 1000}));
+  run(1);
+  int moves = 0;
+  for (const auto& c : card.calls)
+    moves += c.kind == DetCardState::Call::kMove ? 1 : 0;
+  EXPECT_EQ(moves, 0);
+  const auto rs = reports();
+  ASSERT_EQ(rs.size(), 1U);
+  EXPECT_EQ(rs[0].kind, LoopReportKind::kMoveRefused);
+  EXPECT_EQ(rs[0].code, ErrorCode::kCardCommunication);
+}
+
+}  // namespace
+}  // namespace ajar::daemon
