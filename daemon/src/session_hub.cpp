@@ -80,14 +80,22 @@ std::string SessionHub::describe(const SessionState& s) const {
 void SessionHub::reply(SessionState& s, std::uint32_t request_id, protocol::Message message,
                        std::uint64_t generation) {
   if (!s.held.empty() || generation > engine_.settled_generation()) {
-    s.held.push_back(HeldReply{request_id, std::move(message), generation});
+    s.held.push_back(HeldReply{request_id, std::move(message), generation, Clock::now()});
     return;
   }
   send_reply(s, request_id, std::move(message));
 }
 
-void SessionHub::release_settled(SessionState& s, std::uint64_t settled) {
-  while (!s.held.empty() && s.held.front().generation <= settled) {
+void SessionHub::release_settled(SessionState& s, std::uint64_t settled, Clock::time_point now) {
+  while (!s.held.empty()) {
+    const bool saved = s.held.front().generation <= settled;
+    if (!saved && now - s.held.front().since < kHeldReplyLimit) break;
+    if (!saved) {
+      spdlog::warn(
+          "{}: the state was not saved within {} s: reply to request {} sent without "
+          "waiting for the disk (later replies, a Stop's too, are not held behind it)",
+          describe(s), kHeldReplyLimit.count(), s.held.front().request_id);
+    }
     HeldReply r = std::move(s.held.front());
     s.held.pop_front();
     send_reply(s, r.request_id, std::move(r.message));
@@ -380,7 +388,7 @@ void SessionHub::tick(Clock::time_point now) {
   std::array<SharedFrame, protocol::kVersionMinor + 1> frames;  // encoded once per minor in use
   std::optional<protocol::Telemetry> telemetry;
   for (auto& [id, s] : sessions_) {
-    release_settled(s, settled);
+    release_settled(s, settled, now);
     if (!s.greeted && !s.closing && options_.hello_timeout > Clock::duration::zero() &&
         now - s.opened >= options_.hello_timeout) {
       const std::string why = "no Hello within " + seconds_text(options_.hello_timeout) +

@@ -22,19 +22,22 @@ constexpr std::size_t kOffMagic = 0, kOffMajor = 4, kOffMinor = 5, kOffType = 6,
 static_assert(kOffCrc + 4 == kHeaderSize);
 constexpr std::array<std::uint8_t, 4> kMagicBytes = {0x41, 0x4A, 0x41, 0x52};  // "AJAR"
 
+// One function per message type (the walk inlined into it), like hand-written field code.
 template <typename T>
-void decode_as(Reader& r, Message& m) noexcept {
+[[gnu::noinline]] void decode_as(Reader& r, Message& m) noexcept {
   // Reuse the alternative when it is already there (a stream of Telemetry, say): every field is
   // overwritten. MeasureDoorPlane starts fresh so that points beyond `count` are default, and so
   // does an older layout (the fields it lacks keep their defaults).
-  if constexpr (!std::is_same_v<T, MeasureDoorPlane>) {
-    T* existing = std::get_if<T>(&m);
-    if (existing != nullptr && r.since(kVersionMinor)) {
-      walk<Text("")>(r, *existing);
-      return;
-    }
+  T* existing = std::get_if<T>(&m);
+  if (std::is_same_v<T, MeasureDoorPlane> || existing == nullptr || !r.since(kVersionMinor)) {
+    existing = &m.template emplace<T>();
   }
-  walk<Text("")>(r, m.template emplace<T>());
+  walk<Text("")>(r, *existing);
+}
+
+template <typename T>
+[[gnu::noinline]] void encode_as(Writer& w, const T& m) noexcept {
+  walk<Text("")>(w, m);
 }
 
 // Decodes the payload of a known type (the message table); false for an unknown type.
@@ -47,7 +50,7 @@ bool decode_payload(std::uint16_t type, Reader& r, Message& m) noexcept {
 bool encode_payload(const Message& m, std::span<std::uint8_t> out, std::size_t& size,
                     std::uint8_t minor = kVersionMinor) noexcept {
   Writer w(out.data(), std::min(out.size(), kMaxPayloadSize), minor);
-  std::visit([&w](const auto& v) { walk<Text("")>(w, v); }, m);
+  std::visit([&w](const auto& v) { encode_as(w, v); }, m);
   size = w.size();
   return w.ok();
 }

@@ -28,7 +28,7 @@ class Writer {
   std::size_t size() const noexcept { return pos_; }
 
   template <typename W, typename V>
-  void scalar(const V& v, const char*) noexcept {
+  [[gnu::always_inline]] void scalar(const V& v, const char*) noexcept {
     if (std::uint8_t* q = take(sizeof(typename W::raw))) store(q, W::to_raw(v));
   }
   template <std::size_t N>
@@ -53,7 +53,7 @@ class Writer {
   }
 
  private:
-  std::uint8_t* take(std::size_t n) noexcept {
+  [[gnu::always_inline]] std::uint8_t* take(std::size_t n) noexcept {
     if (!ok_ || cap_ - pos_ < n) {
       ok_ = false;
       return nullptr;
@@ -81,7 +81,7 @@ class Reader {
   bool since(std::uint8_t m) const noexcept { return minor_ >= m; }
 
   template <typename W, typename V>
-  void scalar(V& v, const char* f) noexcept {
+  [[gnu::always_inline]] void scalar(V& v, const char* f) noexcept {
     using Raw = typename W::raw;
     const Raw raw = load<Raw>(take(sizeof(Raw)));
     v = W::template from_raw<V>(raw);
@@ -151,11 +151,11 @@ class Reader {
 
  private:
   // The next n bytes; past the end (a truncated payload) zeros, which never fail a check.
-  const std::uint8_t* take(std::size_t n) noexcept {
+  [[gnu::always_inline]] const std::uint8_t* take(std::size_t n) noexcept {
     const std::uint8_t* q = take_block(n);
     return q == nullptr ? kZeros.data() : q;
   }
-  const std::uint8_t* take_block(std::size_t n) noexcept {
+  [[gnu::always_inline]] const std::uint8_t* take_block(std::size_t n) noexcept {
     needed_ += n;
     if (size_ - pos_ < n) {
       truncated_ = true;

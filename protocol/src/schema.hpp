@@ -154,22 +154,23 @@ struct Problem {
 };
 using Check = Problem (*)(std::uint64_t raw) noexcept;
 
-constexpr Problem any_value(std::uint64_t) noexcept {
+[[gnu::always_inline]] constexpr Problem any_value(std::uint64_t) noexcept {
   return {};
 }
-constexpr Problem zero_or_one(std::uint64_t raw) noexcept {
+[[gnu::always_inline]] constexpr Problem zero_or_one(std::uint64_t raw) noexcept {
   return raw <= 1 ? Problem{} : Problem{ErrorCode::kInvalidEnumValue, 2, "bool"};
 }
-constexpr Problem plus_or_minus_one(std::uint64_t raw) noexcept {
+[[gnu::always_inline]] constexpr Problem plus_or_minus_one(std::uint64_t raw) noexcept {
   const auto v = static_cast<std::int8_t>(raw);
   return v == 1 || v == -1 ? Problem{} : Problem{ErrorCode::kInvalidEnumValue, 0, "polarity"};
 }
 template <std::uint8_t Count>
-constexpr Problem below(std::uint64_t raw) noexcept {
+[[gnu::always_inline]] constexpr Problem below(std::uint64_t raw) noexcept {
   return raw < Count ? Problem{} : Problem{ErrorCode::kInvalidEnumValue, Count};
 }
 template <typename Float, typename Raw>
-Problem finite(std::uint64_t raw) noexcept {  // limit: the size, for describe()
+[[gnu::always_inline]] inline Problem finite(
+    std::uint64_t raw) noexcept {  // limit: the size, for describe()
   return std::isfinite(std::bit_cast<Float>(static_cast<Raw>(raw)))
              ? Problem{}
              : Problem{ErrorCode::kNonFiniteNumber, sizeof(Raw)};
@@ -177,7 +178,7 @@ Problem finite(std::uint64_t raw) noexcept {  // limit: the size, for describe()
 
 // A value to its raw bits and back: floats bit for bit, integers, bools and enums by value.
 template <typename To, typename From>
-constexpr To convert(From v) noexcept {
+[[gnu::always_inline]] constexpr To convert(From v) noexcept {
   if constexpr (std::is_floating_point_v<To> || std::is_floating_point_v<From>) {
     return std::bit_cast<To>(v);
   } else {
@@ -190,14 +191,14 @@ struct Wire {
   using raw = Raw;
   static constexpr auto name = Name;
   template <typename V>
-  static Raw to_raw(V v) noexcept {
+  [[gnu::always_inline]] static Raw to_raw(V v) noexcept {
     return convert<Raw>(v);
   }
   template <typename V>
-  static V from_raw(Raw r) noexcept {
+  [[gnu::always_inline]] static V from_raw(Raw r) noexcept {
     return convert<V>(r);
   }
-  static Problem check(Raw r) noexcept { return Validate(r); }
+  [[gnu::always_inline]] static Problem check(Raw r) noexcept { return Validate(r); }
 };
 template <typename T>
 struct IsWire : std::false_type {};

@@ -16,6 +16,11 @@
 
 namespace ajar::protocol::detail {
 
+// The walk is inlined whole into each message's encoder and decoder (as hand-written field code
+// would be): left to its heuristics GCC keeps some levels out of line, which costs up to 70 % on
+// the decode benchmarks (tests/bench/protocol_bench.cpp).
+#define AJAR_WALK_INLINE [[gnu::always_inline]] inline
+
 template <typename T>
 struct IsStdArray : std::false_type {};
 template <typename T, std::size_t N>
@@ -32,15 +37,16 @@ struct KindArgument<K<M>> {
 };
 
 template <Text Prefix, typename IO, typename S>
-bool walk(IO& io, S& s) noexcept;
+AJAR_WALK_INLINE bool walk(IO& io, S& s) noexcept;
 
 // Elements [0, count) of an array, named Name[i].
 template <Text Name, typename IO, typename A, std::size_t... I>
-void walk_elements(IO& io, A& array, std::size_t count, std::index_sequence<I...>) noexcept;
+AJAR_WALK_INLINE void walk_elements(IO& io, A& array, std::size_t count,
+                                    std::index_sequence<I...>) noexcept;
 
 // One value named Name, by its C++ type.
 template <Text Name, typename IO, typename V>
-bool walk_value(IO& io, V& v) noexcept {
+AJAR_WALK_INLINE bool walk_value(IO& io, V& v) noexcept {
   using T = std::remove_const_t<V>;
   constexpr const char* n = c_str<Name>();
   if constexpr (!std::is_void_v<WireOf<T>>) {
@@ -63,14 +69,15 @@ bool walk_value(IO& io, V& v) noexcept {
 }
 
 template <Text Name, typename IO, typename A, std::size_t... I>
-void walk_elements(IO& io, A& array, std::size_t count, std::index_sequence<I...>) noexcept {
+AJAR_WALK_INLINE void walk_elements(IO& io, A& array, std::size_t count,
+                                    std::index_sequence<I...>) noexcept {
   ((I < count ? static_cast<void>(walk_value<Name + index_text<I>()>(io, array[I]))
               : static_cast<void>(0)),
    ...);
 }
 
 template <Text Prefix, typename F, typename IO, typename S>
-bool walk_field(IO& io, S& s) noexcept {
+AJAR_WALK_INLINE bool walk_field(IO& io, S& s) noexcept {
   if (!io.since(F::since)) return false;  // the layout ends where this minor's fields start
   auto& v = s.*(F::member);
   constexpr auto name = Prefix + F::name;
@@ -106,13 +113,13 @@ bool walk_field(IO& io, S& s) noexcept {
 }
 
 template <Text Prefix, typename IO, typename S, typename... F>
-bool walk_fields(IO& io, S& s, Fields<F...> fields) noexcept {
+AJAR_WALK_INLINE bool walk_fields(IO& io, S& s, Fields<F...> fields) noexcept {
   static_assert(appended_at_the_end(fields), "appended fields come last, newest last");
   return (walk_field<Prefix, F>(io, s) && ...);
 }
 
 template <Text Prefix, typename IO, typename S>
-bool walk(IO& io, S& s) noexcept {
+AJAR_WALK_INLINE bool walk(IO& io, S& s) noexcept {
   return walk_fields<Prefix>(io, s, typename Schema<std::remove_const_t<S>>::fields{});
 }
 

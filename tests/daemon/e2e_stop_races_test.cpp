@@ -253,10 +253,11 @@ TEST_F(StopRaces, TwoResetsInOneWriteLeaveLaterFaultsLatching) {
 }
 
 // An EmergencyStop from an observer while the controller's commands are being written to a slow
-// disk (3 s per save): the e-stop is executed and acknowledged while that save is still running.
+// disk (1.5 s per save, within SessionHub::kHeldReplyLimit): the e-stop is executed and
+// acknowledged while that save is still running.
 TEST_F(StopRaces, AnEmergencyStopDoesNotWaitForTheControllersSlowDisk) {
   auto c = config();
-  c.state.debug_write_delay_ms = 3000;
+  c.state.debug_write_delay_ms = 1500;
   InProcess d(c);
   TestClient observer(d.port());
   observer.hello(Role::kObserver);
@@ -273,6 +274,22 @@ TEST_F(StopRaces, AnEmergencyStopDoesNotWaitForTheControllersSlowDisk) {
   // The controller's Ack arrives once its save is on disk.
   EXPECT_TRUE(std::holds_alternative<protocol::Ack>(controller.reply_to(width_id)));
   EXPECT_GE(d.engine().settled_generation(), width_generation);
+}
+
+// A disk that does not finish a save in time (4 s here) holds the controller's width Ack at most
+// SessionHub::kHeldReplyLimit; its own Stop behind it is then acknowledged, in request order.
+TEST_F(StopRaces, AHungDiskHoldsAnAckBoundedlyAndTheStopBehindItArrives) {
+  auto c = config();
+  c.state.debug_write_delay_ms = 4000;
+  InProcess d(c);
+  TestClient controller(d.port());
+  controller.hello(Role::kController);
+  controller.send_raw(one_write({{good_width(), 21}, {protocol::Stop{}, 22}}));
+  const auto width = controller.reply_to(21, 3500ms);
+  EXPECT_TRUE(std::holds_alternative<protocol::Ack>(width)) << TestClient::describe(width);
+  const auto stop = controller.reply_to(22, 1s);
+  EXPECT_TRUE(std::holds_alternative<protocol::Ack>(stop)) << TestClient::describe(stop);
+  EXPECT_EQ(d.engine().settled_generation(), 0U) << "the save had not finished: the bound acted";
 }
 
 // One session's replies stay in request order when its first command waits for the disk.

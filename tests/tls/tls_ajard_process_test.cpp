@@ -1,8 +1,11 @@
-// The real ajard binary with network.tls (issue 13): SIGHUP with a CRL that revokes a connected
-// operator closes that session; an expired CRL is warned about on SIGHUP and at the next start.
+// The real ajard binary with network.tls (issue 13): the whole procedure by the real ajarctl with
+// --ca/--cert/--key; SIGHUP with a CRL that revokes a connected operator closes that session; an
+// expired CRL is warned about on SIGHUP and at the next start.
 #include <utility>  // before Asio (asio issue 944)
 
 #include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 
 #include <cstdio>
 #include <fstream>
@@ -20,16 +23,67 @@ namespace {
 using client::Client;
 using protocol::Role;
 
+// A TLS ajard on mock drivers: its config file and command line in `dir`.
+std::vector<std::string> tls_ajard_args(const Pki& pki, const TempDir& dir) {
+  daemon::Config c = e2e_config(drivers::DriverKind::kMock, dir.path(), 20.0);
+  c.network.tls = pki.server_config();
+  const std::string config = dir.path() + "/ajard.yaml";
+  std::ofstream(config) << daemon::to_yaml(c);
+  return {"--config",           config,        "--listen",       "127.0.0.1:0", "--port-file",
+          dir.path() + "/port", "--state-dir", dir.path() + "/s"};
+}
+
+#ifdef AJARCTL_PATH
+// ajarctl ARGS with NAME's certificate; returns the exit code, output in `out`.
+int ajarctl(const Pki& pki, const std::string& name, std::uint16_t port, const std::string& args,
+            const TempDir& dir, std::string& out) {
+  const std::string path = dir.path() + "/ajarctl-" + name + ".out";
+  const std::string command =
+      std::string(AJARCTL_PATH) + " --connect 127.0.0.1:" + std::to_string(port) + " --ca " +
+      pki.path("ca.crt") + " --cert " + pki.path(name + ".crt") + " --key " +
+      pki.path(name + ".key") + " " + args + " >" + path + " 2>&1";
+  const int status = std::system(command.c_str());
+  out = read_text_file(path);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(TlsAjard, AjarctlWithItsCertificateRunsTheWholeProcedure) {
+  Pki pki;
+  TempDir dir;
+  AjardProcess ajard(tls_ajard_args(pki, dir), dir.path(), "ajard");
+  const auto port = wait_for_port_file(dir.path() + "/port", ajard);
+  ASSERT_TRUE(port) << ajard.err();
+  const std::string script = dir.path() + "/procedure.txt";
+  std::ofstream(script) << "measure width 1.0 0.45 0.3 1.0 -0.45 0.3\n"
+                           "measure handle 0.95 -0.35 0.3 0.95 -0.23 0.3\n"
+                           "measure plane 0.985 0.0199 0 0.9957 0.3199 0 0.9932 0.2699 0.7 "
+                           "0.98 -0.25 0.6\n"
+                           "align\n"
+                           "contact 0.8 0.0 0.3\n"
+                           "engage\n";
+  std::string out;
+  ASSERT_EQ(ajarctl(pki, "alice", *port, "--frame base script " + script, dir, out), 0) << out;
+  EXPECT_EQ(ajarctl(pki, "bob", *port, "--json status", dir, out), 0) << out;
+  EXPECT_NE(out.find("\"state\": \"engaged\""), std::string::npos) << out;
+  // An observer certificate cannot command; its emergency stop works.
+  EXPECT_NE(ajarctl(pki, "bob", *port, "reset", dir, out), 0);
+  EXPECT_NE(out.find("NOT_CONTROLLER"), std::string::npos) << out;
+  EXPECT_EQ(ajarctl(pki, "bob", *port, "estop", dir, out), 0) << out;
+  // A key readable by others is refused before anything is sent.
+  ASSERT_EQ(::chmod(pki.path("alice.key").c_str(), 0644), 0);
+  EXPECT_NE(ajarctl(pki, "alice", *port, "status", dir, out), 0);
+  EXPECT_NE(out.find("accessible to group or others"), std::string::npos) << out;
+  EXPECT_NE(ajard.err().find("authenticated as cn:alice"), std::string::npos);
+  ajard.signal(SIGTERM);
+  EXPECT_EQ(ajard.wait_exit(), 0) << ajard.err();
+}
+#endif
+
 TEST(TlsAjard, SighupClosesARevokedSessionAndAnExpiredCrlIsWarnedOnReloadAndAtStart) {
   Pki pki;
   TempDir dir;
-  const std::string config = dir.path() + "/ajard.yaml";
   const std::string port_file = dir.path() + "/port";
-  daemon::Config c = e2e_config(drivers::DriverKind::kMock, dir.path(), 20.0);
-  c.network.tls = pki.server_config();
-  std::ofstream(config) << daemon::to_yaml(c);
-  const std::vector<std::string> args{"--config",    config,    "--listen",    "127.0.0.1:0",
-                                      "--port-file", port_file, "--state-dir", dir.path() + "/s"};
+  const std::vector<std::string> args = tls_ajard_args(pki, dir);
   {
     AjardProcess ajard(args, dir.path(), "first");
     const auto port = wait_for_port_file(port_file, ajard);

@@ -38,7 +38,10 @@
 //   command was executed, so it is acknowledged). Only that session waits: its later replies
 //   queue behind the held one (replies stay in request order); every other session is served at
 //   once. Stop and EmergencyStop are executed at once and their own Ack is never held for a save
-//   (it only keeps its place behind an earlier held reply of the same session). tick() releases
+//   (it only keeps its place behind an earlier held reply of the same session).
+//   A reply is never held longer than kHeldReplyLimit: a disk that does not finish a save by then
+//   (hung, failing) costs the durability of that Ack, never the session's later replies (a
+//   Stop's Ack behind it). The journal says so, once per stall. tick() releases
 //   what has settled; release_all() sends everything (shutdown).
 // - Hello deadline: a session that has not been greeted `hello_timeout` after it opened gets
 //   ERROR HELLO_REQUIRED ("no Hello within ...") and is closed (0 = no deadline).
@@ -109,11 +112,15 @@ class SessionHub final : public SessionHandler {
   std::optional<std::uint64_t> controller() const noexcept { return controller_; }
   const RequestLedger& ledger() const noexcept { return ledger_; }
 
+ public:
+  static constexpr std::chrono::seconds kHeldReplyLimit{2};
+
  private:
   struct HeldReply {
     std::uint32_t request_id = 0;
     protocol::Message message;
     std::uint64_t generation = 0;  // released once the engine's settled generation reaches it
+    Clock::time_point since{};     // ... or once held for kHeldReplyLimit
   };
   struct SessionState {
     SessionLink* link = nullptr;
@@ -138,7 +145,8 @@ class SessionHub final : public SessionHandler {
   void reply(SessionState& s, std::uint32_t request_id, protocol::Message message,
              std::uint64_t generation = 0);
   void send_reply(SessionState& s, std::uint32_t request_id, protocol::Message message);
-  void release_settled(SessionState& s, std::uint64_t settled);
+  void release_settled(SessionState& s, std::uint64_t settled,
+                       Clock::time_point now = Clock::time_point::min());
   void refuse(SessionState& s, const protocol::Envelope& envelope, ErrorCode code,
               std::string_view field, std::string_view message);
   void broadcast(const protocol::Message& message);
