@@ -13,7 +13,7 @@
 // interesting situations were actually reached (coverage counters, printed).
 //
 //   AJAR_SEED=<n>     replay one seed (prints its trace)
-//   AJAR_SEEDS=<n>    number of seeds (default 2000; a campaign: AJAR_SEEDS=200000)
+//   AJAR_SEEDS=<n>    number of seeds (default 2000, 400 under sanitizers; a campaign: 200000)
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -47,6 +47,12 @@ using protocol::ProcedureState;
 
 constexpr std::int64_t kPeriodNs = 2'000'000;  // 500 Hz
 constexpr double kEps = 1e-9;
+// CI's campaign. Under ASan/TSan (10-20x the CPU) a shorter one: the Release run asserts coverage.
+#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
+constexpr std::uint64_t kCiSeeds = 400;
+#else
+constexpr std::uint64_t kCiSeeds = 2000;
+#endif
 
 std::string shm_dir() {
   // State files on tmpfs when available: thousands of engines each persist dozens of times.
@@ -1056,7 +1062,7 @@ TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
   const std::string dir = shm_dir();
   const char* one = std::getenv("AJAR_SEED");
   const std::uint64_t first = one != nullptr ? env_u64("AJAR_SEED", 0) : 1;
-  const std::uint64_t count = one != nullptr ? 1 : env_u64("AJAR_SEEDS", 2000);
+  const std::uint64_t count = one != nullptr ? 1 : env_u64("AJAR_SEEDS", kCiSeeds);
   int failures = 0;
   Coverage total;
   for (std::uint64_t seed = first; seed < first + count && failures < 3; ++seed) {
