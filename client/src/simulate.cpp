@@ -17,6 +17,7 @@
 #include "ajar/client/client.hpp"
 #include "ajar/client/output.hpp"
 #include "ajar/core/geometry.hpp"
+#include "ajar/daemon/config.hpp"
 
 namespace ajar::client {
 
@@ -194,30 +195,6 @@ Scenario load_scenario(const std::string& path) {
     if (expect["engaged"]) s.expect_engaged = expect["engaged"].as<bool>();
   }
   return s;
-}
-
-Eigen::Matrix4d camera_to_base_from_config(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception& e) {
-    throw std::runtime_error(path + ": cannot read the config: " + e.what());
-  }
-  const auto rows = root["frames"]["camera_to_base_m"];
-  if (!rows || !rows.IsSequence() || rows.size() != 4) {
-    throw std::runtime_error(path + ": frames.camera_to_base_m: missing or not 4 rows");
-  }
-  Eigen::Matrix4d m;
-  for (std::size_t i = 0; i < 4; ++i) {
-    if (!rows[i].IsSequence() || rows[i].size() != 4) {
-      throw std::runtime_error(path + ": frames.camera_to_base_m[" + std::to_string(i) +
-                               "]: not 4 numbers");
-    }
-    for (std::size_t j = 0; j < 4; ++j) {
-      m(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = rows[i][j].as<double>();
-    }
-  }
-  return m;
 }
 
 // ---- The world ---------------------------------------------------------------------------------
@@ -1029,7 +1006,7 @@ int run_simulate(const Command& command, const GlobalOptions& options, std::ostr
   try {
     scenario = load_scenario(scenario_path);
     camera_to_base = config_path.empty() ? core::paper_camera_to_base_m()
-                                         : camera_to_base_from_config(config_path);
+                                         : daemon::load_config(config_path).camera_to_base_m;
   } catch (const std::exception& e) {
     err << "ajarctl: simulate: " << e.what() << '\n';
     return kExitUsage;

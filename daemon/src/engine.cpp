@@ -632,7 +632,8 @@ class EngineImpl final : public Engine {
   // With a fault latched: recovers the arm here and the card in the loop (recover request with a
   // fresh sequence number; the loop answers exactly that sequence), then clears the fault.
   protocol::Message reset(MessageType type, const protocol::Reset& r) {
-    if (procedure_.phase() == Phase::kAligning || procedure_.phase() == Phase::kEngaging) {
+    if (procedure_.phase() == Phase::kAligning || procedure_.phase() == Phase::kEngaging ||
+        wheel_motion_ != 0) {  // a jog or an approach too ("stops any motion")
       stop_motion();
     }
     if (procedure_.fault() != ErrorCode::kOk) {
