@@ -373,7 +373,14 @@ class World {
         std::vector<Frame> frames;
         for (int i = 0; i < n; ++i)
           frames.push_back(random_command());
-        read(*controller_, frames);
+        if (pick(3) != 0) {
+          read(*controller_, frames);
+        } else {  // or each in its own read, all before the loop's next cycle
+          for (const auto& f : frames)
+            if (controller_ != nullptr) read(*controller_, std::vector<Frame>{f});
+        }
+        // An observer's stop racing the controller's commands (before the next cycle).
+        if (pick(10) == 0) observer_action();
       }
     } else if (what < 55) {
       observer_action();
@@ -608,7 +615,7 @@ class World {
   void arm_event() {
     const auto st = arm_->with_lock([](FakeArmControl& a) { return a.status; });
     if (st.phase != drivers::ArmPhase::kBusy) return;
-    switch (pick(4)) {
+    switch (calm_ && pick(2) == 0 ? 0 : pick(4)) {  // calm: the task mostly succeeds
       case 0:
         note("arm: task done");
         arm_->set_phase(drivers::ArmPhase::kDone);
@@ -1080,7 +1087,7 @@ TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
         "approach stopped", "move cancelled before it started", "recovery (Reset of a fault)",
         "card fault mid-motion", "deadman", "duplicate executed once", "take-over",
         "durable ack held"}) {
-    EXPECT_GE(total.get(what), 20) << "the campaign no longer reaches: " << what;
+    EXPECT_GE(total.get(what), 10) << "the campaign no longer reaches: " << what;
   }
 }
 
