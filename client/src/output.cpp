@@ -131,7 +131,7 @@ std::string us(std::uint32_t ns) {
 template <typename T>
 std::string door_text(const T& m) {
   if (!m.door.has_distance) return "unknown";
-  std::string t = m_text(m.door.distance_m) + " to the plane";
+  std::string t = m_text(m.door.distance_m) + " to the door";
   if (m.door.has_yaw) t += ", yaw to correct " + rad(m.door.yaw_rad);
   return t;
 }

@@ -496,7 +496,7 @@ class Session {
           break;
         }
         const auto now = Clock::now();
-        const auto wake = std::min(schedule.next(v), now + Milliseconds{50});
+        const auto wake = std::min(schedule.next(v, now), now + Milliseconds{50});
         const int wait_ms = static_cast<int>(std::clamp<std::int64_t>(
             std::chrono::duration_cast<Milliseconds>(wake - now).count(), 0, 50));
         keys.clear();
@@ -612,7 +612,8 @@ class Session {
           break;
         }
       }
-      const auto wake = std::min({schedule.next(v), end, Clock::now() + Milliseconds{50}});
+      const auto now = Clock::now();
+      const auto wake = std::min({schedule.next(v, now), end, now + Milliseconds{50}});
       std::this_thread::sleep_until(wake);
     }
     const std::uint64_t count = telemetry_count();

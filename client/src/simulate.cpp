@@ -10,6 +10,7 @@
 
 #include "ajar/client/cli.hpp"
 #include "ajar/client/output.hpp"
+#include "ajar/daemon/config.hpp"
 #include "simulate_detail.hpp"
 
 namespace ajar::client {
@@ -205,7 +206,7 @@ int run_simulate(const Command& command, const GlobalOptions& options, std::ostr
   try {
     scenario = load_scenario(scenario_path);
     camera_to_base = config_path.empty() ? core::paper_camera_to_base_m()
-                                         : camera_to_base_from_config(config_path);
+                                         : daemon::load_config(config_path).camera_to_base_m;
   } catch (const std::exception& e) {
     err << "ajarctl: simulate: " << e.what() << '\n';
     return kExitUsage;

@@ -158,28 +158,4 @@ Scenario load_scenario(const std::string& path) {
   return s;
 }
 
-Eigen::Matrix4d camera_to_base_from_config(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception& e) {
-    throw std::runtime_error(path + ": cannot read the config: " + e.what());
-  }
-  const auto rows = root["frames"]["camera_to_base_m"];
-  if (!rows || !rows.IsSequence() || rows.size() != 4) {
-    throw std::runtime_error(path + ": frames.camera_to_base_m: missing or not 4 rows");
-  }
-  Eigen::Matrix4d m;
-  for (std::size_t i = 0; i < 4; ++i) {
-    if (!rows[i].IsSequence() || rows[i].size() != 4) {
-      throw std::runtime_error(path + ": frames.camera_to_base_m[" + std::to_string(i) +
-                               "]: not 4 numbers");
-    }
-    for (std::size_t j = 0; j < 4; ++j) {
-      m(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = rows[i][j].as<double>();
-    }
-  }
-  return m;
-}
-
 }  // namespace ajar::client

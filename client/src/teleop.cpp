@@ -139,8 +139,9 @@ bool ResendScheduler::due(const Velocity& v, Clock::time_point now) {
   return false;
 }
 
-ResendScheduler::Clock::time_point ResendScheduler::next(const Velocity& v) const {
-  if (pending_) return Clock::time_point::min();
+ResendScheduler::Clock::time_point ResendScheduler::next(const Velocity& v,
+                                                         Clock::time_point now) const {
+  if (pending_) return now;
   if (v.zero() || !sent_once_) return Clock::time_point::max();
   return last_ + period_;
 }

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "ajar/client/cli.hpp"
 #include "ajar/client/simulate.hpp"
 #include "ajar/console/door_scene.hpp"
 #include "ajar/console/openni_source.hpp"
@@ -34,6 +35,8 @@ constexpr const char* kUsage = R"(usage: ajar-console [options]
   --cert FILE           with --ca: this console's certificate (PEM), made by scripts/make-certs
   --key FILE            with --ca: its private key (mode 0600: refused when group/world readable)
   --server-name NAME    with --ca: the name in ajard's certificate (default: the --connect host)
+  --client-config FILE  connect and tls from ajarctl's client config file (docs/ajarctl.md);
+                        options after it override it
   --observer            connect as an observer (default: controller)
   --take-over           take control from the current controller
   --record DIR          sim: write --frames rendered frames in the TUM layout to DIR and exit
@@ -130,6 +133,13 @@ Args parse(int argc, char** argv) {
       a.options.tls.private_key = value();
     } else if (o == "--server-name") {
       a.options.tls.server_name = value();
+    } else if (o == "--client-config") {
+      // ajarctl's loader: one file format for every host-side program.
+      const std::vector<std::string> words{o, value()};
+      const auto parsed = ajar::client::parse_global_options(words);
+      if (!parsed.error.empty()) usage_error(parsed.error);
+      a.options.daemon = parsed.options.endpoint;
+      a.options.tls = parsed.options.tls;
     } else if (o == "--observer") {
       a.options.role = ajar::protocol::Role::kObserver;
     } else if (o == "--take-over") {

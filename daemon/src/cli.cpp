@@ -5,7 +5,10 @@
 #include <cstdio>
 #include <exception>
 #include <iostream>
+#include <memory>
 #include <vector>
+
+#include <CLI/CLI.hpp>
 
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/daemon.hpp"
@@ -16,18 +19,106 @@
 namespace ajar::daemon {
 namespace {
 
-// Options that take a value.
-enum class Option { kConfig, kCheckConfig, kListen, kPortFile, kStateDir };
+constexpr const char* kUsage =
+    R"(Usage: ajard --config FILE [--listen ADDR:PORT] [--port-file FILE] [--state-dir DIR]
+  or:  ajard --check-config FILE [--listen ADDR:PORT] [--state-dir DIR]
+  or:  ajard --version | --help
 
-struct OptionName {
-  std::string_view name;
-  Option option;
+ajard is the Ajar door-opening controller daemon: it serves the Ajar wire protocol over TCP and
+drives the mobile base (motion card) and the arm (serial) selected by the config.
+)";
+
+constexpr const char* kFooter =
+    R"(Options take their value as the next argument or after '=' (--listen=127.0.0.1:0).
+
+Signals:
+  SIGTERM, SIGINT       stop any motion, persist the state, close the sessions, exit 0.
+  SIGPIPE               ignored.
+  SIGHUP                re-read the config file and apply logging.level; no other key is
+                        reloaded: the log names the keys applied and the changed keys that need
+                        a restart; a config that does not load is logged and ignored
+                        (systemctl reload ajard sends SIGHUP).
+
+Logging goes to journald when run by systemd (JOURNAL_STREAM or INVOCATION_ID set), else to
+stderr, unless logging.sink says otherwise. Under systemd (Type=notify) ajard sends READY=1 once
+it serves, WATCHDOG=1 while its control loop is healthy, and STOPPING=1 on shutdown.
+
+Exit status:
+  0  clean shutdown; --check-config: the config is valid; --version, --help
+  1  start-up failed (drivers, card library, serial device, socket, state directory, port file);
+     the message names what failed
+  2  bad command line, or the config file is invalid (the message names file, key, value and
+     what is allowed))";
+
+// CLI11's help with ajard's usage lines and description first.
+class HelpFormatter : public CLI::Formatter {
+ public:
+  HelpFormatter() { column_width(24); }
+  std::string make_description(const CLI::App*) const override { return ""; }
+  std::string make_usage(const CLI::App*, std::string) const override { return kUsage; }
+  std::string make_option_opts(const CLI::Option* option) const override {
+    return option->get_type_name().empty() ? "" : " " + option->get_type_name();
+  }
 };
-constexpr OptionName kValueOptions[] = {
-    {"--config", Option::kConfig},      {"--check-config", Option::kCheckConfig},
-    {"--listen", Option::kListen},      {"--port-file", Option::kPortFile},
-    {"--state-dir", Option::kStateDir},
+
+// What the parser fills in, besides CommandLine's own fields.
+struct Flags {
+  std::string listen;
+  bool version = false;
+  bool help = false;
 };
+
+// The one description of ajard's options: parse_command_line() parses with it, help_text()
+// prints it.
+std::unique_ptr<CLI::App> make_parser(CommandLine& cl, Flags& flags) {
+  auto app = std::make_unique<CLI::App>("", "ajard");
+  app->set_help_flag();  // -h/--help is an action of its own (kHelp), not an exception
+  app->formatter(std::make_shared<HelpFormatter>());
+  app->footer(kFooter);
+  const CLI::Validator non_empty(
+      [](const std::string& v) { return v.empty() ? std::string("needs a non-empty value") : ""; },
+      "", "non-empty");
+  const CLI::Validator listen_address(
+      [](const std::string& v) {
+        return parse_listen_address(v)
+                   ? std::string()
+                   : "'" + v + "' is not ADDRESS:PORT (e.g. 127.0.0.1:7450, [::1]:0)";
+      },
+      "", "ADDR:PORT");
+  auto* run =
+      app->add_option("--config", cl.config_path, "run the daemon with the YAML config FILE.")
+          ->type_name("FILE")
+          ->check(non_empty);
+  auto* check = app->add_option("--check-config", cl.config_path,
+                                "load and validate FILE, print the effective config (every key,\n"
+                                "defaults filled in, after the overrides below) as YAML, and exit.")
+                    ->type_name("FILE")
+                    ->check(non_empty);
+  app->add_option("--listen", flags.listen,
+                  "listen here instead of network.bind_address/network.port; port 0\n"
+                  "lets the kernel choose a free port (see --port-file). IPv6: [::1]:7450.")
+      ->type_name("ADDR:PORT")
+      ->check(listen_address);
+  app->add_option("--port-file", cl.port_file,
+                  "once the daemon serves (drivers active, socket listening), write the\n"
+                  "bound TCP port to FILE (atomically: a temporary file, then renamed).")
+      ->type_name("FILE")
+      ->check(non_empty);
+  app->add_option("--state-dir", cl.state_dir,
+                  "keep the persisted procedure state in DIR instead of state.directory.")
+      ->type_name("DIR")
+      ->check(non_empty);
+  auto* version = app->add_flag("--version", flags.version, "print the version and exit.");
+  auto* help = app->add_flag("-h,--help", flags.help, "print this help and exit.");
+  // One action: run, check, version or help.
+  const std::vector<CLI::Option*> actions = {run, check, version, help};
+  for (auto* a : actions) {
+    for (auto* b : actions) {
+      if (a != b) a->excludes(b);
+    }
+  }
+  return app;
+}
 
 }  // namespace
 
@@ -55,69 +146,26 @@ std::optional<ListenAddress> parse_listen_address(std::string_view text) {
 
 std::variant<CommandLine, UsageError> parse_command_line(std::span<const std::string_view> args) {
   CommandLine cl;
-  bool have_action = false;
-  auto set_action = [&](CommandLine::Action action,
-                        std::string_view flag) -> std::optional<UsageError> {
-    if (have_action && cl.action != action) {
-      return UsageError{std::string(flag) + " cannot be combined with the other action given"};
-    }
-    have_action = true;
-    cl.action = action;
-    return std::nullopt;
-  };
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    const std::string_view arg = args[i];
-    if (arg == "--help" || arg == "-h") {
-      if (auto e = set_action(CommandLine::Action::kHelp, arg)) return *e;
-      continue;
-    }
-    if (arg == "--version") {
-      if (auto e = set_action(CommandLine::Action::kVersion, arg)) return *e;
-      continue;
-    }
-    std::string_view name = arg;
-    std::optional<std::string_view> value;
-    if (const auto eq = arg.find('='); arg.starts_with("--") && eq != std::string_view::npos) {
-      name = arg.substr(0, eq);
-      value = arg.substr(eq + 1);
-    }
-    const OptionName* known = nullptr;
-    for (const auto& o : kValueOptions) {
-      if (o.name == name) known = &o;
-    }
-    if (known == nullptr) {
-      return UsageError{"unknown option '" + std::string(arg) + "' (see ajard --help)"};
-    }
-    if (!value) {
-      if (i + 1 >= args.size()) return UsageError{std::string(name) + " needs a value"};
-      value = args[++i];
-    }
-    if (value->empty()) return UsageError{std::string(name) + " needs a non-empty value"};
-    switch (known->option) {
-      case Option::kConfig:
-        if (auto e = set_action(CommandLine::Action::kRun, name)) return *e;
-        cl.config_path = std::string(*value);
-        break;
-      case Option::kCheckConfig:
-        if (auto e = set_action(CommandLine::Action::kCheckConfig, name)) return *e;
-        cl.config_path = std::string(*value);
-        break;
-      case Option::kListen:
-        cl.listen = parse_listen_address(*value);
-        if (!cl.listen) {
-          return UsageError{"--listen: '" + std::string(*value) +
-                            "' is not ADDRESS:PORT (e.g. 127.0.0.1:7450, [::1]:0)"};
-        }
-        break;
-      case Option::kPortFile:
-        cl.port_file = std::string(*value);
-        break;
-      case Option::kStateDir:
-        cl.state_dir = std::string(*value);
-        break;
-    }
+  Flags flags;
+  const auto app = make_parser(cl, flags);
+  std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them reversed
+  try {
+    app->parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    return UsageError{std::string(e.what()) + " (see ajard --help)"};
   }
-  if (!have_action) return UsageError{"nothing to do: give --config FILE (see ajard --help)"};
+  if (flags.help) {
+    cl.action = CommandLine::Action::kHelp;
+  } else if (flags.version) {
+    cl.action = CommandLine::Action::kVersion;
+  } else if (app->count("--check-config") != 0) {
+    cl.action = CommandLine::Action::kCheckConfig;
+  } else if (app->count("--config") != 0) {
+    cl.action = CommandLine::Action::kRun;
+  } else {
+    return UsageError{"nothing to do: give --config FILE (see ajard --help)"};
+  }
+  if (!flags.listen.empty()) cl.listen = parse_listen_address(flags.listen);
   return cl;
 }
 
@@ -136,45 +184,9 @@ std::string version_text() {
 }
 
 std::string help_text() {
-  return R"(Usage: ajard --config FILE [--listen ADDR:PORT] [--port-file FILE] [--state-dir DIR]
-  or:  ajard --check-config FILE [--listen ADDR:PORT] [--state-dir DIR]
-  or:  ajard --version | --help
-
-ajard is the Ajar door-opening controller daemon: it serves the Ajar wire protocol over TCP and
-drives the mobile base (motion card) and the arm (serial) selected by the config.
-
-Options:
-  --config FILE         run the daemon with the YAML config FILE.
-  --check-config FILE   load and validate FILE, print the effective config (every key, defaults
-                        filled in, after the overrides below) as YAML, and exit.
-  --listen ADDR:PORT    listen here instead of network.bind_address/network.port; port 0 lets the
-                        kernel choose a free port (see --port-file). IPv6: [::1]:7450.
-  --port-file FILE      once the daemon serves (drivers active, socket listening), write the bound
-                        TCP port to FILE (atomically: written to a temporary file, then renamed).
-  --state-dir DIR       keep the persisted procedure state in DIR instead of state.directory.
-  --version             print the version and exit.
-  --help, -h            print this help and exit.
-Options take their value as the next argument or after '=' (--listen=127.0.0.1:0).
-
-Signals:
-  SIGTERM, SIGINT       stop any motion, persist the state, close the sessions, exit 0.
-  SIGPIPE               ignored.
-  SIGHUP                re-read the config file and apply logging.level; no other key is
-                        reloaded: the log names the keys applied and the changed keys that need
-                        a restart; a config that does not load is logged and ignored
-                        (systemctl reload ajard sends SIGHUP).
-
-Logging goes to journald when run by systemd (JOURNAL_STREAM or INVOCATION_ID set), else to
-stderr, unless logging.sink says otherwise. Under systemd (Type=notify) ajard sends READY=1 once
-it serves, WATCHDOG=1 while its control loop is healthy, and STOPPING=1 on shutdown.
-
-Exit status:
-  0  clean shutdown; --check-config: the config is valid; --version, --help
-  1  start-up failed (drivers, card library, serial device, socket, state directory, port file);
-     the message names what failed
-  2  bad command line, or the config file is invalid (the message names file, key, value and
-     what is allowed)
-)";
+  CommandLine cl;
+  Flags flags;
+  return make_parser(cl, flags)->help();
 }
 
 int ajard_main(int argc, char** argv) {

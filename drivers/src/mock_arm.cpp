@@ -1,11 +1,15 @@
 #include "ajar/drivers/mock_arm.hpp"
 
+#include <chrono>
 #include <thread>
+#include <utility>
 
 namespace ajar::drivers {
 
-MockManipulator::MockManipulator(MockFault fault, int slow_ms)
-    : fault_(fault), slow_ms_(slow_ms < 0 ? 0 : slow_ms) {}
+MockManipulator::MockManipulator(MockFault fault, int slow_ms, MockClock clock)
+    : fault_(fault),
+      slow_ms_(slow_ms < 0 ? 0 : slow_ms),
+      clock_(or_steady_clock(std::move(clock))) {}
 
 Status MockManipulator::connect() {
   MockFault fault;
@@ -33,8 +37,8 @@ Status MockManipulator::disconnect() {
   return Ok{};
 }
 
-void MockManipulator::settle_locked(Clock::time_point now) const {
-  if (status_.phase != ArmPhase::kBusy || task_never_ends_ || now < busy_until_) return;
+void MockManipulator::settle_locked(std::int64_t now_ns) const {
+  if (status_.phase != ArmPhase::kBusy || task_never_ends_ || now_ns < busy_until_ns_) return;
   if (task_outcome_ == ErrorCode::kOk) {
     status_.phase = ArmPhase::kDone;
   } else {
@@ -45,7 +49,7 @@ void MockManipulator::settle_locked(Clock::time_point now) const {
 
 Result<std::uint32_t> MockManipulator::hand_off(const DoorTask& /*task*/) {
   std::lock_guard lock(mutex_);
-  const auto now = Clock::now();
+  const std::int64_t now = clock_();
   settle_locked(now);
   if (!connected_) return make_error(ErrorCode::kArmDisconnected, "", "mock arm: not connected");
   if (status_.phase == ArmPhase::kBusy || status_.phase == ArmPhase::kFault) {
@@ -82,7 +86,7 @@ Result<std::uint32_t> MockManipulator::hand_off(const DoorTask& /*task*/) {
       task_outcome_ = ErrorCode::kArmTimeout;
       break;
   }
-  busy_until_ = now + std::chrono::milliseconds(duration_ms);
+  busy_until_ns_ = now + std::int64_t{duration_ms} * 1'000'000;
   settle_locked(now);
   return id;
 }
@@ -90,7 +94,7 @@ Result<std::uint32_t> MockManipulator::hand_off(const DoorTask& /*task*/) {
 Status MockManipulator::stop() {
   std::lock_guard lock(mutex_);
   ++stops_;
-  settle_locked(Clock::now());
+  settle_locked(clock_());
   if (status_.phase == ArmPhase::kBusy) status_.phase = ArmPhase::kIdle;
   task_never_ends_ = false;
   if (!connected_) return make_error(ErrorCode::kArmDisconnected, "", "mock arm: not connected");
@@ -99,7 +103,7 @@ Status MockManipulator::stop() {
 
 Status MockManipulator::clear_fault() {
   std::lock_guard lock(mutex_);
-  settle_locked(Clock::now());
+  settle_locked(clock_());
   if (!connected_) return make_error(ErrorCode::kArmDisconnected, "", "mock arm: not connected");
   if (status_.phase == ArmPhase::kFault) {
     status_.phase = ArmPhase::kIdle;
@@ -110,7 +114,7 @@ Status MockManipulator::clear_fault() {
 
 ArmStatus MockManipulator::status() const {
   std::lock_guard lock(mutex_);
-  settle_locked(Clock::now());
+  settle_locked(clock_());
   return status_;
 }
 

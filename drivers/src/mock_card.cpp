@@ -10,18 +10,19 @@ namespace ajar::drivers {
 
 using card::fail;
 
-MockMotionCard::MockMotionCard(MockFault fault, int slow_ms, double time_scale, int axis_count)
+MockMotionCard::MockMotionCard(MockFault fault, int slow_ms, double time_scale, int axis_count,
+                               MockClock clock)
     : fault_(fault),
       slow_ms_(std::max(0, slow_ms)),
       time_scale_(time_scale > 0 && std::isfinite(time_scale) ? time_scale : 1.0),
       axis_count_(std::clamp(axis_count, 1, 32)),
+      clock_(or_steady_clock(std::move(clock))),
+      epoch_ns_(clock_()),
       axes_(static_cast<std::size_t>(axis_count_)) {}
 
 std::int64_t MockMotionCard::now_ns() const noexcept {
   if (manual_clock_) return manual_ns_;
-  const auto real_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                           std::chrono::steady_clock::now() - epoch_)
-                           .count();
+  const std::int64_t real_ns = clock_() - epoch_ns_;
   return base_ns_ + std::llround(static_cast<double>(real_ns) * time_scale_);
 }
 
@@ -30,7 +31,7 @@ void MockMotionCard::set_manual_clock(bool manual) noexcept {
   manual_clock_ = manual;
   manual_ns_ = now;
   base_ns_ = now;
-  epoch_ = std::chrono::steady_clock::now();
+  epoch_ns_ = clock_();
 }
 
 void MockMotionCard::advance_clock_ns(std::int64_t ns) noexcept {

@@ -3,7 +3,7 @@
 namespace ajar::protocol {
 
 RobotModel robot_model_from(const Eigen::Matrix4d& camera_to_base_m, const core::BaseGeometry& base,
-                            const core::Limits& limits) noexcept {
+                            const core::Limits& limits, const core::DriveLimits& drive) noexcept {
   RobotModel r;
   for (int row = 0; row < 3; ++row) {
     for (int col = 0; col < 4; ++col)
@@ -20,6 +20,16 @@ RobotModel robot_model_from(const Eigen::Matrix4d& camera_to_base_m, const core:
   r.right = wheel(base.right);
   r.max_wheel_speed_rad_s = base.max_wheel_speed_rad_s;
   r.max_wheel_accel_rad_s2 = base.max_wheel_accel_rad_s2;
+  r.max_linear_speed_m_s = drive.max_linear_speed_m_s;
+  r.max_angular_speed_rad_s = drive.max_angular_speed_rad_s;
+  r.max_linear_accel_m_s2 = drive.max_linear_accel_m_s2;
+  r.max_angular_accel_rad_s2 = drive.max_angular_accel_rad_s2;
+  r.drive_command_timeout_s = drive.command_timeout_s;
+  r.approach_max_travel_m = drive.approach_max_travel_m;
+  r.approach_square_tolerance_rad = drive.approach_square_tolerance_rad;
+  r.approach_min_standoff_m = drive.approach_min_standoff_m;
+  r.stale_travel_m = drive.stale_travel_m;
+  r.stale_yaw_rad = drive.stale_yaw_rad;
   r.arm_shoulder_m = limits.arm.shoulder_m;
   r.arm_min_reach_m = limits.arm.min_reach_m;
   r.arm_max_reach_m = limits.arm.max_reach_m;

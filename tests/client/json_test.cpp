@@ -218,7 +218,7 @@ TEST(Json, StatusAndTelemetryCarryTheMotionBlock) {
   EXPECT_EQ(st["odometry_x_m"].number(), 0.5);
   EXPECT_EQ(st["odometry_y_m"].number(), -0.25);
   EXPECT_EQ(st["door"]["distance_m"].number(), 1.25);
-  EXPECT_FALSE(st["door"].has("yaw_rad")) << "no plane: the yaw is unknown";
+  EXPECT_FALSE(st["door"].has("yaw_rad")) << "has_yaw false: no yaw_rad";
   EXPECT_TRUE(st["staleness"]["plane"].boolean());
   EXPECT_FALSE(st["staleness"]["contact"].boolean());
   EXPECT_EQ(st["staleness"]["travel_since_plane_m"].number(), 0.31);

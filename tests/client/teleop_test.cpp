@@ -91,16 +91,17 @@ TEST(ResendScheduler, ResendsWhileMovingAndSendsTheStopOnce) {
   ResendScheduler s(100ms);
   Velocity v;
   EXPECT_FALSE(s.due(v, t0)) << "nothing until a key";
-  EXPECT_EQ(s.next(v), Clock::time_point::max());
+  EXPECT_EQ(s.next(v, t0), Clock::time_point::max());
   v.linear_m_s = 0.1;
   s.changed();
+  EXPECT_EQ(s.next(v, t0), t0) << "pending: now";
   EXPECT_TRUE(s.due(v, t0)) << "a change is sent at once";
   EXPECT_FALSE(s.due(v, t0 + 50ms));
-  EXPECT_EQ(s.next(v), t0 + 100ms);
+  EXPECT_EQ(s.next(v, t0 + 50ms), t0 + 100ms);
   EXPECT_TRUE(s.due(v, t0 + 100ms));
   EXPECT_FALSE(s.due(v, t0 + 150ms));
   EXPECT_TRUE(s.due(v, t0 + 230ms)) << "late: sent, and the next one counts from now";
-  EXPECT_EQ(s.next(v), t0 + 330ms);
+  EXPECT_EQ(s.next(v, t0 + 230ms), t0 + 330ms);
   v.angular_rad_s = 0.2;
   s.changed();
   EXPECT_TRUE(s.due(v, t0 + 240ms)) << "a change does not wait for the period";
@@ -109,7 +110,7 @@ TEST(ResendScheduler, ResendsWhileMovingAndSendsTheStopOnce) {
   EXPECT_TRUE(s.due(v, t0 + 250ms)) << "the Drive{0, 0}";
   EXPECT_FALSE(s.due(v, t0 + 400ms)) << "zero is not re-sent";
   EXPECT_FALSE(s.due(v, t0 + 10s));
-  EXPECT_EQ(s.next(v), Clock::time_point::max());
+  EXPECT_EQ(s.next(v, t0 + 10s), Clock::time_point::max());
 }
 
 TEST(ResendScheduler, PeriodIsAThirdOfTheCommandTimeoutOrATenthOfASecond) {

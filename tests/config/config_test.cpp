@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 
@@ -223,6 +224,146 @@ TEST_F(ConfigTest, ChangedKeysNameEveryDifferenceByItsPath) {
   EXPECT_EQ(changed_keys(a, b),
             (std::vector<std::string>{"network.port", "frames.camera_to_base_m",
                                       "base.right_wheel.card_axis", "logging.level"}));
+}
+
+TEST_F(ConfigTest, ADuplicateKeyIsRefusedWithTheLinesOfBoth) {
+  // yaml-cpp keeps the first of two equal keys silently: the second would be ignored.
+  const std::string e = error_for(
+      "base:\n  wheel_radius_m: 0.1\n  gear_ratio: 50\n"
+      "  wheel_radius_m: 0.2\n");
+  EXPECT_NE(e.find("ajard.yaml:4: base.wheel_radius_m: is given twice (lines 2 and 4)"),
+            std::string::npos)
+      << e;
+  const std::string item =
+      error_for("network:\n  tls:\n    identities:\n      - {cn: a, role: observer, cn: b}\n");
+  EXPECT_NE(item.find("network.tls.identities[0].cn: is given twice"), std::string::npos) << item;
+}
+
+TEST_F(ConfigTest, ADuplicateSectionIsRefusedWithTheLinesOfBoth) {
+  const std::string e = error_for(
+      "logging:\n  level: debug\nstate:\n  directory: s\n"
+      "logging:\n  level: info\n");
+  EXPECT_NE(e.find("ajard.yaml:5: logging: is given twice (lines 1 and 5)"), std::string::npos)
+      << e;
+}
+
+TEST_F(ConfigTest, NoneMeansNoFaultAndNoLogging) {
+  const Config c = load_config(
+      write("drivers:\n  mock: {card_fault: none, arm_fault: stuck}\nlogging:\n  level: none\n"));
+  EXPECT_EQ(c.drivers.mock.card_fault, drivers::MockFault::kOff);
+  EXPECT_EQ(c.drivers.mock.arm_fault, drivers::MockFault::kStuck);
+  EXPECT_EQ(c.logging.level, "off");  // spdlog's name
+  const std::string yaml = to_yaml(c);
+  EXPECT_NE(yaml.find("card_fault: none"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("level: none"), std::string::npos) << yaml;
+  EXPECT_EQ(yaml.find(": off"), std::string::npos) << yaml;
+}
+
+TEST_F(ConfigTest, TheRetiredWordOffAndTheFalseYaml11ToolsWriteForItSayWhatWasMeant) {
+  for (const char* yaml :
+       {"drivers:\n  mock:\n    card_fault: off\n", "drivers:\n  mock:\n    card_fault: false\n"}) {
+    const std::string e = error_for(yaml);
+    EXPECT_NE(e.find("ajard.yaml:3: drivers.mock.card_fault: means 'none'"), std::string::npos)
+        << e;
+    EXPECT_NE(e.find("PyYAML"), std::string::npos) << e;
+    EXPECT_NE(e.find("allowed: none, stuck, slow, error, intermittent, garbage"), std::string::npos)
+        << e;
+  }
+  EXPECT_NE(error_for("logging:\n  level: off\n").find("logging.level: means 'none'"),
+            std::string::npos);
+  // Where `none` is not a word of the key, `off` is just not allowed.
+  EXPECT_NE(error_for("drivers:\n  kind: off\n").find("drivers.kind: is not one of the allowed"),
+            std::string::npos);
+}
+
+TEST_F(ConfigTest, AnIdentityNeedsItsRole) {
+  const std::string e = error_for("network:\n  tls:\n    identities:\n      - {cn: a}\n");
+  EXPECT_NE(e.find("network.tls.identities[0].role: is required"), std::string::npos) << e;
+}
+
+TEST_F(ConfigTest, DefaultsRoundTripAndEveryKeyIsPrinted) {
+  const Config defaults = default_config();
+  const std::string yaml = to_yaml(defaults);
+  const Config again = load_config(write(yaml));
+  EXPECT_EQ(to_yaml(again), yaml);
+  EXPECT_TRUE(changed_keys(defaults, again).empty());
+  for (const auto& key : config_keys(defaults)) {
+    const std::string leaf = key.path.substr(key.path.rfind('.') + 1);
+    EXPECT_NE(yaml.find(leaf + ":"), std::string::npos) << key.path;
+  }
+}
+
+TEST_F(ConfigTest, ChangedKeysSeeListsAndWords) {
+  const Config a = default_config();
+  Config b = a;
+  b.network.tls.identities.push_back({{TlsIdentity::Kind::kCommonName, "op"}, true, true});
+  b.drivers.mock.arm_fault = drivers::MockFault::kGarbage;
+  b.limits.max_depth_m = 5;
+  EXPECT_EQ(changed_keys(a, b),
+            (std::vector<std::string>{"network.tls.identities", "limits.depth_m",
+                                      "drivers.mock.arm_fault"}));
+}
+
+// docs/configuration.md's tables: `| `key` | `default` | allowed | meaning |` under a heading whose
+// first word is the section ("## base", "### network.tls (...)"). Each row's key, default and
+// allowed cells must be what the reader does, and every key must have its row.
+TEST_F(ConfigTest, TheReferenceInDocsConfigurationMdIsTheKeyList) {
+  const auto keys = config_keys(default_config());
+  auto is_section = [&](const std::string& s) {
+    for (const auto& k : keys) {
+      if (k.path.starts_with(s + ".")) return true;
+    }
+    return false;
+  };
+  struct Row {
+    std::string value, allowed;
+    int line;
+  };
+  std::map<std::string, Row> rows;
+  std::ifstream doc(repo_file("docs/configuration.md"));
+  ASSERT_TRUE(doc) << "docs/configuration.md";
+  std::string line, section;
+  for (int number = 1; std::getline(doc, line); ++number) {
+    if (line.starts_with("#")) {
+      std::istringstream words(line.substr(line.find_first_not_of('#')));
+      words >> section;
+      if (!is_section(section)) section.clear();
+      continue;
+    }
+    if (section.empty() || !line.starts_with("| `")) continue;
+    std::vector<std::string> cells;  // split at '|' not escaped as '\|'
+    std::string cell;
+    for (std::size_t i = 1; i < line.size(); ++i) {
+      if (line[i] == '|' && line[i - 1] != '\\') {
+        cells.push_back(cell.substr(1, cell.size() - 2));  // the spaces around
+        cell.clear();
+      } else if (!(line[i] == '\\' && i + 1 < line.size() && line[i + 1] == '|')) {
+        cell += line[i];
+      }
+    }
+    ASSERT_EQ(cells.size(), 4u) << "docs/configuration.md:" << number << ": " << line;
+    const std::string key = section + "." + cells[0].substr(1, cells[0].size() - 2);
+    EXPECT_EQ(rows.count(key), 0u) << "docs/configuration.md:" << number << ": " << key << " twice";
+    rows[key] = {cells[1], cells[2], number};
+  }
+  for (const auto& k : keys) {
+    const std::string expected_value = "`" + k.value + "`";
+    const auto row = rows.find(k.path);
+    if (row == rows.end()) {
+      ADD_FAILURE() << "docs/configuration.md has no row for " << k.path << ": | `"
+                    << k.path.substr(k.path.find('.') + 1) << "` | " << expected_value << " | "
+                    << k.allowed << " | ... |";
+      continue;
+    }
+    EXPECT_EQ(row->second.value, expected_value)
+        << "docs/configuration.md:" << row->second.line << ": default of " << k.path;
+    EXPECT_EQ(row->second.allowed, k.allowed)
+        << "docs/configuration.md:" << row->second.line << ": allowed values of " << k.path;
+    rows.erase(row);
+  }
+  for (const auto& [key, row] : rows) {
+    ADD_FAILURE() << "docs/configuration.md:" << row.line << ": " << key << " is not a key";
+  }
 }
 
 }  // namespace

@@ -1,83 +1,103 @@
-// MockManipulator's fault menu (settings.hpp MockFault), as the daemon tests rely on it.
+// MockManipulator's fault menu (settings.hpp MockFault), as the daemon tests rely on it, on a fake
+// clock: each phase change is checked just before and at the instant it is due.
 #include <gtest/gtest.h>
 
 #include "ajar/drivers/mock_arm.hpp"
 #include "arm_test_support.hpp"
+#include "fake_clock.hpp"
 
 namespace ajar::drivers {
 namespace {
 
 using test::sample_task;
-using test::wait_phase;
+using testing::FakeClock;
 
-TEST(ArmMock, OffFinishesTasks) {
-  MockManipulator arm(MockFault::kOff);
-  ASSERT_TRUE(arm.connect().ok());
-  ASSERT_TRUE(arm.hand_off(sample_task()).ok());
-  EXPECT_EQ(arm.status().phase, ArmPhase::kBusy);
-  ASSERT_TRUE(wait_phase(arm, ArmPhase::kDone));
-  EXPECT_EQ(arm.tasks_started(), 1U);
+constexpr int kSlowMs = 10;
+
+struct ArmMock : ::testing::Test {
+  // A connected mock with `fault` on the fake clock.
+  MockManipulator& arm(MockFault fault) {
+    mock = std::make_unique<MockManipulator>(fault, kSlowMs, clock.clock());
+    EXPECT_TRUE(mock->connect().ok());
+    return *mock;
+  }
+  ArmPhase phase() const { return mock->status().phase; }
+
+  FakeClock clock;
+  std::unique_ptr<MockManipulator> mock;
+};
+
+TEST_F(ArmMock, OffFinishesTasksAfterTheTaskDuration) {
+  MockManipulator& a = arm(MockFault::kOff);
+  ASSERT_TRUE(a.hand_off(sample_task()).ok());
+  clock.advance_ms(MockManipulator::kTaskDurationMs - 1);
+  EXPECT_EQ(phase(), ArmPhase::kBusy);
+  clock.advance_ms(1);
+  EXPECT_EQ(phase(), ArmPhase::kDone);
+  EXPECT_EQ(a.tasks_started(), 1U);
 }
 
-TEST(ArmMock, StuckStaysBusyUntilStopped) {
-  MockManipulator arm(MockFault::kStuck, 5);
-  ASSERT_TRUE(arm.connect().ok());
-  ASSERT_TRUE(arm.hand_off(sample_task()).ok());
-  // Well past the normal task duration it is still busy.
-  EXPECT_FALSE(wait_phase(arm, ArmPhase::kDone,
-                          std::chrono::milliseconds(10 * MockManipulator::kTaskDurationMs)));
-  EXPECT_EQ(arm.status().phase, ArmPhase::kBusy);
-  ASSERT_TRUE(arm.stop().ok());
-  EXPECT_EQ(arm.status().phase, ArmPhase::kIdle);
-  EXPECT_EQ(arm.stops(), 1U);
+TEST_F(ArmMock, StuckStaysBusyUntilStopped) {
+  MockManipulator& a = arm(MockFault::kStuck);
+  ASSERT_TRUE(a.hand_off(sample_task()).ok());
+  clock.advance_ms(3600e3);  // an hour
+  EXPECT_EQ(phase(), ArmPhase::kBusy);
+  ASSERT_TRUE(a.stop().ok());
+  EXPECT_EQ(phase(), ArmPhase::kIdle);
+  EXPECT_EQ(a.stops(), 1U);
 }
 
-TEST(ArmMock, SlowFinishesEventually) {
-  MockManipulator arm(MockFault::kSlow, 10);
-  ASSERT_TRUE(arm.connect().ok());
-  ASSERT_TRUE(arm.hand_off(sample_task()).ok());
-  ASSERT_TRUE(wait_phase(arm, ArmPhase::kDone));
+TEST_F(ArmMock, SlowFinishesAfterFourTimesSlowMs) {
+  MockManipulator& a = arm(MockFault::kSlow);
+  ASSERT_TRUE(a.hand_off(sample_task()).ok());
+  clock.advance_ms(4 * kSlowMs - 1);
+  EXPECT_EQ(phase(), ArmPhase::kBusy);
+  clock.advance_ms(1);
+  EXPECT_EQ(phase(), ArmPhase::kDone);
 }
 
-TEST(ArmMock, ErrorCodeRejectsEveryTask) {
-  MockManipulator arm(MockFault::kErrorCode);
-  ASSERT_TRUE(arm.connect().ok());
+TEST_F(ArmMock, ErrorCodeRejectsEveryTask) {
+  MockManipulator& a = arm(MockFault::kErrorCode);
   for (int i = 0; i < 2; ++i) {
-    ASSERT_TRUE(arm.hand_off(sample_task()).ok());
-    ASSERT_TRUE(wait_phase(arm, ArmPhase::kFault));
-    EXPECT_EQ(arm.status().last_error, ErrorCode::kArmRejected);
-    ASSERT_TRUE(arm.clear_fault().ok());
-    EXPECT_EQ(arm.status().phase, ArmPhase::kIdle);
+    ASSERT_TRUE(a.hand_off(sample_task()).ok());
+    EXPECT_EQ(phase(), ArmPhase::kFault);  // at once
+    EXPECT_EQ(a.status().last_error, ErrorCode::kArmRejected);
+    ASSERT_TRUE(a.clear_fault().ok());
+    EXPECT_EQ(phase(), ArmPhase::kIdle);
   }
 }
 
-TEST(ArmMock, IntermittentFailsEverySecondTask) {
-  MockManipulator arm(MockFault::kIntermittent);
-  ASSERT_TRUE(arm.connect().ok());
-  ASSERT_TRUE(arm.hand_off(sample_task()).ok());
-  ASSERT_TRUE(wait_phase(arm, ArmPhase::kDone));
-  ASSERT_TRUE(arm.hand_off(sample_task()).ok());
-  ASSERT_TRUE(wait_phase(arm, ArmPhase::kFault));
-  EXPECT_EQ(arm.status().last_error, ErrorCode::kArmTimeout);
-  ASSERT_TRUE(arm.clear_fault().ok());
-  ASSERT_TRUE(arm.hand_off(sample_task()).ok());
-  ASSERT_TRUE(wait_phase(arm, ArmPhase::kDone));
+TEST_F(ArmMock, IntermittentFailsEverySecondTask) {
+  MockManipulator& a = arm(MockFault::kIntermittent);
+  ASSERT_TRUE(a.hand_off(sample_task()).ok());
+  clock.advance_ms(MockManipulator::kTaskDurationMs);
+  EXPECT_EQ(phase(), ArmPhase::kDone);
+  ASSERT_TRUE(a.hand_off(sample_task()).ok());
+  clock.advance_ms(MockManipulator::kTaskDurationMs);
+  EXPECT_EQ(phase(), ArmPhase::kFault);
+  EXPECT_EQ(a.status().last_error, ErrorCode::kArmTimeout);
+  ASSERT_TRUE(a.clear_fault().ok());
+  ASSERT_TRUE(a.hand_off(sample_task()).ok());
+  clock.advance_ms(MockManipulator::kTaskDurationMs);
+  EXPECT_EQ(phase(), ArmPhase::kDone);
 }
 
-TEST(ArmMock, GarbageEndsInTimeout) {
-  MockManipulator arm(MockFault::kGarbage, 5);
-  ASSERT_TRUE(arm.connect().ok());
-  ASSERT_TRUE(arm.hand_off(sample_task()).ok());
-  ASSERT_TRUE(wait_phase(arm, ArmPhase::kFault));
-  EXPECT_EQ(arm.status().last_error, ErrorCode::kArmTimeout);
+TEST_F(ArmMock, GarbageEndsInTimeoutAfterSlowMs) {
+  MockManipulator& a = arm(MockFault::kGarbage);
+  ASSERT_TRUE(a.hand_off(sample_task()).ok());
+  clock.advance_ms(kSlowMs - 1);
+  EXPECT_EQ(phase(), ArmPhase::kBusy);
+  clock.advance_ms(1);
+  EXPECT_EQ(phase(), ArmPhase::kFault);
+  EXPECT_EQ(a.status().last_error, ErrorCode::kArmTimeout);
 }
 
-TEST(ArmMock, FaultCanBeChangedAtRunTime) {
-  MockManipulator arm(MockFault::kErrorCode);
-  ASSERT_TRUE(arm.connect().ok());
-  arm.set_fault(MockFault::kOff);
-  ASSERT_TRUE(arm.hand_off(sample_task()).ok());
-  ASSERT_TRUE(wait_phase(arm, ArmPhase::kDone));
+TEST_F(ArmMock, FaultCanBeChangedAtRunTime) {
+  MockManipulator& a = arm(MockFault::kErrorCode);
+  a.set_fault(MockFault::kOff);
+  ASSERT_TRUE(a.hand_off(sample_task()).ok());
+  clock.advance_ms(MockManipulator::kTaskDurationMs);
+  EXPECT_EQ(phase(), ArmPhase::kDone);
 }
 
 }  // namespace

@@ -6,19 +6,23 @@
 
 #include "ajar/drivers/mock_card.hpp"
 #include "card_test_support.hpp"
+#include "fake_clock.hpp"
 
 namespace ajar::drivers {
 namespace {
 
-using testing::kFastTimeScale;
+using testing::FakeClock;
 using testing::status_of;
-using testing::wait_until;
 
 constexpr std::array<int, 2> kWheels{1, 2};
 constexpr AxisMove kMove[] = {{1, 500}};
 
-std::unique_ptr<MockMotionCard> ready_card(MockFault fault, int slow_ms = 0) {
-  auto card = std::make_unique<MockMotionCard>(MockFault::kOff, slow_ms, kFastTimeScale, 4);
+// A trapezoidal profile whose moves take a known time: 1 count/ms cruising, 0.01 count/ms^2 ramps
+// (each ramp 100 ms and 50 counts). A move of D >= 100 counts takes (D - 100) + 200 ms.
+constexpr TrapezoidProfile kSlowProfile{1, 0.01, 0.01, 0};
+
+std::unique_ptr<MockMotionCard> ready_card(FakeClock& clock, MockFault fault, int slow_ms = 0) {
+  auto card = std::make_unique<MockMotionCard>(MockFault::kOff, slow_ms, 1.0, 4, clock.clock());
   EXPECT_TRUE(card->open().ok());
   EXPECT_TRUE(card->enable_axes(kWheels) == ErrorCode::kOk);
   card->set_fault(fault);
@@ -26,27 +30,30 @@ std::unique_ptr<MockMotionCard> ready_card(MockFault fault, int slow_ms = 0) {
 }
 
 TEST(MockCardFaults, StuckAcceptsMovesThatNeverProgressUntilStopped) {
-  auto card = ready_card(MockFault::kStuck);
-  ASSERT_TRUE(card->move_relative(kMove, TrapezoidProfile{}) == ErrorCode::kOk);
-  // Long enough in simulated time for the move to have finished many times over.
-  EXPECT_FALSE(
-      wait_until([&] { return !status_of(*card, 1)->moving; }, std::chrono::milliseconds(50)));
+  FakeClock clock;
+  auto card = ready_card(clock, MockFault::kStuck);
+  ASSERT_TRUE(card->move_relative(kMove, kSlowProfile) == ErrorCode::kOk);
+  clock.advance_ms(24 * 3600e3);  // a day: the 600 ms move would have finished many times over
+  EXPECT_TRUE(status_of(*card, 1)->moving);
   EXPECT_EQ(status_of(*card, 1)->profile_position_counts, 0);
   ASSERT_TRUE(card->smooth_stop(kWheels) == ErrorCode::kOk);
   EXPECT_FALSE(status_of(*card, 1)->moving);
 }
 
 TEST(MockCardFaults, SlowStillWorks) {
-  auto card = ready_card(MockFault::kSlow, 2);
+  FakeClock clock;
+  auto card = ready_card(clock, MockFault::kSlow, 1);
   const auto before = card->calls();
-  ASSERT_TRUE(card->move_relative(kMove, TrapezoidProfile{}) == ErrorCode::kOk);
-  ASSERT_TRUE(wait_until([&] { return !status_of(*card, 1)->moving; }));
+  ASSERT_TRUE(card->move_relative(kMove, kSlowProfile) == ErrorCode::kOk);
+  clock.advance_ms(600);  // the move's duration (kSlowProfile)
+  EXPECT_FALSE(status_of(*card, 1)->moving);
   EXPECT_EQ(status_of(*card, 1)->profile_position_counts, 500);
   EXPECT_GT(card->calls(), before);
 }
 
 TEST(MockCardFaults, ErrorCodeFailsEverythingButOpenAndClose) {
-  auto card = ready_card(MockFault::kErrorCode);
+  FakeClock clock;
+  auto card = ready_card(clock, MockFault::kErrorCode);
   EXPECT_EQ(card->move_relative(kMove, TrapezoidProfile{}), ErrorCode::kDriverError);
   AxisStatus st;
   EXPECT_EQ(card->axis_status(1, st), ErrorCode::kDriverError);
@@ -57,7 +64,8 @@ TEST(MockCardFaults, ErrorCodeFailsEverythingButOpenAndClose) {
 }
 
 TEST(MockCardFaults, IntermittentFailsEveryThirdCall) {
-  auto card = ready_card(MockFault::kIntermittent);
+  FakeClock clock;
+  auto card = ready_card(clock, MockFault::kIntermittent);
   int failures = 0;
   for (int i = 0; i < 9; ++i) {
     AxisStatus st;
@@ -72,7 +80,8 @@ TEST(MockCardFaults, IntermittentFailsEveryThirdCall) {
 }
 
 TEST(MockCardFaults, GarbageReportsImplausibleStatus) {
-  auto card = ready_card(MockFault::kGarbage);
+  FakeClock clock;
+  auto card = ready_card(clock, MockFault::kGarbage);
   std::set<std::int64_t> positions;
   for (int i = 0; i < 5; ++i) {
     const AxisStatus st = *status_of(*card, 1);
@@ -85,15 +94,34 @@ TEST(MockCardFaults, GarbageReportsImplausibleStatus) {
 }
 
 TEST(MockCardTime, MovesTakeTheirSimulatedDuration) {
-  // At real-time speed, a 10^8-count move at 1 count/ms takes about a day: it is running now.
-  MockMotionCard card(MockFault::kOff, 0, 1.0, 4);
+  FakeClock clock;
+  auto card = ready_card(clock, MockFault::kOff);
+  const AxisMove move[] = {{1, 10'000}};  // 10 100 ms with kSlowProfile
+  ASSERT_TRUE(card->move_relative(move, kSlowProfile) == ErrorCode::kOk);
+  clock.advance_ms(100);  // end of the ramp: 50 counts
+  EXPECT_EQ(status_of(*card, 1)->profile_position_counts, 50);
+  clock.advance_ms(4900);  // cruising at 1 count/ms
+  EXPECT_EQ(status_of(*card, 1)->profile_position_counts, 4950);
+  clock.advance_ms(5099);  // 1 ms before the end
+  EXPECT_TRUE(status_of(*card, 1)->moving);
+  clock.advance_ms(1);
+  const AxisStatus st = *status_of(*card, 1);
+  EXPECT_FALSE(st.moving);
+  EXPECT_TRUE(st.in_position);
+  EXPECT_EQ(st.profile_position_counts, 10'000);
+}
+
+TEST(MockCardTime, TimeScaleSpeedsTheClockUp) {
+  FakeClock clock;
+  MockMotionCard card(MockFault::kOff, 0, 1000.0, 4, clock.clock());
   ASSERT_TRUE(card.open().ok());
   ASSERT_TRUE(card.enable_axes(kWheels) == ErrorCode::kOk);
-  const AxisMove far[] = {{1, 100'000'000}};
-  ASSERT_TRUE(card.move_relative(far, TrapezoidProfile{1, 0.01, 0.01, 0}) == ErrorCode::kOk);
-  const AxisStatus st = *status_of(card, 1);
-  EXPECT_TRUE(st.moving);
-  EXPECT_LT(st.profile_position_counts, 100'000'000);
+  const AxisMove move[] = {{1, 10'000}};
+  ASSERT_TRUE(card.move_relative(move, kSlowProfile) == ErrorCode::kOk);
+  clock.advance_ms(5);  // 5 s of simulated time
+  EXPECT_EQ(status_of(card, 1)->profile_position_counts, 4950);
+  clock.advance_ms(5.1);
+  EXPECT_FALSE(status_of(card, 1)->moving);
 }
 
 }  // namespace

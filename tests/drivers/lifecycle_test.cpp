@@ -8,13 +8,13 @@
 #include "ajar/drivers/lifecycle.hpp"
 #include "ajar/drivers/mock_card.hpp"
 #include "card_test_support.hpp"
+#include "fake_clock.hpp"
 
 namespace ajar::drivers {
 namespace {
 
 using testing::kFastTimeScale;
 using testing::status_of;
-using testing::wait_until;
 
 constexpr std::array<int, 2> kWheels{1, 2};
 
@@ -96,15 +96,17 @@ TEST_F(ManagedCard, DeactivateStopsARunningMoveBeforeDisabling) {
 }
 
 TEST(ManagedCardDeadline, DeactivateFallsBackToEmergencyStopAfterItsDeadline) {
-  // Real-time clock and a deceleration that takes ~100 s: the smooth stop cannot finish within the
-  // 0 ms stop deadline.
-  auto mock = std::make_unique<MockMotionCard>(MockFault::kOff, 0, 1.0, 4);
+  // A fake clock that stands still while deactivate() waits: the smooth stop (a deceleration that
+  // would take ~100 s) cannot finish within the 0 ms stop deadline.
+  testing::FakeClock clock;
+  auto mock = std::make_unique<MockMotionCard>(MockFault::kOff, 0, 1.0, 4, clock.clock());
   ManagedMotionCard card(std::move(mock), kWheels, 0);
   ASSERT_TRUE(card.configure().ok());
   ASSERT_TRUE(card.activate().ok());
   const AxisMove moves[] = {{1, 100'000'000}};
   ASSERT_TRUE(card.move_relative(moves, TrapezoidProfile{10, 100, 0.0001, 0}) == ErrorCode::kOk);
-  ASSERT_TRUE(wait_until([&] { return status_of(card, 1)->profile_position_counts > 0; }));
+  clock.advance_ms(1);
+  ASSERT_GT(status_of(card, 1)->profile_position_counts, 0);
   const auto s = card.deactivate();
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.error().code, ErrorCode::kMotionTimeout);

@@ -76,18 +76,18 @@ inline const core::CameraToBase& sample_transform();
 // The RobotModel of the robot the samples are measured on (what ajard would send for it), with
 // example values for the 1.1 drive/approach/staleness limits.
 inline RobotModel robot_model() {
-  RobotModel r =
-      robot_model_from(sample_transform().isometry().matrix(), sample_base(), sample_limits());
-  r.max_linear_speed_m_s = 0.3;
-  r.max_angular_speed_rad_s = 0.5;
-  r.max_linear_accel_m_s2 = 0.4;
-  r.max_angular_accel_rad_s2 = 1.0;
-  r.drive_command_timeout_s = 0.5;
-  r.approach_max_travel_m = 2.0;
-  r.approach_square_tolerance_rad = 0.2;
-  r.approach_min_standoff_m = 0.5;
-  r.stale_travel_m = 0.05;
-  r.stale_yaw_rad = 0.02;
+  const core::DriveLimits drive{.max_linear_speed_m_s = 0.3,
+                                .max_angular_speed_rad_s = 0.5,
+                                .max_linear_accel_m_s2 = 0.4,
+                                .max_angular_accel_rad_s2 = 1.0,
+                                .command_timeout_s = 0.5,
+                                .approach_max_travel_m = 2.0,
+                                .approach_square_tolerance_rad = 0.2,
+                                .approach_min_standoff_m = 0.5,
+                                .stale_travel_m = 0.05,
+                                .stale_yaw_rad = 0.02};
+  RobotModel r = robot_model_from(sample_transform().isometry().matrix(), sample_base(),
+                                  sample_limits(), drive);
   r.aligned_tolerance_rad = 0.01;
   return r;
 }

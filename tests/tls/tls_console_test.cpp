@@ -3,9 +3,11 @@
 #include <utility>  // before Asio (asio issue 944)
 
 #include <sys/stat.h>
+#include <sys/wait.h>
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <thread>
@@ -109,6 +111,38 @@ TEST_F(TlsConsole, ACertificateWithoutItsKeyIsRefused) {
   console::ConsoleServer console(o, std::make_unique<Wall>(), nullptr);
   EXPECT_THROW(console.listen(), std::runtime_error);
 }
+
+#ifdef AJAR_CONSOLE_PATH
+// ajar-console --client-config FILE (ajarctl's file: relative paths from its folder), run for at
+// most `seconds` (then one SIGINT, to the console only: it exits 0). Returns the exit code; output
+// in `out`.
+int run_console(const std::string& config, int seconds, const std::string& dir, std::string& out) {
+  const std::string path = dir + "/console.out";
+  const std::string command =
+      "timeout --foreground --preserve-status -s INT " + std::to_string(seconds) + " " +
+      AJAR_CONSOLE_PATH + " --client-config " + config + " --listen 127.0.0.1:0 >" + path + " 2>&1";
+  const int status = std::system(command.c_str());
+  std::ifstream in(path);
+  out.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST_F(TlsConsole, TheConsoleReadsAjarctlsClientConfigAndRefusesAnOpenKeyAtStart) {
+  const std::string config = pki_.path("console.yaml");
+  std::ofstream(config) << "connect: 127.0.0.1:" << server_.port()
+                        << "\ntls: {ca: ca.crt, certificate: alice.crt, private_key: alice.key}\n";
+  std::string out;
+  EXPECT_EQ(run_console(config, 3, web_.path(), out), 0) << out;
+  EXPECT_NE(out.find("(ajard at 127.0.0.1:" + std::to_string(server_.port()) + ", mutual TLS)"),
+            std::string::npos)
+      << out;
+
+  ASSERT_EQ(::chmod(pki_.path("alice.key").c_str(), 0644), 0);
+  EXPECT_EQ(run_console(config, 20, web_.path(), out), 2) << out;
+  EXPECT_NE(out.find("--key: '" + pki_.path("alice.key") + "' has mode 0644"), std::string::npos)
+      << out;
+}
+#endif
 
 }  // namespace
 }  // namespace ajar::test

@@ -113,10 +113,6 @@ class SimWorld {
   std::mt19937_64 rng_;
 };
 
-// Reads frames.camera_to_base_m (a 4x4 list of rows) from ajard's YAML config. Throws
-// std::runtime_error naming the file when missing or malformed.
-Eigen::Matrix4d camera_to_base_from_config(const std::string& path);
-
 // ajarctl simulate SCENARIO.yaml [--trace FILE] [--seeds N] [--seed S] [--plane-points N]
 //                  [--config AJARD.yaml]
 // --seeds N runs seeds S..S+N-1 and prints a summary (residual yaw statistics).

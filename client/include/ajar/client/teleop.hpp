@@ -65,8 +65,9 @@ class ResendScheduler {
   void changed() { pending_ = true; }
   // True when a Drive with `v` is to be sent at `now`; then counts it as sent.
   bool due(const Velocity& v, Clock::time_point now);
-  // The latest time to call due() again (time_point::max() when nothing is scheduled).
-  Clock::time_point next(const Velocity& v) const;
+  // The latest time to call due() again: `now` when a send is pending, time_point::max() when
+  // nothing is scheduled (so that `next - now` never overflows).
+  Clock::time_point next(const Velocity& v, Clock::time_point now) const;
   Clock::duration period() const { return period_; }
 
  private:

@@ -1,6 +1,9 @@
-// ajard's configuration: one typed struct, loaded and validated in one place (config.cpp).
-// Every key is described in docs/configuration.md; config/ajard.yaml is the default (simulated
-// hardware), config/ajard.robot.yaml the example for the real robot.
+// ajard's configuration: one typed struct, loaded and validated in one place. The keys are listed
+// once (daemon/src/config_fields.hpp) for reading, printing, comparing and the reference in
+// docs/configuration.md (a test checks it against config_keys()). config/ajard.yaml is the default
+// (simulated hardware), config/ajard.robot.yaml the example for the real robot.
+// Library ajar_config: needs core, the drivers' settings header and yaml-cpp; no sockets, threads
+// or logging, so that ajarctl (simulate) reads ajard's config with the daemon's own rules.
 #pragma once
 
 #include <cstdint>
@@ -89,8 +92,9 @@ struct SafetyConfig {
 };
 
 struct LoggingConfig {
-  std::string level = "info";  // trace | debug | info | warn | error | critical | off
-  std::string sink = "auto";   // auto (journald under systemd, else stderr) | stderr | journald
+  // spdlog's level name: trace | debug | info | warn | error | critical | off (config word: none)
+  std::string level = "info";
+  std::string sink = "auto";  // auto (journald under systemd, else stderr) | stderr | journald
 };
 
 struct StateConfig {
@@ -103,7 +107,8 @@ struct StateConfig {
 struct Config {
   std::string source_path;  // the file it was loaded from
   NetworkConfig network;
-  Eigen::Matrix4d camera_to_base_m = Eigen::Matrix4d::Identity();  // ^B_C T in metres
+  // ^B_C T in metres. default_config() and load_config() start from the paper's eq. 2.
+  Eigen::Matrix4d camera_to_base_m = Eigen::Matrix4d::Identity();
   core::BaseGeometry base;
   core::Limits limits;
   core::DriveLimits drive;  // jog and approach limits, staleness thresholds
@@ -114,12 +119,28 @@ struct Config {
   StateConfig state;
 };
 
-// Loads and validates `path`. Throws ConfigError naming the file, the key path, the bad value and
-// what is allowed: unknown keys (typos), wrong types, out-of-range values, a non-rigid transform.
+// What every key that a file does not give takes (Config{} with the paper's camera transform).
+Config default_config();
+
+// Loads and validates `path`. Throws ConfigError naming the file, the line, the key path, the bad
+// value and what is allowed: unknown keys (typos), a key or section given twice, wrong types,
+// out-of-range values, retired words (`off`: now `none`), a non-rigid transform.
 Config load_config(const std::string& path);
 
 // The effective config as YAML (every key, defaults filled in), for --check-config.
 std::string to_yaml(const Config& config);
+
+// One key of the file: its dotted path ("drivers.arm.baud"), its value as flow YAML ("115200",
+// "[0.5, 2]", "\"\""), and what is allowed ("0.1..3600 s", "sim, mock, real", "PEM file").
+struct ConfigKey {
+  std::string path;
+  std::string value;
+  std::string allowed;
+};
+
+// Every key in file order with its value in `config`. A list value (a range, the transform, the
+// TLS identities) is one key. config_keys(default_config()) is the reference table.
+std::vector<ConfigKey> config_keys(const Config& config);
 
 // The keys (dotted paths as in to_yaml, e.g. "logging.level", "base.left_wheel.card_axis") whose
 // values differ between two configs, in to_yaml's order. A list value (a range, the transform)

@@ -1,6 +1,7 @@
 // MockManipulator: an in-process arm for daemon tests, with the fault menu of settings.hpp.
 // Thread-safe; never blocks (except connect() under kSlow). No thread of its own: the phase is
-// derived from the time the task was handed off.
+// derived from the time the task was handed off, on its clock (mock_clock.hpp: the steady clock
+// unless one is injected; an injected clock must be safe to call from any thread).
 //
 //   kOff          a task is busy for kTaskDurationMs, then done.
 //   kStuck        a task stays busy forever (until stop()).
@@ -12,11 +13,11 @@
 // stop() ends a task (kIdle); clear_fault() turns kFault into kIdle.
 #pragma once
 
-#include <chrono>
 #include <cstdint>
 #include <mutex>
 
 #include "ajar/drivers/manipulator.hpp"
+#include "ajar/drivers/mock_clock.hpp"
 #include "ajar/drivers/settings.hpp"
 
 namespace ajar::drivers {
@@ -25,7 +26,8 @@ class MockManipulator final : public Manipulator {
  public:
   static constexpr int kTaskDurationMs = 20;
 
-  explicit MockManipulator(MockFault fault = MockFault::kOff, int slow_ms = 50);
+  explicit MockManipulator(MockFault fault = MockFault::kOff, int slow_ms = 50,
+                           MockClock clock = {});
 
   Status connect() override;
   Status disconnect() override;
@@ -40,15 +42,15 @@ class MockManipulator final : public Manipulator {
   std::uint64_t stops() const;
 
  private:
-  using Clock = std::chrono::steady_clock;
-  void settle_locked(Clock::time_point now) const;  // advances busy -> done/fault by time
+  void settle_locked(std::int64_t now_ns) const;  // advances busy -> done/fault by time
 
   mutable std::mutex mutex_;
   MockFault fault_;
   int slow_ms_;
+  MockClock clock_;
   bool connected_ = false;
   mutable ArmStatus status_;
-  Clock::time_point busy_until_{};
+  std::int64_t busy_until_ns_ = 0;
   ErrorCode task_outcome_ = ErrorCode::kOk;  // kOk = done, else fault with this code
   bool task_never_ends_ = false;
   std::uint32_t next_task_id_ = 1;

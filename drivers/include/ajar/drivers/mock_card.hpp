@@ -1,8 +1,9 @@
 // MockMotionCard: the in-process MotionCard double for daemon tests and rehearsals. It behaves like
 // the GTS driver over the card simulator (same checks, same error codes, see gts_card.hpp) and
 // computes trapezoidal moves and jogs in closed form (motion_profile.hpp, the simulator's model)
-// against the steady clock (scaled by time_scale) or a manual test clock, so a control loop
-// polling axis_status() sees moves complete after their simulated duration.
+// against its clock (mock_clock.hpp: the steady clock unless one is injected; scaled by
+// time_scale) or a manual test clock, so a control loop polling axis_status() sees moves complete
+// after their simulated duration.
 //
 // Fault menu (MockFault, settings.hpp):
 //   kOff          normal behaviour
@@ -17,10 +18,10 @@
 // Threading: like the real card, one thread only (no locks).
 #pragma once
 
-#include <chrono>
 #include <cstdint>
 #include <vector>
 
+#include "ajar/drivers/mock_clock.hpp"
 #include "ajar/drivers/motion_card.hpp"
 #include "ajar/drivers/motion_profile.hpp"
 #include "ajar/drivers/settings.hpp"
@@ -29,8 +30,9 @@ namespace ajar::drivers {
 
 class MockMotionCard final : public MotionCard {
  public:
+  // Simulated time = clock x time_scale from construction on (clock: mock_clock.hpp).
   explicit MockMotionCard(MockFault fault = MockFault::kOff, int slow_ms = 50,
-                          double time_scale = 1.0, int axis_count = 4);
+                          double time_scale = 1.0, int axis_count = 4, MockClock clock = {});
 
   void set_fault(MockFault fault) noexcept { fault_ = fault; }
   MockFault fault() const noexcept { return fault_; }
@@ -41,7 +43,7 @@ class MockMotionCard final : public MotionCard {
   // Calls made so far (all of them).
   std::uint64_t calls() const noexcept { return calls_; }
   // Test clock: manual = simulated time stands still except through advance_clock_ns();
-  // otherwise the steady clock x time_scale (continuing from the current simulated time).
+  // otherwise the clock x time_scale (continuing from the current simulated time).
   void set_manual_clock(bool manual) noexcept;
   void advance_clock_ns(std::int64_t ns) noexcept;
 
@@ -88,8 +90,9 @@ class MockMotionCard final : public MotionCard {
   int slow_ms_;
   double time_scale_;
   int axis_count_;
-  std::chrono::steady_clock::time_point epoch_ = std::chrono::steady_clock::now();
-  std::int64_t base_ns_ = 0;  // simulated time at epoch_
+  MockClock clock_;
+  std::int64_t epoch_ns_;     // clock_() when simulated time was base_ns_
+  std::int64_t base_ns_ = 0;  // simulated time at epoch_ns_
   bool manual_clock_ = false;
   std::int64_t manual_ns_ = 0;
   bool open_ = false;

@@ -10,10 +10,10 @@
 namespace ajar::protocol {
 
 // Fills what core describes: camera_to_base (the top three rows of the 4x4 ^B_C T, row-major),
-// the base geometry and wheels, the wheel limits, the arm workspace and the validation limits.
-// The Drive, Approach and staleness limits and aligned_tolerance_rad are not core's: they stay 0
-// for the caller to fill.
+// the base geometry and wheels, the wheel limits, the Drive, Approach and staleness limits, the
+// arm workspace and the validation limits. aligned_tolerance_rad is the control loop's, not
+// core's: it stays 0 for the caller to fill.
 RobotModel robot_model_from(const Eigen::Matrix4d& camera_to_base_m, const core::BaseGeometry& base,
-                            const core::Limits& limits) noexcept;
+                            const core::Limits& limits, const core::DriveLimits& drive) noexcept;
 
 }  // namespace ajar::protocol
