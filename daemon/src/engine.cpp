@@ -633,8 +633,8 @@ class EngineImpl final : public Engine {
   // fresh sequence number; the loop answers exactly that sequence), then clears the fault.
   protocol::Message reset(MessageType type, const protocol::Reset& r) {
     if (procedure_.phase() == Phase::kAligning || procedure_.phase() == Phase::kEngaging ||
-        wheel_motion_ != 0) {  // a jog or an approach too ("stops any motion")
-      stop_motion();
+        (wheel_motion_ != 0 && !wheel_stopping_) || held_move_ || held_drive_) {
+      stop_motion();  // also a jog or an approach
     }
     if (procedure_.fault() != ErrorCode::kOk) {
       if (auto s = recover_arm(); !s) {

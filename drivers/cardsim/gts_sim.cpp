@@ -1,4 +1,4 @@
-// libajar_gts_sim.so: a simulated GTS motion card behind the vendor's C API (card_gts_abi.hpp) plus
+// libajar_gts_sim.so: a simulated GTS motion card behind the vendor's C API (gts_abi.hpp) plus
 // the AjarSim_* control functions (gts_sim_control.hpp). One card with gts::kMaxAxes axes.
 //
 // Model (simulated time in integer nanoseconds = the monotonic clock x time scale, or a manual
@@ -33,7 +33,7 @@
 #include <thread>
 #include <type_traits>
 
-#include "ajar/drivers/card_gts_abi.hpp"
+#include "ajar/drivers/gts_abi.hpp"
 #include "ajar/drivers/gts_sim_control.hpp"
 #include "ajar/drivers/motion_profile.hpp"
 

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "ajar/drivers/card_checks.hpp"
-#include "ajar/drivers/card_gts_abi.hpp"
+#include "ajar/drivers/gts_abi.hpp"
 #include "ajar/drivers/factory.hpp"
 
 namespace ajar::drivers {

@@ -11,11 +11,19 @@ MockManipulator::MockManipulator(MockFault fault, int slow_ms, MockClock clock)
       slow_ms_(slow_ms < 0 ? 0 : slow_ms),
       clock_(or_steady_clock(std::move(clock))) {}
 
+std::optional<Error> MockManipulator::enter_locked(const char* call) {
+  calls_.emplace_back(call);
+  std::optional<Error> error;
+  error.swap(next_error_);
+  return error;
+}
+
 Status MockManipulator::connect() {
   MockFault fault;
   int slow_ms;
   {
     std::lock_guard lock(mutex_);
+    if (auto e = enter_locked("connect")) return std::move(*e);
     fault = fault_;
     slow_ms = slow_ms_;
   }
@@ -31,6 +39,7 @@ Status MockManipulator::connect() {
 
 Status MockManipulator::disconnect() {
   std::lock_guard lock(mutex_);
+  if (auto e = enter_locked("disconnect")) return std::move(*e);
   connected_ = false;
   status_.phase = ArmPhase::kDisconnected;
   status_.last_error = ErrorCode::kOk;
@@ -47,8 +56,9 @@ void MockManipulator::settle_locked(std::int64_t now_ns) const {
   }
 }
 
-Result<std::uint32_t> MockManipulator::hand_off(const DoorTask& /*task*/) {
+Result<std::uint32_t> MockManipulator::hand_off(const DoorTask& task) {
   std::lock_guard lock(mutex_);
+  if (auto e = enter_locked("hand_off")) return std::move(*e);
   const std::int64_t now = clock_();
   settle_locked(now);
   if (!connected_) return make_error(ErrorCode::kArmDisconnected, "", "mock arm: not connected");
@@ -59,6 +69,7 @@ Result<std::uint32_t> MockManipulator::hand_off(const DoorTask& /*task*/) {
   }
   const std::uint32_t id = next_task_id_++;
   ++tasks_started_;
+  tasks_.push_back(task);
   status_.task_id = id;
   status_.phase = ArmPhase::kBusy;
   status_.last_error = ErrorCode::kOk;
@@ -93,6 +104,7 @@ Result<std::uint32_t> MockManipulator::hand_off(const DoorTask& /*task*/) {
 
 Status MockManipulator::stop() {
   std::lock_guard lock(mutex_);
+  if (auto e = enter_locked("stop")) return std::move(*e);
   ++stops_;
   settle_locked(clock_());
   if (status_.phase == ArmPhase::kBusy) status_.phase = ArmPhase::kIdle;
@@ -103,6 +115,7 @@ Status MockManipulator::stop() {
 
 Status MockManipulator::clear_fault() {
   std::lock_guard lock(mutex_);
+  if (auto e = enter_locked("clear_fault")) return std::move(*e);
   settle_locked(clock_());
   if (!connected_) return make_error(ErrorCode::kArmDisconnected, "", "mock arm: not connected");
   if (status_.phase == ArmPhase::kFault) {
@@ -131,6 +144,21 @@ std::uint64_t MockManipulator::tasks_started() const {
 std::uint64_t MockManipulator::stops() const {
   std::lock_guard lock(mutex_);
   return stops_;
+}
+
+void MockManipulator::fail_next_call(Error error) {
+  std::lock_guard lock(mutex_);
+  next_error_ = std::move(error);
+}
+
+std::vector<std::string> MockManipulator::calls() const {
+  std::lock_guard lock(mutex_);
+  return calls_;
+}
+
+std::vector<DoorTask> MockManipulator::tasks() const {
+  std::lock_guard lock(mutex_);
+  return tasks_;
 }
 
 }  // namespace ajar::drivers

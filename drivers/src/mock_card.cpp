@@ -119,6 +119,7 @@ void MockMotionCard::inject_limit(int axis, bool positive) {
 
 Status MockMotionCard::open() {
   (void)enter("open", false);
+  if (open_fails_) return make_error(ErrorCode::kCardOpenFailed, "", "mock card: no card");
   // Like GT_Open + GT_Reset + GT_ClrSts: axes off at position 0, no faults.
   open_ = true;
   for (Axis& a : axes_)

@@ -1,6 +1,6 @@
 #include "ajar/drivers/motion_card.hpp"
 
-#include "ajar/drivers/card_gts_abi.hpp"
+#include "ajar/drivers/gts_abi.hpp"
 
 namespace ajar::drivers {
 

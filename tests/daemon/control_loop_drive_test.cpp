@@ -217,6 +217,24 @@ TEST_F(LoopDrive, OdometryFollowsTheWheelsWhileDriving) {
   EXPECT_NEAR(snap.base_yaw_rad, 0.0, 1e-9);
 }
 
+// v / w = 0.5 m throughout (both components reach their limits after the same 0.2 s ramp), so the
+// true path is a circle of radius 0.5 m whatever the speed profile: x = r sin(yaw),
+// y = r (1 - cos(yaw)). The odometry, from the card's encoders, must stay on it.
+TEST_F(LoopDrive, OdometryOnAnArcMatchesTheKinematicCircle) {
+  ASSERT_TRUE(loop->post_drive(drive(1, true, 0.1, 0.2)));
+  for (int i = 0; i < 2500; ++i) {  // 5 s: yaw about 0.96 rad
+    if (i % 50 == 0) {
+      ASSERT_TRUE(loop->post_drive(drive(1, false, 0.1, 0.2)));
+    }
+    run(1);
+  }
+  const auto snap = loop->snapshot();
+  const double r = 0.1 / 0.2, yaw = snap.base_yaw_rad;
+  ASSERT_GT(yaw, 0.8);
+  EXPECT_NEAR(snap.pose.x_m, r * std::sin(yaw), 1e-4);
+  EXPECT_NEAR(snap.pose.y_m, r * (1 - std::cos(yaw)), 1e-4);
+}
+
 TEST_F(LoopDrive, AMoveIsRefusedInACycleWhoseStatusReadFailed) {
   run(1);
   card.fail_calls = 2;  // both axis_status reads of the next cycle fail

@@ -244,6 +244,24 @@ TEST_F(EngineDrive, ADriveAndAStopInOneReadNeverJog) {
   EXPECT_TRUE(paired());
 }
 
+TEST_F(EngineDrive, ResetStopsAJogAndAnApproach) {
+  cycles(3);
+  expect_accepted(send(protocol::Drive{0.1, 0.0}));
+  cycles(20);
+  expect_ack(send(protocol::Reset{}), ProcedureState::kAwaitingWidth);
+  cycles(150);  // well before the command timeout would have ended the jog
+  EXPECT_FALSE(engine->telemetry().moving);
+  ASSERT_NE(last(EventKind::kMotionStopped), nullptr);
+  expect_ack(send(good_width()), ProcedureState::kAwaitingHandle);
+  expect_accepted(send(protocol::Approach{1.0}));
+  cycles(20);
+  expect_ack(send(protocol::Reset{}), ProcedureState::kAwaitingHandle);
+  cycles(300);
+  EXPECT_FALSE(engine->telemetry().moving);
+  EXPECT_GT(engine->status().door.distance_m, 1.0 + 1e-3);  // stopped short of the standoff
+  EXPECT_TRUE(paired());
+}
+
 TEST_F(EngineDrive, ControllerLostWhileDrivingStopsAndLatchesDeadman) {
   cycles(3);
   expect_accepted(send(protocol::Drive{0.1, 0.0}));

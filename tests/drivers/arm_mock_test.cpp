@@ -100,5 +100,21 @@ TEST_F(ArmMock, FaultCanBeChangedAtRunTime) {
   EXPECT_EQ(phase(), ArmPhase::kDone);
 }
 
+TEST_F(ArmMock, ScriptedRefusalFailsOnlyTheNextCallAndCallsAreLogged) {
+  MockManipulator& a = arm(MockFault::kOff);
+  a.fail_next_call(make_error(ErrorCode::kArmTimeout, "", "no ack"));
+  const auto refused = a.hand_off(sample_task());
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kArmTimeout);
+  EXPECT_EQ(phase(), ArmPhase::kIdle);  // nothing happened
+  EXPECT_EQ(a.tasks_started(), 0U);
+  ASSERT_TRUE(a.hand_off(sample_task()).ok());
+  ASSERT_TRUE(a.stop().ok());
+  const std::vector<std::string> expected{"connect", "hand_off", "hand_off", "stop"};
+  EXPECT_EQ(a.calls(), expected);
+  ASSERT_EQ(a.tasks().size(), 1U);
+  EXPECT_EQ(a.tasks()[0].door_width_m, sample_task().door_width_m);
+}
+
 }  // namespace
 }  // namespace ajar::drivers

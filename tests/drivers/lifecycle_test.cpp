@@ -3,9 +3,11 @@
 
 #include <array>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "ajar/drivers/lifecycle.hpp"
+#include "ajar/drivers/mock_arm.hpp"
 #include "ajar/drivers/mock_card.hpp"
 #include "card_test_support.hpp"
 #include "fake_clock.hpp"
@@ -198,62 +200,20 @@ TEST_F(ManagedCard, TheMotionCardInterfaceDrivesTheLifecycle) {
 }
 
 TEST(ManagedCardOpen, AFailedConfigureStaysUnconfigured) {
-  class FailingOpen final : public MotionCard {
-   public:
-    Status open() override { return make_error(ErrorCode::kCardOpenFailed, "", "no card"); }
-    Status close() override { return Ok{}; }
-    ErrorCode enable_axes(std::span<const int>) noexcept override { return ErrorCode::kOk; }
-    ErrorCode disable_axes(std::span<const int>) noexcept override { return ErrorCode::kOk; }
-    ErrorCode clear_faults(std::span<const int>) noexcept override { return ErrorCode::kOk; }
-    ErrorCode move_relative(std::span<const AxisMove>, const TrapezoidProfile&) noexcept override {
-      return ErrorCode::kOk;
-    }
-    ErrorCode jog(std::span<const AxisVelocity>, const JogProfile&) noexcept override {
-      return ErrorCode::kOk;
-    }
-    ErrorCode smooth_stop(std::span<const int>) noexcept override { return ErrorCode::kOk; }
-    ErrorCode emergency_stop(std::span<const int>) noexcept override { return ErrorCode::kOk; }
-    ErrorCode axis_status(int, AxisStatus&) noexcept override { return ErrorCode::kOk; }
-  };
-
-  ManagedMotionCard failing(std::make_unique<FailingOpen>(), kWheels);
+  auto mock = std::make_unique<MockMotionCard>();
+  mock->set_open_fails(true);
+  ManagedMotionCard failing(std::move(mock), kWheels);
   EXPECT_EQ(failing.configure().error().code, ErrorCode::kCardOpenFailed);
   EXPECT_EQ(failing.state(), LifecycleState::kUnconfigured);
 }
 
-// --- ManagedManipulator over a scripted fake --------------------------------------------------
-
-class FakeArm final : public Manipulator {
- public:
-  struct Log {
-    std::vector<std::string> calls;
-    Error next_error{ErrorCode::kOk, "", ""};
-  };
-  explicit FakeArm(std::shared_ptr<Log> log) : log_(std::move(log)) {}
-  Status connect() override { return record("connect"); }
-  Status disconnect() override { return record("disconnect"); }
-  Result<std::uint32_t> hand_off(const DoorTask&) override {
-    if (auto s = record("hand_off"); !s) return std::move(s).error();
-    return std::uint32_t{7};
-  }
-  Status stop() override { return record("stop"); }
-  Status clear_fault() override { return record("clear_fault"); }
-  ArmStatus status() const override { return ArmStatus{ArmPhase::kIdle, ErrorCode::kOk, 0, 0}; }
-
- private:
-  Status record(const char* name) {
-    log_->calls.emplace_back(name);
-    if (log_->next_error.code == ErrorCode::kOk) return Ok{};
-    Error e = log_->next_error;
-    log_->next_error.code = ErrorCode::kOk;
-    return e;
-  }
-  std::shared_ptr<Log> log_;
-};
+// --- ManagedManipulator over the mock arm (its call log and scripted refusals) ----------------
 
 TEST(ManagedArm, EnforcesTheOrderAndPassesStops) {
-  auto log = std::make_shared<FakeArm::Log>();
-  ManagedManipulator arm(std::make_unique<FakeArm>(log));
+  auto mock = std::make_unique<MockManipulator>();
+  ASSERT_TRUE(mock->connect().ok());  // so that its stop() succeeds before configure()
+  MockManipulator* log = mock.get();
+  ManagedManipulator arm(std::move(mock));
   EXPECT_EQ(arm.hand_off(DoorTask{}).error().code, ErrorCode::kDriverNotActive);
   EXPECT_EQ(arm.activate().error().code, ErrorCode::kWrongState);
   EXPECT_TRUE(arm.stop().ok());  // stopping is never refused
@@ -262,25 +222,27 @@ TEST(ManagedArm, EnforcesTheOrderAndPassesStops) {
   ASSERT_TRUE(arm.activate().ok());
   const auto id = arm.hand_off(DoorTask{});
   ASSERT_TRUE(id.ok());
-  EXPECT_EQ(*id, 7U);
+  EXPECT_EQ(*id, 1U);
   EXPECT_EQ(arm.cleanup().error().code, ErrorCode::kWrongState);
   ASSERT_TRUE(arm.deactivate().ok());
   EXPECT_EQ(arm.hand_off(DoorTask{}).error().code, ErrorCode::kDriverNotActive);
   ASSERT_TRUE(arm.cleanup().ok());
   EXPECT_EQ(arm.state(), LifecycleState::kUnconfigured);
-  const std::vector<std::string> expected{"stop", "connect", "hand_off", "stop", "disconnect"};
-  EXPECT_EQ(log->calls, expected);
+  const std::vector<std::string> expected{"connect",  "stop", "connect",
+                                          "hand_off", "stop", "disconnect"};
+  EXPECT_EQ(log->calls(), expected);
 }
 
 TEST(ManagedArm, BrokenImplementationLatchesButLinkTroubleDoesNot) {
-  auto log = std::make_shared<FakeArm::Log>();
-  ManagedManipulator arm(std::make_unique<FakeArm>(log));
+  auto mock = std::make_unique<MockManipulator>(MockFault::kStuck);  // tasks stay busy
+  MockManipulator* log = mock.get();
+  ManagedManipulator arm(std::move(mock));
   ASSERT_TRUE(arm.connect().ok());
   ASSERT_TRUE(arm.activate().ok());
-  log->next_error = make_error(ErrorCode::kArmTimeout, "", "no ack");
+  log->fail_next_call(make_error(ErrorCode::kArmTimeout, "", "no ack"));
   EXPECT_EQ(arm.hand_off(DoorTask{}).error().code, ErrorCode::kArmTimeout);
   EXPECT_EQ(arm.state(), LifecycleState::kActive);
-  log->next_error = make_error(ErrorCode::kDriverError, "", "worker died");
+  log->fail_next_call(make_error(ErrorCode::kDriverError, "", "worker died"));
   EXPECT_EQ(arm.hand_off(DoorTask{}).error().code, ErrorCode::kDriverError);
   EXPECT_EQ(arm.state(), LifecycleState::kFault);
   EXPECT_EQ(arm.hand_off(DoorTask{}).error().code, ErrorCode::kDriverNotActive);
@@ -291,8 +253,10 @@ TEST(ManagedArm, BrokenImplementationLatchesButLinkTroubleDoesNot) {
   EXPECT_TRUE(arm.hand_off(DoorTask{}).ok());
   ASSERT_TRUE(arm.disconnect().ok());  // stops, then disconnects
   EXPECT_EQ(arm.state(), LifecycleState::kUnconfigured);
-  EXPECT_EQ(log->calls.back(), "disconnect");
-  EXPECT_EQ(log->calls[log->calls.size() - 2], "stop");
+  const auto calls = log->calls();
+  ASSERT_GE(calls.size(), 2U);
+  EXPECT_EQ(calls.back(), "disconnect");
+  EXPECT_EQ(calls[calls.size() - 2], "stop");
 }
 
 }  // namespace

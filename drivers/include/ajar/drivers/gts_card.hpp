@@ -1,5 +1,5 @@
 // GtsMotionCard: the real GoogolTech GTS motion-card driver. It loads the vendor's C library at run
-// time (dlopen of GtsCardSettings::library_path) and resolves the GT_* calls of card_gts_abi.hpp;
+// time (dlopen of GtsCardSettings::library_path) and resolves the GT_* calls of gts_abi.hpp;
 // the card simulator (libajar_gts_sim.so) is loaded through exactly the same path.
 //
 // Threading: the vendor API is not thread-safe. One thread owns a GtsMotionCard (the control

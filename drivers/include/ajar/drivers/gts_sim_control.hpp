@@ -1,5 +1,5 @@
 // Control surface of the GTS card simulator (libajar_gts_sim.so, drivers/cardsim). The simulator
-// exports the vendor's GT_* calls (card_gts_abi.hpp) with the vendor's ABI and, besides them, these
+// exports the vendor's GT_* calls (gts_abi.hpp) with the vendor's ABI and, besides them, these
 // AjarSim_* C functions so that tests, the daemon (sim mode) and simulation runs can set the clock
 // and inject faults. Load it with GtsSimControl (dlopen of the same file the driver loads: the
 // dynamic loader hands both the same instance, so both see one simulated card).

@@ -11,10 +11,15 @@
 //   kGarbage      the line is garbled: every task ends in kFault with kArmTimeout after slow_ms,
 //                 as the serial driver reports it when every reply is corrupt.
 // stop() ends a task (kIdle); clear_fault() turns kFault into kIdle.
+// Tests can also script a refusal (fail_next_call), read the calls made in order (calls()) and the
+// tasks handed off (tasks()).
 #pragma once
 
 #include <cstdint>
 #include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "ajar/drivers/manipulator.hpp"
 #include "ajar/drivers/mock_clock.hpp"
@@ -40,9 +45,17 @@ class MockManipulator final : public Manipulator {
   void set_fault(MockFault fault);
   std::uint64_t tasks_started() const;
   std::uint64_t stops() const;
+  // The next call (connect, disconnect, hand_off, stop or clear_fault) returns `error` and does
+  // nothing else.
+  void fail_next_call(Error error);
+  // Every call so far, by name ("connect", "hand_off", ...), in order; and the tasks handed off.
+  std::vector<std::string> calls() const;
+  std::vector<DoorTask> tasks() const;
 
  private:
   void settle_locked(std::int64_t now_ns) const;  // advances busy -> done/fault by time
+  // Logs the call; the scripted refusal if there is one.
+  std::optional<Error> enter_locked(const char* call);
 
   mutable std::mutex mutex_;
   MockFault fault_;
@@ -56,6 +69,9 @@ class MockManipulator final : public Manipulator {
   std::uint32_t next_task_id_ = 1;
   std::uint64_t tasks_started_ = 0;
   std::uint64_t stops_ = 0;
+  std::optional<Error> next_error_;
+  std::vector<std::string> calls_;
+  std::vector<DoorTask> tasks_;
 };
 
 }  // namespace ajar::drivers

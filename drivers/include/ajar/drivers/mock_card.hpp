@@ -40,6 +40,8 @@ class MockMotionCard final : public MotionCard {
   void inject_alarm(int axis);  // also drops the servo
   void inject_following_error(int axis);
   void inject_limit(int axis, bool positive);
+  // open() fails with kCardOpenFailed while set (no card on the bus).
+  void set_open_fails(bool fails) noexcept { open_fails_ = fails; }
   // Calls made so far (all of them).
   std::uint64_t calls() const noexcept { return calls_; }
   // Test clock: manual = simulated time stands still except through advance_clock_ns();
@@ -96,6 +98,7 @@ class MockMotionCard final : public MotionCard {
   bool manual_clock_ = false;
   std::int64_t manual_ns_ = 0;
   bool open_ = false;
+  bool open_fails_ = false;
   std::uint64_t calls_ = 0;
   std::uint64_t fault_calls_ = 0;
   std::uint64_t garbage_state_ = 0x9E3779B97F4A7C15ULL;

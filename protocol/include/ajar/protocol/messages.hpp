@@ -336,7 +336,7 @@ struct LoopTiming {
 struct DoorRelation {
   bool has_distance = false;
   double distance_m = 0;  // base origin to the door plane (perpendicular); see docs/protocol.md
-  bool has_yaw = false;   // needs a plane
+  bool has_yaw = false;   // from the plane, or before one the width points' line
   double yaw_rad = 0;     // yaw still to correct to face the door squarely, CCW positive
 };
 // 1.1: stored base-frame measurements after the base moved.

@@ -11,7 +11,7 @@
 #include <fstream>
 #include <thread>
 
-#include "ajar/drivers/card_gts_abi.hpp"
+#include "ajar/drivers/gts_abi.hpp"
 #include "ajar/drivers/factory.hpp"
 #include "ajar/drivers/gts_card.hpp"
 #include "ajar/drivers/gts_sim_control.hpp"

@@ -1,0 +1,12 @@
+# Build speed of the sanitizer builds (scripts/test's ASan+UBSan and TSan stages; measurements in
+# docs/development.md, "CI time"). AJAR_SANITIZE_CODEGEN follows the build type's flags, so it wins:
+# -O1 is the level the sanitizers are documented for (still inlines, keeps reports precise) and
+# -g1 emits line tables only: every report keeps function, file and line, also of inlined frames,
+# but GCC does no variable tracking, which dominated the sanitizer builds' compile time (the
+# table-driven codec alone took minutes). Set it to "" to keep the build type's flags.
+set(AJAR_SANITIZE_CODEGEN "-O1 -g1" CACHE STRING
+    "Optimisation/debug flags of sanitizer builds (after the build type's)")
+if(NOT AJAR_SANITIZE STREQUAL "" AND NOT AJAR_SANITIZE_CODEGEN STREQUAL "")
+  separate_arguments(_ajar_sanitize_codegen UNIX_COMMAND "${AJAR_SANITIZE_CODEGEN}")
+  add_compile_options(${_ajar_sanitize_codegen})
+endif()
