@@ -257,20 +257,17 @@ void ControlLoop::execute(const Command& c, std::int64_t now_ns) noexcept {
   handle_stops(now_ns);  // every stop posted before this command acts first
   switch (c.kind) {
     case CommandKind::kMove:
-      if (c.stop_stamp != handled_stop_) {  // a stop was posted after this move
-        report({LoopReportKind::kMoveCancelled, fault_, c.id, 0, 0});
-        snapshot_.last_motion_id = c.id;
-        return;
-      }
-      start_move(c, now_ns);
-      return;
     case CommandKind::kDriveStart:
-      if (c.stop_stamp != handled_stop_) {  // a stop was posted after this jog: never started
+      if (c.stop_stamp != handled_stop_) {  // a stop was posted after it: it never starts
         report({LoopReportKind::kMoveCancelled, fault_, c.id, 0, 0});
         snapshot_.last_motion_id = c.id;
         return;
       }
-      start_jog(c, now_ns);
+      if (c.kind == CommandKind::kMove) {
+        start_move(c, now_ns);
+      } else {
+        start_jog(c, now_ns);
+      }
       return;
     case CommandKind::kDriveUpdate:
       // Dropped when a stop was posted after it (the stop ends the jog), or when its jog already

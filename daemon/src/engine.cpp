@@ -403,12 +403,7 @@ class EngineImpl final : public Engine {
     }
     loop_->heartbeat(now_ns());  // the controller just spoke
     const MoveCommand move{++motion_id_, wheels->left_counts, wheels->right_counts};
-    if (in_read_batch_) {
-      held_move_ = move;  // handed to the loop at the end of this read, unless a stop cancels it
-    } else if (!loop_->post_move(move)) {
-      return refuse(type, make_error(ErrorCode::kQueueFull, "",
-                                     "control loop command queue full: retry later"));
-    }
+    if (!hand_over(move)) return refuse(type, queue_full());
     procedure_.alignment_started();
     begin_wheel_motion(move.motion_id, WheelKind::kAlign);
     emit(EventKind::kMotionStarted, ErrorCode::kOk,
@@ -429,12 +424,8 @@ class EngineImpl final : public Engine {
         held_drive_->velocity = velocity;
         held_drive_->stamp_ns = stamp;
       } else {
-        const DriveCommand update{wheel_motion_, false, velocity, stamp};
-        if (in_read_batch_) {
-          held_drive_ = update;
-        } else if (!loop_->post_drive(update)) {
-          return refuse(type, make_error(ErrorCode::kQueueFull, "",
-                                         "control loop command queue full: retry later"));
+        if (!hand_over(DriveCommand{wheel_motion_, false, velocity, stamp})) {
+          return refuse(type, queue_full());
         }
       }
       return ack(type, protocol::EmptyAck{});
@@ -443,12 +434,7 @@ class EngineImpl final : public Engine {
       return ack(type, protocol::EmptyAck{});  // at rest already: nothing to do
     }
     const DriveCommand start{motion_id_ + 1, true, velocity, stamp};
-    if (in_read_batch_) {
-      held_drive_ = start;  // handed to the loop at the end of this read, unless a stop cancels it
-    } else if (!loop_->post_drive(start)) {
-      return refuse(type, make_error(ErrorCode::kQueueFull, "",
-                                     "control loop command queue full: retry later"));
-    }
+    if (!hand_over(start)) return refuse(type, queue_full());
     ++motion_id_;
     begin_wheel_motion(start.motion_id, WheelKind::kJog);
     emit(EventKind::kMotionStarted, ErrorCode::kOk,
@@ -502,12 +488,7 @@ class EngineImpl final : public Engine {
     loop_->heartbeat(now_ns());
     const MoveCommand move{motion_id_ + 1, wheels.left_counts, wheels.right_counts,
                            MoveProfile::kStraight};
-    if (in_read_batch_) {
-      held_move_ = move;
-    } else if (!loop_->post_move(move)) {
-      return refuse(type, make_error(ErrorCode::kQueueFull, "",
-                                     "control loop command queue full: retry later"));
-    }
+    if (!hand_over(move)) return refuse(type, queue_full());
     ++motion_id_;
     begin_wheel_motion(move.motion_id, WheelKind::kApproach);
     emit(EventKind::kMotionStarted, ErrorCode::kOk,
@@ -515,6 +496,23 @@ class EngineImpl final : public Engine {
              " m from the door (left " + std::to_string(move.left_counts) + " counts, right " +
              std::to_string(move.right_counts) + " counts)");
     return ack(type, body);
+  }
+
+  // Hands a motion to the loop: held for the end of this read while one is being handled (a stop
+  // later in the same read cancels it before any wheel turns), else posted now. False: the loop's
+  // command queue is full (nothing was queued).
+  bool hand_over(const MoveCommand& move) {
+    if (!in_read_batch_) return loop_->post_move(move);
+    held_move_ = move;
+    return true;
+  }
+  bool hand_over(const DriveCommand& drive) {
+    if (!in_read_batch_) return loop_->post_drive(drive);
+    held_drive_ = drive;
+    return true;
+  }
+  static Error queue_full() {
+    return make_error(ErrorCode::kQueueFull, "", "control loop command queue full: retry later");
   }
 
   // Whether Drive (jog = true) or Approach may move the base now.
@@ -642,10 +640,7 @@ class EngineImpl final : public Engine {
         if (e.field.empty()) e.field = "arm";
         return refuse(type, e);
       }
-      if (!loop_->request_recover(recover_sequence_ + 1)) {
-        return refuse(type, make_error(ErrorCode::kQueueFull, "",
-                                       "control loop command queue full: retry later"));
-      }
+      if (!loop_->request_recover(recover_sequence_ + 1)) return refuse(type, queue_full());
       ++recover_sequence_;
       const ErrorCode was = procedure_.fault();
       procedure_.clear_fault();

@@ -3,64 +3,17 @@
 #include <gtest/gtest.h>
 
 #include "ajar/daemon/control_loop.hpp"
-#include "det_card.hpp"
+#include "det_loop_fixture.hpp"
 
 namespace ajar::daemon {
 namespace {
 
-using ajar::testing::DetCard;
+constexpr std::int64_t kMs = ajar::testing::DetLoopTest::kMs;
 using ajar::testing::DetCardState;
 
-constexpr std::int64_t kMs = 1'000'000;
-
-class LoopCommands : public ::testing::Test {
+class LoopCommands : public ajar::testing::DetLoopTest {
  protected:
-  void SetUp() override {
-    settings.rate_hz = 500;
-    settings.deadman_timeout_s = 30;
-    settings.recovery_timeout_s = 0.1;
-    card.now_ns = &now;
-    card.tick = &tick;
-    card.left_axis = settings.base.left.card_axis;
-    card.right_axis = settings.base.right.card_axis;
-    card.axes[card.left_axis].enabled = true;
-    card.axes[card.right_axis].enabled = true;
-    loop = std::make_unique<ControlLoop>(impl, settings);
-  }
-  void run(int n) {
-    for (int i = 0; i < n; ++i) {
-      ++tick;
-      now += 2 * kMs;
-      loop->heartbeat(now);
-      loop->cycle(now);
-    }
-  }
-  std::vector<LoopReport> reports() {
-    std::vector<LoopReport> out;
-    LoopReport r;
-    while (loop->pop_report(r))
-      out.push_back(r);
-    return out;
-  }
-  int calls(DetCardState::Call::Kind kind) const {
-    int n = 0;
-    for (const auto& c : card.calls)
-      n += c.kind == kind ? 1 : 0;
-    return n;
-  }
-  static int count(const std::vector<LoopReport>& rs, LoopReportKind kind) {
-    int n = 0;
-    for (const auto& r : rs)
-      n += r.kind == kind ? 1 : 0;
-    return n;
-  }
-
-  ControlLoopSettings settings;
-  std::int64_t now = 1'000 * kMs;
-  std::uint64_t tick = 0;
-  DetCardState card;
-  DetCard impl{card};
-  std::unique_ptr<ControlLoop> loop;
+  void configure(ControlLoopSettings& s) override { s.recovery_timeout_s = 0.1; }
 };
 
 TEST_F(LoopCommands, AStopCancelsEveryMoveQueuedBeforeIt) {

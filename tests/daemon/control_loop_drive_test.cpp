@@ -7,52 +7,26 @@
 #include <gtest/gtest.h>
 
 #include "ajar/daemon/control_loop.hpp"
-#include "det_card.hpp"
+#include "det_loop_fixture.hpp"
 
 namespace ajar::daemon {
 namespace {
 
-using ajar::testing::DetCard;
+constexpr std::int64_t kMs = ajar::testing::DetLoopTest::kMs;
 using ajar::testing::DetCardState;
 
-constexpr std::int64_t kMs = 1'000'000;
-
-class LoopDrive : public ::testing::Test {
+class LoopDrive : public ajar::testing::DetLoopTest {
  protected:
-  void SetUp() override {
-    settings.rate_hz = 500;
-    settings.deadman_timeout_s = 30;
-    settings.base.max_wheel_speed_rad_s = 10;  // the body limits below are what binds
-    settings.drive.max_linear_speed_m_s = 0.3;
-    settings.drive.max_linear_accel_m_s2 = 0.5;
-    settings.drive.max_angular_speed_rad_s = 0.6;
-    settings.drive.max_angular_accel_rad_s2 = 1.0;
-    settings.drive.command_timeout_s = 0.5;
-    card.now_ns = &now;
-    card.tick = &tick;
-    card.left_axis = settings.base.left.card_axis;
-    card.right_axis = settings.base.right.card_axis;
-    card.axes[card.left_axis].enabled = true;
-    card.axes[card.right_axis].enabled = true;
-    loop = std::make_unique<ControlLoop>(impl, settings);
-  }
-  void run(int n, bool heartbeat = true) {
-    for (int i = 0; i < n; ++i) {
-      ++tick;
-      now += 2 * kMs;
-      if (heartbeat) loop->heartbeat(now);
-      loop->cycle(now);
-    }
+  void configure(ControlLoopSettings& s) override {
+    s.base.max_wheel_speed_rad_s = 10;  // the body limits below are what binds
+    s.drive.max_linear_speed_m_s = 0.3;
+    s.drive.max_linear_accel_m_s2 = 0.5;
+    s.drive.max_angular_speed_rad_s = 0.6;
+    s.drive.max_angular_accel_rad_s2 = 1.0;
+    s.drive.command_timeout_s = 0.5;
   }
   DriveCommand drive(std::uint32_t id, bool start, double v, double w) const {
     return DriveCommand{id, start, {v, w}, now};
-  }
-  std::vector<LoopReport> reports() {
-    std::vector<LoopReport> out;
-    LoopReport r;
-    while (loop->pop_report(r))
-      out.push_back(r);
-    return out;
   }
   std::vector<DetCardState::Call> jogs() const {
     std::vector<DetCardState::Call> out;
@@ -66,13 +40,6 @@ class LoopDrive : public ::testing::Test {
     return wheel_rad_s * b.gear_ratio * b.encoder_counts_per_rev / (2 * std::numbers::pi) / 1e3 *
            polarity;
   }
-
-  ControlLoopSettings settings;
-  std::int64_t now = 1'000 * kMs;
-  std::uint64_t tick = 0;
-  DetCardState card;
-  DetCard impl{card};
-  std::unique_ptr<ControlLoop> loop;
 };
 
 TEST_F(LoopDrive, LimiterRampsAtTheAccelerationAndClampsTheSpeed) {
@@ -171,7 +138,7 @@ TEST_F(LoopDrive, AJogStartPostedBeforeAStopNeverReachesTheCard) {
 
 TEST_F(LoopDrive, DeadmanStopsAJogAndLatches) {
   settings.deadman_timeout_s = 0.1;
-  loop = std::make_unique<ControlLoop>(impl, settings);
+  make_loop();
   loop->heartbeat(now);
   ASSERT_TRUE(loop->post_drive(drive(5, true, 0.3, 0.0)));
   for (int i = 0; i < 100; ++i) {  // Drive updates keep coming, but the controller is silent
