@@ -14,9 +14,10 @@
 namespace ajar::testing {
 
 class DetLoopTest : public ::testing::Test {
- protected:
+ public:
   static constexpr std::int64_t kMs = 1'000'000;
 
+ protected:
   void SetUp() override {
     settings.rate_hz = 500;
     settings.deadman_timeout_s = 30;
