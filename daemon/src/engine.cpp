@@ -3,12 +3,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <fmt/format.h>
 
 #include "ajar/core/geometry.hpp"
 #include "ajar/daemon/config.hpp"
@@ -82,12 +83,6 @@ protocol::ArmState to_wire(drivers::ArmPhase p) {
       return protocol::ArmState::kFault;
   }
   return protocol::ArmState::kFault;
-}
-
-std::string fixed(double v, int digits) {
-  char buf[48];
-  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
-  return buf;
 }
 
 enum class WheelKind : std::uint8_t { kAlign, kApproach, kJog };
@@ -438,9 +433,9 @@ class EngineImpl final : public Engine {
     ++motion_id_;
     begin_wheel_motion(start.motion_id, WheelKind::kJog);
     emit(EventKind::kMotionStarted, ErrorCode::kOk,
-         "driving: " + fixed(m.linear_m_s, 3) + " m/s, " + fixed(m.angular_rad_s, 3) +
-             " rad/s asked (limits " + fixed(config_.drive.max_linear_speed_m_s, 3) + " m/s, " +
-             fixed(config_.drive.max_angular_speed_rad_s, 3) + " rad/s)");
+         fmt::format("driving: {:.3f} m/s, {:.3f} rad/s asked (limits {:.3f} m/s, {:.3f} rad/s)",
+                     m.linear_m_s, m.angular_rad_s, config_.drive.max_linear_speed_m_s,
+                     config_.drive.max_angular_speed_rad_s));
     return ack(type, protocol::EmptyAck{});
   }
 
@@ -449,10 +444,12 @@ class EngineImpl final : public Engine {
     if (auto s = check_base_may_drive(false); !s) return refuse(type, s.error());
     const core::DriveLimits& limits = config_.drive;
     if (!(m.standoff_m >= limits.approach_min_standoff_m)) {
-      return refuse(type, make_error(ErrorCode::kStandoffOutOfRange, "standoff_m",
-                                     "standoff " + fixed(m.standoff_m, 3) +
-                                         " m is below drive.approach_min_standoff_m (" +
-                                         fixed(limits.approach_min_standoff_m, 3) + " m)"));
+      return refuse(
+          type,
+          make_error(
+              ErrorCode::kStandoffOutOfRange, "standoff_m",
+              fmt::format("standoff {:.3f} m is below drive.approach_min_standoff_m ({:.3f} m)",
+                          m.standoff_m, limits.approach_min_standoff_m)));
     }
     const core::PlanarPose pose = loop_->snapshot().pose;
     if (procedure_.plane()) {
@@ -465,11 +462,11 @@ class EngineImpl final : public Engine {
                                      "(or the door plane) first"));
     }
     if (std::abs(door.yaw_rad) > limits.approach_square_tolerance_rad) {
-      return refuse(type, make_error(ErrorCode::kNotSquareToDoor, "door.yaw_rad",
-                                     "the base is " + fixed(door.yaw_rad, 3) +
-                                         " rad off square to the door (tolerance " +
-                                         fixed(limits.approach_square_tolerance_rad, 3) +
-                                         " rad): align or jog square first"));
+      return refuse(
+          type, make_error(ErrorCode::kNotSquareToDoor, "door.yaw_rad",
+                           fmt::format("the base is {:.3f} rad off square to the door (tolerance "
+                                       "{:.3f} rad): align or jog square first",
+                                       door.yaw_rad, limits.approach_square_tolerance_rad)));
     }
     protocol::ApproachAck body;
     body.start_distance_m = door.distance_m;
@@ -477,9 +474,9 @@ class EngineImpl final : public Engine {
     if (std::abs(body.travel_m) > limits.approach_max_travel_m) {
       return refuse(
           type, make_error(ErrorCode::kApproachTooFar, "standoff_m",
-                           "the approach would travel " + fixed(body.travel_m, 3) +
-                               " m, more than drive.approach_max_travel_m (" +
-                               fixed(limits.approach_max_travel_m, 3) + " m): jog closer first"));
+                           fmt::format("the approach would travel {:.3f} m, more than "
+                                       "drive.approach_max_travel_m ({:.3f} m): jog closer first",
+                                       body.travel_m, limits.approach_max_travel_m)));
     }
     const core::StraightCommand wheels = core::straight_command(body.travel_m, config_.base);
     body.left_counts = wheels.left_counts;
@@ -492,9 +489,9 @@ class EngineImpl final : public Engine {
     ++motion_id_;
     begin_wheel_motion(move.motion_id, WheelKind::kApproach);
     emit(EventKind::kMotionStarted, ErrorCode::kOk,
-         "approaching: " + fixed(body.travel_m, 3) + " m to " + fixed(m.standoff_m, 3) +
-             " m from the door (left " + std::to_string(move.left_counts) + " counts, right " +
-             std::to_string(move.right_counts) + " counts)");
+         fmt::format("approaching: {:.3f} m to {:.3f} m from the door (left {} counts, right {} "
+                     "counts)",
+                     body.travel_m, m.standoff_m, move.left_counts, move.right_counts));
     return ack(type, body);
   }
 
@@ -685,7 +682,7 @@ class EngineImpl final : public Engine {
           std::string detail = "base aligned";
           if (wheel_kind_ == WheelKind::kApproach) {
             const auto door = procedure_.door(snap.pose);
-            detail = "approach finished: the door is " + fixed(door.distance_m, 3) + " m away";
+            detail = fmt::format("approach finished: the door is {:.3f} m away", door.distance_m);
           } else if (wheel_kind_ == WheelKind::kJog) {
             detail = r.command_timeout
                          ? "driving ended: no Drive command within drive.command_timeout_s "

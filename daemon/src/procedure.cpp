@@ -1,9 +1,10 @@
 #include "ajar/daemon/procedure.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <span>
 #include <string>
+
+#include <fmt/format.h>
 
 #include "ajar/core/measurements.hpp"
 
@@ -37,12 +38,6 @@ protocol::PlaneAck to_ack(const core::PlaneMeasurement& m) {
 
 Error missing(ErrorCode code, const char* message) {
   return make_error(code, "", message);
-}
-
-std::string fixed(double v, int digits) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.*f", digits, v);
-  return buf;
 }
 
 }  // namespace
@@ -102,8 +97,8 @@ Status Procedure::check_prerequisites(bool need_width, bool need_handle, bool ne
 
 Status Procedure::check_fresh(bool plane, bool contact) const {
   const auto moved = [&](const core::PlanarPose& since) {
-    return "the base moved " + fixed(core::travel_m(since, pose_), 3) + " m and turned " +
-           fixed(std::abs(core::turn_rad(since, pose_)), 3) + " rad since it was ";
+    return fmt::format("the base moved {:.3f} m and turned {:.3f} rad since it was ",
+                       core::travel_m(since, pose_), std::abs(core::turn_rad(since, pose_)));
   };
   if (plane && plane_stale_) {
     return make_error(ErrorCode::kMeasurementStale, "plane",
