@@ -64,7 +64,7 @@ TEST(TlsAjard, AjarctlWithItsCertificateRunsTheWholeProcedure) {
   std::string out;
   ASSERT_EQ(ajarctl(pki, "alice", *port, "--frame base script " + script, dir, out), 0) << out;
   EXPECT_EQ(ajarctl(pki, "bob", *port, "--json status", dir, out), 0) << out;
-  EXPECT_NE(out.find("\"state\": \"engaged\""), std::string::npos) << out;
+  EXPECT_NE(out.find("\"state\":\"engaged\""), std::string::npos) << out;
   // An observer certificate cannot command; its emergency stop works.
   EXPECT_NE(ajarctl(pki, "bob", *port, "reset", dir, out), 0);
   EXPECT_NE(out.find("NOT_CONTROLLER"), std::string::npos) << out;
