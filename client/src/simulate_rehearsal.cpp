@@ -25,8 +25,8 @@ RunResult Rehearsal::run() {
   Client client(co);
   client_ = &client;
   client.on_telemetry([this](const protocol::Telemetry& t) { on_telemetry(t); });
-  if (const auto why = client.connect(options_.endpoint); !why.empty()) {
-    return fail("connect: " + why, true);
+  if (const auto connected = client.connect(options_.endpoint); !connected) {
+    return fail("connect: " + connected.error().message, true);
   }
   if (!expect_reply("hello", client.hello(protocol::Role::kController, options_.take_over))) {
     return result_;

@@ -22,9 +22,8 @@ void ConsoleServer::Impl::refresh_status() {
 
 void ConsoleServer::Impl::connect_now() {
   next_connect_attempt = Clock::now() + std::chrono::seconds(1);
-  const std::string err = client.connect(options.daemon);
-  if (!err.empty()) {
-    on_io([this, err] {
+  if (const auto connected = client.connect(options.daemon); !connected) {
+    on_io([this, err = connected.error().message] {
       if (connection_message != err) add_log("ajard: " + err);
       daemon_connected = false;
       connection_message = err;
@@ -36,7 +35,7 @@ void ConsoleServer::Impl::connect_now() {
   if (r.outcome == client::Outcome::kRefused && r.error.code == ErrorCode::kControllerBusy) {
     // Someone else controls the robot: watch as an observer; the page offers take-over.
     client.close();
-    if (!client.connect(options.daemon).empty()) return;
+    if (!client.connect(options.daemon)) return;
     r = client.hello(protocol::Role::kObserver, false);
   }
   take_over_next = false;
