@@ -117,7 +117,7 @@ void MockMotionCard::inject_limit(int axis, bool positive) {
   (positive ? a.positive_limit : a.negative_limit) = true;
 }
 
-Status MockMotionCard::open() {
+Outcome MockMotionCard::open() {
   (void)enter("open", false);
   if (open_fails_) return make_error(ErrorCode::kCardOpenFailed, "", "mock card: no card");
   // Like GT_Open + GT_Reset + GT_ClrSts: axes off at position 0, no faults.
@@ -127,7 +127,7 @@ Status MockMotionCard::open() {
   return Ok{};
 }
 
-Status MockMotionCard::close() {
+Outcome MockMotionCard::close() {
   (void)enter("close", false);
   open_ = false;
   return Ok{};

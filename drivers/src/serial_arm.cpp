@@ -530,7 +530,7 @@ SerialManipulator::~SerialManipulator() {
   (void)disconnect();
 }
 
-Status SerialManipulator::connect() {
+ajar::Outcome SerialManipulator::connect() {
   {
     std::lock_guard lock(impl_->mutex);
     if (impl_->running) return Ok{};
@@ -563,7 +563,7 @@ Status SerialManipulator::connect() {
   return Ok{};
 }
 
-Status SerialManipulator::disconnect() {
+ajar::Outcome SerialManipulator::disconnect() {
   {
     std::lock_guard lock(impl_->mutex);
     if (!impl_->running) return Ok{};
@@ -608,7 +608,7 @@ Result<std::uint32_t> SerialManipulator::hand_off(const DoorTask& task) {
   return id;
 }
 
-Status SerialManipulator::stop() {
+ajar::Outcome SerialManipulator::stop() {
   std::lock_guard lock(impl_->mutex);
   auto& s = impl_->snapshot;
   if (impl_->task_pending) {  // never sent: cancel it here
@@ -628,7 +628,7 @@ Status SerialManipulator::stop() {
   return Ok{};
 }
 
-Status SerialManipulator::clear_fault() {
+ajar::Outcome SerialManipulator::clear_fault() {
   std::lock_guard lock(impl_->mutex);
   if (!impl_->running || impl_->snapshot.phase == ArmPhase::kDisconnected) {
     return make_error(ErrorCode::kArmDisconnected, "",

@@ -122,8 +122,8 @@ class DetCard final : public drivers::MotionCard {
  public:
   explicit DetCard(DetCardState& s) : s_(s) {}
 
-  Status open() override { return Ok{}; }
-  Status close() override { return Ok{}; }
+  Outcome open() override { return Ok{}; }
+  Outcome close() override { return Ok{}; }
   ErrorCode enable_axes(std::span<const int> axes) noexcept override {
     if (failing()) return comm();
     s_.calls.push_back({DetCardState::Call::kEnable, *s_.tick});

@@ -34,8 +34,8 @@ class FakeManipulator final : public drivers::Manipulator {
  public:
   explicit FakeManipulator(std::shared_ptr<FakeArmControl> control) : c_(std::move(control)) {}
 
-  Status connect() override { return Ok{}; }
-  Status disconnect() override { return Ok{}; }
+  Outcome connect() override { return Ok{}; }
+  Outcome disconnect() override { return Ok{}; }
   Result<std::uint32_t> hand_off(const drivers::DoorTask& task) override {
     std::lock_guard lock(c_->mutex);
     if (c_->refuse_hand_off) {
@@ -46,13 +46,13 @@ class FakeManipulator final : public drivers::Manipulator {
     c_->status.task_id = static_cast<std::uint32_t>(c_->tasks.size());
     return c_->status.task_id;
   }
-  Status stop() override {
+  Outcome stop() override {
     std::lock_guard lock(c_->mutex);
     ++c_->stops;
     if (c_->status.phase == drivers::ArmPhase::kBusy) c_->status.phase = drivers::ArmPhase::kIdle;
     return Ok{};
   }
-  Status clear_fault() override {
+  Outcome clear_fault() override {
     std::lock_guard lock(c_->mutex);
     ++c_->clear_faults;
     if (c_->status.phase == drivers::ArmPhase::kFault) c_->status.phase = drivers::ArmPhase::kIdle;

@@ -65,13 +65,13 @@ class FakeMotionCard final : public drivers::MotionCard {
  public:
   explicit FakeMotionCard(std::shared_ptr<FakeCardControl> control) : c_(std::move(control)) {}
 
-  Status open() override {
+  Outcome open() override {
     std::lock_guard lock(c_->mutex);
     ++c_->opens;
     if (c_->fail_open) return make_error(ErrorCode::kCardOpenFailed, "card", "fake: no card");
     return Ok{};
   }
-  Status close() override { return Ok{}; }
+  Outcome close() override { return Ok{}; }
   ErrorCode enable_axes(std::span<const int>) noexcept override { return ErrorCode::kOk; }
   ErrorCode disable_axes(std::span<const int>) noexcept override { return ErrorCode::kOk; }
   ErrorCode clear_faults(std::span<const int> axes) noexcept override {

@@ -49,8 +49,8 @@ class MockMotionCard final : public MotionCard {
   void set_manual_clock(bool manual) noexcept;
   void advance_clock_ns(std::int64_t ns) noexcept;
 
-  Status open() override;
-  Status close() override;
+  Outcome open() override;
+  Outcome close() override;
   // Realtime calls (motion_card.hpp): the servo comes on at once in enable_axes().
   ErrorCode enable_axes(std::span<const int> axes) noexcept override;
   ErrorCode disable_axes(std::span<const int> axes) noexcept override;
