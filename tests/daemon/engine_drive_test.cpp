@@ -220,7 +220,7 @@ TEST_F(EngineDrive, EngageRefusesAContactPointTakenBeforeTheBaseMoved) {
   release_and_rest();
   EXPECT_TRUE(engine->status().staleness.contact);
   expect_refused(send(protocol::Engage{}), ErrorCode::kMeasurementStale);
-  EXPECT_TRUE(arm->with_lock([](FakeArmControl& a) { return a.tasks.empty(); }));
+  EXPECT_TRUE(arm->tasks().empty());
 }
 
 TEST_F(EngineDrive, ADriveAndAStopInOneReadNeverJog) {

@@ -26,7 +26,7 @@ TEST_F(ManualEngine, TwoResetsInOneReadDuringAFaultThenLaterFaultsStillLatch) {
   expect_ack(send(protocol::Engage{}), ProcedureState::kEngaging);
   cycles(100, /*alive=*/false);
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kDeadman);
-  EXPECT_GE(arm->with_lock([](FakeArmControl& a) { return a.stops; }), 1);
+  EXPECT_GE(arm->stops(), 1U);
   EXPECT_EQ(count(EventKind::kMotionStarted),
             count(EventKind::kMotionStopped) + count(EventKind::kMotionFinished));
 }
@@ -85,7 +85,7 @@ TEST_F(ManualEngine, AStuckArmTaskHitsItsDeadline) {
   EXPECT_EQ(state(), ProcedureState::kEngaging);  // not before the deadline
   cycles(10);
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kArmTimeout);
-  EXPECT_GE(arm->with_lock([](FakeArmControl& a) { return a.stops; }), 1);
+  EXPECT_GE(arm->stops(), 1U);
   EXPECT_EQ(count(EventKind::kMotionStopped), 1);
   expect_ack(send(protocol::Reset{}), ProcedureState::kReadyToEngage);
 }

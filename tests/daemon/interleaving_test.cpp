@@ -36,7 +36,7 @@
 #include "ajar/daemon/session_hub.hpp"
 #include "det_card.hpp"
 #include "fake_door.hpp"
-#include "fake_manipulator.hpp"
+#include "fake_engine_fixture.hpp"
 
 namespace ajar::testing {
 namespace {
@@ -144,7 +144,7 @@ class FakeLink final : public daemon::SessionLink {
   std::deque<Expected> expected;
 };
 
-// One seed's world: the engine over DetCard and the fake arm behind the SessionHub, the clock,
+// One seed's world: the engine over DetCard and the mock arm behind the SessionHub, the clock,
 // and the model the invariants are checked against.
 class World {
  public:
@@ -183,7 +183,7 @@ class World {
                     3 * kPeriodNs;
     drivers::DriverSet set;
     set.card = std::make_unique<DetCard>(card_);
-    set.arm = std::make_unique<FakeManipulator>(arm_);
+    set.arm = make_mock_arm(arm_);
     daemon::EngineOptions options;
     options.now_ns = [this] { return now_; };
     options.manual_loop = true;
@@ -619,7 +619,7 @@ class World {
   }
 
   void arm_event() {
-    const auto st = arm_->with_lock([](FakeArmControl& a) { return a.status; });
+    const auto st = arm_->status();
     if (st.phase != drivers::ArmPhase::kBusy) return;
     switch (calm_ && pick(2) == 0 ? 0 : pick(4)) {  // calm: the task mostly succeeds
       case 0:
@@ -1009,7 +1009,7 @@ class World {
   std::int64_t now_ = 1'000'000'000;
   std::uint64_t tick_ = 0;
   DetCardState card_;
-  std::shared_ptr<FakeArmControl> arm_ = std::make_shared<FakeArmControl>();
+  drivers::MockManipulator* arm_ = nullptr;  // the engine's
   std::unique_ptr<daemon::Engine> engine_;
   std::unique_ptr<RecordingEngine> recorder_;
   std::unique_ptr<daemon::SessionHub> hub_;
@@ -1109,10 +1109,10 @@ TEST(Interleaving, AlignBaseAndStopInOneReadNeverTurn) {
   auto config = test_config(dir);
   card.left_axis = config.base.left.card_axis;
   card.right_axis = config.base.right.card_axis;
-  auto arm = std::make_shared<FakeArmControl>();
+  drivers::MockManipulator* arm = nullptr;
   drivers::DriverSet set;
   set.card = std::make_unique<DetCard>(card);
-  set.arm = std::make_unique<FakeManipulator>(arm);
+  set.arm = make_mock_arm(arm);
   daemon::EngineOptions options;
   options.now_ns = [&] { return now; };
   options.manual_loop = true;

@@ -1,5 +1,5 @@
 // ManualEngine: the engine with its loop driven by hand on a fake clock
-// (EngineOptions::manual_loop) over the deterministic card and the fake arm. `configure` may change
+// (EngineOptions::manual_loop) over the deterministic card and the mock arm. `configure` may change
 // the config before start.
 #pragma once
 
@@ -12,7 +12,6 @@
 #include "det_card.hpp"
 #include "fake_door.hpp"
 #include "fake_engine_fixture.hpp"
-#include "fake_manipulator.hpp"
 
 namespace ajar::testing {
 
@@ -35,7 +34,7 @@ class ManualEngine : public ::testing::Test {
     card.right_axis = config.base.right.card_axis;
     drivers::DriverSet set;
     set.card = std::make_unique<DetCard>(card);
-    set.arm = std::make_unique<FakeManipulator>(arm);
+    set.arm = make_mock_arm(arm);
     daemon::EngineOptions options;
     options.now_ns = [this] { return now; };
     options.manual_loop = true;
@@ -44,7 +43,7 @@ class ManualEngine : public ::testing::Test {
     engine->start();
   }
   void TearDown() override { engine.reset(); }
-  // A new engine with a changed config (the card and the arm keep their state).
+  // A new engine with a changed config (the card keeps its state; a new arm).
   void restart(const std::function<void(daemon::Config&)>& configure) {
     engine.reset();
     events.clear();
@@ -97,7 +96,7 @@ class ManualEngine : public ::testing::Test {
   std::int64_t now = 1'000'000'000;
   std::uint64_t tick = 0;
   DetCardState card;
-  std::shared_ptr<FakeArmControl> arm = std::make_shared<FakeArmControl>();
+  drivers::MockManipulator* arm = nullptr;  // the engine's
   std::unique_ptr<daemon::Engine> engine;
   std::vector<protocol::Event> events;
 };
