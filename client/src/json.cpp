@@ -1,7 +1,6 @@
 #include "ajar/client/json.hpp"
 
 #include <cmath>
-#include <stdexcept>
 
 #include <nlohmann/json.hpp>
 
@@ -37,10 +36,6 @@ std::string json_number(double value) {
 std::string json_vec3(const core::Vec3& v) {
   return dump(vec3(v));
 }
-std::string json_string(std::string_view text) {
-  return dump(Json(std::string(text)));
-}
-
 JsonObject::JsonObject() = default;
 JsonObject::~JsonObject() = default;
 JsonObject::JsonObject(const JsonObject& other)
@@ -93,16 +88,6 @@ JsonObject& JsonObject::add_null(std::string_view key) {
   value().json[std::string(key)] = nullptr;
   return *this;
 }
-JsonObject& JsonObject::add_raw(std::string_view key, std::string_view json) {
-  Json parsed = Json::parse(json, nullptr, false);
-  if (parsed.is_discarded()) {
-    throw std::invalid_argument("JsonObject::add_raw: \"" + std::string(key) +
-                                "\" is not given one JSON value");
-  }
-  value().json[std::string(key)] = std::move(parsed);
-  return *this;
-}
-
 std::string JsonObject::str() const {
   return value_ ? dump(value_->json) : "{}";
 }

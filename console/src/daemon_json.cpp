@@ -9,15 +9,14 @@ namespace {
 
 using client::JsonObject;
 
-std::string span_json(const protocol::SpanAck& a) {
+JsonObject span_json(const protocol::SpanAck& a) {
   return JsonObject()
       .add("length_m", a.length_m)
       .add("direction", core::to_string(a.direction))
       .add("p1_base_m", a.p1_base_m)
-      .add("p2_base_m", a.p2_base_m)
-      .str();
+      .add("p2_base_m", a.p2_base_m);
 }
-std::string plane_json(const protocol::PlaneAck& a) {
+JsonObject plane_json(const protocol::PlaneAck& a) {
   return JsonObject()
       .add("normal", a.normal)
       .add("yaw_deviation_rad", a.yaw_deviation_rad)
@@ -27,17 +26,15 @@ std::string plane_json(const protocol::PlaneAck& a) {
       .add("right_counts", static_cast<std::int64_t>(a.right_counts))
       .add("residual_yaw_rad", a.residual_yaw_rad)
       .add("rms_residual_m", a.rms_residual_m)
-      .add("point_count", static_cast<int>(a.point_count))
-      .str();
+      .add("point_count", static_cast<int>(a.point_count));
 }
-std::string contact_json(const protocol::ContactAck& a) {
+JsonObject contact_json(const protocol::ContactAck& a) {
   return JsonObject()
       .add("contact_base_m", a.contact_base_m)
-      .add("reach_margin_m", a.reach_margin_m)
-      .str();
+      .add("reach_margin_m", a.reach_margin_m);
 }
 
-std::string loop_json(const protocol::LoopStatistics& l) {
+JsonObject loop_json(const protocol::LoopStatistics& l) {
   return JsonObject()
       .add("rate_hz", l.rate_hz)
       .add("cycles", l.cycles)
@@ -45,36 +42,26 @@ std::string loop_json(const protocol::LoopStatistics& l) {
       .add("period_p50_ns", static_cast<std::uint64_t>(l.period_p50_ns))
       .add("period_p99_ns", static_cast<std::uint64_t>(l.period_p99_ns))
       .add("period_max_ns", static_cast<std::uint64_t>(l.period_max_ns))
-      .add("jitter_p99_ns", static_cast<std::uint64_t>(l.jitter_p99_ns))
-      .str();
+      .add("jitter_p99_ns", static_cast<std::uint64_t>(l.jitter_p99_ns));
 }
 
 }  // namespace
 
-std::string json_array(const std::vector<std::string>& items) {
-  std::string out = "[";
-  for (std::size_t i = 0; i < items.size(); ++i) {
-    if (i > 0) out += ",";
-    out += items[i];
-  }
-  return out + "]";
-}
-
-std::string response_json(const client::Response& r) {
+JsonObject response_json(const client::Response& r) {
   JsonObject o;
   if (r.outcome == client::Outcome::kReply) {
     o.add("ok", true);
     if (const auto* ack = r.get<protocol::Ack>()) {
       o.add("state", protocol::to_string(ack->state));
       if (const auto* s = std::get_if<protocol::SpanAck>(&ack->body))
-        o.add_raw("values", span_json(*s));
+        o.add("values", span_json(*s));
       if (const auto* p = std::get_if<protocol::PlaneAck>(&ack->body))
-        o.add_raw("values", plane_json(*p));
+        o.add("values", plane_json(*p));
       if (const auto* c = std::get_if<protocol::ContactAck>(&ack->body)) {
-        o.add_raw("values", contact_json(*c));
+        o.add("values", contact_json(*c));
       }
     }
-    return o.str();
+    return o;
   }
   o.add("ok", false);
   if (r.outcome == client::Outcome::kRefused) {
@@ -86,29 +73,29 @@ std::string response_json(const client::Response& r) {
     o.add("field", "");
     o.add("message", r.transport_error);
   }
-  return o.str();
+  return o;
 }
 
-std::string status_json(const protocol::Status& s) {
+JsonObject status_json(const protocol::Status& s) {
   JsonObject o;
   o.add("state", protocol::to_string(s.state));
   o.add("latched_fault", ajar::to_string(s.latched_fault));
   o.add("controller_connected", s.controller_connected);
   o.add("session_count", static_cast<int>(s.session_count));
   o.add("restored_from_disk", s.restored_from_disk);
-  if (s.has_width) o.add_raw("width", span_json(s.width));
-  if (s.has_handle) o.add_raw("handle", span_json(s.handle));
-  if (s.has_plane) o.add_raw("plane", plane_json(s.plane));
-  if (s.has_contact) o.add_raw("contact", contact_json(s.contact));
+  if (s.has_width) o.add("width", span_json(s.width));
+  if (s.has_handle) o.add("handle", span_json(s.handle));
+  if (s.has_plane) o.add("plane", plane_json(s.plane));
+  if (s.has_contact) o.add("contact", contact_json(s.contact));
   o.add("base_yaw_odometry_rad", s.base_yaw_odometry_rad);
   o.add("card", protocol::to_string(s.card));
   o.add("arm", protocol::to_string(s.arm));
   o.add("arm_state", protocol::to_string(s.arm_state));
-  o.add_raw("loop", loop_json(s.loop));
-  return o.str();
+  o.add("loop", loop_json(s.loop));
+  return o;
 }
 
-std::string telemetry_json(const protocol::Telemetry& t) {
+JsonObject telemetry_json(const protocol::Telemetry& t) {
   return JsonObject()
       .add("type", "telemetry")
       .add("t_s", static_cast<double>(t.daemon_time_ns) * 1e-9)
@@ -130,8 +117,7 @@ std::string telemetry_json(const protocol::Telemetry& t) {
       .add("commanded_linear_m_s", t.commanded_linear_m_s)
       .add("commanded_angular_rad_s", t.commanded_angular_rad_s)
       .add("arm_state", protocol::to_string(t.arm_state))
-      .add_raw("loop", loop_json(t.loop))
-      .str();
+      .add("loop", loop_json(t.loop));
 }
 
 }  // namespace ajar::console

@@ -3,26 +3,21 @@
 // upper-case words (ajar::to_string, protocol::to_string).
 #pragma once
 
-#include <string>
-#include <vector>
-
 #include "ajar/client/client.hpp"
+#include "ajar/client/json.hpp"
 #include "ajar/protocol/messages.hpp"
 
 namespace ajar::console {
 
-// [a,b,...] of items that are JSON already.
-std::string json_array(const std::vector<std::string>& items);
-
 // {"ok":true,"state":"...","values":{...}} (values: the Ack's span, plane or contact, when it has
 // one) or {"ok":false,"code":"POINTS_COLLINEAR","field":"points[2]","message":"..."}; a transport
 // failure's code is client::to_string(outcome), its field empty.
-std::string response_json(const client::Response& r);
+client::JsonObject response_json(const client::Response& r);
 
 // The daemon's Status: state, latched fault, the accepted parameters present, drivers, loop.
-std::string status_json(const protocol::Status& s);
+client::JsonObject status_json(const protocol::Status& s);
 
 // {"type":"telemetry",...}: one sample as the page's gauges read it (t_s in seconds).
-std::string telemetry_json(const protocol::Telemetry& t);
+client::JsonObject telemetry_json(const protocol::Telemetry& t);
 
 }  // namespace ajar::console

@@ -40,7 +40,7 @@ void ConsoleServer::Impl::connect_now() {
   }
   take_over_next = false;
   if (!r.ok()) {
-    const std::string why = "Hello refused: " + response_json(r);
+    const std::string why = "Hello refused: " + response_json(r).str();
     client.close();
     on_io([this, why] {
       add_log(why);
@@ -103,7 +103,7 @@ void ConsoleServer::Impl::on_telemetry(const protocol::Telemetry& t) {
     pose.y_m = t.odometry_y_m;
     pose.yaw_rad = t.base_yaw_odometry_rad;
   }
-  const std::string json = telemetry_json(t);
+  const std::string json = telemetry_json(t).str();
   on_io([this, json] { broadcast_text(json); });
 }
 

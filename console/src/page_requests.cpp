@@ -42,7 +42,7 @@ void ConsoleServer::Impl::handle_page(const std::shared_ptr<WsSession>& s,
     rect(s, *m);
   } else if (op == "clear") {
     picks[active].clear();
-    results[active].clear();
+    results[active] = {};
     mark_dirty();
   } else if (op == "undo") {
     if (!picks[active].empty()) picks[active].pop_back();
@@ -132,7 +132,7 @@ void ConsoleServer::Impl::pick(const std::shared_ptr<WsSession>& s, const PageMe
     list.clear();  // width, handle, contact: a new pick starts over
   }
   list.push_back({*u, *v, p->camera_m, p->from_window});
-  results[active].clear();
+  results[active] = {};
   mark_dirty();
 }
 
@@ -166,7 +166,7 @@ void ConsoleServer::Impl::rect(const std::shared_ptr<WsSession>& s, const PageMe
   }
   active = kPlane;
   picks[kPlane] = std::move(found);
-  results[kPlane].clear();
+  results[kPlane] = {};
   mark_dirty();
 }
 
@@ -232,7 +232,7 @@ void ConsoleServer::Impl::command(const std::string& op, bool clear) {
     for (auto& l : picks)
       l.clear();
     for (auto& r : results)
-      r.clear();
+      r = {};
     active = kWidth;
     mark_dirty();
   }
@@ -240,7 +240,7 @@ void ConsoleServer::Impl::command(const std::string& op, bool clear) {
     const auto r = client.request(msg, std::chrono::milliseconds(1000), 2);
     const auto json = response_json(r);
     on_io([this, op, json, r] {
-      last_command = JsonObject().add("op", op).add_raw("reply", json).str();
+      last_command = JsonObject().add("op", op).add("reply", json);
       log_response(op, r);
       mark_dirty();
     });
@@ -285,7 +285,7 @@ void ConsoleServer::Impl::approach(const std::shared_ptr<WsSession>& s, const Pa
     const auto r = client.request(msg);
     const auto json = response_json(r);
     on_io([this, json, r] {
-      last_command = JsonObject().add("op", "approach").add_raw("reply", json).str();
+      last_command = JsonObject().add("op", "approach").add("reply", json);
       log_response("approach", r);
       mark_dirty();
     });

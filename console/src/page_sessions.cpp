@@ -66,13 +66,12 @@ asio::awaitable<void> ConsoleServer::Impl::run_session(std::shared_ptr<WsSession
   sessions.insert(s);
   any_page = true;
   enqueue(s, false, std::make_shared<const std::string>(snapshot()));
-  std::vector<std::string> entries;
+  client::JsonArray entries;
   for (const auto& e : log)
-    entries.push_back(client::json_string(e));
-  enqueue(
-      s, false,
-      std::make_shared<const std::string>(
-          client::JsonObject().add("type", "log").add_raw("entries", json_array(entries)).str()));
+    entries.add(e);
+  enqueue(s, false,
+          std::make_shared<const std::string>(
+              client::JsonObject().add("type", "log").add("entries", entries).str()));
   if (!frames.empty()) enqueue(s, true, frames.back()->colour);
   asio::co_spawn(ioc, write_loop(s), asio::detached);
   beast::flat_buffer buffer;

@@ -36,10 +36,8 @@ void ConsoleServer::Impl::add_log(const std::string& text) {
   log.push_back(entry);
   while (log.size() > 200)
     log.pop_front();
-  broadcast_text(client::JsonObject()
-                     .add("type", "log")
-                     .add_raw("entries", json_array({client::json_string(entry)}))
-                     .str());
+  broadcast_text(
+      client::JsonObject().add("type", "log").add("entries", client::JsonArray().add(entry)).str());
 }
 
 asio::awaitable<void> ConsoleServer::Impl::tick_loop() {

@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "ajar/client/client.hpp"
+#include "ajar/client/json.hpp"
 #include "ajar/console/door_scene.hpp"
 #include "ajar/console/frame.hpp"
 #include "ajar/console/page_message.hpp"
@@ -122,8 +123,8 @@ struct ConsoleServer::Impl {
   std::optional<core::CameraToBase> camera_to_base;  // from the daemon (RobotModel)
   std::optional<protocol::RobotModel> model;         // protocol 1.1: GetRobotModel
   std::array<std::vector<Pick>, kStepCount> picks;
-  std::array<std::string, kStepCount> results;  // JSON, empty when nothing sent yet
-  std::string last_command;                     // JSON of the last command's reply
+  std::array<client::JsonObject, kStepCount> results;  // the replies; empty when nothing sent yet
+  client::JsonObject last_command;  // {"op", "reply"} of the last command; empty before one
   Step active = kWidth;
   std::deque<std::string> log;
   bool heartbeat_on = false;
@@ -189,8 +190,8 @@ struct ConsoleServer::Impl {
 
   // ---- state_json.cpp (Asio thread) ----
   std::string snapshot() const;  // {"type":"state",...}: everything the page draws
-  std::string picks_json() const;
-  std::string results_json() const;
+  client::JsonObject picks_json() const;
+  client::JsonObject results_json() const;
   std::string landmarks_json() const;  // /api/sim/landmarks; "null" without a simulated source
 
   // ---- daemon_link.cpp (worker threads; client callbacks) ----

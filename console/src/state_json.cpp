@@ -10,10 +10,10 @@ namespace ajar::console {
 
 using client::JsonObject;
 
-std::string ConsoleServer::Impl::picks_json() const {
+JsonObject ConsoleServer::Impl::picks_json() const {
   JsonObject o;
   for (std::size_t s = 0; s < kStepCount; ++s) {
-    std::vector<std::string> items;
+    client::JsonArray items;
     for (const auto& p : picks[s]) {
       JsonObject j;
       j.add("u", p.u_px)
@@ -21,19 +21,19 @@ std::string ConsoleServer::Impl::picks_json() const {
           .add("camera_m", p.camera_m)
           .add("from_window", p.from_window);
       if (camera_to_base) j.add("base_m", camera_to_base->to_base(p.camera_m));
-      items.push_back(j.str());
+      items.add(j);
     }
-    o.add_raw(kStepNames[s], json_array(items));
+    o.add(kStepNames[s], items);
   }
-  return o.str();
+  return o;
 }
 
-std::string ConsoleServer::Impl::results_json() const {
+JsonObject ConsoleServer::Impl::results_json() const {
   JsonObject o;
   for (std::size_t s = 0; s < kStepCount; ++s) {
-    if (!results[s].empty()) o.add_raw(kStepNames[s], results[s]);
+    if (!results[s].empty()) o.add(kStepNames[s], results[s]);
   }
-  return o.str();
+  return o;
 }
 
 std::string ConsoleServer::Impl::snapshot() const {
@@ -61,19 +61,23 @@ std::string ConsoleServer::Impl::snapshot() const {
         .add("driver_kind", protocol::to_string(welcome->driver_kind));
     o.add("welcome", w);
   } else {
-    o.add_raw("welcome", "null");
+    o.add_null("welcome");
   }
-  o.add_raw("status", status ? status_json(*status) : "null");
+  if (status) {
+    o.add("status", status_json(*status));
+  } else {
+    o.add_null("status");
+  }
   if (camera_to_base) {
-    std::vector<std::string> m;
+    client::JsonArray m;  // row-major 4x4
     const Eigen::Matrix4d t = camera_to_base->isometry().matrix();
     for (int r = 0; r < 4; ++r) {
       for (int c = 0; c < 4; ++c)
-        m.push_back(client::json_number(t(r, c)));
+        m.add(t(r, c));
     }
-    o.add_raw("camera_to_base", json_array(m));
+    o.add("camera_to_base", m);
   } else {
-    o.add_raw("camera_to_base", "null");
+    o.add_null("camera_to_base");
   }
   JsonObject src;
   src.add("describe", source->describe())
@@ -102,12 +106,16 @@ std::string ConsoleServer::Impl::snapshot() const {
         .add("aligned_tolerance_rad", model->aligned_tolerance_rad);
     o.add("model", m);
   } else {
-    o.add_raw("model", "null");
+    o.add_null("model");
   }
   o.add("active_step", kStepNames[active]);
-  o.add_raw("picks", picks_json());
-  o.add_raw("results", results_json());
-  o.add_raw("last_command", last_command.empty() ? "null" : last_command);
+  o.add("picks", picks_json());
+  o.add("results", results_json());
+  if (last_command.empty()) {
+    o.add_null("last_command");
+  } else {
+    o.add("last_command", last_command);
+  }
   return o.str();
 }
 

@@ -2,7 +2,6 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
-#include <stdexcept>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -50,7 +49,7 @@ TEST(Json, EscapesQuotesBackslashesAndControlCharacters) {
   o.add("s", nasty);
   const auto v = parse(o);
   EXPECT_EQ(v.at("s").get<std::string>(), nasty);
-  EXPECT_EQ(json_string("\x01"), "\"\\u0001\"");
+  EXPECT_EQ(JsonObject().add("s", "\x01").str(), R"({"s":"\u0001"})");
 }
 
 TEST(Json, NumbersRoundTripExactlyAndNonFiniteIsNull) {
@@ -332,8 +331,9 @@ TEST(Json, ArraysNestAndAMovedFromObjectIsEmpty) {
   JsonArray rows;
   rows.add(row).add(JsonObject().add("k", true));
   JsonObject o;
-  o.add("rows", rows).add_null("none").add_raw("raw", "[1, {\"a\": null}]");
-  EXPECT_EQ(o.str(), R"({"rows":[[0.5,-3,"x"],{"k":true}],"none":null,"raw":[1,{"a":null}]})");
+  o.add("rows", rows).add_null("none").add("rows", JsonArray().add(rows));
+  EXPECT_EQ(o.str(), R"({"rows":[[[0.5,-3,"x"],{"k":true}]],"none":null})")
+      << "a key added twice keeps its first place and its last value";
   EXPECT_EQ(rows.size(), 2u);
   JsonObject moved = std::move(o);
   EXPECT_FALSE(moved.empty());
@@ -341,14 +341,6 @@ TEST(Json, ArraysNestAndAMovedFromObjectIsEmpty) {
   EXPECT_EQ(o.str(), "{}");
   o.add("again", 1);
   EXPECT_EQ(o.str(), R"({"again":1})");
-}
-
-TEST(Json, AddRawRefusesWhatIsNotOneJsonValue) {
-  JsonObject o;
-  EXPECT_THROW(o.add_raw("a", "nan"), std::invalid_argument);
-  EXPECT_THROW(o.add_raw("a", "[1,]"), std::invalid_argument);
-  EXPECT_THROW(o.add_raw("a", "1 2"), std::invalid_argument);
-  EXPECT_TRUE(o.empty());
 }
 
 }  // namespace

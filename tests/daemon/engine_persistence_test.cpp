@@ -65,7 +65,6 @@ TEST_F(EngineTest, RestartDuringAlignmentComesBackReadyToAlignWithoutMoving) {
   std::filesystem::copy_file(file, saved);
   engine.reset();
   std::filesystem::rename(saved, file);
-  card = std::make_shared<FakeCardControl>();
   start();
   EXPECT_TRUE(engine->status().restored_from_disk);
   EXPECT_EQ(engine->status().state, ProcedureState::kReadyToAlign);
@@ -162,7 +161,6 @@ TEST_F(EngineTest, ImpossibleStateIsRejectedAndKept) {
   text.replace(at, 7, "fault 65535");
   text = with_checksum(text.substr(0, text.rfind("crc32 ")));
   std::ofstream(file, std::ios::trunc) << text;
-  card = std::make_shared<FakeCardControl>();
   start();
   EXPECT_EQ(engine->status().state, ProcedureState::kAwaitingWidth);
   EXPECT_FALSE(engine->status().restored_from_disk);

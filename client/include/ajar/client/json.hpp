@@ -15,9 +15,8 @@
 
 namespace ajar::client {
 
-std::string json_number(double value);           // e.g. "0.9152", "1.0"; non-finite -> "null"
-std::string json_vec3(const core::Vec3& v);      // [x,y,z]
-std::string json_string(std::string_view text);  // with the quotes
+std::string json_number(double value);       // e.g. "0.9152", "1.0"; non-finite -> "null"
+std::string json_vec3(const core::Vec3& v);  // [x,y,z]
 
 class JsonArray;
 
@@ -53,8 +52,6 @@ class JsonObject {
   JsonObject& add(std::string_view key, const JsonObject& nested);
   JsonObject& add(std::string_view key, const JsonArray& array);
   JsonObject& add_null(std::string_view key);
-  // `json` must be one JSON value (it is parsed; anything else throws std::invalid_argument).
-  JsonObject& add_raw(std::string_view key, std::string_view json);
 
   std::string str() const;  // one line, no spaces: {"type":"ack","ok":true}
   bool empty() const;
