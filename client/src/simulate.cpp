@@ -96,13 +96,10 @@ JsonObject report_json(const Scenario& s, const RunResult& r) {
     o.add("standoff_target_m", s.handle_standoff_m).add("true_standoff_m", r.final_standoff_m);
   }
   o.add("final_state", r.final_state);
-  std::string missed = "[";
-  for (std::size_t i = 0; i < r.missed.size(); ++i) {
-    if (i) missed += ", ";
-    missed += json_string(r.missed[i]);
-  }
-  missed += "]";
-  o.add_raw("missed", missed);
+  JsonArray missed;
+  for (const auto& m : r.missed)
+    missed.add(m);
+  o.add("missed", missed);
   if (!r.failure.empty()) o.add("error", error_object("SIMULATION_FAILED", "", r.failure));
   return o;
 }

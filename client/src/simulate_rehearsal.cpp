@@ -55,8 +55,8 @@ class Rehearsal {
         telemetry_rows_.push_back(row);
       }
     });
-    if (const auto why = client.connect(options_.endpoint); !why.empty()) {
-      return fail("connect: " + why, true);
+    if (const auto connected = client.connect(options_.endpoint); !connected) {
+      return fail("connect: " + connected.error().message, true);
     }
     if (!expect_reply("hello", client.hello(protocol::Role::kController, options_.take_over))) {
       return result_;

@@ -30,7 +30,7 @@ void Suite::duplicates() {
     }
     // Over a new connection of the same client instance.
     c->close();
-    if (!c->connect(options_.endpoint).empty()) return std::string("cannot reconnect");
+    if (!c->connect(options_.endpoint)) return std::string("cannot reconnect");
     if (!c->hello(Role::kController, true).ok()) return std::string("Hello after reconnect");
     c->send_envelope(protocol::Envelope{id1, protocol::kFlagRetransmit, first});
     auto after = c->wait_reply(id1, timeout());

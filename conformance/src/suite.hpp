@@ -232,7 +232,7 @@ class Suite {
     co.tls = options_.tls;
     co.client_name = "ajarctl conformance";
     auto c = std::make_unique<Client>(co);
-    if (!c->connect(options_.endpoint).empty()) return nullptr;
+    if (!c->connect(options_.endpoint)) return nullptr;
     return c;
   }
 

@@ -15,6 +15,7 @@
 #include "ajar/console/server.hpp"
 #include "ajar/console/tum.hpp"
 #include "ajar/core/geometry.hpp"
+#include "ajar/protocol/endpoint.hpp"
 #include "ajar/version.hpp"
 
 namespace {
@@ -96,18 +97,10 @@ Args parse(int argc, char** argv) {
       if (!e) usage_error("--connect: expected HOST:PORT");
       a.options.daemon = *e;
     } else if (o == "--listen") {
-      const std::string text = value();
-      const auto colon = text.rfind(':');
-      if (colon == std::string::npos) usage_error("--listen: expected HOST:PORT");
-      a.options.listen_host = text.substr(0, colon);
-      if (a.options.listen_host.size() > 2 && a.options.listen_host.front() == '[') {
-        a.options.listen_host = a.options.listen_host.substr(1, a.options.listen_host.size() - 2);
-      }
-      const std::string port = text.substr(colon + 1);
-      char* end = nullptr;
-      const long p = std::strtol(port.c_str(), &end, 10);
-      if (port.empty() || *end != '\0' || p < 0 || p > 65535) usage_error("--listen: bad port");
-      a.options.listen_port = static_cast<std::uint16_t>(p);
+      auto e = ajar::protocol::parse_host_port(value(), ajar::protocol::PortZero::kAllowed);
+      if (!e) usage_error("--listen: expected HOST:PORT (port 0..65535; IPv6 as [::1]:8080)");
+      a.options.listen_host = std::move(e->host);
+      a.options.listen_port = e->port;
     } else if (o == "--source") {
       a.source = value();
       if (a.source != "sim" && a.source != "recorded" && a.source != "live") {

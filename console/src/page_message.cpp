@@ -1,8 +1,8 @@
 #include "ajar/console/page_message.hpp"
 
-#include <cctype>
 #include <cmath>
-#include <cstdlib>
+
+#include <nlohmann/json.hpp>
 
 namespace ajar::console {
 namespace {
@@ -10,181 +10,85 @@ namespace {
 constexpr std::size_t kMaxBytes = 4096;
 constexpr std::size_t kMaxFields = 64;
 
-struct Parser {
-  std::string_view s;
-  std::size_t i = 0;
-  std::string error;
+using Json = nlohmann::json;
 
-  bool fail(const char* what) {
-    error = std::string("PAGE_MESSAGE: ") + what + " at byte " + std::to_string(i);
+// nlohmann-json reads the text; this keeps one flat object's fields and refuses anything else.
+class FlatObject final : public nlohmann::json_sax<Json> {
+ public:
+  explicit FlatObject(std::map<std::string, PageValue>& fields) : fields_(fields) {}
+  const std::string& error() const { return error_; }
+
+  bool null() override { return put(nullptr); }
+  bool boolean(bool v) override { return put(v); }
+  bool number_integer(number_integer_t v) override { return put(static_cast<double>(v)); }
+  bool number_unsigned(number_unsigned_t v) override { return put(static_cast<double>(v)); }
+  bool number_float(number_float_t v, const string_t&) override { return put(v); }
+  bool string(string_t& v) override { return put(std::move(v)); }
+  bool binary(binary_t&) override { return fail("binary values are not JSON"); }
+  bool start_object(std::size_t) override {
+    if (depth_++ == 0) return true;
+    return fail("\"" + key_ + "\": nested objects and arrays are not accepted");
+  }
+  bool key(string_t& k) override {
+    key_ = std::move(k);
+    return true;
+  }
+  bool end_object() override {
+    --depth_;
+    return true;
+  }
+  bool start_array(std::size_t) override {
+    return fail(depth_ == 0 ? "expected '{'"
+                            : "\"" + key_ + "\": nested objects and arrays are not accepted");
+  }
+  bool end_array() override { return true; }
+  // `position` counts the bytes read up to the one that made the text wrong: name that byte.
+  bool parse_error(std::size_t position, const std::string&,
+                   const nlohmann::detail::exception& e) override {
+    // "[json.exception.parse_error.101] parse error at line 1, column 5: syntax error ...; last
+    // read: ..." or "[json.exception.out_of_range.406] number overflow parsing '1e999'".
+    std::string what = e.what();
+    if (const auto tag = what.find("] "); tag != std::string::npos) what.erase(0, tag + 2);
+    if (what.rfind("parse error", 0) == 0) {
+      if (const auto colon = what.find(": "); colon != std::string::npos) what.erase(0, colon + 2);
+    }
+    if (const auto last_read = what.find("; last read"); last_read != std::string::npos)
+      what.erase(last_read);
+    error_ =
+        "PAGE_MESSAGE: " + what + " at byte " + std::to_string(position > 0 ? position - 1 : 0);
     return false;
   }
-  void skip() {
-    while (i < s.size() && (s[i] == ' ' || s[i] == '\t' || s[i] == '\n' || s[i] == '\r'))
-      ++i;
-  }
-  bool literal(std::string_view word) {
-    if (s.substr(i, word.size()) != word) return false;
-    i += word.size();
+
+ private:
+  bool put(PageValue v) {
+    if (depth_ == 0) return fail("expected '{'");
+    if (fields_.size() >= kMaxFields && fields_.count(key_) == 0)
+      return fail("too many fields (at most 64)");
+    fields_[key_] = std::move(v);
     return true;
   }
-  bool string(std::string& out) {
-    if (i >= s.size() || s[i] != '"') return fail("expected a string");
-    ++i;
-    while (i < s.size() && s[i] != '"') {
-      char c = s[i++];
-      if (static_cast<unsigned char>(c) < 0x20) return fail("control character in a string");
-      if (c == '\\') {
-        if (i >= s.size()) return fail("unterminated escape");
-        const char e = s[i++];
-        switch (e) {
-          case '"':
-            c = '"';
-            break;
-          case '\\':
-            c = '\\';
-            break;
-          case '/':
-            c = '/';
-            break;
-          case 'n':
-            c = '\n';
-            break;
-          case 't':
-            c = '\t';
-            break;
-          case 'r':
-            c = '\r';
-            break;
-          case 'b':
-            c = '\b';
-            break;
-          case 'f':
-            c = '\f';
-            break;
-          case 'u': {
-            if (i + 4 > s.size()) return fail("short \\u escape");
-            unsigned code = 0;
-            for (int k = 0; k < 4; ++k) {
-              const char h = s[i++];
-              code <<= 4;
-              if (h >= '0' && h <= '9')
-                code |= static_cast<unsigned>(h - '0');
-              else if (h >= 'a' && h <= 'f')
-                code |= static_cast<unsigned>(h - 'a' + 10);
-              else if (h >= 'A' && h <= 'F')
-                code |= static_cast<unsigned>(h - 'A' + 10);
-              else
-                return fail("bad \\u escape");
-            }
-            c = code < 0x80 ? static_cast<char>(code) : '?';  // the page sends ASCII
-            break;
-          }
-          default:
-            return fail("bad escape");
-        }
-      }
-      out.push_back(c);
-    }
-    if (i >= s.size()) return fail("unterminated string");
-    ++i;
-    return true;
+  bool fail(const std::string& what) {
+    error_ = "PAGE_MESSAGE: " + what;
+    return false;
   }
-  bool value(PageValue& out) {
-    skip();
-    if (i >= s.size()) return fail("expected a value");
-    if (s[i] == '"') {
-      std::string text;
-      if (!string(text)) return false;
-      out = std::move(text);
-      return true;
-    }
-    if (literal("true")) {
-      out = true;
-      return true;
-    }
-    if (literal("false")) {
-      out = false;
-      return true;
-    }
-    if (literal("null")) {
-      out = nullptr;
-      return true;
-    }
-    const std::size_t start = i;
-    while (i < s.size() && (std::isdigit(static_cast<unsigned char>(s[i])) != 0 || s[i] == '-' ||
-                            s[i] == '+' || s[i] == '.' || s[i] == 'e' || s[i] == 'E')) {
-      ++i;
-    }
-    if (start == i) return fail("expected a value (nested objects and arrays are not accepted)");
-    const std::string number(s.substr(start, i - start));
-    char* end = nullptr;
-    const double v = std::strtod(number.c_str(), &end);
-    if (end != number.c_str() + number.size()) {
-      i = start;
-      return fail("bad number");
-    }
-    out = v;
-    return true;
-  }
+
+  std::map<std::string, PageValue>& fields_;
+  std::string key_;
+  int depth_ = 0;
+  std::string error_;
 };
 
 }  // namespace
 
 std::optional<PageMessage> PageMessage::parse(std::string_view text, std::string& error) {
-  Parser p{text, 0, {}};
   if (text.size() > kMaxBytes) {
     error = "PAGE_MESSAGE: message longer than 4096 bytes";
     return std::nullopt;
   }
   PageMessage m;
-  p.skip();
-  if (p.i >= text.size() || text[p.i] != '{') {
-    p.fail("expected '{'");
-    error = p.error;
-    return std::nullopt;
-  }
-  ++p.i;
-  p.skip();
-  if (p.i < text.size() && text[p.i] == '}') {
-    ++p.i;
-  } else {
-    for (;;) {
-      p.skip();
-      std::string key;
-      PageValue v;
-      if (!p.string(key)) break;
-      p.skip();
-      if (p.i >= text.size() || text[p.i] != ':') {
-        p.fail("expected ':'");
-        break;
-      }
-      ++p.i;
-      if (!p.value(v)) break;
-      if (m.fields_.size() >= kMaxFields) {
-        p.fail("too many fields");
-        break;
-      }
-      m.fields_[key] = std::move(v);
-      p.skip();
-      if (p.i < text.size() && text[p.i] == ',') {
-        ++p.i;
-        continue;
-      }
-      if (p.i < text.size() && text[p.i] == '}') {
-        ++p.i;
-        break;
-      }
-      p.fail("expected ',' or '}'");
-      break;
-    }
-  }
-  if (p.error.empty()) {
-    p.skip();
-    if (p.i != text.size()) p.fail("trailing characters");
-  }
-  if (!p.error.empty()) {
-    error = p.error;
+  FlatObject reader(m.fields_);
+  if (!Json::sax_parse(text, &reader)) {
+    error = reader.error();
     return std::nullopt;
   }
   return m;

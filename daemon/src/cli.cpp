@@ -1,6 +1,5 @@
 #include "ajar/daemon/cli.hpp"
 
-#include <charconv>
 #include <csignal>
 #include <cstdio>
 #include <exception>
@@ -13,6 +12,7 @@
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/daemon.hpp"
 #include "ajar/daemon/logging.hpp"
+#include "ajar/protocol/endpoint.hpp"
 #include "ajar/protocol/messages.hpp"
 #include "ajar/version.hpp"
 
@@ -123,25 +123,9 @@ std::unique_ptr<CLI::App> make_parser(CommandLine& cl, Flags& flags) {
 }  // namespace
 
 std::optional<ListenAddress> parse_listen_address(std::string_view text) {
-  std::string_view host;
-  std::string_view port;
-  if (!text.empty() && text.front() == '[') {
-    const auto close = text.find("]:");
-    if (close == std::string_view::npos) return std::nullopt;
-    host = text.substr(1, close - 1);
-    port = text.substr(close + 2);
-  } else {
-    const auto colon = text.rfind(':');
-    if (colon == std::string_view::npos) return std::nullopt;
-    host = text.substr(0, colon);
-    port = text.substr(colon + 1);
-    if (host.find(':') != std::string_view::npos) return std::nullopt;  // IPv6 needs [..]
-  }
-  if (host.empty() || port.empty()) return std::nullopt;
-  unsigned value = 0;
-  const auto [end, ec] = std::from_chars(port.data(), port.data() + port.size(), value);
-  if (ec != std::errc() || end != port.data() + port.size() || value > 65535) return std::nullopt;
-  return ListenAddress{std::string(host), static_cast<std::uint16_t>(value)};
+  auto parsed = protocol::parse_host_port(text, protocol::PortZero::kAllowed);
+  if (!parsed) return std::nullopt;
+  return ListenAddress{std::move(parsed->host), parsed->port};
 }
 
 std::variant<CommandLine, UsageError> parse_command_line(std::span<const std::string_view> args) {

@@ -1,5 +1,6 @@
 #include "ajar/drivers/mock_arm.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <thread>
 #include <utility>
@@ -149,6 +150,19 @@ std::uint64_t MockManipulator::stops() const {
 void MockManipulator::fail_next_call(Error error) {
   std::lock_guard lock(mutex_);
   next_error_ = std::move(error);
+}
+
+void MockManipulator::set_phase(ArmPhase phase, ErrorCode last_error) {
+  std::lock_guard lock(mutex_);
+  settle_locked(clock_());
+  status_.phase = phase;
+  status_.last_error = last_error;
+  if (phase == ArmPhase::kBusy) task_never_ends_ = true;
+}
+
+std::size_t MockManipulator::count(std::string_view call) const {
+  std::lock_guard lock(mutex_);
+  return static_cast<std::size_t>(std::count(calls_.begin(), calls_.end(), call));
 }
 
 std::vector<std::string> MockManipulator::calls() const {

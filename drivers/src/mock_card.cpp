@@ -1,7 +1,9 @@
 #include "ajar/drivers/mock_card.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <limits>
 #include <thread>
 
 #include "ajar/drivers/card_checks.hpp"
@@ -9,6 +11,23 @@
 namespace ajar::drivers {
 
 using card::fail;
+
+std::int64_t CardCallRecord::distance_counts(int axis) const noexcept {
+  for (const AxisMove& m : moves)
+    if (m.axis == axis) return m.distance_counts;
+  return 0;
+}
+
+double CardCallRecord::velocity_counts_per_ms(int axis) const noexcept {
+  for (const AxisVelocity& v : velocities)
+    if (v.axis == axis) return v.velocity_counts_per_ms;
+  return 0;
+}
+
+bool CardCallRecord::jogs() const noexcept {
+  return std::any_of(velocities.begin(), velocities.end(),
+                     [](const AxisVelocity& v) { return v.velocity_counts_per_ms != 0; });
+}
 
 MockMotionCard::MockMotionCard(MockFault fault, int slow_ms, double time_scale, int axis_count,
                                MockClock clock)
@@ -27,6 +46,7 @@ std::int64_t MockMotionCard::now_ns() const noexcept {
 }
 
 void MockMotionCard::set_manual_clock(bool manual) noexcept {
+  const Lock lock(mutex_);
   const std::int64_t now = now_ns();
   manual_clock_ = manual;
   manual_ns_ = now;
@@ -35,12 +55,86 @@ void MockMotionCard::set_manual_clock(bool manual) noexcept {
 }
 
 void MockMotionCard::advance_clock_ns(std::int64_t ns) noexcept {
+  const Lock lock(mutex_);
   if (manual_clock_ && ns > 0) manual_ns_ += ns;
 }
 
+// --- test configuration and observation -------------------------------------------------------
+
+std::uint64_t MockMotionCard::calls() const noexcept {
+  const Lock lock(mutex_);
+  return calls_;
+}
+std::uint64_t MockMotionCard::calls(CardCall kind) const noexcept {
+  const Lock lock(mutex_);
+  return calls_by_kind_[static_cast<std::size_t>(kind)];
+}
+void MockMotionCard::set_motion_model(MockMotionModel model, std::int64_t stop_delay_ns) noexcept {
+  const Lock lock(mutex_);
+  model_ = model;
+  stop_delay_ns_ = std::max<std::int64_t>(0, stop_delay_ns);
+}
+void MockMotionCard::set_block_status(bool block) {
+  {
+    const Lock lock(mutex_);
+    block_status_ = block;
+  }
+  unblocked_.notify_all();
+}
+
+AxisStatus MockMotionCard::peek(int n) noexcept {
+  const Lock lock(mutex_);
+  return valid(n) ? status_of(axis(n)) : AxisStatus{};
+}
+
+bool MockMotionCard::any_moving() noexcept {
+  const Lock lock(mutex_);
+  double velocity = 0;
+  return std::any_of(axes_.begin(), axes_.end(), [&](Axis& a) {
+    (void)sample(a, &velocity);
+    return a.moving;
+  });
+}
+
+bool MockMotionCard::jogging(int n) noexcept {
+  const Lock lock(mutex_);
+  if (!valid(n)) return false;
+  double velocity = 0;
+  Axis& a = axis(n);
+  (void)sample(a, &velocity);
+  return a.moving && a.jogging;
+}
+
+std::size_t MockMotionCard::motion_call(int n) const noexcept {
+  const Lock lock(mutex_);
+  return valid(n) ? axes_[static_cast<std::size_t>(n - 1)].motion_call : 0;
+}
+
+std::size_t MockMotionCard::log_size() const {
+  const Lock lock(mutex_);
+  return log_.size();
+}
+
+std::vector<CardCallRecord> MockMotionCard::log_from(std::size_t index) const {
+  const Lock lock(mutex_);
+  if (index >= log_.size()) return {};
+  return {log_.begin() + static_cast<std::ptrdiff_t>(index), log_.end()};
+}
+
+CardFailure MockMotionCard::last_failure() const noexcept {
+  const Lock lock(mutex_);
+  return last_;
+}
+
+// --- the model --------------------------------------------------------------------------------
+
 double MockMotionCard::sample(Axis& a, double* velocity) noexcept {
   *velocity = 0;
-  if (!a.moving || a.stuck) return a.rest_position;
+  if (!a.moving) return a.rest_position;
+  if (a.stuck) {
+    if (a.stop_held && !stops_never_rest_) a.moving = a.stuck = a.stop_held = false;
+    return a.rest_position;
+  }
   const profile::Sample s = profile::sample(a.motion, now_ns());
   if (s.done) {
     a.moving = false;
@@ -55,7 +149,25 @@ void MockMotionCard::halt(Axis& a) noexcept {
   double velocity = 0;
   a.rest_position = std::round(sample(a, &velocity));
   a.moving = false;
-  a.stuck = false;
+  a.stuck = a.stop_held = false;
+}
+
+AxisStatus MockMotionCard::status_of(Axis& a) noexcept {
+  double speed = 0;
+  const double position = sample(a, &speed);
+  AxisStatus st;
+  st.enabled = a.enabled;
+  st.moving = a.moving;
+  st.in_position = !a.moving && a.enabled;
+  st.alarm = a.alarm;
+  st.following_error = a.following_error;
+  st.positive_limit = a.positive_limit;
+  st.negative_limit = a.negative_limit;
+  st.smooth_stopped = a.smooth_stopped;
+  st.emergency_stopped = a.emergency_stopped;
+  st.profile_position_counts = std::llround(position);
+  st.encoder_position_counts = std::llround(position);
+  return st;
 }
 
 ErrorCode MockMotionCard::check_can_move(int n, double direction, const char* call) noexcept {
@@ -71,9 +183,42 @@ ErrorCode MockMotionCard::check_can_move(int n, double direction, const char* ca
   return card::check_can_move(st, n, sign, call, last_);
 }
 
-ErrorCode MockMotionCard::enter(const char* call, bool realtime) noexcept {
-  ++calls_;
+ErrorCode MockMotionCard::check_can_start(int n, double direction, bool jog,
+                                          const char* call) noexcept {
+  if (const auto e = check_can_move(n, direction, call); e != ErrorCode::kOk) return e;
+  double velocity = 0;
+  Axis& a = axis(n);
+  (void)sample(a, &velocity);
+  if (a.moving && a.jogging != jog) {  // like the card: no mode change while the axis moves
+    return fail(
+        last_, ErrorCode::kDriverError, call, n,
+        jog ? "axis runs a trapezoidal move: stop it first" : "axis is jogging: stop it first");
+  }
+  return ErrorCode::kOk;
+}
+
+void MockMotionCard::start(Axis& a, bool jog, bool stuck, double direction, double here,
+                           double stop_dec, const profile::Motion& motion) noexcept {
+  a.smooth_stopped = false;
+  a.stuck = stuck;
+  a.stop_held = false;
+  a.jogging = jog;
+  a.stop_dec = stop_dec;
+  a.direction = direction;
+  a.rest_position = here;
+  a.motion_call = log_.size();
+  a.motion = motion;
+  a.moving = true;
+  double velocity = 0;
+  if (!a.stuck) (void)sample(a, &velocity);  // nothing to do: ends here
+}
+
+ErrorCode MockMotionCard::enter(Lock& lock, CardCall kind, const char* call,
+                                bool realtime) noexcept {
   if (fault_ == MockFault::kSlow) std::this_thread::sleep_for(std::chrono::milliseconds(slow_ms_));
+  lock = Lock(mutex_);
+  ++calls_;
+  ++calls_by_kind_[static_cast<std::size_t>(kind)];
   if (!realtime) return ErrorCode::kOk;
   if (fault_ == MockFault::kErrorCode) {
     return fail(last_, ErrorCode::kDriverError, call, 0, "mock card: injected error code");
@@ -81,6 +226,10 @@ ErrorCode MockMotionCard::enter(const char* call, bool realtime) noexcept {
   if (fault_ == MockFault::kIntermittent && ++fault_calls_ % 3 == 0) {
     return fail(last_, ErrorCode::kCardCommunication, call, 0,
                 "mock card: intermittent failure (every third call)");
+  }
+  if (fail_calls_ > 0 && kind != CardCall::kEmergencyStop) {
+    --fail_calls_;
+    return fail(last_, ErrorCode::kCardCommunication, call, 0, "mock card: not answering (test)");
   }
   return ErrorCode::kOk;
 }
@@ -95,222 +244,42 @@ ErrorCode MockMotionCard::check_axes(std::span<const int> axes, const char* call
   return card::check_axes(axes, axis_count_, call, last_);
 }
 
-void MockMotionCard::inject_alarm(int axis) {
-  if (axis < 1 || axis > axis_count_) return;
-  Axis& a = axes_[static_cast<std::size_t>(axis - 1)];
+ErrorCode MockMotionCard::logged(CardCallRecord&& record, ErrorCode result) noexcept {
+  record.result = result;
+  log_.push_back(std::move(record));  // tests only (record_calls): may allocate
+  return result;
+}
+
+CardCallRecord MockMotionCard::record(CardCall kind, std::span<const int> axes) const {
+  CardCallRecord r;
+  r.kind = kind;
+  r.at_ns = now_ns();
+  r.axes.assign(axes.begin(), axes.end());
+  return r;
+}
+
+void MockMotionCard::inject_alarm(int n) {
+  const Lock lock(mutex_);
+  if (!valid(n)) return;
+  Axis& a = axis(n);
   halt(a);
   a.alarm = true;
   a.enabled = false;
 }
 
-void MockMotionCard::inject_following_error(int axis) {
-  if (axis < 1 || axis > axis_count_) return;
-  Axis& a = axes_[static_cast<std::size_t>(axis - 1)];
-  halt(a);
-  a.following_error = true;
+void MockMotionCard::inject_following_error(int n) {
+  const Lock lock(mutex_);
+  if (!valid(n)) return;
+  halt(axis(n));
+  axis(n).following_error = true;
 }
 
-void MockMotionCard::inject_limit(int axis, bool positive) {
-  if (axis < 1 || axis > axis_count_) return;
-  Axis& a = axes_[static_cast<std::size_t>(axis - 1)];
+void MockMotionCard::inject_limit(int n, bool positive) {
+  const Lock lock(mutex_);
+  if (!valid(n)) return;
+  Axis& a = axis(n);
   if (a.moving && (a.direction > 0) == positive) halt(a);
   (positive ? a.positive_limit : a.negative_limit) = true;
 }
-
-Status MockMotionCard::open() {
-  (void)enter("open", false);
-  if (open_fails_) return make_error(ErrorCode::kCardOpenFailed, "", "mock card: no card");
-  // Like GT_Open + GT_Reset + GT_ClrSts: axes off at position 0, no faults.
-  open_ = true;
-  for (Axis& a : axes_)
-    a = Axis{};
-  return Ok{};
-}
-
-Status MockMotionCard::close() {
-  (void)enter("close", false);
-  open_ = false;
-  return Ok{};
-}
-
-#define AJAR_MOCK_TRY(expr) \
-  if (const ErrorCode e_ = (expr); e_ != ErrorCode::kOk) return e_
-
-ErrorCode MockMotionCard::enable_axes(std::span<const int> axes) noexcept {
-  AJAR_MOCK_TRY(enter("enable_axes", true));
-  AJAR_MOCK_TRY(check_axes(axes, "enable_axes"));
-  for (const int n : axes) {  // all checked before any is switched on
-    if (axis(n).alarm) {
-      return fail(last_, ErrorCode::kAxisAlarm, "enable_axes", n,
-                  "drive alarm latched: clear faults first");
-    }
-  }
-  for (const int n : axes)
-    axis(n).enabled = true;
-  return ErrorCode::kOk;
-}
-
-ErrorCode MockMotionCard::disable_axes(std::span<const int> axes) noexcept {
-  AJAR_MOCK_TRY(enter("disable_axes", true));
-  AJAR_MOCK_TRY(check_axes(axes, "disable_axes"));
-  for (const int n : axes) {
-    Axis& a = axis(n);
-    halt(a);
-    a.enabled = false;
-  }
-  return ErrorCode::kOk;
-}
-
-ErrorCode MockMotionCard::clear_faults(std::span<const int> axes) noexcept {
-  AJAR_MOCK_TRY(enter("clear_faults", true));
-  AJAR_MOCK_TRY(check_axes(axes, "clear_faults"));
-  for (const int n : axes) {
-    Axis& a = axis(n);
-    a.alarm = a.following_error = a.positive_limit = a.negative_limit = false;
-    a.smooth_stopped = a.emergency_stopped = false;
-  }
-  return ErrorCode::kOk;
-}
-
-ErrorCode MockMotionCard::move_relative(std::span<const AxisMove> moves,
-                                        const TrapezoidProfile& profile) noexcept {
-  AJAR_MOCK_TRY(enter("move_relative", true));
-  AJAR_MOCK_TRY(check_open("move_relative"));
-  AJAR_MOCK_TRY(card::check_move(moves, profile, axis_count_, last_));
-  for (const AxisMove& m : moves) {
-    AJAR_MOCK_TRY(check_can_move(m.axis, static_cast<double>(m.distance_counts), "move_relative"));
-    double velocity = 0;
-    Axis& a = axis(m.axis);
-    (void)sample(a, &velocity);
-    if (a.moving && a.jogging) {  // like the card: no mode change while the axis moves
-      return fail(last_, ErrorCode::kDriverError, "move_relative", m.axis,
-                  "axis is jogging: stop it first");
-    }
-  }
-  const std::int64_t t0 = now_ns();
-  for (const AxisMove& m : moves) {
-    Axis& a = axis(m.axis);
-    double velocity = 0;
-    const double here = sample(a, &velocity);
-    const double goal = std::round(here) + static_cast<double>(m.distance_counts);
-    a.smooth_stopped = false;
-    a.stuck = fault_ == MockFault::kStuck;
-    a.jogging = false;
-    a.stop_dec = profile.deceleration_counts_per_ms2;
-    a.direction = goal >= here ? 1 : -1;
-    a.rest_position = here;
-    a.motion = profile::plan_trap(t0, here, velocity, goal, profile.velocity_counts_per_ms,
-                                  profile.acceleration_counts_per_ms2,
-                                  profile.deceleration_counts_per_ms2);
-    a.moving = true;
-    if (!a.stuck) (void)sample(a, &velocity);  // nothing to do: ends here
-  }
-  return ErrorCode::kOk;
-}
-
-ErrorCode MockMotionCard::jog(std::span<const AxisVelocity> axes,
-                              const JogProfile& profile) noexcept {
-  AJAR_MOCK_TRY(enter("jog", true));
-  AJAR_MOCK_TRY(check_open("jog"));
-  AJAR_MOCK_TRY(card::check_jog(axes, profile, axis_count_, last_));
-  for (const AxisVelocity& v : axes) {
-    AJAR_MOCK_TRY(check_can_move(v.axis, v.velocity_counts_per_ms, "jog"));
-    double velocity = 0;
-    Axis& a = axis(v.axis);
-    (void)sample(a, &velocity);
-    if (a.moving && !a.jogging) {  // like the card: no mode change while the axis moves
-      return fail(last_, ErrorCode::kDriverError, "jog", v.axis,
-                  "axis runs a trapezoidal move: stop it first");
-    }
-  }
-  const std::int64_t t0 = now_ns();
-  for (const AxisVelocity& v : axes) {
-    Axis& a = axis(v.axis);
-    double velocity = 0;
-    const double here = sample(a, &velocity);
-    a.smooth_stopped = false;
-    a.stuck = fault_ == MockFault::kStuck && v.velocity_counts_per_ms != 0;
-    a.jogging = true;
-    a.stop_dec = profile.deceleration_counts_per_ms2;
-    a.direction = v.velocity_counts_per_ms != 0 ? profile::sign(v.velocity_counts_per_ms)
-                                                : profile::sign(velocity);
-    a.rest_position = here;
-    a.motion =
-        profile::plan_jog(t0, here, velocity, v.velocity_counts_per_ms,
-                          profile.acceleration_counts_per_ms2, profile.deceleration_counts_per_ms2);
-    a.moving = true;
-    if (!a.stuck) (void)sample(a, &velocity);  // nothing to do: ends here
-  }
-  return ErrorCode::kOk;
-}
-
-ErrorCode MockMotionCard::smooth_stop(std::span<const int> axes) noexcept {
-  AJAR_MOCK_TRY(enter("smooth_stop", true));
-  AJAR_MOCK_TRY(check_open("smooth_stop"));
-  const std::int64_t t0 = now_ns();
-  for (const int n : axes) {
-    if (n < 1 || n > axis_count_) continue;
-    Axis& a = axis(n);
-    a.smooth_stopped = true;
-    if (!a.moving) continue;
-    if (a.stuck) {
-      halt(a);
-      continue;
-    }
-    double velocity = 0;
-    const double here = sample(a, &velocity);
-    if (!a.moving) continue;
-    a.motion = profile::plan_stop(t0, here, velocity, a.stop_dec);
-    (void)sample(a, &velocity);
-  }
-  return check_axes(axes, "smooth_stop");
-}
-
-ErrorCode MockMotionCard::emergency_stop(std::span<const int> axes) noexcept {
-  AJAR_MOCK_TRY(enter("emergency_stop", true));
-  AJAR_MOCK_TRY(check_open("emergency_stop"));
-  for (const int n : axes) {
-    if (n < 1 || n > axis_count_) continue;
-    Axis& a = axis(n);
-    halt(a);
-    a.emergency_stopped = true;
-  }
-  return check_axes(axes, "emergency_stop");
-}
-
-ErrorCode MockMotionCard::axis_status(int n, AxisStatus& out) noexcept {
-  AJAR_MOCK_TRY(enter("axis_status", true));
-  const int one[] = {n};
-  AJAR_MOCK_TRY(check_axes(one, "axis_status"));
-  Axis& a = axis(n);
-  double speed = 0;
-  const double position = sample(a, &speed);
-  AxisStatus st;
-  st.enabled = a.enabled;
-  st.moving = a.moving;
-  st.in_position = !a.moving && a.enabled;
-  st.alarm = a.alarm;
-  st.following_error = a.following_error;
-  st.positive_limit = a.positive_limit;
-  st.negative_limit = a.negative_limit;
-  st.smooth_stopped = a.smooth_stopped;
-  st.emergency_stopped = a.emergency_stopped;
-  st.profile_position_counts = std::llround(position);
-  st.encoder_position_counts = std::llround(position);
-  if (fault_ == MockFault::kGarbage) {
-    garbage_state_ = garbage_state_ * 6364136223846793005ULL + 1442695040888963407ULL;
-    const std::uint64_t r = garbage_state_ >> 16;
-    st.moving = true;
-    st.in_position = true;  // contradictory on purpose
-    st.enabled = (r & 1) != 0;
-    st.positive_limit = st.negative_limit = (r & 2) != 0;
-    st.profile_position_counts = static_cast<std::int64_t>(r % 2000000001ULL) - 1000000000;
-    st.encoder_position_counts = -st.profile_position_counts;
-  }
-  out = st;
-  return ErrorCode::kOk;
-}
-
-#undef AJAR_MOCK_TRY
 
 }  // namespace ajar::drivers

@@ -67,8 +67,9 @@ int main(int argc, char** argv) {
   options.tls.certificate = dir + "/bench.crt";
   options.tls.private_key = dir + "/bench.key";
   ajar::client::Client tls(options);
-  if (auto e = plain.connect({"127.0.0.1", plain_server.port()}); !e.empty()) return fail(e);
-  if (auto e = tls.connect({"127.0.0.1", tls_server.port()}); !e.empty()) return fail(e);
+  if (auto c = plain.connect({"127.0.0.1", plain_server.port()}); !c)
+    return fail(c.error().message);
+  if (auto c = tls.connect({"127.0.0.1", tls_server.port()}); !c) return fail(c.error().message);
   if (!plain.hello(ajar::protocol::Role::kObserver).ok() ||
       !tls.hello(ajar::protocol::Role::kObserver).ok())
     return fail("Hello refused");

@@ -39,7 +39,7 @@ TEST(Client, HelloCarriesRoleInstanceIdAndName) {
   o.client_instance_id = 0xABCDEF;
   o.client_name = "door-gui 2.3";
   Client c(o);
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   EXPECT_TRUE(c.connected());
   const Response r = c.hello(protocol::Role::kController, true);
   ASSERT_TRUE(r.ok()) << r.transport_error;
@@ -57,7 +57,7 @@ TEST(Client, HelloCarriesRoleInstanceIdAndName) {
 TEST(Client, RequestsGetIncreasingIdsAndTheirOwnReplies) {
   FakeDaemon daemon(polite);
   Client c(fast_options());
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   const Response a = c.request(protocol::Ping{11});
   const Response b = c.request(protocol::GetStatus{});
   ASSERT_TRUE(a.get<protocol::Pong>());
@@ -75,7 +75,7 @@ TEST(Client, TimeoutIsRetriedWithTheSameIdAndTheRetransmitFlag) {
     return polite(e);
   });
   Client c(fast_options());
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   const Response r = c.request(protocol::Ping{5}, Milliseconds{300}, 2);
   ASSERT_TRUE(r.ok()) << r.transport_error;
   EXPECT_EQ(r.attempts, 2);
@@ -98,7 +98,7 @@ TEST(Client, ALateDuplicateReplyIsDroppedNotKeptForTheNextWait) {
     return replies;
   });
   Client c(fast_options());
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   const Response r = c.request(protocol::Ping{5}, Milliseconds{300}, 2);
   ASSERT_TRUE(r.ok()) << r.transport_error;
   EXPECT_EQ(r.attempts, 2);
@@ -110,7 +110,7 @@ TEST(Client, ALateDuplicateReplyIsDroppedNotKeptForTheNextWait) {
 TEST(Client, NoReplyAfterAllRetriesIsATimeout) {
   FakeDaemon daemon([](const protocol::Envelope&) { return std::vector<protocol::Envelope>{}; });
   Client c(fast_options());
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   const Response r = c.request(protocol::GetStatus{}, Milliseconds{100}, 1);
   EXPECT_EQ(r.outcome, Outcome::kTimeout);
   EXPECT_EQ(r.attempts, 2);
@@ -122,7 +122,7 @@ TEST(Client, NoReplyAfterAllRetriesIsATimeout) {
 TEST(Client, UnencodableRequestIsRefusedLocallyNotTimedOut) {
   FakeDaemon daemon(polite);
   Client c(fast_options());
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   protocol::MeasureDoorPlane plane;
   plane.count = 2;
   const Response r = c.request(plane, Milliseconds{100}, 1);
@@ -148,7 +148,7 @@ TEST(Client, ErrorReplyIsARefusalWithItsCodeAndField) {
     return std::vector<protocol::Envelope>{{e.request_id, 0, err}};
   });
   Client c(fast_options());
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   const Response r = c.request(protocol::AlignBase{});
   EXPECT_EQ(r.outcome, Outcome::kRefused);
   EXPECT_EQ(r.error.code, ErrorCode::kNotController);
@@ -185,7 +185,7 @@ TEST(Client, EventsAndTelemetryReachTheCallbacksNotTheReplies) {
     counts = t.left_counts;
     cv.notify_all();
   });
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   const Response r = c.request(protocol::Subscribe{10.0f});
   ASSERT_TRUE(r.get<protocol::Ack>());  // the reply, not the Event that came first
   std::unique_lock lock(m);
@@ -197,7 +197,7 @@ TEST(Client, EventsAndTelemetryReachTheCallbacksNotTheReplies) {
 TEST(Client, HeartbeatSendsPingsAndSwallowsTheirPongs) {
   FakeDaemon daemon(polite);
   Client c(fast_options());
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   c.set_heartbeat(Milliseconds{10});
   EXPECT_TRUE(daemon.wait_for([](const auto& got) { return got.size() >= 3; }));
   c.set_heartbeat(Milliseconds{0});
@@ -212,7 +212,7 @@ TEST(Client, ADroppedConnectionIsReportedAndReconnectKeepsTheInstance) {
   std::atomic<int> drops{0};
   Client c(fast_options());
   c.on_disconnect([&](const std::string&) { ++drops; });
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   ASSERT_TRUE(c.hello(protocol::Role::kObserver).ok());
   const std::uint32_t first_id = c.request(protocol::Ping{}).request_id;
   daemon.close_all();
@@ -224,7 +224,7 @@ TEST(Client, ADroppedConnectionIsReportedAndReconnectKeepsTheInstance) {
     std::this_thread::sleep_for(Milliseconds{10});
   EXPECT_EQ(drops.load(), 1);
 
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   ASSERT_TRUE(c.hello(protocol::Role::kObserver).ok());
   const Response again = c.request(protocol::Ping{});
   ASSERT_TRUE(again.ok());
@@ -247,7 +247,11 @@ TEST(Client, ConnectionRefusedIsReported) {
     port = a.local_endpoint().port();
   }
   Client c(fast_options());
-  EXPECT_NE(c.connect(Endpoint{"127.0.0.1", port}), "");
+  const auto connected = c.connect(Endpoint{"127.0.0.1", port});
+  ASSERT_FALSE(connected.ok());
+  EXPECT_EQ(connected.error().field, "endpoint");
+  EXPECT_NE(connected.error().message.find("cannot connect to 127.0.0.1:"), std::string::npos)
+      << connected.error().message;
   EXPECT_FALSE(c.connected());
   EXPECT_EQ(c.request(protocol::Ping{}).outcome, Outcome::kDisconnected);
 }
@@ -264,7 +268,7 @@ TEST(Client, InstanceIdsAreRandomPerClientUnlessGiven) {
 TEST(Client, RawBytesAndWaitReplyForConformanceWork) {
   FakeDaemon daemon(polite);
   Client c(fast_options());
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   std::vector<std::uint8_t> bytes;
   ASSERT_TRUE(protocol::encode_append({4242, 0, protocol::Ping{3}}, bytes));
   for (std::uint8_t byte : bytes)
@@ -279,7 +283,7 @@ TEST(Client, RawBytesAndWaitReplyForConformanceWork) {
 TEST(Client, RecordedHeadersFollowTheFrameBoundaries) {
   FakeDaemon daemon(polite);
   Client c(fast_options());
-  ASSERT_EQ(c.connect(daemon.endpoint()), "");
+  ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   ASSERT_TRUE(c.request(protocol::Ping{1}).ok());  // not recorded: before record_headers
   c.record_headers(true);
   ASSERT_TRUE(c.request(protocol::GetStatus{}).ok());

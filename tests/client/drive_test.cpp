@@ -193,8 +193,8 @@ TEST(Approach, AStoppedMoveIsAFailure) {
   });
   const RunResult r = ajarctl(daemon, {"--json", "approach", "0.75", "--wait-timeout", "20"});
   EXPECT_EQ(r.code, kExitRefused) << r.out;
-  EXPECT_NE(r.out.find("\"type\": \"approach_result\", \"command\": \"approach\", \"ok\": false, "
-                       "\"outcome\": \"motion_stopped\""),
+  EXPECT_NE(r.out.find("\"type\":\"approach_result\",\"command\":\"approach\",\"ok\":false,"
+                       "\"outcome\":\"motion_stopped\""),
             std::string::npos)
       << r.out;
 }

@@ -23,6 +23,6 @@ echo "$text" | grep '^align'
 grep -Eq '^align: +[0-9.]+ s, turned [-+][0-9.]+ rad, [-+][0-9.]+ rad \(.* deg\) to go$' <<<"$text" ||
   { echo "FAIL: no align progress line"; exit 1; }
 json=$("$with" "$ajard" "$tmp/slow.yaml" "$ajarctl" --json --connect 127.0.0.1:@PORT@ script "$tmp/procedure.txt")
-grep -q '"type": "progress", "command": "align", "ok": true, "elapsed_s": .*"yaw_remaining_rad": ' <<<"$json" ||
+grep -q '"type":"progress","command":"align","ok":true,"elapsed_s":.*"yaw_remaining_rad":' <<<"$json" ||
   { echo "FAIL: no JSON progress object"; echo "$json" | grep align; exit 1; }
 echo "progress shown"

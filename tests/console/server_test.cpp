@@ -151,13 +151,13 @@ TEST_F(Fixture, ServesItsPageOnlyToItsOwnHostAndOnlyItsFiles) {
   EXPECT_EQ(get("/../etc/passwd").result(), http::status::not_found);
   EXPECT_EQ(get("/.hidden").result(), http::status::not_found);
   EXPECT_EQ(get("/api/sim/landmarks").result(), http::status::not_found);  // not simulated
-  EXPECT_NE(state_json().find("\"connected\": false"), std::string::npos);
+  EXPECT_NE(state_json().find("\"connected\":false"), std::string::npos);
 }
 
 TEST_F(Fixture, RefusesAWebSocketFromAnotherSite) {
   EXPECT_THROW(Ws(port, "http://evil.example"), boost::system::system_error);
   Ws ok(port, "http://127.0.0.1:" + std::to_string(port));
-  EXPECT_FALSE(ok.read_until("\"type\": \"state\"").empty());
+  EXPECT_FALSE(ok.read_until("\"type\":\"state\"").empty());
 }
 
 TEST_F(Fixture, SendsFramesAndAnswersHoverAndPicks) {
@@ -166,17 +166,17 @@ TEST_F(Fixture, SendsFramesAndAnswersHoverAndPicks) {
   // Right half: the wall at 2 m. Pixel (47.5, 23.5) is 16 px right of the centre: x = 16 * 2 / 57.
   ws.send(R"({"op":"hover","u":47.5,"v":23.5})");
   const auto hover = ws.read_until("\"hover\"");
-  EXPECT_NE(hover.find("\"ok\": true"), std::string::npos) << hover;
-  EXPECT_NE(hover.find("\"camera_m\": [0.561403508771929"), std::string::npos) << hover;
+  EXPECT_NE(hover.find("\"ok\":true"), std::string::npos) << hover;
+  EXPECT_NE(hover.find("\"camera_m\":[0.561403508771929"), std::string::npos) << hover;
   // Left half: a hole with no valid neighbours is refused, naming the problem.
   ws.send(R"({"op":"pick","u":5,"v":5})");
   const auto refused = ws.read_until("pick_refused");
-  EXPECT_NE(refused.find("\"field\": \"depth\""), std::string::npos) << refused;
+  EXPECT_NE(refused.find("\"field\":\"depth\""), std::string::npos) << refused;
   EXPECT_NE(refused.find("pick a measurable area"), std::string::npos) << refused;
   // A valid pick lands in the active step (width).
   ws.send(R"({"op":"pick","u":40,"v":20})");
   EXPECT_TRUE(
-      wait_for([&] { return state_json().find("\"width\": [{\"u\": 40") != std::string::npos; }));
+      wait_for([&] { return state_json().find("\"width\":[{\"u\":40") != std::string::npos; }));
   // Send with one pick: the page is told what is missing; nothing goes to the robot.
   ws.send(R"({"op":"send"})");
   EXPECT_NE(ws.read_until("notice").find("P2"), std::string::npos);
@@ -196,7 +196,7 @@ TEST_F(Fixture, BadPageMessagesGetANoticeAndTheSessionContinues) {
 
 TEST_F(Fixture, TheDeadmanIsFedOnlyWhileAPageIsConnectedAndAlive) {
   const auto heartbeat = [&] {
-    return state_json().find("\"heartbeat\": true") != std::string::npos;
+    return state_json().find("\"heartbeat\":true") != std::string::npos;
   };
   EXPECT_FALSE(heartbeat());
   {

@@ -19,8 +19,8 @@ int main(int argc, char** argv) {
   ajar::client::ClientOptions options;
   options.client_name = "ajar-consumer";
   ajar::client::Client client(options);
-  if (const std::string why = client.connect(*endpoint); !why.empty()) {
-    std::fprintf(stderr, "ajar-consumer: connect: %s\n", why.c_str());
+  if (const auto connected = client.connect(*endpoint); !connected) {
+    std::fprintf(stderr, "ajar-consumer: connect: %s\n", connected.error().message.c_str());
     return 3;
   }
   if (!client.hello(ajar::protocol::Role::kObserver).ok()) {

@@ -9,7 +9,7 @@ namespace ajar::daemon {
 namespace {
 
 constexpr std::int64_t kMs = ajar::testing::DetLoopTest::kMs;
-using ajar::testing::DetCardState;
+using ajar::testing::CardCall;
 
 class LoopCommands : public ajar::testing::DetLoopTest {
  protected:
@@ -20,7 +20,7 @@ TEST_F(LoopCommands, AStopCancelsEveryMoveQueuedBeforeIt) {
   ASSERT_TRUE(loop->post_move({1, 5000, 5000}));
   loop->request_stop();  // same "read": before the loop's next cycle
   run(5);
-  EXPECT_EQ(calls(DetCardState::Call::kMove), 0);
+  EXPECT_EQ(calls(CardCall::kMoveRelative), 0);
   const auto rs = reports();
   ASSERT_EQ(rs.size(), 1U);
   EXPECT_EQ(rs[0].kind, LoopReportKind::kMoveCancelled);
@@ -33,7 +33,7 @@ TEST_F(LoopCommands, AMovePostedAfterAStopRuns) {
   loop->request_stop();
   ASSERT_TRUE(loop->post_move({2, 500, 500}));
   run(200);
-  EXPECT_EQ(calls(DetCardState::Call::kMove), 1);
+  EXPECT_EQ(calls(CardCall::kMoveRelative), 1);
   const auto rs = reports();
   ASSERT_EQ(rs.size(), 1U);
   EXPECT_EQ(rs[0].kind, LoopReportKind::kMotionFinished);
@@ -42,16 +42,16 @@ TEST_F(LoopCommands, AMovePostedAfterAStopRuns) {
 TEST_F(LoopCommands, AStopBetweenTwoCyclesOfARunningMoveStopsItInTheNextCycle) {
   ASSERT_TRUE(loop->post_move({3, 100000, 100000}));
   run(2);
-  ASSERT_EQ(calls(DetCardState::Call::kMove), 1);
+  ASSERT_EQ(calls(CardCall::kMoveRelative), 1);
   loop->request_stop();
   ASSERT_TRUE(loop->post_move({4, 10, 10}));  // posted after the stop: refused, a motion runs
   run(1);
-  EXPECT_EQ(calls(DetCardState::Call::kSmoothStop), 1);
+  EXPECT_EQ(calls(CardCall::kSmoothStop), 1);
   run(10);
   const auto rs = reports();
   EXPECT_EQ(count(rs, LoopReportKind::kMotionStopped), 1);
   EXPECT_EQ(count(rs, LoopReportKind::kMoveRefused), 1);
-  EXPECT_EQ(calls(DetCardState::Call::kMove), 1);
+  EXPECT_EQ(calls(CardCall::kMoveRelative), 1);
 }
 
 TEST_F(LoopCommands, EmergencyStopReachesTheCardWithAFullQueue) {
@@ -63,8 +63,8 @@ TEST_F(LoopCommands, EmergencyStopReachesTheCardWithAFullQueue) {
   ASSERT_FALSE(loop->post_move({99, 10, 10}));
   loop->request_emergency_stop();  // never refused
   run(1);
-  EXPECT_EQ(calls(DetCardState::Call::kEmergencyStop), 1);
-  EXPECT_EQ(calls(DetCardState::Call::kMove), 1);  // none of the queued moves started
+  EXPECT_EQ(calls(CardCall::kEmergencyStop), 1);
+  EXPECT_EQ(calls(CardCall::kMoveRelative), 1);  // none of the queued moves started
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kEmergencyStopped);
   const auto rs = reports();
   EXPECT_EQ(count(rs, LoopReportKind::kMoveCancelled),
@@ -101,23 +101,23 @@ TEST_F(LoopCommands, FaultStopCodesAreNeverOverwritten) {
 }
 
 TEST_F(LoopCommands, RecoveryIsAStateMachineAdvancedOncePerCycle) {
-  card.enable_delay_reads = 6;  // the servo comes on a few status reads after enable
-  card.inject_alarm(card.left_axis);
+  card.set_enable_delay_reads(6);  // the servo comes on a few status reads after enable
+  card.inject_alarm(left_axis);
   run(1);
   ASSERT_EQ(loop->snapshot().fault, ErrorCode::kAxisAlarm);
   reports();
   ASSERT_TRUE(loop->request_recover(7));
   run(1);  // clear faults, nothing else
-  EXPECT_EQ(calls(DetCardState::Call::kClearFaults), 1);
-  EXPECT_EQ(calls(DetCardState::Call::kEnable), 0);
+  EXPECT_EQ(calls(CardCall::kClearFaults), 1);
+  EXPECT_EQ(calls(CardCall::kEnableAxes), 0);
   EXPECT_TRUE(loop->snapshot().recovering);
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kOk);  // the latch is cleared when it starts
   run(1);                                             // enable
-  EXPECT_EQ(calls(DetCardState::Call::kEnable), 1);
+  EXPECT_EQ(calls(CardCall::kEnableAxes), 1);
   EXPECT_TRUE(reports().empty());
   ASSERT_TRUE(loop->post_move({5, 500, 500}));  // waits behind the recovery
   run(1);
-  EXPECT_EQ(calls(DetCardState::Call::kMove), 0);
+  EXPECT_EQ(calls(CardCall::kMoveRelative), 0);
   run(6);  // polls until the servo is on
   auto rs = reports();
   ASSERT_GE(rs.size(), 1U);
@@ -127,11 +127,11 @@ TEST_F(LoopCommands, RecoveryIsAStateMachineAdvancedOncePerCycle) {
   EXPECT_FALSE(loop->snapshot().recovering);
   EXPECT_EQ(loop->snapshot().recover_sequence, 7U);
   EXPECT_EQ(loop->snapshot().card_state, drivers::LifecycleState::kActive);
-  EXPECT_EQ(calls(DetCardState::Call::kMove), 1);  // the queued move ran after it
+  EXPECT_EQ(calls(CardCall::kMoveRelative), 1);  // the queued move ran after it
 }
 
 TEST_F(LoopCommands, TwoRecoversInOneBatchAreEachAnswered) {
-  card.inject_following_error(card.right_axis);
+  card.inject_following_error(right_axis);
   ASSERT_TRUE(loop->post_move({1, 10, 10}));
   run(1);
   ASSERT_EQ(loop->snapshot().fault, ErrorCode::kFollowingError);
@@ -168,8 +168,8 @@ TEST_F(LoopCommands, ARecoverPostedBeforeAnEmergencyStopDoesNotClearIt) {
 }
 
 TEST_F(LoopCommands, EmergencyStopDuringRecoveryEndsIt) {
-  card.enable_delay_reads = 50;
-  card.inject_alarm(card.left_axis);
+  card.set_enable_delay_reads(50);
+  card.inject_alarm(left_axis);
   run(1);
   ASSERT_TRUE(loop->request_recover(3));
   run(3);
@@ -178,7 +178,7 @@ TEST_F(LoopCommands, EmergencyStopDuringRecoveryEndsIt) {
   run(1);
   EXPECT_FALSE(loop->snapshot().recovering);
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kEmergencyStopped);
-  EXPECT_GE(calls(DetCardState::Call::kEmergencyStop), 1);
+  EXPECT_GE(calls(CardCall::kEmergencyStop), 1);
   const auto rs = reports();
   ASSERT_FALSE(rs.empty());
   EXPECT_EQ(rs.back().kind, LoopReportKind::kRecovered);
@@ -186,8 +186,8 @@ TEST_F(LoopCommands, EmergencyStopDuringRecoveryEndsIt) {
 }
 
 TEST_F(LoopCommands, RecoveryFailsWhenTheAlarmPersistsOrTheServoNeverComesOn) {
-  card.alarm_persists = true;
-  card.inject_alarm(card.left_axis);
+  card.set_alarm_persists(true);
+  card.inject_alarm(left_axis);
   run(1);
   ASSERT_TRUE(loop->request_recover(1));
   run(5);
@@ -197,8 +197,8 @@ TEST_F(LoopCommands, RecoveryFailsWhenTheAlarmPersistsOrTheServoNeverComesOn) {
   EXPECT_EQ(rs.back().code, ErrorCode::kAxisAlarm);
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kAxisAlarm);
 
-  card.alarm_persists = false;
-  card.enable_delay_reads = 1'000'000;  // servo never on
+  card.set_alarm_persists(false);
+  card.set_enable_delay_reads(1'000'000);  // servo never on
   ASSERT_TRUE(loop->request_recover(2));
   const int deadline_cycles = static_cast<int>(settings.recovery_timeout_s / 0.002);
   run(deadline_cycles / 2);
@@ -213,7 +213,7 @@ TEST_F(LoopCommands, RecoveryFailsWhenTheAlarmPersistsOrTheServoNeverComesOn) {
 }
 
 TEST_F(LoopCommands, FaultReportsCarryTheLastRecoverTaken) {
-  card.inject_alarm(card.left_axis);
+  card.inject_alarm(left_axis);
   run(1);
   ASSERT_TRUE(loop->request_recover(4));
   run(10);

@@ -13,7 +13,8 @@ namespace ajar::daemon {
 namespace {
 
 constexpr std::int64_t kMs = ajar::testing::DetLoopTest::kMs;
-using ajar::testing::DetCardState;
+using ajar::testing::CardCall;
+using ajar::testing::count_calls;
 
 class LoopDrive : public ajar::testing::DetLoopTest {
  protected:
@@ -28,10 +29,10 @@ class LoopDrive : public ajar::testing::DetLoopTest {
   DriveCommand drive(std::uint32_t id, bool start, double v, double w) const {
     return DriveCommand{id, start, {v, w}, now};
   }
-  std::vector<DetCardState::Call> jogs() const {
-    std::vector<DetCardState::Call> out;
-    for (const auto& c : card.calls)
-      if (c.kind == DetCardState::Call::kJog) out.push_back(c);
+  std::vector<drivers::CardCallRecord> jogs() const {
+    std::vector<drivers::CardCallRecord> out;
+    for (const auto& c : card.log_from(log_start))
+      if (c.kind == CardCall::kJog) out.push_back(c);
     return out;
   }
   // counts/ms at the card for a wheel speed (rad/s), polarity applied.
@@ -59,8 +60,10 @@ TEST_F(LoopDrive, LimiterRampsAtTheAccelerationAndClampsTheSpeed) {
   // The card got the wheel velocities of the limited body velocity (both wheels forward).
   const auto last = jogs().back();
   const double wheel = 0.3 / settings.base.wheel_radius_m;
-  EXPECT_NEAR(last.left_velocity, card_velocity(wheel, settings.base.left.polarity), 1e-9);
-  EXPECT_NEAR(last.right_velocity, card_velocity(wheel, settings.base.right.polarity), 1e-9);
+  EXPECT_NEAR(last.velocity_counts_per_ms(left_axis),
+              card_velocity(wheel, settings.base.left.polarity), 1e-9);
+  EXPECT_NEAR(last.velocity_counts_per_ms(right_axis),
+              card_velocity(wheel, settings.base.right.polarity), 1e-9);
   EXPECT_TRUE(reports().empty());  // still jogging
   EXPECT_TRUE(loop->snapshot().jogging);
 }
@@ -83,7 +86,7 @@ TEST_F(LoopDrive, CommandTimeoutStopsAJogWhileTheControllerKeepsPinging) {
   EXPECT_TRUE(rs[0].command_timeout);
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kOk);  // a timeout is not a fault
   EXPECT_FALSE(loop->snapshot().motion_active);
-  EXPECT_EQ(jogs().back().left_velocity, 0.0);
+  EXPECT_EQ(jogs().back().velocity_counts_per_ms(left_axis), 0.0);
   EXPECT_FALSE(card.any_moving());
 }
 
@@ -109,16 +112,12 @@ TEST_F(LoopDrive, StopEndsAJogInTheNextCycleAndNothingJogsAfterIt) {
   run(50);
   loop->request_stop();
   ASSERT_TRUE(loop->post_drive(drive(2, false, 0.3, 0.0)));  // an update behind the stop
-  const std::uint64_t stop_tick = tick + 1;
-  run(20);
-  bool smooth_stop = false;
-  for (const auto& c : card.calls) {
-    if (c.kind == DetCardState::Call::kSmoothStop && c.tick == stop_tick) smooth_stop = true;
-    if (c.kind == DetCardState::Call::kJog && c.tick >= stop_tick) {
-      ADD_FAILURE() << "a jog after the stop, tick " << c.tick;
-    }
-  }
-  EXPECT_TRUE(smooth_stop);
+  const std::size_t at_stop = card.log_size();
+  run(1);
+  EXPECT_EQ(count_calls(card, CardCall::kSmoothStop, at_stop), 1)
+      << "no smooth stop in the next cycle";
+  run(19);
+  EXPECT_EQ(count_calls(card, CardCall::kJog, at_stop), 0) << "a jog after the stop";
   const auto rs = reports();
   ASSERT_EQ(rs.size(), 1U);
   EXPECT_EQ(rs[0].kind, LoopReportKind::kMotionStopped);
@@ -204,13 +203,11 @@ TEST_F(LoopDrive, OdometryOnAnArcMatchesTheKinematicCircle) {
 
 TEST_F(LoopDrive, AMoveIsRefusedInACycleWhoseStatusReadFailed) {
   run(1);
-  card.fail_calls = 2;  // both axis_status reads of the next cycle fail
+  card.fail_next_calls(2);  // both axis_status reads of the next cycle fail
   ASSERT_TRUE(loop->post_move({9, 1000, 1000}));
   run(1);
-  int moves = 0;
-  for (const auto& c : card.calls)
-    moves += c.kind == DetCardState::Call::kMove ? 1 : 0;
-  EXPECT_EQ(moves, 0);
+  EXPECT_EQ(calls(CardCall::kMoveRelative), 0);
+  EXPECT_EQ(card.calls(CardCall::kMoveRelative), 0U);  // not even tried
   const auto rs = reports();
   ASSERT_EQ(rs.size(), 1U);
   EXPECT_EQ(rs[0].kind, LoopReportKind::kMoveRefused);

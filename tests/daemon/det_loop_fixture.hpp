@@ -1,6 +1,6 @@
 // DetLoopTest: the control loop driven cycle by cycle (2 ms apart) on a fake clock over the
-// deterministic card (no thread, no timing). A test suite derives from it and adjusts the settings
-// in configure() before the loop is made.
+// deterministic card (det_mock_card.hpp) (no thread, no timing). A test suite derives from it and
+// adjusts the settings in configure() before the loop is made.
 #pragma once
 
 #include <memory>
@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "ajar/daemon/control_loop.hpp"
-#include "det_card.hpp"
+#include "det_mock_card.hpp"
 
 namespace ajar::testing {
 
@@ -22,16 +22,17 @@ class DetLoopTest : public ::testing::Test {
     settings.rate_hz = 500;
     settings.deadman_timeout_s = 30;
     configure(settings);
-    card.now_ns = &now;
-    card.tick = &tick;
-    card.left_axis = settings.base.left.card_axis;
-    card.right_axis = settings.base.right.card_axis;
-    card.axes[card.left_axis].enabled = true;
-    card.axes[card.right_axis].enabled = true;
+    left_axis = settings.base.left.card_axis;
+    right_axis = settings.base.right.card_axis;
+    // The loop starts over an open card with both wheels' servos on (what activate() leaves).
+    ASSERT_TRUE(card.open().ok());
+    const int wheels[] = {left_axis, right_axis};
+    ASSERT_EQ(card.enable_axes(wheels), ErrorCode::kOk);
+    log_start = card.log_size();
     make_loop();
   }
   virtual void configure(daemon::ControlLoopSettings&) {}
-  void make_loop() { loop = std::make_unique<daemon::ControlLoop>(impl, settings); }
+  void make_loop() { loop = std::make_unique<daemon::ControlLoop>(*impl, settings); }
 
   // n cycles, 2 ms apart; the controller's heartbeat kept fresh unless told otherwise.
   void run(int n, bool heartbeat = true) {
@@ -49,12 +50,8 @@ class DetLoopTest : public ::testing::Test {
       out.push_back(r);
     return out;
   }
-  int calls(DetCardState::Call::Kind kind) const {
-    int n = 0;
-    for (const auto& c : card.calls)
-      n += c.kind == kind ? 1 : 0;
-    return n;
-  }
+  // Calls the loop made (the set-up's excluded).
+  int calls(CardCall kind) const { return count_calls(card, kind, log_start); }
   static int count(const std::vector<daemon::LoopReport>& rs, daemon::LoopReportKind kind) {
     int n = 0;
     for (const auto& r : rs)
@@ -65,8 +62,10 @@ class DetLoopTest : public ::testing::Test {
   daemon::ControlLoopSettings settings;
   std::int64_t now = 1'000 * kMs;
   std::uint64_t tick = 0;
-  DetCardState card;
-  DetCard impl{card};
+  std::unique_ptr<drivers::MockMotionCard> impl = make_det_card(now);
+  drivers::MockMotionCard& card = *impl;
+  int left_axis = 1, right_axis = 2;
+  std::size_t log_start = 0;
   std::unique_ptr<daemon::ControlLoop> loop;
 };
 

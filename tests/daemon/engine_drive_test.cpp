@@ -14,12 +14,7 @@ namespace {
 
 class EngineDrive : public ManualEngine {
  protected:
-  int jogs_with_speed() const {
-    int n = 0;
-    for (const auto& c : card.calls)
-      n += c.kind == DetCardState::Call::kJog && (c.left_velocity != 0 || c.right_velocity != 0);
-    return n;
-  }
+  int jogs_with_speed() const { return count_calls(*card, CardCall::kJog, 0, true); }
   // Holds the "key" for `seconds`: the Drive re-sent every 0.2 s (fake time), loop cycles between.
   void hold(double linear, double angular, double seconds) {
     for (double t = 0; t < seconds; t += 0.2) {
@@ -127,7 +122,7 @@ TEST_F(EngineDrive, ApproachFromTheWidthPointsEndsAtTheStandoff) {
   EXPECT_EQ(body.right_counts, wheels.right_counts);
   cycles(3000);
   ASSERT_EQ(moves(), 1);
-  EXPECT_EQ(card.calls.back().kind, DetCardState::Call::kMove);
+  EXPECT_EQ(card->log_from(card->log_size() - 1).at(0).kind, CardCall::kMoveRelative);
   s = engine->status();
   EXPECT_NEAR(s.door.distance_m, 1.0, 1e-4);
   EXPECT_NEAR(s.odometry_x_m, start - 1.0, 1e-4);
@@ -207,10 +202,12 @@ TEST_F(EngineDrive, AlignBaseAfterASmallTurnUsesTheYawSeenFromThePoseNow) {
   expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
   cycles(1);
   const auto wheels = core::wheel_command(yaw_now, config.base);
-  const auto& move = card.calls.back();
-  ASSERT_EQ(move.kind, DetCardState::Call::kMove);
-  EXPECT_EQ(move.left, wheels.left_counts);
-  EXPECT_EQ(move.right, wheels.right_counts);
+  const auto log = card->log_from(0);
+  ASSERT_FALSE(log.empty());
+  const auto& move = log.back();
+  ASSERT_EQ(move.kind, CardCall::kMoveRelative);
+  EXPECT_EQ(move.distance_counts(left_axis), wheels.left_counts);
+  EXPECT_EQ(move.distance_counts(right_axis), wheels.right_counts);
   EXPECT_NE(wheels.left_counts, s.plane.left_counts);  // not the command measured before the turn
 }
 
@@ -220,7 +217,7 @@ TEST_F(EngineDrive, EngageRefusesAContactPointTakenBeforeTheBaseMoved) {
   release_and_rest();
   EXPECT_TRUE(engine->status().staleness.contact);
   expect_refused(send(protocol::Engage{}), ErrorCode::kMeasurementStale);
-  EXPECT_TRUE(arm->with_lock([](FakeArmControl& a) { return a.tasks.empty(); }));
+  EXPECT_TRUE(arm->tasks().empty());
 }
 
 TEST_F(EngineDrive, ADriveAndAStopInOneReadNeverJog) {

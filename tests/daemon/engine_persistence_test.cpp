@@ -48,7 +48,7 @@ TEST_F(EngineTest, RestartRestoresParametersAndMovesNothing) {
   for (int i = 0; i < 50; ++i)
     engine->poll();
   EXPECT_EQ(move_calls(), 0);
-  EXPECT_TRUE(arm->with_lock([](FakeArmControl& a) { return a.tasks.empty(); }));
+  EXPECT_TRUE(arm->tasks().empty());
   // And the procedure continues from there.
   expect_ack(send(protocol::Engage{}), ProcedureState::kEngaging);
 }
@@ -66,7 +66,6 @@ TEST_F(EngineTest, RestartDuringAlignmentComesBackReadyToAlignWithoutMoving) {
   engine.reset();
   std::filesystem::rename(saved, file);
   card = std::make_shared<FakeCardControl>();
-  arm = std::make_shared<FakeArmControl>();
   start();
   EXPECT_TRUE(engine->status().restored_from_disk);
   EXPECT_EQ(engine->status().state, ProcedureState::kReadyToAlign);
@@ -81,7 +80,7 @@ TEST_F(EngineTest, RestartDuringEngagingComesBackReadyToEngage) {
   walk_to(ProcedureState::kEngaging);
   restart();
   EXPECT_EQ(engine->status().state, ProcedureState::kReadyToEngage);
-  EXPECT_TRUE(arm->with_lock([](FakeArmControl& a) { return a.tasks.empty(); }));
+  EXPECT_TRUE(arm->tasks().empty());
 }
 
 TEST_F(EngineTest, LatchedFaultSurvivesARestart) {
@@ -164,7 +163,6 @@ TEST_F(EngineTest, ImpossibleStateIsRejectedAndKept) {
   text = with_checksum(text.substr(0, text.rfind("crc32 ")));
   std::ofstream(file, std::ios::trunc) << text;
   card = std::make_shared<FakeCardControl>();
-  arm = std::make_shared<FakeArmControl>();
   start();
   EXPECT_EQ(engine->status().state, ProcedureState::kAwaitingWidth);
   EXPECT_FALSE(engine->status().restored_from_disk);

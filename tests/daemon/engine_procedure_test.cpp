@@ -40,7 +40,7 @@ TEST_F(EngineTest, RunsTheWholeProcedure) {
   auto contact = send(good_contact());
   expect_ack(contact, ProcedureState::kReadyToEngage);
   expect_ack(send(protocol::Engage{}), ProcedureState::kEngaging);
-  const auto tasks = arm->with_lock([](FakeArmControl& a) { return a.tasks; });
+  const auto tasks = arm->tasks();
   ASSERT_EQ(tasks.size(), 1U);
   EXPECT_NEAR(tasks[0].door_width_m, 0.85, 1e-9);
   EXPECT_NEAR(tasks[0].handle_length_m, 0.12, 1e-9);
@@ -86,7 +86,7 @@ TEST_F(EngineTest, RefusalsNameTheProblemAndMoveNothing) {
     engine->poll();
   EXPECT_EQ(engine->status().state, ProcedureState::kReadyToAlign);
   EXPECT_EQ(move_calls(), 0);
-  EXPECT_TRUE(arm->with_lock([](FakeArmControl& a) { return a.tasks.empty(); }));
+  EXPECT_TRUE(arm->tasks().empty());
 }
 
 TEST_F(EngineTest, MotionCommandsWhileAligningAreRefused) {
@@ -106,7 +106,7 @@ TEST_F(EngineTest, StopDuringAlignmentStopsSmoothlyWithoutFault) {
   ASSERT_TRUE(wait_for([&] { return saw_event(EventKind::kMotionStopped); }));
   EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.smooth_stops; }), 1);
   EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }), 0);
-  EXPECT_GE(arm->with_lock([](FakeArmControl& a) { return a.stops; }), 1);
+  EXPECT_GE(arm->stops(), 1U);
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kOk);
   // The base turned by an unknown part: the plane must be measured again.
   expect_refused(send(protocol::AlignBase{}), ErrorCode::kMissingPlane);
@@ -144,7 +144,7 @@ TEST_P(EveryState, EmergencyStopLatchesAndResetClears) {
   expect_ack(send(protocol::EmergencyStop{}), ProcedureState::kFault);
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kEmergencyStopped);
   EXPECT_TRUE(saw_event(EventKind::kFaultLatched, ErrorCode::kEmergencyStopped));
-  EXPECT_GE(arm->with_lock([](FakeArmControl& a) { return a.stops; }), 1);
+  EXPECT_GE(arm->stops(), 1U);
   ASSERT_TRUE(wait_for(
       [&] { return card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }) >= 1; }));
   // Nothing starts while the fault is latched.
@@ -200,7 +200,7 @@ TEST_F(EngineTest, DeadmanStopsASilentControllerAndLatches) {
   EXPECT_TRUE(saw_event(EventKind::kFaultLatched, ErrorCode::kDeadman));
   ASSERT_TRUE(wait_for([&] { return saw_event(EventKind::kMotionStopped); }));
   EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.smooth_stops; }), 1);
-  EXPECT_GE(arm->with_lock([](FakeArmControl& a) { return a.stops; }), 1);
+  EXPECT_GE(arm->stops(), 1U);
 }
 
 TEST_F(EngineTest, DeadmanWatchesTheArmToo) {
@@ -209,7 +209,7 @@ TEST_F(EngineTest, DeadmanWatchesTheArmToo) {
   walk_to(ProcedureState::kEngaging);
   ASSERT_TRUE(wait_for_state(ProcedureState::kFault));
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kDeadman);
-  EXPECT_GE(arm->with_lock([](FakeArmControl& a) { return a.stops; }), 1);
+  EXPECT_GE(arm->stops(), 1U);
 }
 
 TEST_F(EngineTest, ControllerLostDuringAlignmentStopsAtOnce) {
@@ -267,16 +267,17 @@ TEST_F(EngineTest, MotionDeadlineLatchesTimeout) {
 TEST_F(EngineTest, ArmFaultAndRefusalDuringEngage) {
   start();
   walk_to(ProcedureState::kReadyToEngage);
-  arm->with_lock([](FakeArmControl& a) { return a.refuse_hand_off = true; });
+  arm->fail_next_call(make_error(ErrorCode::kArmDisconnected, "", "mock arm: disconnected"));
   expect_refused(send(protocol::Engage{}), ErrorCode::kArmDisconnected, "arm");
   EXPECT_EQ(engine->status().state, ProcedureState::kReadyToEngage);
-  arm->with_lock([](FakeArmControl& a) { return a.refuse_hand_off = false; });
+  EXPECT_EQ(arm->calls().back(), "hand_off");  // the arm refused the task
+  EXPECT_TRUE(arm->tasks().empty());
   expect_ack(send(protocol::Engage{}), ProcedureState::kEngaging);
   arm->set_phase(drivers::ArmPhase::kFault, ErrorCode::kArmRejected);
   ASSERT_TRUE(wait_for_state(ProcedureState::kFault));
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kArmRejected);
   expect_ack(send(protocol::Reset{}), ProcedureState::kReadyToEngage);
-  EXPECT_GE(arm->with_lock([](FakeArmControl& a) { return a.clear_faults; }), 1);
+  EXPECT_GE(arm->count("clear_fault"), 1U);
 }
 
 TEST_F(EngineTest, ArmDisconnectDuringEngageLatches) {

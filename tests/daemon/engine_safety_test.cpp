@@ -14,7 +14,7 @@ using protocol::ProcedureState;
 
 TEST_F(ManualEngine, TwoResetsInOneReadDuringAFaultThenLaterFaultsStillLatch) {
   to_ready_to_engage();
-  card.inject_alarm(card.left_axis);
+  card->inject_alarm(left_axis);
   cycles(2);
   ASSERT_EQ(engine->status().latched_fault, ErrorCode::kAxisAlarm);
   expect_ack(send(protocol::Reset{}), ProcedureState::kReadyToEngage);
@@ -26,7 +26,7 @@ TEST_F(ManualEngine, TwoResetsInOneReadDuringAFaultThenLaterFaultsStillLatch) {
   expect_ack(send(protocol::Engage{}), ProcedureState::kEngaging);
   cycles(100, /*alive=*/false);
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kDeadman);
-  EXPECT_GE(arm->with_lock([](FakeArmControl& a) { return a.stops; }), 1);
+  EXPECT_GE(arm->stops(), 1U);
   EXPECT_EQ(count(EventKind::kMotionStarted),
             count(EventKind::kMotionStopped) + count(EventKind::kMotionFinished));
 }
@@ -85,7 +85,7 @@ TEST_F(ManualEngine, AStuckArmTaskHitsItsDeadline) {
   EXPECT_EQ(state(), ProcedureState::kEngaging);  // not before the deadline
   cycles(10);
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kArmTimeout);
-  EXPECT_GE(arm->with_lock([](FakeArmControl& a) { return a.stops; }), 1);
+  EXPECT_GE(arm->stops(), 1U);
   EXPECT_EQ(count(EventKind::kMotionStopped), 1);
   expect_ack(send(protocol::Reset{}), ProcedureState::kReadyToEngage);
 }
@@ -105,14 +105,12 @@ TEST_F(ManualEngine, ShutdownWhileMovingTellsEverySessionFirst) {
   expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
   cycles(5);
   ASSERT_EQ(moves(), 1);
-  card.stops_rest_at_once = true;  // the fake clock stands still during shutdown()
+  // The fake clock stands still during shutdown(): smooth stops rest at once.
+  card->set_motion_model(drivers::MockMotionModel::kConstantSpeed, 0);
   engine->shutdown();
   ASSERT_EQ(count(EventKind::kMotionStopped), 1);
   EXPECT_NE(events.back().detail.view().find("shutting down"), std::string_view::npos);
-  bool stopped = false;
-  for (const auto& c : card.calls)
-    stopped = stopped || c.kind == DetCardState::Call::kSmoothStop;
-  EXPECT_TRUE(stopped);
+  EXPECT_GE(count_calls(*card, CardCall::kSmoothStop), 1);
 }
 
 // The same over the real control thread: the wheels stop under its supervision first.

@@ -1,5 +1,6 @@
-// Shared fixture for engine tests: an engine over the fake card and arm, its events, and helpers
-// that poll the engine (as the I/O thread does) until a condition holds. Never asserts timing.
+// Shared fixture for engine tests: an engine over the fake card and the mock arm, its events, and
+// helpers that poll the engine (as the I/O thread does) until a condition holds. Never asserts
+// timing.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -10,11 +11,19 @@
 
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/engine.hpp"
+#include "ajar/drivers/mock_arm.hpp"
 #include "fake_door.hpp"
-#include "fake_manipulator.hpp"
 #include "fake_motion_card.hpp"
 
 namespace ajar::testing {
+
+// The arm double of the engine tests: a task stays busy until the test says how it ends
+// (MockManipulator::set_phase). `arm` points at it; the engine owns it.
+inline std::unique_ptr<drivers::Manipulator> make_mock_arm(drivers::MockManipulator*& arm) {
+  auto mock = std::make_unique<drivers::MockManipulator>(drivers::MockFault::kStuck);
+  arm = mock.get();
+  return mock;
+}
 
 class EngineTest : public ::testing::Test {
  protected:
@@ -23,7 +32,7 @@ class EngineTest : public ::testing::Test {
   void start() {
     drivers::DriverSet set;
     set.card = std::make_unique<FakeMotionCard>(card);
-    set.arm = std::make_unique<FakeManipulator>(arm);
+    set.arm = make_mock_arm(arm);
     engine = daemon::make_engine(config, std::move(set));
     engine->set_event_sink([this](const protocol::Event& e) { events.push_back(e); });
     engine->start();
@@ -31,7 +40,6 @@ class EngineTest : public ::testing::Test {
   void restart() {
     engine.reset();
     card = std::make_shared<FakeCardControl>();
-    arm = std::make_shared<FakeArmControl>();
     events.clear();
     start();
   }
@@ -74,7 +82,7 @@ class EngineTest : public ::testing::Test {
   TempDir tmp;
   daemon::Config config = test_config(tmp.path());
   std::shared_ptr<FakeCardControl> card = std::make_shared<FakeCardControl>();
-  std::shared_ptr<FakeArmControl> arm = std::make_shared<FakeArmControl>();
+  drivers::MockManipulator* arm = nullptr;  // the engine's (a new one each start)
   std::unique_ptr<daemon::Engine> engine;
   std::vector<protocol::Event> events;
 };

@@ -10,22 +10,8 @@ namespace {
 class InterleavingRegressions : public ManualEngine {
  protected:
   // Every axis at rest or stopping (no wheel runs on under an older command).
-  bool wheels_stopping_or_at_rest() {
-    for (auto& [n, a] : card.axes) {
-      card.advance(a);
-      if (a.moving && !a.stopping) return false;
-    }
-    return true;
-  }
-  bool wheels_move() { return card.any_moving(); }
-  int calls_after(std::size_t from, DetCardState::Call::Kind kind, bool with_speed = false) const {
-    int n = 0;
-    for (std::size_t i = from; i < card.calls.size(); ++i) {
-      const auto& c = card.calls[i];
-      n += c.kind == kind && (!with_speed || c.left_velocity != 0 || c.right_velocity != 0);
-    }
-    return n;
-  }
+  bool wheels_stopping_or_at_rest() { return stopping_or_at_rest(*card, {left_axis, right_axis}); }
+  bool wheels_move() { return card->any_moving(); }
 };
 
 // Seed 2 of the first Drive campaign: a Reset acknowledged during a jog left the wheels jogging
@@ -36,13 +22,13 @@ TEST_F(InterleavingRegressions, ResetDuringAJogStopsIt) {
   expect_ack(send(protocol::Drive{0.1, 0.0}), ProcedureState::kAwaitingHandle);
   cycles(50);
   ASSERT_TRUE(wheels_move());
-  const std::size_t before = card.calls.size();
+  const std::size_t before = card->log_size();
   expect_ack(send(protocol::Reset{}), ProcedureState::kAwaitingHandle);
   cycles(1);
   EXPECT_TRUE(wheels_stopping_or_at_rest()) << "the jog went on after an acknowledged Reset";
   cycles(100);
   EXPECT_FALSE(wheels_move());
-  EXPECT_EQ(calls_after(before, DetCardState::Call::kJog, true), 0);
+  EXPECT_EQ(count_calls(*card, CardCall::kJog, before, true), 0);
   EXPECT_EQ(count(EventKind::kMotionStarted), 1);
   EXPECT_EQ(count(EventKind::kMotionStopped), 1);
   EXPECT_EQ(count(EventKind::kMotionFinished), 0);
@@ -77,7 +63,7 @@ TEST_F(InterleavingRegressions, ApproachOrDriveAndResetInOneReadNeverMove) {
   engine->end_read_batch();
   cycles(100);
   EXPECT_EQ(moves(), 0);
-  EXPECT_EQ(calls_after(0, DetCardState::Call::kJog, true), 0);
+  EXPECT_EQ(count_calls(*card, CardCall::kJog, 0, true), 0);
   EXPECT_EQ(count(EventKind::kMotionStarted), 2);
   EXPECT_EQ(count(EventKind::kMotionStopped), 2);
 }

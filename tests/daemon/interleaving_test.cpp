@@ -6,10 +6,10 @@
 // duplicates (same client instance and request id: executed once, the same reply again, also
 // after a reconnect), observers that send commands (refused, never executed) and stops (executed),
 // controller loss (disconnect) and take-over by a second controller session, silence (deadman),
-// card faults at random cycles (DetCard's menu), a slow state store (held durable Acks), and arm
-// outcomes (done, fault, disconnect, a controller that resets mid-task). The loop runs by hand
-// (EngineOptions::manual_loop), so a seed replays exactly. After every command and every cycle the
-// invariants are checked (docs/control-loop.md, "Proof"); a campaign also asserts that the
+// card faults at random cycles (the mock card's test menu), a slow state store (held durable Acks),
+// and arm outcomes (done, fault, disconnect, a controller that resets mid-task). The loop runs by
+// hand (EngineOptions::manual_loop), so a seed replays exactly. After every command and every cycle
+// the invariants are checked (docs/control-loop.md, "Proof"); a campaign also asserts that the
 // interesting situations were actually reached (coverage counters, printed).
 //
 //   AJAR_SEED=<n>     replay one seed (prints its trace)
@@ -34,9 +34,9 @@
 #include "ajar/daemon/engine.hpp"
 #include "ajar/daemon/logging.hpp"
 #include "ajar/daemon/session_hub.hpp"
-#include "det_card.hpp"
+#include "det_mock_card.hpp"
 #include "fake_door.hpp"
-#include "fake_manipulator.hpp"
+#include "fake_engine_fixture.hpp"
 
 namespace ajar::testing {
 namespace {
@@ -144,8 +144,8 @@ class FakeLink final : public daemon::SessionLink {
   std::deque<Expected> expected;
 };
 
-// One seed's world: the engine over DetCard and the fake arm behind the SessionHub, the clock,
-// and the model the invariants are checked against.
+// One seed's world: the engine over the deterministic mock card and the mock arm behind the
+// SessionHub, the clock, and the model the invariants are checked against.
 class World {
  public:
   World(std::uint64_t seed, const std::string& dir, bool verbose) : rng_(seed), verbose_(verbose) {
@@ -163,15 +163,14 @@ class World {
     // A slow state store on some seeds: saves lag behind (writer thread); durable Acks are held,
     // nothing else may wait on it.
     if (seed % 5 == 0) config_.state.debug_write_delay_ms = static_cast<int>(1 + seed % 3);
-    card_.now_ns = &now_;
-    card_.tick = &tick_;
-    card_.left_axis = config_.base.left.card_axis;
-    card_.right_axis = config_.base.right.card_axis;
-    card_.enable_delay_reads = static_cast<int>(rng_() % 3);
+    left_axis_ = config_.base.left.card_axis;
+    right_axis_ = config_.base.right.card_axis;
+    auto card = make_det_card(now_);
+    card_ = card.get();
+    card_->set_enable_delay_reads(static_cast<int>(rng_() % 3));
     calm_ = seed % 3 == 0;
-    // The wheels at the configured speed: an alignment lasts a hundred cycles or so.
+    // The wheels at the configured speed (constant): an alignment lasts a hundred cycles or so.
     const auto profile = daemon::wheel_profile(config_.base);
-    card_.speed_counts_per_ns = profile.velocity_counts_per_ms / 1e6;
     max_wheel_counts_per_ms_ = profile.velocity_counts_per_ms;
     counts_per_ms_per_rad_s_ = profile.velocity_counts_per_ms / config_.base.max_wheel_speed_rad_s;
     const auto& d = config_.drive;
@@ -182,8 +181,8 @@ class World {
                         1e9) +
                     3 * kPeriodNs;
     drivers::DriverSet set;
-    set.card = std::make_unique<DetCard>(card_);
-    set.arm = std::make_unique<FakeManipulator>(arm_);
+    set.card = std::move(card);
+    set.arm = make_mock_arm(arm_);
     daemon::EngineOptions options;
     options.now_ns = [this] { return now_; };
     options.manual_loop = true;
@@ -582,44 +581,47 @@ class World {
   }
 
   void inject_card_fault() {
-    const int axis = pick(2) == 0 ? card_.left_axis : card_.right_axis;
-    const bool moving = card_.any_moving();
+    const int axis = pick(2) == 0 ? left_axis_ : right_axis_;
+    const bool moving = card_->any_moving();
     switch (pick(7)) {
       case 0:
         note("card: drive alarm on axis " + std::to_string(axis));
-        card_.inject_alarm(axis);
+        card_->inject_alarm(axis);
         break;
       case 1:
         note("card: following error on axis " + std::to_string(axis));
-        card_.inject_following_error(axis);
+        card_->inject_following_error(axis);
         break;
       case 2:
         note("card: limit on axis " + std::to_string(axis));
-        card_.inject_limit(axis);
+        card_->inject_limit(axis, true);
         break;
-      case 3:
-        card_.fail_calls = 1 + pick(8);
-        note("card: not answering for " + std::to_string(card_.fail_calls) + " calls");
+      case 3: {
+        const int n = 1 + pick(8);
+        card_->fail_next_calls(n);
+        note("card: not answering for " + std::to_string(n) + " calls");
         break;
+      }
       case 4:
         note("card: refuses the next move");
-        card_.refuse_next_move = true;
+        card_->refuse_next_move();
         return;
       case 5:
         note("card: the next move never progresses");
-        card_.stick_next_move = true;
+        card_->stick_next_move();
         return;
       default:
-        card_.stops_never_rest = !card_.stops_never_rest;
+        stops_never_rest_ = !stops_never_rest_;
+        card_->set_stops_never_rest(stops_never_rest_);
         note(std::string("card: smooth stops ") +
-             (card_.stops_never_rest ? "never rest" : "rest again"));
+             (stops_never_rest_ ? "never rest" : "rest again"));
         return;
     }
     if (moving) coverage_.bump("card fault mid-motion");
   }
 
   void arm_event() {
-    const auto st = arm_->with_lock([](FakeArmControl& a) { return a.status; });
+    const auto st = arm_->status();
     if (st.phase != drivers::ArmPhase::kBusy) return;
     switch (calm_ && pick(2) == 0 ? 0 : pick(4)) {  // calm: the task mostly succeeds
       case 0:
@@ -648,13 +650,14 @@ class World {
     note("quiesce");
     alive_ = true;
     key_.reset();
-    card_.fail_calls = 0;
-    card_.stops_never_rest = false;
+    card_->fail_next_calls(0);
+    stops_never_rest_ = false;
+    card_->set_stops_never_rest(false);
     if (controller_ == nullptr) controller_ = connect(protocol::Role::kController, true, 0x55);
     // Bounded: every deadline (motion, stop, arm task, recovery, command timeout) is far shorter.
     const auto settled = [&] {
       const auto st = engine_->status().state;
-      return !card_.any_moving() && motion_open_ == 0 && st != ProcedureState::kAligning &&
+      return !card_->any_moving() && motion_open_ == 0 && st != ProcedureState::kAligning &&
              st != ProcedureState::kEngaging;
     };
     for (int i = 0; i < 3000 && violation_.empty() && !settled(); ++i)
@@ -668,7 +671,7 @@ class World {
     }
     if (!violation_.empty()) return;
     const auto status = engine_->status();
-    if (card_.any_moving()) return fail("the wheels still move after quiescing");
+    if (card_->any_moving()) return fail("the wheels still move after quiescing");
     if (motion_open_ != 0) return fail("a motion_started was never closed");
     if (status.state == ProcedureState::kAligning || status.state == ProcedureState::kEngaging) {
       return fail(std::string("still ") + std::string(protocol::to_string(status.state)));
@@ -774,13 +777,12 @@ class World {
     if (alive_ && controller_ != nullptr && tick_ % 4 == 0) {
       read(*controller_, {protocol::Message{protocol::Ping{static_cast<std::uint64_t>(now_)}}});
     }
-    const std::size_t calls_before = card_.calls.size();
+    const std::size_t calls_before = card_->log_size();
     engine_->run_loop_cycle();
     bool stop_call = false;
-    for (std::size_t i = calls_before; i < card_.calls.size(); ++i) {
-      const auto& c = card_.calls[i];
-      stop_call = stop_call || c.kind == DetCardState::Call::kSmoothStop ||
-                  c.kind == DetCardState::Call::kEmergencyStop;
+    for (const auto& c : card_->log_from(calls_before)) {
+      stop_call =
+          stop_call || c.kind == CardCall::kSmoothStop || c.kind == CardCall::kEmergencyStop;
       on_card_call(c);
     }
     // One period after an acknowledged stop: the wheels are commanded to stop.
@@ -788,16 +790,12 @@ class World {
       stop_due_ = false;
       if (estop_due_) {
         estop_due_ = false;
-        bool reached = false;
-        for (const auto& c : card_.calls)
-          reached =
-              reached || (c.kind == DetCardState::Call::kEmergencyStop && c.tick > stop_tick_);
-        if (!reached)
+        if (count_calls(*card_, CardCall::kEmergencyStop, stop_call_) == 0)
           return fail("an acknowledged EmergencyStop did not reach the card in one period");
       }
-      for (auto& [n, a] : card_.axes) {
-        card_.advance(a);
-        if (a.moving && !a.stopping && a.move_tick < stop_tick_) {
+      for (const int axis : {left_axis_, right_axis_}) {
+        const auto st = card_->peek(axis);
+        if (st.moving && !st.smooth_stopped && card_->motion_call(axis) < stop_call_) {
           return fail("the wheels were not commanded to stop within one period of a stop");
         }
       }
@@ -817,40 +815,42 @@ class World {
     jog_permit_ = false;     // nor may a jog accepted before it move the wheels
     stop_due_ = true;
     estop_due_ = estop_due_ || emergency;
-    stop_tick_ = tick_;
+    stop_call_ = card_->log_size();
   }
 
   bool card_jogging() {
-    for (auto& [n, a] : card_.axes) {
-      card_.advance(a);
-      if (a.jogging && a.moving && !a.stopping) return true;
+    for (const int axis : {left_axis_, right_axis_}) {
+      if (card_->jogging(axis) && !card_->peek(axis).smooth_stopped) return true;
     }
     return false;
   }
 
   // ---- invariants ------------------------------------------------------------------------------
 
-  void on_card_call(const DetCardState::Call& c) {
+  void on_card_call(const drivers::CardCallRecord& c) {
+    const std::int64_t left = c.distance_counts(left_axis_), right = c.distance_counts(right_axis_);
+    const double left_velocity = c.velocity_counts_per_ms(left_axis_);
+    const double right_velocity = c.velocity_counts_per_ms(right_axis_);
     switch (c.kind) {
-      case DetCardState::Call::kMove: {
-        note("card: move " + std::to_string(c.left) + ", " + std::to_string(c.right));
+      case CardCall::kMoveRelative: {
+        note("card: move " + std::to_string(left) + ", " + std::to_string(right));
         jog_left_ = jog_right_ = 0;
         if (allowed_moves_.empty()) {
           return fail(
               "the card was told to move without an accepted AlignBase or Approach since the last "
               "stop");
         }
-        const auto [left, right] = allowed_moves_.front();
+        const auto [allowed_left, allowed_right] = allowed_moves_.front();
         allowed_moves_.pop_front();
-        if (left != c.left || right != c.right)
+        if (left != allowed_left || right != allowed_right)
           return fail("the card moved other counts than accepted");
         return;
       }
-      case DetCardState::Call::kJog: {
-        const bool moves = c.left_velocity != 0 || c.right_velocity != 0;
+      case CardCall::kJog: {
+        const bool moves = c.jogs();
         if (verbose_) {
-          note("card: jog " + std::to_string(c.left_velocity) + ", " +
-               std::to_string(c.right_velocity) + " counts/ms");
+          note("card: jog " + std::to_string(left_velocity) + ", " +
+               std::to_string(right_velocity) + " counts/ms");
         }
         if (moves && !jog_permit_) {
           return fail(
@@ -862,8 +862,8 @@ class World {
               "a jog still moves the wheels longer than drive.command_timeout_s plus the "
               "deceleration after the last accepted Drive");
         }
-        if (std::abs(c.left_velocity) > max_wheel_counts_per_ms_ * (1 + 1e-9) ||
-            std::abs(c.right_velocity) > max_wheel_counts_per_ms_ * (1 + 1e-9)) {
+        if (std::abs(left_velocity) > max_wheel_counts_per_ms_ * (1 + 1e-9) ||
+            std::abs(right_velocity) > max_wheel_counts_per_ms_ * (1 + 1e-9)) {
           return fail("a jog above base.max_wheel_speed_rad_s reached the card");
         }
         // Wheel acceleration: at most the body limits' worth (x2 for the scaling of a saturated
@@ -878,17 +878,17 @@ class World {
                                      d.max_angular_accel_rad_s2 * config_.base.turning_radius_m) /
                                     config_.base.wheel_radius_m * counts_per_ms_per_rad_s_ * dt_s +
                                 kEps;
-        if (std::abs(c.left_velocity - jog_left_) > max_step ||
-            std::abs(c.right_velocity - jog_right_) > max_step) {
+        if (std::abs(left_velocity - jog_left_) > max_step ||
+            std::abs(right_velocity - jog_right_) > max_step) {
           return fail("a jog's wheel velocity changed faster than the acceleration limits allow");
         }
-        jog_left_ = c.left_velocity;
-        jog_right_ = c.right_velocity;
+        jog_left_ = left_velocity;
+        jog_right_ = right_velocity;
         last_jog_ns_ = now_;
         return;
       }
-      case DetCardState::Call::kSmoothStop:
-      case DetCardState::Call::kEmergencyStop:
+      case CardCall::kSmoothStop:
+      case CardCall::kEmergencyStop:
         jog_left_ = jog_right_ = 0;
         return;
       default:
@@ -1008,8 +1008,10 @@ class World {
   daemon::Config config_;
   std::int64_t now_ = 1'000'000'000;
   std::uint64_t tick_ = 0;
-  DetCardState card_;
-  std::shared_ptr<FakeArmControl> arm_ = std::make_shared<FakeArmControl>();
+  drivers::MockMotionCard* card_ = nullptr;  // the engine's
+  int left_axis_ = 1, right_axis_ = 2;
+  bool stops_never_rest_ = false;
+  drivers::MockManipulator* arm_ = nullptr;  // the engine's
   std::unique_ptr<daemon::Engine> engine_;
   std::unique_ptr<RecordingEngine> recorder_;
   std::unique_ptr<daemon::SessionHub> hub_;
@@ -1041,7 +1043,7 @@ class World {
   std::int64_t last_jog_ns_ = 0;
   double commanded_lin_ = 0, commanded_ang_ = 0;  // Status commanded_* after the last cycle
   bool stop_due_ = false, estop_due_ = false;
-  std::uint64_t stop_tick_ = 0;
+  std::size_t stop_call_ = 0;  // the card's log size at the last acknowledged stop
   int motion_open_ = 0;
   char open_kind_ = 0;  // the open motion: 'a'lign, a'p'proach, 'd'rive, 'e'ngage
   bool fault_event_open_ = false;
@@ -1101,18 +1103,13 @@ TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
 // acknowledged, so the wheels must never turn.
 TEST(Interleaving, AlignBaseAndStopInOneReadNeverTurn) {
   const std::string dir = shm_dir();
-  DetCardState card;
   std::int64_t now = 1'000'000'000;
-  std::uint64_t tick = 0;
-  card.now_ns = &now;
-  card.tick = &tick;
   auto config = test_config(dir);
-  card.left_axis = config.base.left.card_axis;
-  card.right_axis = config.base.right.card_axis;
-  auto arm = std::make_shared<FakeArmControl>();
+  drivers::MockManipulator* arm = nullptr;
   drivers::DriverSet set;
-  set.card = std::make_unique<DetCard>(card);
-  set.arm = std::make_unique<FakeManipulator>(arm);
+  set.card = make_det_card(now);
+  const drivers::MockMotionCard& card = static_cast<drivers::MockMotionCard&>(*set.card);
+  set.arm = make_mock_arm(arm);
   daemon::EngineOptions options;
   options.now_ns = [&] { return now; };
   options.manual_loop = true;
@@ -1136,10 +1133,8 @@ TEST(Interleaving, AlignBaseAndStopInOneReadNeverTurn) {
   ASSERT_TRUE(std::holds_alternative<protocol::Ack>(engine->handle_command(protocol::Stop{})));
   for (int i = 0; i < 200; ++i)
     cycle();
-  int moves = 0;
-  for (const auto& c : card.calls)
-    moves += c.kind == DetCardState::Call::kMove ? 1 : 0;
-  EXPECT_EQ(moves, 0) << "the wheels turned after an acknowledged Stop";
+  EXPECT_EQ(card.calls(CardCall::kMoveRelative), 0U)
+      << "the wheels turned after an acknowledged Stop";
   EXPECT_EQ(engine->status().state, ProcedureState::kReadyToAlign);
   int started = 0, closed = 0;
   for (const auto& e : events) {

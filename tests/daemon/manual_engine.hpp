@@ -1,5 +1,5 @@
 // ManualEngine: the engine with its loop driven by hand on a fake clock
-// (EngineOptions::manual_loop) over the deterministic card and the fake arm. `configure` may change
+// (EngineOptions::manual_loop) over the deterministic card and the mock arm. `configure` may change
 // the config before start.
 #pragma once
 
@@ -9,10 +9,9 @@
 
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/engine.hpp"
-#include "det_card.hpp"
+#include "det_mock_card.hpp"
 #include "fake_door.hpp"
 #include "fake_engine_fixture.hpp"
-#include "fake_manipulator.hpp"
 
 namespace ajar::testing {
 
@@ -29,13 +28,13 @@ class ManualEngine : public ::testing::Test {
     config.safety.arm_task_timeout_s = 0.5;
     config.control.motion_timeout_margin_s = 0.2;
     if (configure) configure(config);
-    card.now_ns = &now;
-    card.tick = &tick;
-    card.left_axis = config.base.left.card_axis;
-    card.right_axis = config.base.right.card_axis;
+    left_axis = config.base.left.card_axis;
+    right_axis = config.base.right.card_axis;
     drivers::DriverSet set;
-    set.card = std::make_unique<DetCard>(card);
-    set.arm = std::make_unique<FakeManipulator>(arm);
+    auto mock_card = make_det_card(now);
+    card = mock_card.get();
+    set.card = std::move(mock_card);
+    set.arm = make_mock_arm(arm);
     daemon::EngineOptions options;
     options.now_ns = [this] { return now; };
     options.manual_loop = true;
@@ -44,7 +43,7 @@ class ManualEngine : public ::testing::Test {
     engine->start();
   }
   void TearDown() override { engine.reset(); }
-  // A new engine with a changed config (the card and the arm keep their state).
+  // A new engine with a changed config (a new card and arm).
   void restart(const std::function<void(daemon::Config&)>& configure) {
     engine.reset();
     events.clear();
@@ -72,12 +71,7 @@ class ManualEngine : public ::testing::Test {
       n += e.kind == kind ? 1 : 0;
     return n;
   }
-  int moves() const {
-    int n = 0;
-    for (const auto& c : card.calls)
-      n += c.kind == DetCardState::Call::kMove ? 1 : 0;
-    return n;
-  }
+  int moves() const { return count_calls(*card, CardCall::kMoveRelative); }
   void to_ready_to_align() {
     cycles(3);
     expect_ack(send(good_width()), ProcedureState::kAwaitingHandle);
@@ -96,8 +90,9 @@ class ManualEngine : public ::testing::Test {
   daemon::Config config = test_config(tmp.path());
   std::int64_t now = 1'000'000'000;
   std::uint64_t tick = 0;
-  DetCardState card;
-  std::shared_ptr<FakeArmControl> arm = std::make_shared<FakeArmControl>();
+  drivers::MockMotionCard* card = nullptr;  // the engine's
+  int left_axis = 1, right_axis = 2;
+  drivers::MockManipulator* arm = nullptr;  // the engine's
   std::unique_ptr<daemon::Engine> engine;
   std::vector<protocol::Event> events;
 };

@@ -112,8 +112,30 @@ TEST_F(ArmMock, ScriptedRefusalFailsOnlyTheNextCallAndCallsAreLogged) {
   ASSERT_TRUE(a.stop().ok());
   const std::vector<std::string> expected{"connect", "hand_off", "hand_off", "stop"};
   EXPECT_EQ(a.calls(), expected);
+  EXPECT_EQ(a.count("hand_off"), 2U);
+  EXPECT_EQ(a.count("clear_fault"), 0U);
   ASSERT_EQ(a.tasks().size(), 1U);
   EXPECT_EQ(a.tasks()[0].door_width_m, sample_task().door_width_m);
+}
+
+// set_phase: the test decides how a stuck task ends, as the arm's controller would report it.
+TEST_F(ArmMock, SetPhaseReportsWhatTheTestSays) {
+  MockManipulator& a = arm(MockFault::kStuck);
+  ASSERT_TRUE(a.hand_off(sample_task()).ok());
+  a.set_phase(ArmPhase::kFault, ErrorCode::kArmRejected);
+  EXPECT_EQ(phase(), ArmPhase::kFault);
+  EXPECT_EQ(a.status().last_error, ErrorCode::kArmRejected);
+  EXPECT_FALSE(a.hand_off(sample_task()).ok());  // faulted: clear it first
+  ASSERT_TRUE(a.clear_fault().ok());
+  EXPECT_EQ(phase(), ArmPhase::kIdle);
+  ASSERT_TRUE(a.hand_off(sample_task()).ok());
+  a.set_phase(ArmPhase::kIdle);  // its controller was reset mid-task
+  clock.advance_ms(MockManipulator::kTaskDurationMs * 10);
+  EXPECT_EQ(phase(), ArmPhase::kIdle);
+  a.set_phase(ArmPhase::kBusy);  // set busy: never ends by time
+  clock.advance_ms(MockManipulator::kTaskDurationMs * 10);
+  EXPECT_EQ(phase(), ArmPhase::kBusy);
+  EXPECT_EQ(a.count("clear_fault"), 1U);
 }
 
 }  // namespace

@@ -50,7 +50,7 @@ out=$("$src/tests/client/with_ajard.sh" "$root/sbin/ajard" "$root/share/ajar/exa
 echo "$out"
 [[ $(grep -c '^ajar-consumer (ajar .*): pong in .* ms, state ' <<<"$out") == 2 ]] ||
   { echo "FAIL: both consumers should report a pong and a state"; exit 1; }
-grep -q '"type": "status", "command": "status", "ok": true' <<<"$out" || { echo "FAIL: staged ajarctl status"; exit 1; }
+grep -q '"type":"status","command":"status","ok":true' <<<"$out" || { echo "FAIL: staged ajarctl status"; exit 1; }
 
 # The staged ajarctl holds the staged ajard to the protocol with the staged golden vectors (no
 # --vectors: found relative to ajarctl).

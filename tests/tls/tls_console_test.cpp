@@ -84,7 +84,7 @@ TEST_F(TlsConsole, TheConsoleConnectsToATlsDaemonWithItsCertificate) {
   const std::uint16_t port = console.listen();
   std::thread runner([&] { console.run(); });
   EXPECT_TRUE(eventually([&] {
-    return state_json(port).find("\"connected\": true") != std::string::npos;
+    return state_json(port).find("\"connected\":true") != std::string::npos;
   })) << state_json(port);
   EXPECT_TRUE(log_.contains("authenticated as cn:alice", "controller"));
   EXPECT_TRUE(log_.contains("(ajar-console) greeted", "as controller")) << log_.all();

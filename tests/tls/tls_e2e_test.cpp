@@ -110,7 +110,7 @@ class TlsEndToEnd : public ::testing::TestWithParam<drivers::DriverKind> {
   }
   std::unique_ptr<Client> greeted(TlsDaemon& d, const std::string& name, Role role) {
     auto c = std::make_unique<Client>(options_with(pki_.client_tls(name), name));
-    EXPECT_EQ(c->connect({"127.0.0.1", d.port()}), "");
+    EXPECT_TRUE(c->connect({"127.0.0.1", d.port()}).ok());
     const auto hello = c->hello(role);
     EXPECT_TRUE(hello.ok()) << hello.error.message.view() << hello.transport_error;
     return c;

@@ -56,7 +56,7 @@ class TlsSessions : public ::testing::Test {
 
   std::unique_ptr<Client> greeted(const std::string& name, Role role) {
     auto c = std::make_unique<Client>(options_with(pki_.client_tls(name), name));
-    EXPECT_EQ(c->connect({"127.0.0.1", server_->port()}), "");
+    EXPECT_TRUE(c->connect({"127.0.0.1", server_->port()}).ok());
     EXPECT_TRUE(c->hello(role).ok());
     return c;
   }
@@ -124,7 +124,7 @@ TEST_F(TlsSessions, AReloadThatTakesTheControllerGrantAwayClosesTheSession) {
   EXPECT_TRUE(alice->wait_closed(10s));
   // Reconnected, the certificate's new grant applies.
   Client again(options_with(pki_.client_tls("alice")));
-  ASSERT_EQ(again.connect({"127.0.0.1", server_->port()}), "");
+  ASSERT_TRUE(again.connect({"127.0.0.1", server_->port()}).ok());
   EXPECT_EQ(again.hello(Role::kController).error.code, ErrorCode::kNotController);
   EXPECT_TRUE(again.hello(Role::kObserver).ok());
 }
@@ -167,7 +167,7 @@ TEST_F(TlsSessions, AnExpiredCrlIsAWarningAtStartAndOnReloadAndFailsClosed) {
   EXPECT_EQ(warned, 2) << log_.all();
   EXPECT_NE(closing_error(*alice).message.view().find("CRL has expired"), std::string_view::npos);
   Client late(options_with(pki_.client_tls("bob")));
-  if (late.connect({"127.0.0.1", server_->port()}).empty()) {
+  if (late.connect({"127.0.0.1", server_->port()}).ok()) {
     EXPECT_FALSE(late.hello(Role::kObserver).ok());
   }
   EXPECT_TRUE(eventually([&] { return log_.contains("TLS handshake with", "CRL has expired"); }));

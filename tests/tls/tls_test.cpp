@@ -37,7 +37,7 @@ class Tls : public ::testing::Test {
   // A greeted observer that must not notice what happens to others.
   std::unique_ptr<Client> bystander() {
     auto c = std::make_unique<Client>(options_with(pki_.client_tls("bob"), "bystander"));
-    EXPECT_EQ(c->connect({"127.0.0.1", server_->port()}), "");
+    EXPECT_TRUE(c->connect({"127.0.0.1", server_->port()}).ok());
     EXPECT_TRUE(c->hello(Role::kObserver).ok());
     return c;
   }
@@ -45,7 +45,7 @@ class Tls : public ::testing::Test {
 
 TEST_F(Tls, AControllerCertificateTakesControlAndItsCommandsReachTheEngine) {
   Client c(options_with(pki_.client_tls("alice")));
-  ASSERT_EQ(c.connect({"127.0.0.1", server_->port()}), "");
+  ASSERT_TRUE(c.connect({"127.0.0.1", server_->port()}).ok());
   const auto hello = c.hello(Role::kController);
   ASSERT_TRUE(hello.ok()) << hello.transport_error << hello.error.message.view();
   EXPECT_EQ(hello.get<protocol::Welcome>()->granted_role, Role::kController);
@@ -72,8 +72,7 @@ TEST_P(TlsRefused, BeforeAnyFrameNothingMovesAndOthersAreUnaffected) {
   client::TlsOptions tls = pki_.client_tls(r.certificate, r.other_ca);
   if (!r.tls) tls = {};
   Client c(options_with(tls, r.name));
-  const std::string connected = c.connect({"127.0.0.1", server_->port()});
-  if (connected.empty()) {
+  if (c.connect({"127.0.0.1", server_->port()}).ok()) {
     // TLS 1.3: the client's side of the handshake may finish before the daemon checked the
     // certificate; then the daemon's alert ends the connection. Stop is executed from any
     // session that reached the hub, even un-greeted: it must not get that far.
@@ -102,7 +101,7 @@ INSTANTIATE_TEST_SUITE_P(
 
 TEST_F(Tls, AnObserverCertificateCannotTakeControlNorCommand) {
   Client c(options_with(pki_.client_tls("bob")));
-  ASSERT_EQ(c.connect({"127.0.0.1", server_->port()}), "");
+  ASSERT_TRUE(c.connect({"127.0.0.1", server_->port()}).ok());
   const auto refused = c.hello(Role::kController, true);
   ASSERT_NE(error_of(refused), nullptr);
   EXPECT_EQ(refused.error.code, ErrorCode::kNotController);
@@ -119,13 +118,13 @@ TEST_F(Tls, AnObserverCertificateCannotTakeControlNorCommand) {
 
 TEST_F(Tls, EmergencyStopWorksFromAnObserverButNotFromAnIdentityThatMayNotStop) {
   Client observer(options_with(pki_.client_tls("bob")));
-  ASSERT_EQ(observer.connect({"127.0.0.1", server_->port()}), "");
+  ASSERT_TRUE(observer.connect({"127.0.0.1", server_->port()}).ok());
   ASSERT_TRUE(observer.hello(Role::kObserver).ok());
   EXPECT_TRUE(observer.request(protocol::EmergencyStop{}).ok());
   EXPECT_EQ(engine_.count(MessageType::kEmergencyStop), 1U);
 
   Client carol(options_with(pki_.client_tls("carol")));
-  ASSERT_EQ(carol.connect({"127.0.0.1", server_->port()}), "");
+  ASSERT_TRUE(carol.connect({"127.0.0.1", server_->port()}).ok());
   const auto refused = carol.request(protocol::EmergencyStop{});
   ASSERT_NE(error_of(refused), nullptr);
   EXPECT_EQ(refused.error.code, ErrorCode::kNotController);
@@ -136,14 +135,14 @@ TEST_F(Tls, EmergencyStopWorksFromAnObserverButNotFromAnIdentityThatMayNotStop) 
 TEST_F(Tls, ARevocationReloadedAtRuntimeRefusesTheNextConnection) {
   {
     Client alice(options_with(pki_.client_tls("alice")));
-    ASSERT_EQ(alice.connect({"127.0.0.1", server_->port()}), "");
+    ASSERT_TRUE(alice.connect({"127.0.0.1", server_->port()}).ok());
     ASSERT_TRUE(alice.hello(Role::kController).ok());
   }
   auto policy = pki_.server_config();
   policy.deny.push_back({daemon::TlsIdentity::Kind::kCommonName, "alice"});
   reload(*server_, policy);
   Client alice(options_with(pki_.client_tls("alice")));
-  if (alice.connect({"127.0.0.1", server_->port()}).empty()) {
+  if (alice.connect({"127.0.0.1", server_->port()}).ok()) {
     EXPECT_FALSE(alice.hello(Role::kController).ok());
   }
   EXPECT_TRUE(eventually([&] {
@@ -165,7 +164,7 @@ TEST_F(Tls, HandshakeSlowlorisDoesNotStarveARealClient) {
     }
   }
   Client c(options_with(pki_.client_tls("alice")));
-  ASSERT_EQ(c.connect({"127.0.0.1", server_->port()}), "");
+  ASSERT_TRUE(c.connect({"127.0.0.1", server_->port()}).ok());
   ASSERT_TRUE(c.hello(Role::kController).ok());
   EXPECT_TRUE(c.request(protocol::Ping{1}).ok());
   EXPECT_TRUE(log_.contains("TLS handshake with", "dropped unfinished"));
@@ -175,11 +174,14 @@ TEST_F(Tls, ATlsClientOnAPlaintextPortGetsNoSession) {
   FakeEngine plain_engine;
   TlsServer plain(plain_engine, daemon::ServerOptions{});
   Client c(options_with(pki_.client_tls("alice")));
-  const std::string why = c.connect({"127.0.0.1", plain.port()});
+  const auto connected = c.connect({"127.0.0.1", plain.port()});
+  ASSERT_FALSE(connected.ok());
+  EXPECT_EQ(connected.error().field, "endpoint");
+  const std::string& why = connected.error().message;
   EXPECT_NE(why.find("TLS handshake"), std::string::npos) << why;
   EXPECT_TRUE(plain_engine.commands().empty());
   Client bystander(options_with({}));
-  ASSERT_EQ(bystander.connect({"127.0.0.1", plain.port()}), "");
+  ASSERT_TRUE(bystander.connect({"127.0.0.1", plain.port()}).ok());
   EXPECT_TRUE(bystander.hello(Role::kObserver).ok());
 }
 
@@ -187,7 +189,9 @@ TEST_F(Tls, TheDaemonVerifiesItsNameForTheClient) {
   auto tls = pki_.client_tls("alice");
   tls.server_name = "robot.elsewhere";  // not in ajard.crt's subjectAltName
   Client c(options_with(tls));
-  const std::string why = c.connect({"127.0.0.1", server_->port()});
+  const auto connected = c.connect({"127.0.0.1", server_->port()});
+  ASSERT_FALSE(connected.ok());
+  const std::string& why = connected.error().message;
   EXPECT_NE(why.find("TLS handshake"), std::string::npos) << why;
   EXPECT_TRUE(engine_.commands().empty());
 }
@@ -196,7 +200,10 @@ TEST_F(Tls, KeysReadableByOthersAreRefusedAtBothEnds) {
   const std::string key = pki_.path("alice.key");
   ASSERT_EQ(::chmod(key.c_str(), 0644), 0);
   Client c(options_with(pki_.client_tls("alice")));
-  const std::string why = c.connect({"127.0.0.1", server_->port()});
+  const auto connected = c.connect({"127.0.0.1", server_->port()});
+  ASSERT_FALSE(connected.ok());
+  EXPECT_EQ(connected.error().field, "tls") << "refused before anything was sent";
+  const std::string& why = connected.error().message;
   EXPECT_NE(why.find("accessible to group or others"), std::string::npos) << why;
 
   auto config = pki_.server_config();

@@ -33,14 +33,17 @@
 #include <string_view>
 #include <vector>
 
+#include "ajar/core/result.hpp"
 #include "ajar/protocol/codec.hpp"
+#include "ajar/protocol/endpoint.hpp"
 #include "ajar/protocol/messages.hpp"
 
 namespace ajar::client {
 
 using Milliseconds = std::chrono::milliseconds;
 
-// "HOST:PORT" (HOST may be a name, an IPv4 address or "[IPv6]"). Port 1..65535.
+// "HOST:PORT" (HOST may be a name, an IPv4 address or "[IPv6]"). Port 1..65535. parse_endpoint
+// is protocol::parse_host_port (ajar/protocol/endpoint.hpp) without port 0.
 struct Endpoint {
   std::string host = "127.0.0.1";
   std::uint16_t port = 7450;
@@ -103,9 +106,13 @@ class Client {
   Client(const Client&) = delete;
   Client& operator=(const Client&) = delete;
 
-  // Connects (closing any previous connection). Returns an empty string on success, else why not.
-  std::string connect(const Endpoint& endpoint);
-  std::string connect(const Endpoint& endpoint, Milliseconds timeout);
+  // Connects (closing any previous connection); timeout: options.connect_timeout unless given.
+  // The error's message says why not, for people; its field is "tls" (a TLS file or setting was
+  // refused before anything was sent) or "endpoint" (resolving, connecting, the TLS handshake, the
+  // timeout). Its code is always ErrorCode::kDriverError: the wire's codes name no transport
+  // failure.
+  Result<Ok> connect(const Endpoint& endpoint);
+  Result<Ok> connect(const Endpoint& endpoint, Milliseconds timeout);
   void close();
   bool connected() const;
 

@@ -1,10 +1,13 @@
-// Hand-written JSON output for ajarctl --json: one object per line. Strings are escaped (quotes,
-// backslash, control characters as \u00XX; other bytes pass through), numbers are written with 17
-// significant digits (round-trip exact); NaN and infinity become null. Field names are documented
-// in docs/ajarctl.md.
+// JSON output for ajarctl --json and the console: one compact object per line. nlohmann-json
+// (private to ajar_client: this header does not include it) holds the values and writes them:
+// strings escaped as JSON requires (bytes that are not UTF-8 become U+FFFD), integers exact,
+// floating-point numbers as the shortest text that reads back to the same double, NaN and infinity
+// as null. Objects keep their keys in insertion order. Field names are documented in
+// docs/ajarctl.md.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <string_view>
 
@@ -12,14 +15,22 @@
 
 namespace ajar::client {
 
-std::string json_escape(std::string_view text);  // without the surrounding quotes
-std::string json_string(std::string_view text);  // with the quotes
-std::string json_number(double value);           // shortest of %.17g; non-finite -> null
-std::string json_vec3(const core::Vec3& v);      // [x, y, z]
+std::string json_number(double value);       // e.g. "0.9152", "1.0"; non-finite -> "null"
+std::string json_vec3(const core::Vec3& v);  // [x,y,z]
 
-// Builds one JSON object, field by field, in insertion order.
+class JsonArray;
+
+// Builds one JSON object, field by field, in insertion order (a key added twice keeps its first
+// place and its last value). A moved-from object is empty.
 class JsonObject {
  public:
+  JsonObject();
+  ~JsonObject();
+  JsonObject(const JsonObject& other);
+  JsonObject(JsonObject&& other) noexcept;
+  JsonObject& operator=(const JsonObject& other);
+  JsonObject& operator=(JsonObject&& other) noexcept;
+
   JsonObject& add(std::string_view key, std::string_view text);
   JsonObject& add(std::string_view key, const char* text) {
     return add(key, std::string_view(text));
@@ -37,17 +48,47 @@ class JsonObject {
     return add(key, static_cast<std::uint64_t>(value));
   }
   JsonObject& add(std::string_view key, bool value);
-  JsonObject& add(std::string_view key, const core::Vec3& value);
-  JsonObject& add_raw(std::string_view key, std::string_view json);  // value is already JSON
-  JsonObject& add(std::string_view key, const JsonObject& nested) {
-    return add_raw(key, nested.str());
-  }
-  std::string str() const { return body_.empty() ? "{}" : "{" + body_ + "}"; }
-  bool empty() const { return body_.empty(); }
+  JsonObject& add(std::string_view key, const core::Vec3& value);  // [x, y, z]
+  JsonObject& add(std::string_view key, const JsonObject& nested);
+  JsonObject& add(std::string_view key, const JsonArray& array);
+  JsonObject& add_null(std::string_view key);
+
+  std::string str() const;  // one line, no spaces: {"type":"ack","ok":true}
+  bool empty() const;
 
  private:
-  void key(std::string_view k);
-  std::string body_;
+  friend class JsonArray;
+  struct Value;
+  Value& value();
+  std::unique_ptr<Value> value_;
+};
+
+// Builds one JSON array, element by element. A moved-from array is empty.
+class JsonArray {
+ public:
+  JsonArray();
+  ~JsonArray();
+  JsonArray(const JsonArray& other);
+  JsonArray(JsonArray&& other) noexcept;
+  JsonArray& operator=(const JsonArray& other);
+  JsonArray& operator=(JsonArray&& other) noexcept;
+
+  JsonArray& add(std::string_view text);
+  JsonArray& add(const char* text) { return add(std::string_view(text)); }
+  JsonArray& add(double value);
+  JsonArray& add(std::int64_t value);
+  JsonArray& add(int value) { return add(static_cast<std::int64_t>(value)); }
+  JsonArray& add(const JsonObject& object);
+  JsonArray& add(const JsonArray& array);
+
+  std::string str() const;  // [1.5,"a",{"b":true}]
+  std::size_t size() const;
+
+ private:
+  friend class JsonObject;
+  struct Value;
+  Value& value();
+  std::unique_ptr<Value> value_;
 };
 
 }  // namespace ajar::client

@@ -39,7 +39,8 @@ struct UsageError {
 
 // `args` excludes argv[0]. Accepts "--opt VALUE" and "--opt=VALUE".
 std::variant<CommandLine, UsageError> parse_command_line(std::span<const std::string_view> args);
-// "127.0.0.1:7450", "0.0.0.0:0", "[::1]:7450". Port 0 = any free port.
+// "127.0.0.1:7450", "0.0.0.0:0", "[::1]:7450". Port 0 = any free port. protocol::parse_host_port
+// (ajar/protocol/endpoint.hpp) with port 0 allowed.
 std::optional<ListenAddress> parse_listen_address(std::string_view text);
 // Applies --listen and --state-dir to a loaded config.
 void apply_overrides(const CommandLine& command_line, Config& config);

@@ -11,14 +11,16 @@
 //   kGarbage      the line is garbled: every task ends in kFault with kArmTimeout after slow_ms,
 //                 as the serial driver reports it when every reply is corrupt.
 // stop() ends a task (kIdle); clear_fault() turns kFault into kIdle.
-// Tests can also script a refusal (fail_next_call), read the calls made in order (calls()) and the
-// tasks handed off (tasks()).
+// Tests can also script a refusal (fail_next_call), set what the arm reports (set_phase: with
+// kStuck the test decides when and how a task ends), read the calls made in order (calls(),
+// count()) and the tasks handed off (tasks()).
 #pragma once
 
 #include <cstdint>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "ajar/drivers/manipulator.hpp"
@@ -48,8 +50,14 @@ class MockManipulator final : public Manipulator {
   // The next call (connect, disconnect, hand_off, stop or clear_fault) returns `error` and does
   // nothing else.
   void fail_next_call(Error error);
-  // Every call so far, by name ("connect", "hand_off", ...), in order; and the tasks handed off.
+  // What the arm reports from now on, as if its own controller changed it: a task done, a fault
+  // (with `last_error`), the link lost, a reset mid-task (busy -> idle). The connection itself
+  // stays as it is (calls behave as before); a busy phase set here never ends by time.
+  void set_phase(ArmPhase phase, ErrorCode last_error = ErrorCode::kOk);
+  // Every call so far, by name ("connect", "hand_off", ...), in order; how many were `call`; and
+  // the tasks handed off.
   std::vector<std::string> calls() const;
+  std::size_t count(std::string_view call) const;
   std::vector<DoorTask> tasks() const;
 
  private:

@@ -1,9 +1,9 @@
-// MockMotionCard: the in-process MotionCard double for daemon tests and rehearsals. It behaves like
-// the GTS driver over the card simulator (same checks, same error codes, see gts_card.hpp) and
-// computes trapezoidal moves and jogs in closed form (motion_profile.hpp, the simulator's model)
-// against its clock (mock_clock.hpp: the steady clock unless one is injected; scaled by
-// time_scale) or a manual test clock, so a control loop polling axis_status() sees moves complete
-// after their simulated duration.
+// MockMotionCard: the in-process MotionCard double for the daemon in mock mode, its tests and
+// rehearsals. It behaves like the GTS driver over the card simulator (same checks, same error
+// codes, see gts_card.hpp) and computes trapezoidal moves and jogs in closed form
+// (motion_profile.hpp, the simulator's model) against its clock (mock_clock.hpp: the steady clock
+// unless one is injected; scaled by time_scale) or a manual test clock, so a control loop polling
+// axis_status() sees moves complete after their simulated duration.
 //
 // Fault menu (MockFault, settings.hpp):
 //   kOff          normal behaviour
@@ -15,10 +15,35 @@
 //   kGarbage      axis_status() returns implausible data (contradictory flags, jumping
 //                 positions); commands work
 //
-// Threading: like the real card, one thread only (no locks).
+// Test configuration (the engine, loop and interleaving tests; the defaults are the card above):
+//   motion model  kConstantSpeed: a move runs at its profile's velocity from the first instant to
+//                 its goal, a jog takes its velocity at once, a smooth stop rests stop_delay_ns
+//                 later (0: at once): simple, exactly predictable motion on a test clock
+//   call log      record_calls(): every commanding call (all but open/close/axis_status) that
+//                 reached the card, with its arguments and its index; calls(CardCall) counts
+//                 every call by kind (always on)
+//   one-shot      fail_next_calls(n): the next n realtime calls fail with kCardCommunication and
+//                 reach nothing (emergency_stop excepted: it always acts, so that a test sees the
+//                 loop issue it); refuse_next_move(code); stick_next_move() (accepted, never
+//                 progresses, stops still work)
+//   behaviour     set_stops_never_rest() (a smooth stop never comes to rest until cleared),
+//                 set_enable_delay_reads(n) (the servo shows on after n axis_status() reads of the
+//                 axis), set_alarm_persists() (clear_faults() leaves a drive alarm latched),
+//                 set_block_status() (axis_status() waits until cleared: stalls the loop)
+//   observation   peek(axis): the axis as axis_status() would report it, without a call;
+//                 jogging(axis): it moves in velocity mode; motion_call(axis): the log index of
+//                 the call that started its current motion
+//
+// Threading: every call takes one internal lock, so a test thread may configure and observe the
+// card while the control thread drives it (uncontended in the daemon's mock mode).
 #pragma once
 
+#include <array>
+#include <atomic>
+#include <condition_variable>
+#include <cstddef>
 #include <cstdint>
+#include <mutex>
 #include <vector>
 
 #include "ajar/drivers/mock_clock.hpp"
@@ -27,6 +52,40 @@
 #include "ajar/drivers/settings.hpp"
 
 namespace ajar::drivers {
+
+enum class CardCall : std::uint8_t {
+  kOpen,
+  kClose,
+  kEnableAxes,
+  kDisableAxes,
+  kClearFaults,
+  kMoveRelative,
+  kJog,
+  kSmoothStop,
+  kEmergencyStop,
+  kAxisStatus,
+};
+inline constexpr std::size_t kCardCallKinds = 10;
+
+// One commanding call as the card got it (MockMotionCard::record_calls).
+struct CardCallRecord {
+  CardCall kind = CardCall::kOpen;
+  std::int64_t at_ns = 0;                // the mock's simulated time
+  ErrorCode result = ErrorCode::kOk;     // what the card answered
+  std::vector<int> axes;                 // enable/disable/clear/stop calls
+  std::vector<AxisMove> moves;           // move_relative
+  TrapezoidProfile profile;              // move_relative
+  std::vector<AxisVelocity> velocities;  // jog
+  JogProfile jog_profile;                // jog
+
+  // The distance (move) or velocity (jog) this call gave `axis`; 0 when it did not name it.
+  std::int64_t distance_counts(int axis) const noexcept;
+  double velocity_counts_per_ms(int axis) const noexcept;
+  // A jog that sets some axis moving (a non-zero velocity).
+  bool jogs() const noexcept;
+};
+
+enum class MockMotionModel : std::uint8_t { kProfile, kConstantSpeed };
 
 class MockMotionCard final : public MotionCard {
  public:
@@ -41,13 +100,36 @@ class MockMotionCard final : public MotionCard {
   void inject_following_error(int axis);
   void inject_limit(int axis, bool positive);
   // open() fails with kCardOpenFailed while set (no card on the bus).
-  void set_open_fails(bool fails) noexcept { open_fails_ = fails; }
-  // Calls made so far (all of them).
-  std::uint64_t calls() const noexcept { return calls_; }
+  void set_open_fails(bool fails) noexcept { set_locked(open_fails_, fails); }
+  // Calls made so far (all of them), and of one kind.
+  std::uint64_t calls() const noexcept;
+  std::uint64_t calls(CardCall kind) const noexcept;
   // Test clock: manual = simulated time stands still except through advance_clock_ns();
   // otherwise the clock x time_scale (continuing from the current simulated time).
   void set_manual_clock(bool manual) noexcept;
   void advance_clock_ns(std::int64_t ns) noexcept;
+
+  // Test configuration (see the top of this file).
+  void set_motion_model(MockMotionModel model, std::int64_t stop_delay_ns = 0) noexcept;
+  void record_calls(bool on) noexcept { set_locked(recording_, on); }
+  void fail_next_calls(int n) noexcept { set_locked(fail_calls_, n < 0 ? 0 : n); }
+  void refuse_next_move(ErrorCode code = ErrorCode::kCardBusy) noexcept {
+    set_locked(refuse_move_, code);
+  }
+  void stick_next_move() noexcept { set_locked(stick_move_, true); }
+  void set_stops_never_rest(bool never) noexcept { set_locked(stops_never_rest_, never); }
+  void set_enable_delay_reads(int reads) noexcept {
+    set_locked(enable_delay_reads_, reads < 0 ? 0 : reads);
+  }
+  void set_alarm_persists(bool persists) noexcept { set_locked(alarm_persists_, persists); }
+  void set_block_status(bool block);
+  // Observation (see the top of this file). log_size() is the index the next logged call gets.
+  AxisStatus peek(int axis) noexcept;
+  bool any_moving() noexcept;
+  bool jogging(int axis) noexcept;
+  std::size_t motion_call(int axis) const noexcept;
+  std::size_t log_size() const;
+  std::vector<CardCallRecord> log_from(std::size_t index) const;
 
   Status open() override;
   Status close() override;
@@ -61,7 +143,7 @@ class MockMotionCard final : public MotionCard {
   ErrorCode smooth_stop(std::span<const int> axes) noexcept override;
   ErrorCode emergency_stop(std::span<const int> axes) noexcept override;
   ErrorCode axis_status(int axis, AxisStatus& out) noexcept override;
-  CardFailure last_failure() const noexcept override { return last_; }
+  CardFailure last_failure() const noexcept override;
 
  private:
   struct Axis {
@@ -69,26 +151,57 @@ class MockMotionCard final : public MotionCard {
     bool positive_limit = false, negative_limit = false;
     bool smooth_stopped = false, emergency_stopped = false;
     bool moving = false, stuck = false;
+    bool stop_held = false;    // stuck by set_stops_never_rest(): rests once that is cleared
     bool jogging = false;      // the current motion is a jog (velocity mode)
     double stop_dec = 0.1;     // the deceleration of the current motion (smooth stop)
     double direction = 1;      // of the current (or last) motion, for limits
     double rest_position = 0;  // while not moving
+    int enable_pending = 0;    // status reads until the servo shows on
+    std::size_t motion_call = 0;
     profile::Motion motion;
   };
+  using Lock = std::unique_lock<std::mutex>;
 
   std::int64_t now_ns() const noexcept;
   // Samples the motion at now; finishes motion that has ended. Returns position, sets velocity.
   double sample(Axis& a, double* velocity) noexcept;
   void halt(Axis& a) noexcept;
+  AxisStatus status_of(Axis& a) noexcept;
   // The state check before a move or jog of axis n in `direction` (sign).
   ErrorCode check_can_move(int n, double direction, const char* call) noexcept;
-  // Counts the call, applies kSlow, and (realtime calls) kErrorCode / kIntermittent.
-  ErrorCode enter(const char* call, bool realtime) noexcept;
+  // check_can_move, and no change between a move and a jog while the axis moves.
+  ErrorCode check_can_start(int n, double direction, bool jog, const char* call) noexcept;
+  // Sets the axis moving on `motion` (planned from `here`), started by the call being logged.
+  void start(Axis& a, bool jog, bool stuck, double direction, double here, double stop_dec,
+             const profile::Motion& motion) noexcept;
+  // Takes the lock (after kSlow's sleep), counts the call, and (realtime calls) applies
+  // kErrorCode / kIntermittent / fail_next_calls.
+  ErrorCode enter(Lock& lock, CardCall kind, const char* call, bool realtime) noexcept;
   ErrorCode check_open(const char* call) noexcept;
   ErrorCode check_axes(std::span<const int> axes, const char* call) noexcept;
+  // A realtime call on `axes`: enter(), `body` under the lock, logged.
+  template <typename Body>
+  ErrorCode axes_call(CardCall kind, const char* call, std::span<const int> axes,
+                      Body body) noexcept {
+    Lock lock;
+    if (const ErrorCode e = enter(lock, kind, call, true); e != ErrorCode::kOk) return e;
+    const ErrorCode result = body();
+    return recording_ ? logged(record(kind, axes), result) : result;
+  }
+  // Logs the call (when recording) and returns `result`.
+  ErrorCode logged(CardCallRecord&& record, ErrorCode result) noexcept;
+  CardCallRecord record(CardCall kind, std::span<const int> axes = {}) const;
+  template <typename T, typename V>
+  void set_locked(T& field, V value) noexcept {
+    const Lock lock(mutex_);
+    field = value;
+  }
+  bool valid(int n) const noexcept { return n >= 1 && n <= axis_count_; }
   Axis& axis(int n) noexcept { return axes_[static_cast<std::size_t>(n - 1)]; }
 
-  MockFault fault_;
+  mutable std::mutex mutex_;
+  std::condition_variable unblocked_;
+  std::atomic<MockFault> fault_;
   int slow_ms_;
   double time_scale_;
   int axis_count_;
@@ -100,8 +213,20 @@ class MockMotionCard final : public MotionCard {
   bool open_ = false;
   bool open_fails_ = false;
   std::uint64_t calls_ = 0;
+  std::array<std::uint64_t, kCardCallKinds> calls_by_kind_{};
   std::uint64_t fault_calls_ = 0;
   std::uint64_t garbage_state_ = 0x9E3779B97F4A7C15ULL;
+  MockMotionModel model_ = MockMotionModel::kProfile;
+  std::int64_t stop_delay_ns_ = 0;
+  bool recording_ = false;
+  int fail_calls_ = 0;
+  ErrorCode refuse_move_ = ErrorCode::kOk;
+  bool stick_move_ = false;
+  bool stops_never_rest_ = false;
+  int enable_delay_reads_ = 0;
+  bool alarm_persists_ = false;
+  bool block_status_ = false;
+  std::vector<CardCallRecord> log_;
   std::vector<Axis> axes_;
   CardFailure last_;
 };

@@ -1,4 +1,4 @@
-// Closed-form one-axis motion profiles, shared by the card simulator (cardsim/gts_sim.cpp) and the
+// Closed-form one-axis motion profiles, shared by the card simulator (drivers/cardsim) and the
 // mock card (mock_card.cpp): a motion is up to four phases of constant acceleration from a start
 // state, evaluated exactly at any time (integer nanoseconds since its start), so that sampling
 // at any rate gives the same trajectory and a time jump costs O(1). Header-only, noexcept, pure.

@@ -1,0 +1,308 @@
+// What a page asks over its WebSocket (docs/console.md lists the ops): hover and pick on a frame,
+// a rectangle of plane points, the active step, sending a step's measurement, the procedure's
+// commands (Stop and EmergencyStop on their own worker), jog (coalesced), Approach, take-over and
+// observer. Bad messages get a notice naming what was wrong; nothing reaches the robot then.
+#include "server_impl.hpp"
+
+#include <algorithm>
+
+#include "ajar/client/json.hpp"
+#include "daemon_json.hpp"
+
+namespace ajar::console {
+
+using client::JsonObject;
+
+void ConsoleServer::Impl::handle_page(const std::shared_ptr<WsSession>& s,
+                                      const std::string& text) {
+  std::string error;
+  const auto m = PageMessage::parse(text, error);
+  if (!m) {
+    notice(s, error);
+    return;
+  }
+  const std::string op = m->op();
+  if (op == "alive") {
+    s->last_alive = Clock::now();
+    update_heartbeat();
+  } else if (op == "overlay") {
+    s->overlay = m->flag("on").value_or(false);
+    update_overlay();
+  } else if (op == "hover") {
+    hover(s, *m);
+  } else if (op == "step") {
+    const auto name = m->text("step").value_or("");
+    const auto step = std::find(kStepNames.begin(), kStepNames.end(), name);
+    if (step == kStepNames.end()) return notice(s, "unknown step");
+    active = static_cast<Step>(step - kStepNames.begin());
+    mark_dirty();
+  } else if (op == "pick") {
+    pick(s, *m);
+  } else if (op == "rect") {
+    rect(s, *m);
+  } else if (op == "clear") {
+    picks[active].clear();
+    results[active] = {};
+    mark_dirty();
+  } else if (op == "undo") {
+    if (!picks[active].empty()) picks[active].pop_back();
+    mark_dirty();
+  } else if (op == "send") {
+    send_step(s);
+  } else if (op == "align" || op == "engage" || op == "reset" || op == "stop" || op == "estop") {
+    command(op, m->flag("clear").value_or(false));
+  } else if (op == "drive") {
+    drive(s, *m);
+  } else if (op == "approach") {
+    approach(s, *m);
+  } else if (op == "take_over") {
+    add_log("taking over control");
+    worker->post([this] {
+      client.close();
+      role = protocol::Role::kController;
+      take_over_next = true;
+      connect_now();
+    });
+  } else if (op == "observe") {
+    add_log("switching to observer");
+    worker->post([this] {
+      client.close();
+      role = protocol::Role::kObserver;
+      connect_now();
+    });
+  } else {
+    notice(s, "PAGE_MESSAGE: unknown op '" + op + "'");
+  }
+}
+
+std::shared_ptr<const FrameEntry> ConsoleServer::Impl::frame_for(const PageMessage& m) const {
+  if (frames.empty()) return nullptr;
+  if (const auto seq = m.number("seq")) {
+    for (const auto& f : frames) {
+      if (static_cast<double>(static_cast<std::uint32_t>(f->frame.sequence)) == *seq) return f;
+    }
+  }
+  return frames.back();
+}
+
+void ConsoleServer::Impl::hover(const std::shared_ptr<WsSession>& s, const PageMessage& m) {
+  const auto u = m.number("u");
+  const auto v = m.number("v");
+  const auto f = frame_for(m);
+  JsonObject o;
+  o.add("type", "hover");
+  if (!u || !v || !f) {
+    o.add("ok", false).add("message", f ? "u and v needed" : "no frame yet");
+    return reply(s, o.str());
+  }
+  o.add("u", *u).add("v", *v);
+  const auto p = core::pick_point(f->frame.intrinsics, f->frame.depth(), *u, *v);
+  if (!p) {
+    o.add("ok", false).add("field", p.error().field).add("message", p.error().message);
+    return reply(s, o.str());
+  }
+  o.add("ok", true)
+      .add("camera_m", p->camera_m)
+      .add("depth_m", p->depth_m)
+      .add("from_window", p->from_window);
+  if (camera_to_base) o.add("base_m", camera_to_base->to_base(p->camera_m));
+  reply(s, o.str());
+}
+
+void ConsoleServer::Impl::pick(const std::shared_ptr<WsSession>& s, const PageMessage& m) {
+  const auto u = m.number("u");
+  const auto v = m.number("v");
+  const auto f = frame_for(m);
+  if (!u || !v || !f) return notice(s, f ? "pick: u and v needed" : "pick: no frame yet");
+  const auto p = core::pick_point(f->frame.intrinsics, f->frame.depth(), *u, *v);
+  if (!p) {
+    add_log("pick refused: " + p.error().message);
+    reply(s, JsonObject()
+                 .add("type", "pick_refused")
+                 .add("field", p.error().field)
+                 .add("message", p.error().message)
+                 .str());
+    return;
+  }
+  auto& list = picks[active];
+  if (list.size() >= kStepCapacity[active]) {
+    if (active == kPlane) {
+      return notice(s, "the plane takes at most 16 points: send or clear them");
+    }
+    list.clear();  // width, handle, contact: a new pick starts over
+  }
+  list.push_back({*u, *v, p->camera_m, p->from_window});
+  results[active] = {};
+  mark_dirty();
+}
+
+// Up to 16 well-spread valid points inside a rectangle: a 4x4 grid of cells, in each the valid
+// pixel nearest the cell's centre (the pick rule's window median for holes).
+void ConsoleServer::Impl::rect(const std::shared_ptr<WsSession>& s, const PageMessage& m) {
+  const auto u0 = m.number("u0");
+  const auto v0 = m.number("v0");
+  const auto u1 = m.number("u1");
+  const auto v1 = m.number("v1");
+  const auto f = frame_for(m);
+  if (!u0 || !v0 || !u1 || !v1 || !f) return notice(s, "rect: u0, v0, u1, v1 needed");
+  const double ul = std::min(*u0, *u1);
+  const double ur = std::max(*u0, *u1);
+  const double vt = std::min(*v0, *v1);
+  const double vb = std::max(*v0, *v1);
+  std::vector<Pick> found;
+  constexpr int kGrid = 4;
+  for (int j = 0; j < kGrid; ++j) {
+    for (int i = 0; i < kGrid; ++i) {
+      const double u = ul + (ur - ul) * (i + 0.5) / kGrid;
+      const double v = vt + (vb - vt) * (j + 0.5) / kGrid;
+      const auto p = core::pick_point(f->frame.intrinsics, f->frame.depth(), u, v);
+      if (p) found.push_back({u, v, p->camera_m, p->from_window});
+    }
+  }
+  if (found.size() < protocol::kMinPlanePoints) {
+    add_log("rectangle refused: only " + std::to_string(found.size()) +
+            " of 16 points have depth; drag over a measurable part of the door");
+    return;
+  }
+  active = kPlane;
+  picks[kPlane] = std::move(found);
+  results[kPlane] = {};
+  mark_dirty();
+}
+
+void ConsoleServer::Impl::send_step(const std::shared_ptr<WsSession>& s) {
+  const Step step = active;
+  const auto& list = picks[step];
+  const auto framed = [](const Pick& p) {
+    return client::framed(core::Frame::kCamera, p.camera_m.x(), p.camera_m.y(), p.camera_m.z());
+  };
+  protocol::Message msg;
+  switch (step) {
+    case kWidth:
+      if (list.size() != 2) return notice(s, "width: pick P1 (hinge side) and P2 (moving edge)");
+      msg = protocol::MeasureDoorWidth{framed(list[0]), framed(list[1])};
+      break;
+    case kHandle:
+      if (list.size() != 2) return notice(s, "handle: pick the axis, then the free end");
+      msg = protocol::MeasureHandle{framed(list[0]), framed(list[1])};
+      break;
+    case kPlane: {
+      if (list.size() < protocol::kMinPlanePoints) {
+        return notice(s, "plane: pick at least three points on the door, or drag a rectangle");
+      }
+      protocol::MeasureDoorPlane plane;
+      plane.count = static_cast<std::uint8_t>(list.size());
+      for (std::size_t i = 0; i < list.size(); ++i)
+        plane.points[i] = framed(list[i]);
+      msg = plane;
+      break;
+    }
+    case kContact:
+      if (list.size() != 1) return notice(s, "contact: pick the contact point on the handle");
+      msg = protocol::SetContactPoint{framed(list[0])};
+      break;
+    case kStepCount:
+      return;
+  }
+  add_log(std::string("sending ") + std::string(protocol::to_string(protocol::type_of(msg))));
+  worker->post([this, step, msg] {
+    const auto r = client.request(msg);
+    const auto json = response_json(r);
+    on_io([this, step, json, r] {
+      results[step] = json;
+      log_response(std::string(kStepNames[step]), r);
+      mark_dirty();
+    });
+    refresh_status();
+  });
+}
+
+void ConsoleServer::Impl::command(const std::string& op, bool clear) {
+  protocol::Message msg;
+  if (op == "align") msg = protocol::AlignBase{};
+  if (op == "engage") msg = protocol::Engage{};
+  if (op == "reset") msg = protocol::Reset{clear};
+  if (op == "stop") msg = protocol::Stop{};
+  if (op == "estop") msg = protocol::EmergencyStop{};
+  const bool urgent = op == "stop" || op == "estop";
+  add_log(std::string(urgent ? "!! " : "") + "sending " +
+          std::string(protocol::to_string(protocol::type_of(msg))) +
+          (clear ? " (clear parameters)" : ""));
+  if (clear) {
+    for (auto& l : picks)
+      l.clear();
+    for (auto& r : results)
+      r = {};
+    active = kWidth;
+    mark_dirty();
+  }
+  auto job = [this, op, msg] {
+    const auto r = client.request(msg, std::chrono::milliseconds(1000), 2);
+    const auto json = response_json(r);
+    on_io([this, op, json, r] {
+      last_command = JsonObject().add("op", op).add("reply", json);
+      log_response(op, r);
+      mark_dirty();
+    });
+    refresh_status();
+  };
+  (urgent ? stop_worker : worker)->post(std::move(job));
+}
+
+// Jog: coalesced, so a slow daemon never sees a backlog of old velocities.
+void ConsoleServer::Impl::drive(const std::shared_ptr<WsSession>& s, const PageMessage& m) {
+  const auto linear = m.number("linear");
+  const auto angular = m.number("angular");
+  if (!linear || !angular) return notice(s, "drive: linear and angular needed");
+  bool post = false;
+  {
+    const std::lock_guard lock(drive_mutex);
+    pending_drive = protocol::Drive{*linear, *angular};
+    post = !drive_queued;
+    drive_queued = true;
+  }
+  if (!post) return;
+  worker->post([this] {
+    protocol::Drive d;
+    {
+      const std::lock_guard lock(drive_mutex);
+      d = pending_drive;
+      drive_queued = false;
+    }
+    const auto r = client.request(d, std::chrono::milliseconds(300), 0);
+    if (!r.ok()) {
+      on_io([this, r] { log_response("drive", r); });
+    }
+  });
+}
+
+void ConsoleServer::Impl::approach(const std::shared_ptr<WsSession>& s, const PageMessage& m) {
+  const auto standoff = m.number("standoff_m");
+  if (!standoff) return notice(s, "approach: standoff_m needed");
+  add_log("sending Approach to " + client::json_number(*standoff) + " m");
+  const protocol::Message msg = protocol::Approach{*standoff};
+  worker->post([this, msg] {
+    const auto r = client.request(msg);
+    const auto json = response_json(r);
+    on_io([this, json, r] {
+      last_command = JsonObject().add("op", "approach").add("reply", json);
+      log_response("approach", r);
+      mark_dirty();
+    });
+    refresh_status();
+  });
+}
+
+void ConsoleServer::Impl::log_response(const std::string& what, const client::Response& r) {
+  if (r.outcome == client::Outcome::kReply) {
+    add_log(what + ": accepted");
+  } else if (r.outcome == client::Outcome::kRefused) {
+    add_log(what + ": refused " + std::string(ajar::to_string(r.error.code)) +
+            (r.error.field.view().empty() ? "" : " (" + std::string(r.error.field.view()) + ")") +
+            ": " + std::string(r.error.message.view()));
+  } else {
+    add_log(what + ": " + std::string(client::to_string(r.outcome)) + ": " + r.transport_error);
+  }
+}
+
+}  // namespace ajar::console

@@ -1,0 +1,209 @@
+// ConsoleServer's state and its member functions, one file per job (the threads and the safety rule
+// are in ajar/console/server.hpp):
+//   server.cpp        start, run, stop; the Asio thread's tick (state broadcast); the log
+//   http.cpp          accepting connections; HTTP: the page's files, /api/state, the Host guard
+//   page_sessions.cpp one WebSocket per page: send queue, reader; overlay and the deadman's gate
+//   page_requests.cpp what a page asks (hover, pick, rect, send, commands, jog, approach)
+//   state_json.cpp    the console's state as the page's JSON (and the simulated landmarks)
+//   daemon_link.cpp   the worker threads' side: connect, Hello, status, events, telemetry
+//   frames.cpp        the frame thread: paces the source, encodes PNGs for the pages
+// Members are touched only by the thread named at their group; the rest is posted (on_io).
+#pragma once
+
+// <utility> before any Asio header (asio issue 944).
+#include <utility>
+
+#include <boost/asio/awaitable.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ajar/client/client.hpp"
+#include "ajar/client/json.hpp"
+#include "ajar/console/door_scene.hpp"
+#include "ajar/console/frame.hpp"
+#include "ajar/console/page_message.hpp"
+#include "ajar/console/server.hpp"
+#include "ajar/core/geometry.hpp"
+#include "worker.hpp"
+
+namespace ajar::console {
+
+namespace asio = boost::asio;
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+using tcp = asio::ip::tcp;
+using boost::system::error_code;
+using Clock = std::chrono::steady_clock;
+
+// The parameter region's steps, in the procedure's order, and how many picks each holds.
+enum Step : std::size_t { kWidth = 0, kHandle = 1, kPlane = 2, kContact = 3, kStepCount = 4 };
+inline constexpr std::array<const char*, kStepCount> kStepNames{"width", "handle", "plane",
+                                                                "contact"};
+inline constexpr std::array<std::size_t, kStepCount> kStepCapacity{2, 2, protocol::kMaxPlanePoints,
+                                                                   1};
+
+// One point the operator picked on a frame (camera frame, metres).
+struct Pick {
+  double u_px = 0;
+  double v_px = 0;
+  core::Vec3 camera_m = core::Vec3::Zero();
+  bool from_window = false;  // depth from the pick rule's window median (a hole at the pixel)
+};
+
+// A frame with the base pose it was taken at and its WebSocket messages (frames.cpp).
+struct FrameEntry {
+  Frame frame;
+  BasePose pose;
+  std::shared_ptr<const std::string> colour;  // null when no page was connected
+  std::shared_ptr<const std::string> depth;   // null when no page asked for the overlay
+};
+
+// One open page's WebSocket.
+struct WsSession {
+  explicit WsSession(tcp::socket socket) : ws(std::move(socket)), wake(ws.get_executor()) {}
+  websocket::stream<tcp::socket> ws;
+  asio::steady_timer wake;  // cancelled when the queue gets a message
+  struct Outgoing {
+    bool binary = false;
+    std::shared_ptr<const std::string> data;
+  };
+  std::deque<Outgoing> queue;
+  int frames_queued = 0;  // binary messages in the queue (at most 2: a slow page skips frames)
+  bool closed = false;
+  bool overlay = false;  // the page shows the depth overlay
+  Clock::time_point last_alive{};
+};
+
+struct ConsoleServer::Impl {
+  Impl(ConsoleOptions o, std::unique_ptr<FrameSource> s, SimulatedSource* sim_source)
+      : options(std::move(o)),
+        source(std::move(s)),
+        sim(sim_source),
+        acceptor(ioc),
+        client(client::ClientOptions{std::chrono::milliseconds(2000),
+                                     std::chrono::milliseconds(3000), 1, 0, "ajar-console",
+                                     options.tls}),
+        role(options.role),
+        take_over_next(options.take_over) {}
+
+  ConsoleOptions options;
+  std::unique_ptr<FrameSource> source;
+  SimulatedSource* sim;
+  asio::io_context ioc{1};
+  tcp::acceptor acceptor;
+  std::uint16_t port = 0;
+  client::Client client;
+
+  // ---- State owned by the Asio thread ----
+  std::set<std::shared_ptr<WsSession>> sessions;
+  std::deque<std::shared_ptr<const FrameEntry>> frames;  // newest last
+  std::string source_error;
+  bool daemon_connected = false;
+  std::string connection_message = "connecting";
+  std::optional<protocol::Welcome> welcome;
+  std::optional<protocol::Status> status;
+  std::optional<core::CameraToBase> camera_to_base;  // from the daemon (RobotModel)
+  std::optional<protocol::RobotModel> model;         // protocol 1.1: GetRobotModel
+  std::array<std::vector<Pick>, kStepCount> picks;
+  std::array<client::JsonObject, kStepCount> results;  // the replies; empty when nothing sent yet
+  client::JsonObject last_command;  // {"op", "reply"} of the last command; empty before one
+  Step active = kWidth;
+  std::deque<std::string> log;
+  bool heartbeat_on = false;
+  bool state_dirty = true;
+
+  // ---- Shared with the frame thread ----
+  std::mutex pose_mutex;
+  BasePose pose;
+  std::atomic<bool> overlay_wanted{false};
+  std::atomic<bool> any_page{false};
+  std::atomic<bool> stopping{false};
+  std::thread frame_thread;
+
+  // ---- Daemon side (worker threads) ----
+  protocol::Role role;  // worker thread only
+  bool take_over_next;  // worker thread only
+  Clock::time_point next_connect_attempt{};
+  std::unique_ptr<Worker> worker;       // connect, measurements, commands
+  std::unique_ptr<Worker> stop_worker;  // Stop and EmergencyStop only
+  // Jog: the newest Drive the page asked for; one job at a time carries the latest to ajard.
+  std::mutex drive_mutex;
+  protocol::Drive pending_drive;
+  bool drive_queued = false;
+
+  // Posting to the Asio thread (from any thread).
+  template <typename F>
+  void on_io(F&& f) {
+    asio::post(ioc, std::forward<F>(f));
+  }
+
+  // ---- server.cpp (Asio thread) ----
+  void add_log(const std::string& text);     // time-stamped, kept (last 200) and sent to the pages
+  void mark_dirty() { state_dirty = true; }  // the next tick broadcasts the state
+  asio::awaitable<void> tick_loop();
+
+  // ---- http.cpp (Asio thread) ----
+  asio::awaitable<void> accept_loop();
+  asio::awaitable<void> serve(tcp::socket socket);
+  bool host_allowed(const http::request<http::string_body>& req) const;
+
+  // ---- page_sessions.cpp (Asio thread) ----
+  asio::awaitable<void> run_session(std::shared_ptr<WsSession> s);
+  asio::awaitable<void> write_loop(std::shared_ptr<WsSession> s);
+  void enqueue(const std::shared_ptr<WsSession>& s, bool binary,
+               std::shared_ptr<const std::string> data);
+  void broadcast_text(const std::string& text);
+  void reply(const std::shared_ptr<WsSession>& s, const std::string& text);
+  void notice(const std::shared_ptr<WsSession>& s, const std::string& text);
+  void update_heartbeat();  // feeds the deadman only while a page is connected and alive
+  void update_overlay();
+
+  // ---- page_requests.cpp (Asio thread) ----
+  void handle_page(const std::shared_ptr<WsSession>& s, const std::string& text);
+  std::shared_ptr<const FrameEntry> frame_for(const PageMessage& m) const;
+  void hover(const std::shared_ptr<WsSession>& s, const PageMessage& m);
+  void pick(const std::shared_ptr<WsSession>& s, const PageMessage& m);
+  void rect(const std::shared_ptr<WsSession>& s, const PageMessage& m);
+  void send_step(const std::shared_ptr<WsSession>& s);
+  void command(const std::string& op, bool clear);
+  void drive(const std::shared_ptr<WsSession>& s, const PageMessage& m);
+  void approach(const std::shared_ptr<WsSession>& s, const PageMessage& m);
+  void log_response(const std::string& what, const client::Response& r);
+
+  // ---- state_json.cpp (Asio thread) ----
+  std::string snapshot() const;  // {"type":"state",...}: everything the page draws
+  client::JsonObject picks_json() const;
+  client::JsonObject results_json() const;
+  std::string landmarks_json() const;  // /api/sim/landmarks; "null" without a simulated source
+
+  // ---- daemon_link.cpp (worker threads; client callbacks) ----
+  void connect_now();
+  void idle();  // reconnects at most once a second while disconnected
+  void refresh_status();
+  void set_model(const protocol::RobotModel& m);  // Asio thread
+  void on_telemetry(const protocol::Telemetry& t);
+  void on_event(const protocol::Event& e);
+
+  // ---- frames.cpp (frame thread) ----
+  void frame_loop();
+};
+
+}  // namespace ajar::console
