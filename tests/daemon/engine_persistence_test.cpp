@@ -5,21 +5,11 @@
 #include <fstream>
 #include <sstream>
 
-#include <boost/crc.hpp>
-
 #include "fake_engine_fixture.hpp"
+#include "state_file_checksum.hpp"
 
 namespace ajar::testing {
 namespace {
-
-// A state file body with a correct checksum line (what a buggy writer would produce).
-std::string with_checksum(const std::string& body) {
-  boost::crc_32_type crc;
-  crc.process_bytes(body.data(), body.size());
-  char line[32];
-  std::snprintf(line, sizeof(line), "crc32 %08x\n", crc.checksum());
-  return body + line;
-}
 
 std::string read_file(const std::string& path) {
   std::ifstream in(path);
