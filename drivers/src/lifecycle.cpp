@@ -39,6 +39,18 @@ Error not_active(const char* what, LifecycleState state) {
   return make_error(ErrorCode::kDriverNotActive, "", msg);
 }
 
+// close() / disconnect(): deactivate() when active, then cleanup(); from any state to unconfigured.
+// The first error is returned (the cleanup runs also when the deactivation failed).
+template <typename Managed>
+Outcome shut_down(Managed& driver) {
+  if (driver.state() == LifecycleState::kUnconfigured) return Ok{};
+  Outcome stopped = Ok{};
+  if (driver.state() == LifecycleState::kActive) stopped = driver.deactivate();
+  Outcome closed = driver.cleanup();
+  if (!stopped) return stopped;
+  return closed;
+}
+
 }  // namespace
 
 const char* to_string(LifecycleState s) noexcept {
@@ -98,12 +110,12 @@ ErrorCode ManagedMotionCard::refuse(const char* call) noexcept {
   }
 }
 
-Status ManagedMotionCard::as_status(ErrorCode e) const {
+Outcome ManagedMotionCard::as_status(ErrorCode e) const {
   if (e == ErrorCode::kOk) return Ok{};
   return make_error(e, last_.axis != 0 ? "axis" : "", describe(last_));
 }
 
-Status ManagedMotionCard::configure() {
+Outcome ManagedMotionCard::configure() {
   if (state_ != LifecycleState::kUnconfigured) {
     return wrong_state("configure()", "unconfigured", state_);
   }
@@ -113,7 +125,7 @@ Status ManagedMotionCard::configure() {
   return Ok{};
 }
 
-Status ManagedMotionCard::activate() {
+Outcome ManagedMotionCard::activate() {
   if (state_ != LifecycleState::kInactive) return wrong_state("activate()", "inactive", state_);
   if (const auto e = track(impl_->clear_faults(axes())); e != ErrorCode::kOk) return as_status(e);
   if (const auto e = track(impl_->enable_axes(axes())); e != ErrorCode::kOk) return as_status(e);
@@ -146,9 +158,9 @@ Status ManagedMotionCard::activate() {
   return Ok{};
 }
 
-Status ManagedMotionCard::deactivate() {
+Outcome ManagedMotionCard::deactivate() {
   if (state_ != LifecycleState::kActive) return wrong_state("deactivate()", "active", state_);
-  Status stopped = as_status(track(impl_->smooth_stop(axes())));
+  Outcome stopped = as_status(track(impl_->smooth_stop(axes())));
   const auto deadline =
       std::chrono::steady_clock::now() + std::chrono::milliseconds(stop_timeout_ms_);
   bool resting = false;
@@ -173,17 +185,17 @@ Status ManagedMotionCard::deactivate() {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   if (!stopped) (void)track(impl_->emergency_stop(axes()));
-  Status disabled = as_status(track(impl_->disable_axes(axes())));
+  Outcome disabled = as_status(track(impl_->disable_axes(axes())));
   if (state_ == LifecycleState::kActive) state_ = LifecycleState::kInactive;
   if (!stopped) return stopped;
   return disabled;
 }
 
-Status ManagedMotionCard::cleanup() {
+Outcome ManagedMotionCard::cleanup() {
   if (state_ != LifecycleState::kInactive && state_ != LifecycleState::kFault) {
     return wrong_state("cleanup()", "inactive or fault", state_);
   }
-  Status s = impl_->close();
+  Outcome s = impl_->close();
   state_ = LifecycleState::kUnconfigured;
   fault_cause_ = ErrorCode::kOk;
   return s;
@@ -215,22 +227,17 @@ ErrorCode ManagedMotionCard::recover_axes() noexcept {
   return ErrorCode::kOk;
 }
 
-Status ManagedMotionCard::recover() {
+Outcome ManagedMotionCard::recover() {
   if (state_ != LifecycleState::kFault) return wrong_state("recover()", "fault", state_);
   return as_status(recover_axes());
 }
 
-Status ManagedMotionCard::open() {
+Outcome ManagedMotionCard::open() {
   return configure();
 }
 
-Status ManagedMotionCard::close() {
-  if (state_ == LifecycleState::kUnconfigured) return Ok{};
-  Status stopped = Ok{};
-  if (state_ == LifecycleState::kActive) stopped = deactivate();
-  Status closed = cleanup();
-  if (!stopped) return stopped;
-  return closed;
+Outcome ManagedMotionCard::close() {
+  return shut_down(*this);
 }
 
 ErrorCode ManagedMotionCard::enable_axes(std::span<const int> axes) noexcept {
@@ -299,14 +306,14 @@ ManagedManipulator::ManagedManipulator(std::unique_ptr<Manipulator> impl) : impl
   if (!impl_) throw std::invalid_argument("ManagedManipulator: no manipulator");
 }
 
-Status ManagedManipulator::track(Status s) {
+Outcome ManagedManipulator::track(Outcome s) {
   if (!s && state_ != LifecycleState::kUnconfigured && arm_unhealthy(s.error().code)) {
     state_ = LifecycleState::kFault;
   }
   return s;
 }
 
-Status ManagedManipulator::configure() {
+Outcome ManagedManipulator::configure() {
   if (state_ != LifecycleState::kUnconfigured) {
     return wrong_state("configure()", "unconfigured", state_);
   }
@@ -315,46 +322,41 @@ Status ManagedManipulator::configure() {
   return Ok{};
 }
 
-Status ManagedManipulator::activate() {
+Outcome ManagedManipulator::activate() {
   if (state_ != LifecycleState::kInactive) return wrong_state("activate()", "inactive", state_);
   state_ = LifecycleState::kActive;
   return Ok{};
 }
 
-Status ManagedManipulator::deactivate() {
+Outcome ManagedManipulator::deactivate() {
   if (state_ != LifecycleState::kActive) return wrong_state("deactivate()", "active", state_);
-  Status s = track(impl_->stop());
+  Outcome s = track(impl_->stop());
   if (state_ == LifecycleState::kActive) state_ = LifecycleState::kInactive;
   return s;
 }
 
-Status ManagedManipulator::cleanup() {
+Outcome ManagedManipulator::cleanup() {
   if (state_ != LifecycleState::kInactive && state_ != LifecycleState::kFault) {
     return wrong_state("cleanup()", "inactive or fault", state_);
   }
-  Status s = impl_->disconnect();
+  Outcome s = impl_->disconnect();
   state_ = LifecycleState::kUnconfigured;
   return s;
 }
 
-Status ManagedManipulator::recover() {
+Outcome ManagedManipulator::recover() {
   if (state_ != LifecycleState::kFault) return wrong_state("recover()", "fault", state_);
   if (auto s = impl_->clear_fault(); !s) return s;
   state_ = LifecycleState::kInactive;
   return Ok{};
 }
 
-Status ManagedManipulator::connect() {
+Outcome ManagedManipulator::connect() {
   return configure();
 }
 
-Status ManagedManipulator::disconnect() {
-  if (state_ == LifecycleState::kUnconfigured) return Ok{};
-  Status stopped = Ok{};
-  if (state_ == LifecycleState::kActive) stopped = deactivate();
-  Status closed = cleanup();
-  if (!stopped) return stopped;
-  return closed;
+Outcome ManagedManipulator::disconnect() {
+  return shut_down(*this);
 }
 
 Result<std::uint32_t> ManagedManipulator::hand_off(const DoorTask& task) {
@@ -364,11 +366,11 @@ Result<std::uint32_t> ManagedManipulator::hand_off(const DoorTask& task) {
   return r;
 }
 
-Status ManagedManipulator::stop() {
+Outcome ManagedManipulator::stop() {
   return track(impl_->stop());
 }
 
-Status ManagedManipulator::clear_fault() {
+Outcome ManagedManipulator::clear_fault() {
   if (state_ == LifecycleState::kUnconfigured) return not_active("clear_fault()", state_);
   if (state_ == LifecycleState::kFault) return recover();
   return track(impl_->clear_fault());

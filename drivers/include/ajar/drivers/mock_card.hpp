@@ -131,8 +131,8 @@ class MockMotionCard final : public MotionCard {
   std::size_t log_size() const;
   std::vector<CardCallRecord> log_from(std::size_t index) const;
 
-  Status open() override;
-  Status close() override;
+  Outcome open() override;
+  Outcome close() override;
   // Realtime calls (motion_card.hpp): the servo comes on at once in enable_axes().
   ErrorCode enable_axes(std::span<const int> axes) noexcept override;
   ErrorCode disable_axes(std::span<const int> axes) noexcept override;
@@ -166,6 +166,7 @@ class MockMotionCard final : public MotionCard {
   // Samples the motion at now; finishes motion that has ended. Returns position, sets velocity.
   double sample(Axis& a, double* velocity) noexcept;
   void halt(Axis& a) noexcept;
+  static AxisStatus flags_of(const Axis& a) noexcept;  // the latched flags, no motion sampled
   AxisStatus status_of(Axis& a) noexcept;
   // The state check before a move or jog of axis n in `direction` (sign).
   ErrorCode check_can_move(int n, double direction, const char* call) noexcept;
