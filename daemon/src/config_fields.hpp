@@ -54,7 +54,7 @@ inline constexpr Word<drivers::DriverKind> kDriverKinds[] = {{"sim", drivers::Dr
                                                              {"real", drivers::DriverKind::kReal}};
 
 inline constexpr Word<drivers::MockFault> kMockFaults[] = {
-    {"none", drivers::MockFault::kOff},
+    {"none", drivers::MockFault::kNone},
     {"stuck", drivers::MockFault::kStuck},
     {"slow", drivers::MockFault::kSlow},
     {"error", drivers::MockFault::kErrorCode},

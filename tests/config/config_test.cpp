@@ -250,7 +250,7 @@ TEST_F(ConfigTest, ADuplicateSectionIsRefusedWithTheLinesOfBoth) {
 TEST_F(ConfigTest, NoneMeansNoFaultAndNoLogging) {
   const Config c = load_config(
       write("drivers:\n  mock: {card_fault: none, arm_fault: stuck}\nlogging:\n  level: none\n"));
-  EXPECT_EQ(c.drivers.mock.card_fault, drivers::MockFault::kOff);
+  EXPECT_EQ(c.drivers.mock.card_fault, drivers::MockFault::kNone);
   EXPECT_EQ(c.drivers.mock.arm_fault, drivers::MockFault::kStuck);
   EXPECT_EQ(c.logging.level, "off");  // spdlog's name
   const std::string yaml = to_yaml(c);
