@@ -11,15 +11,15 @@ std::optional<Endpoint> parse_endpoint(std::string_view text) {
   return Endpoint{std::move(parsed->host), parsed->port};
 }
 
-std::string_view to_string(Outcome outcome) noexcept {
+std::string_view to_string(CallOutcome outcome) noexcept {
   switch (outcome) {
-    case Outcome::kReply:
+    case CallOutcome::kReply:
       return "reply";
-    case Outcome::kRefused:
+    case CallOutcome::kRefused:
       return "refused";
-    case Outcome::kTimeout:
+    case CallOutcome::kTimeout:
       return "timeout";
-    case Outcome::kDisconnected:
+    case CallOutcome::kDisconnected:
       return "disconnected";
   }
   return "unknown";
@@ -114,7 +114,7 @@ Response Client::request(const protocol::Message& message, Milliseconds timeout,
     // Nothing can be sent (e.g. a MeasureDoorPlane count outside 3..16): refuse here, as the
     // daemon would, rather than send nothing and report a timeout.
     const bool plane = std::holds_alternative<protocol::MeasureDoorPlane>(message);
-    response.outcome = Outcome::kRefused;
+    response.outcome = CallOutcome::kRefused;
     response.error.code = plane ? ErrorCode::kBadCount : ErrorCode::kInternal;
     response.error.offending_type = protocol::type_of(message);
     response.error.field.assign(plane ? "count" : "");
@@ -130,7 +130,7 @@ Response Client::request(const protocol::Message& message, Milliseconds timeout,
   for (int attempt = 0; attempt <= std::max(0, retries); ++attempt) {
     envelope.flags = attempt == 0 ? protocol::kFlagNone : protocol::kFlagRetransmit;
     if (!send_envelope(envelope)) {
-      response.outcome = Outcome::kDisconnected;
+      response.outcome = CallOutcome::kDisconnected;
       response.transport_error = "not connected";
       return response;
     }
@@ -145,15 +145,15 @@ Response Client::request(const protocol::Message& message, Milliseconds timeout,
       response.round_trip = std::chrono::duration_cast<Milliseconds>(Clock::now() - sent);
       response.reply = std::move(reply->message);
       if (const auto* error = std::get_if<protocol::ErrorReply>(&response.reply)) {
-        response.outcome = Outcome::kRefused;
+        response.outcome = CallOutcome::kRefused;
         response.error = *error;
       } else {
-        response.outcome = Outcome::kReply;
+        response.outcome = CallOutcome::kReply;
       }
       return response;
     }
     if (!connected()) {
-      response.outcome = Outcome::kDisconnected;
+      response.outcome = CallOutcome::kDisconnected;
       response.transport_error = "connection lost while waiting for the reply";
       return response;
     }
@@ -162,7 +162,7 @@ Response Client::request(const protocol::Message& message, Milliseconds timeout,
     std::lock_guard lock(impl_->mutex);
     impl_->forget_request(envelope.request_id, response.attempts);
   }
-  response.outcome = Outcome::kTimeout;
+  response.outcome = CallOutcome::kTimeout;
   response.transport_error =
       "no reply to " + std::string(protocol::to_string(protocol::type_of(message))) + " within " +
       std::to_string(timeout.count()) + " ms (" + std::to_string(response.attempts) + " attempts)";

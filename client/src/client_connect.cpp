@@ -54,11 +54,11 @@ Error connect_error(std::string field, std::string message) {
 
 }  // namespace
 
-Result<Ok> Client::connect(const Endpoint& endpoint) {
+Outcome Client::connect(const Endpoint& endpoint) {
   return connect(endpoint, options_.connect_timeout);
 }
 
-Result<Ok> Client::connect(const Endpoint& endpoint, Milliseconds timeout) {
+Outcome Client::connect(const Endpoint& endpoint, Milliseconds timeout) {
   std::shared_ptr<ssl::context> tls_context;
   if (options_.tls.enabled()) {
     if (auto e = make_tls_context(options_.tls, tls_context); !e.empty())

@@ -207,18 +207,19 @@ JsonObject robot_model_object(const protocol::RobotModel& model) {
 JsonObject response_object(std::string_view command, const Response& r) {
   JsonObject o;
   switch (r.outcome) {
-    case Outcome::kTimeout:
-    case Outcome::kDisconnected:
+    case CallOutcome::kTimeout:
+    case CallOutcome::kDisconnected:
       o.add("type", "error").add("command", command).add("ok", false);
-      o.add("error", error_object(r.outcome == Outcome::kTimeout ? kTimeoutCode : kDisconnectedCode,
-                                  "", r.transport_error));
+      o.add("error",
+            error_object(r.outcome == CallOutcome::kTimeout ? kTimeoutCode : kDisconnectedCode, "",
+                         r.transport_error));
       return o;
-    case Outcome::kRefused:
+    case CallOutcome::kRefused:
       o.add("type", "error").add("command", command).add("ok", false);
       o.add("request_id", static_cast<unsigned>(r.request_id));
       o.add("error", error_object(r.error));
       return o;
-    case Outcome::kReply:
+    case CallOutcome::kReply:
       break;
   }
   if (const auto* ack = r.get<protocol::Ack>()) {

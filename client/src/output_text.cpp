@@ -148,16 +148,16 @@ std::string status_text(const protocol::Status& s) {
 std::string response_text(std::string_view command, const Response& r) {
   const std::string cmd(command);
   switch (r.outcome) {
-    case Outcome::kTimeout:
-    case Outcome::kDisconnected:
+    case CallOutcome::kTimeout:
+    case CallOutcome::kDisconnected:
       return cmd + ": " + std::string(to_string(r.outcome)) + ": " + r.transport_error;
-    case Outcome::kRefused: {
+    case CallOutcome::kRefused: {
       std::string t = cmd + ": refused: " + std::string(ajar::to_string(r.error.code));
       if (r.error.field.length > 0) t += " (" + std::string(r.error.field.view()) + ")";
       if (r.error.message.length > 0) t += ": " + std::string(r.error.message.view());
       return t;
     }
-    case Outcome::kReply:
+    case CallOutcome::kReply:
       break;
   }
   if (const auto* ack = r.get<protocol::Ack>()) {

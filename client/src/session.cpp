@@ -33,12 +33,12 @@ Milliseconds seconds_to_ms(double s) {
 
 int exit_code(const Response& r) {
   switch (r.outcome) {
-    case Outcome::kReply:
+    case CallOutcome::kReply:
       return kExitOk;
-    case Outcome::kRefused:
+    case CallOutcome::kRefused:
       return kExitRefused;
-    case Outcome::kTimeout:
-    case Outcome::kDisconnected:
+    case CallOutcome::kTimeout:
+    case CallOutcome::kDisconnected:
       return kExitConnection;
   }
   return kExitConnection;
@@ -170,7 +170,7 @@ int Session::ping(const Command& c) {
     if (!r.ok()) {
       print(response_object("ping", r), response_text("ping", r));
       last_failure = exit_code(r);
-      if (r.outcome == Outcome::kDisconnected) break;
+      if (r.outcome == CallOutcome::kDisconnected) break;
     } else {
       rtts_ms.push_back(rtt_ms);
       JsonObject o;

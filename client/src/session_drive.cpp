@@ -135,7 +135,7 @@ int Session::drive_keys(const Command& c) {
         if (!r.ok()) {
           note = response_text(c.name, r);
           v = {};
-          const bool hopeless = r.outcome != Outcome::kRefused ||
+          const bool hopeless = r.outcome != CallOutcome::kRefused ||
                                 r.error.code == ErrorCode::kNotSupported ||
                                 r.error.code == ErrorCode::kNotController;
           if (hopeless) {

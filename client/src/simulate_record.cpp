@@ -28,7 +28,7 @@ bool Rehearsal::expect_reply(const std::string& step, const Response& r) {
     return true;
   }
   add_row(step, r, std::nan(""), std::nan(""), response_text(step, r));
-  fail(response_text(step, r), r.outcome != Outcome::kRefused);
+  fail(response_text(step, r), r.outcome != CallOutcome::kRefused);
   return false;
 }
 
@@ -47,7 +47,7 @@ void Rehearsal::add_row(const std::string& step, const Response& r, double truth
                         const std::string& note) {
   std::string state;
   if (const auto* ack = r.get<protocol::Ack>()) state = protocol::to_string(ack->state);
-  if (r.outcome == Outcome::kRefused) state = "refused";
+  if (r.outcome == CallOutcome::kRefused) state = "refused";
   TraceRow row = row_now(step, state);
   row.true_value = truth;
   row.measured_value = measured;

@@ -28,13 +28,13 @@
 namespace ajar::conformance {
 
 using Clock = std::chrono::steady_clock;
+using client::CallOutcome;
 using client::Client;
 using client::ClientOptions;
 using client::framed;
 using client::json_number;
 using client::json_vec3;
 using client::Milliseconds;
-using client::Outcome;
 using client::Response;
 using protocol::MessageType;
 using protocol::ProcedureState;
@@ -77,7 +77,7 @@ inline std::string skip(const std::string& why) {
 }
 // The daemon does not do Drive/Approach yet (protocol 1.1 lets it refuse them NOT_SUPPORTED).
 inline std::string not_supported(const Response& r) {
-  if (r.outcome == Outcome::kRefused && r.error.code == ErrorCode::kNotSupported) {
+  if (r.outcome == CallOutcome::kRefused && r.error.code == ErrorCode::kNotSupported) {
     return skip("skipped: daemon refuses with NOT_SUPPORTED (" +
                 std::string(r.error.message.view()) + ")");
   }
@@ -112,11 +112,11 @@ inline protocol::MeasureDoorPlane door_plane(double yaw_rad, double distance_m =
 }
 
 inline std::string describe(const Response& r) {
-  if (r.outcome == Outcome::kRefused) {
+  if (r.outcome == CallOutcome::kRefused) {
     return std::string(ajar::to_string(r.error.code)) + " (field '" +
            std::string(r.error.field.view()) + "': " + std::string(r.error.message.view()) + ")";
   }
-  if (r.outcome != Outcome::kReply) {
+  if (r.outcome != CallOutcome::kReply) {
     return std::string(to_string(r.outcome)) + ": " + r.transport_error;
   }
   if (const auto* ack = r.get<protocol::Ack>()) {
@@ -136,7 +136,7 @@ inline std::string describe(const std::optional<protocol::Envelope>& e) {
 
 // "" when `r` is an Error with `code` (and `field`, unless null).
 inline std::string want_error(const Response& r, ErrorCode code, const char* field = nullptr) {
-  if (r.outcome != Outcome::kRefused) {
+  if (r.outcome != CallOutcome::kRefused) {
     return "expected Error " + std::string(ajar::to_string(code)) + ", got " + describe(r);
   }
   if (r.error.code != code) {
@@ -167,7 +167,7 @@ inline std::string want_error(const std::optional<protocol::Envelope>& e, ErrorC
 
 template <typename T>
 inline std::string want(const Response& r) {
-  if (r.outcome == Outcome::kReply && r.get<T>()) return {};
+  if (r.outcome == CallOutcome::kReply && r.get<T>()) return {};
   return "unexpected reply: " + describe(r);
 }
 

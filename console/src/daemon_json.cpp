@@ -49,7 +49,7 @@ JsonObject loop_json(const protocol::LoopStatistics& l) {
 
 JsonObject response_json(const client::Response& r) {
   JsonObject o;
-  if (r.outcome == client::Outcome::kReply) {
+  if (r.outcome == client::CallOutcome::kReply) {
     o.add("ok", true);
     if (const auto* ack = r.get<protocol::Ack>()) {
       o.add("state", protocol::to_string(ack->state));
@@ -64,7 +64,7 @@ JsonObject response_json(const client::Response& r) {
     return o;
   }
   o.add("ok", false);
-  if (r.outcome == client::Outcome::kRefused) {
+  if (r.outcome == client::CallOutcome::kRefused) {
     o.add("code", ajar::to_string(r.error.code));
     o.add("field", r.error.field.view());
     o.add("message", r.error.message.view());

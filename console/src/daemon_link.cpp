@@ -32,7 +32,7 @@ void ConsoleServer::Impl::connect_now() {
     return;
   }
   auto r = client.hello(role, take_over_next);
-  if (r.outcome == client::Outcome::kRefused && r.error.code == ErrorCode::kControllerBusy) {
+  if (r.outcome == client::CallOutcome::kRefused && r.error.code == ErrorCode::kControllerBusy) {
     // Someone else controls the robot: watch as an observer; the page offers take-over.
     client.close();
     if (!client.connect(options.daemon)) return;

@@ -294,9 +294,9 @@ void ConsoleServer::Impl::approach(const std::shared_ptr<WsSession>& s, const Pa
 }
 
 void ConsoleServer::Impl::log_response(const std::string& what, const client::Response& r) {
-  if (r.outcome == client::Outcome::kReply) {
+  if (r.outcome == client::CallOutcome::kReply) {
     add_log(what + ": accepted");
-  } else if (r.outcome == client::Outcome::kRefused) {
+  } else if (r.outcome == client::CallOutcome::kRefused) {
     add_log(what + ": refused " + std::string(ajar::to_string(r.error.code)) +
             (r.error.field.view().empty() ? "" : " (" + std::string(r.error.field.view()) + ")") +
             ": " + std::string(r.error.message.view()));

@@ -112,7 +112,7 @@ TEST(Client, NoReplyAfterAllRetriesIsATimeout) {
   Client c(fast_options());
   ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   const Response r = c.request(protocol::GetStatus{}, Milliseconds{100}, 1);
-  EXPECT_EQ(r.outcome, Outcome::kTimeout);
+  EXPECT_EQ(r.outcome, CallOutcome::kTimeout);
   EXPECT_EQ(r.attempts, 2);
   EXPECT_FALSE(r.transport_error.empty());
 }
@@ -126,7 +126,7 @@ TEST(Client, UnencodableRequestIsRefusedLocallyNotTimedOut) {
   protocol::MeasureDoorPlane plane;
   plane.count = 2;
   const Response r = c.request(plane, Milliseconds{100}, 1);
-  EXPECT_EQ(r.outcome, Outcome::kRefused);
+  EXPECT_EQ(r.outcome, CallOutcome::kRefused);
   EXPECT_EQ(r.error.code, ErrorCode::kBadCount);
   EXPECT_EQ(r.error.field.view(), "count");
   EXPECT_EQ(r.error.offending_type, MessageType::kMeasureDoorPlane);
@@ -150,7 +150,7 @@ TEST(Client, ErrorReplyIsARefusalWithItsCodeAndField) {
   Client c(fast_options());
   ASSERT_TRUE(c.connect(daemon.endpoint()).ok());
   const Response r = c.request(protocol::AlignBase{});
-  EXPECT_EQ(r.outcome, Outcome::kRefused);
+  EXPECT_EQ(r.outcome, CallOutcome::kRefused);
   EXPECT_EQ(r.error.code, ErrorCode::kNotController);
   EXPECT_EQ(r.error.field.view(), "role");
   EXPECT_FALSE(r.ok());
@@ -218,7 +218,7 @@ TEST(Client, ADroppedConnectionIsReportedAndReconnectKeepsTheInstance) {
   daemon.close_all();
   EXPECT_TRUE(c.wait_closed(Milliseconds{10000}));
   EXPECT_FALSE(c.connected());
-  EXPECT_EQ(c.request(protocol::Ping{}).outcome, Outcome::kDisconnected);
+  EXPECT_EQ(c.request(protocol::Ping{}).outcome, CallOutcome::kDisconnected);
   // The callback runs on the I/O thread right after the state changed: wait for it (bounded).
   for (int i = 0; i < 1000 && drops.load() == 0; ++i)
     std::this_thread::sleep_for(Milliseconds{10});
@@ -253,7 +253,7 @@ TEST(Client, ConnectionRefusedIsReported) {
   EXPECT_NE(connected.error().message.find("cannot connect to 127.0.0.1:"), std::string::npos)
       << connected.error().message;
   EXPECT_FALSE(c.connected());
-  EXPECT_EQ(c.request(protocol::Ping{}).outcome, Outcome::kDisconnected);
+  EXPECT_EQ(c.request(protocol::Ping{}).outcome, CallOutcome::kDisconnected);
 }
 
 TEST(Client, InstanceIdsAreRandomPerClientUnlessGiven) {

@@ -19,7 +19,7 @@ inline constexpr double kThird = 1.0 / 3.0;
 
 inline Response reply_with(protocol::Message message) {
   Response r;
-  r.outcome = Outcome::kReply;
+  r.outcome = CallOutcome::kReply;
   r.request_id = 4242;
   r.reply = std::move(message);
   return r;
@@ -182,18 +182,18 @@ inline std::vector<std::pair<std::string, JsonObject>> all() {
   add("other reply", response_object("stop", reply_with(protocol::Stop{})));
 
   Response refused;
-  refused.outcome = Outcome::kRefused;
+  refused.outcome = CallOutcome::kRefused;
   refused.request_id = 7;
   refused.error.code = ErrorCode::kPointsCollinear;
   refused.error.field = "points[2]";
   refused.error.message = "the points are \"in a row\"\\\n\t\x01 (\xc2\xb0)";
   add("refused", response_object("measure_plane", refused));
   Response timeout;
-  timeout.outcome = Outcome::kTimeout;
+  timeout.outcome = CallOutcome::kTimeout;
   timeout.transport_error = "no reply in 2.0 s";
   add("timeout", response_object("status", timeout));
   Response disconnected;
-  disconnected.outcome = Outcome::kDisconnected;
+  disconnected.outcome = CallOutcome::kDisconnected;
   disconnected.transport_error = "connection reset";
   add("disconnected", response_object("status", disconnected));
 

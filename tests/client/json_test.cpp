@@ -19,7 +19,7 @@ using protocol::ProcedureState;
 // Builds the reply in place (no copies of the big variants: GCC 12 under ASan warns about them).
 template <typename T>
 T& reply_as(Response& r) {
-  r.outcome = Outcome::kReply;
+  r.outcome = CallOutcome::kReply;
   r.request_id = 7;
   return r.reply.emplace<T>();
 }
@@ -130,7 +130,7 @@ TEST(Json, ContactAckCarriesContactBase) {
 
 TEST(Json, RefusalCarriesErrorCodeFieldMessage) {
   Response r;
-  r.outcome = Outcome::kRefused;
+  r.outcome = CallOutcome::kRefused;
   r.error.code = ErrorCode::kPointsCollinear;
   r.error.field = "points[2]";
   r.error.message = "the points are \"in a row\"";
@@ -145,11 +145,11 @@ TEST(Json, RefusalCarriesErrorCodeFieldMessage) {
 
 TEST(Json, TimeoutAndDisconnectAreErrorsWithClientCodes) {
   Response r;
-  r.outcome = Outcome::kTimeout;
+  r.outcome = CallOutcome::kTimeout;
   r.transport_error = "no reply";
   auto v = parse(response_object("status", r));
   EXPECT_EQ(v.at("error").at("code").get<std::string>(), "TIMEOUT");
-  r.outcome = Outcome::kDisconnected;
+  r.outcome = CallOutcome::kDisconnected;
   v = parse(response_object("status", r));
   EXPECT_EQ(v.at("error").at("code").get<std::string>(), "DISCONNECTED");
   EXPECT_EQ(v.at("error").at("field").get<std::string>(), "");

@@ -144,7 +144,7 @@ inline daemon::ServerOptions server_options(const Pki& pki) {
 }
 
 inline const protocol::ErrorReply* error_of(const client::Response& r) {
-  return r.outcome == client::Outcome::kRefused ? &r.error : nullptr;
+  return r.outcome == client::CallOutcome::kRefused ? &r.error : nullptr;
 }
 
 }  // namespace ajar::test

@@ -21,9 +21,9 @@
 namespace ajar::test {
 namespace {
 
+using client::CallOutcome;
 using client::Client;
 using client::ClientOptions;
-using client::Outcome;
 using protocol::MessageType;
 using protocol::Role;
 
@@ -79,7 +79,7 @@ TEST_P(TlsRefused, BeforeAnyFrameNothingMovesAndOthersAreUnaffected) {
     c.send_envelope(protocol::Envelope{1, 0, protocol::Stop{}});
     const auto hello = c.hello(Role::kController, true);
     EXPECT_FALSE(hello.ok());
-    EXPECT_EQ(hello.outcome, Outcome::kDisconnected) << hello.transport_error;
+    EXPECT_EQ(hello.outcome, CallOutcome::kDisconnected) << hello.transport_error;
   }
   EXPECT_TRUE(eventually([&] { return log_.contains("TLS handshake with 127.0.0.1:", r.logged); }))
       << "log:\n"

@@ -51,24 +51,24 @@ struct Endpoint {
 std::optional<Endpoint> parse_endpoint(std::string_view text);
 
 // What a call came back with.
-enum class Outcome {
+enum class CallOutcome {
   kReply,         // the daemon answered with the expected reply (Ack, Pong, Status, Welcome)
   kRefused,       // the daemon answered with an ErrorReply (see Response::error), or the
                   // request could not be encoded and was not sent (attempts 0; e.g. BAD_COUNT)
   kTimeout,       // no reply within the timeout (after all retries)
   kDisconnected,  // not connected, connection lost or refused
 };
-std::string_view to_string(Outcome outcome) noexcept;
+std::string_view to_string(CallOutcome outcome) noexcept;
 
 struct Response {
-  Outcome outcome = Outcome::kDisconnected;
+  CallOutcome outcome = CallOutcome::kDisconnected;
   protocol::Message reply;       // kReply / kRefused: the reply message as received
   protocol::ErrorReply error;    // kRefused: a copy of the ErrorReply
   std::string transport_error;   // kTimeout / kDisconnected: what happened, for people
   std::uint32_t request_id = 0;  // the id the request travelled with
   int attempts = 0;              // frames sent (1 + retries used)
   Milliseconds round_trip{0};    // send of the last attempt -> reply
-  bool ok() const { return outcome == Outcome::kReply; }
+  bool ok() const { return outcome == CallOutcome::kReply; }
   template <typename T>
   const T* get() const {
     return std::get_if<T>(&reply);
@@ -111,8 +111,8 @@ class Client {
   // refused before anything was sent) or "endpoint" (resolving, connecting, the TLS handshake, the
   // timeout). Its code is always ErrorCode::kDriverError: the wire's codes name no transport
   // failure.
-  Result<Ok> connect(const Endpoint& endpoint);
-  Result<Ok> connect(const Endpoint& endpoint, Milliseconds timeout);
+  Outcome connect(const Endpoint& endpoint);
+  Outcome connect(const Endpoint& endpoint, Milliseconds timeout);
   void close();
   bool connected() const;
 
