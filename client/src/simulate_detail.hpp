@@ -1,7 +1,8 @@
 // ajarctl simulate's pieces (private to ajar_ctl): the rehearsal against a live ajard, its result
 // and trace rows, and the report writers. simulate.hpp is the public face (Scenario, SimWorld,
 // run_simulate); simulate_scenario.cpp loads scenarios, simulate_world.cpp is the world and the
-// sensor, simulate_rehearsal.cpp runs the procedure, simulate.cpp reports and runs seeds.
+// sensor, simulate_rehearsal.hpp the rehearsal (the procedure, following the base, the record),
+// simulate.cpp reports and runs seeds.
 #pragma once
 
 #include <cmath>

@@ -1,4 +1,7 @@
-// ajarctl's argument parsing: global options, every command, and usage errors (exit code 2).
+// ajarctl's argument parsing (CLI11): global options, every command, and usage errors (exit code 2)
+// that name the option and the value that was wrong.
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -174,6 +177,123 @@ TEST(Commands, DurationsAndRatesAreBounded) {
   EXPECT_TRUE(parse({"watch", "--duration", "86400", "--rate", "1000"}).command);
   EXPECT_TRUE(parse({"align", "--wait-timeout", "3600"}).command);
   EXPECT_TRUE(parse({"sleep", "600"}).command);
+}
+
+// Every option takes its value as the next word or after '='; given twice, the last one counts.
+TEST(GlobalOptions, ValueAfterEqualsAndTheLastOneCounts) {
+  const auto args = words({"--connect=robot:1", "--timeout=1.5", "--connect", "other:2",
+                           "--retries", "2", "--retries=4", "ping", "-n", "2", "-n", "3"});
+  const ParsedArgs p = parse_global_options(args);
+  ASSERT_TRUE(p.error.empty()) << p.error;
+  EXPECT_EQ(p.options.endpoint.host, "other");
+  EXPECT_EQ(p.options.endpoint.port, 2);
+  EXPECT_DOUBLE_EQ(p.options.timeout_s, 1.5);
+  EXPECT_EQ(p.options.retries, 4);
+  const auto ping = parse_command(p.command, p.options.frame);
+  ASSERT_TRUE(ping.command) << ping.error;
+  EXPECT_EQ(ping.command->count, 3);
+}
+
+// A usage error names the option and the value that was wrong.
+TEST(GlobalOptions, EachMistakeNamesTheOptionAndItsValue) {
+  const std::pair<std::vector<std::string>, std::vector<std::string>> cases[] = {
+      {words({"--frame", "world", "status"}), {"--frame", "camera or base", "'world'"}},
+      {words({"--connect", "nohostport"}), {"--connect", "HOST:PORT", "'nohostport'"}},
+      {words({"--connect", "robot:0"}), {"--connect", "'robot:0'"}},
+      {words({"--connect"}), {"--connect"}},
+      {words({"--timeout", "0"}), {"--timeout", "(0, 3600]", "'0'"}},
+      {words({"--timeout", "3601"}), {"--timeout", "'3601'"}},
+      {words({"--timeout", "x"}), {"--timeout", "'x'"}},
+      {words({"--retries", "-1"}), {"--retries", "0..100", "'-1'"}},
+      {words({"--retries", "101"}), {"--retries", "'101'"}},
+      {words({"--retries", "1.5"}), {"--retries", "'1.5'"}},
+      {words({"--ca", ""}), {"--ca", "a value"}},
+      {words({"--bogus", "status"}), {"unknown option '--bogus'"}},
+      {words({"--json", "--tiemout=3", "status"}), {"unknown option '--tiemout=3'", "'--timeout'"}},
+      {words({"--client-config", "/nonexistent/ajarctl.yaml"}), {"/nonexistent/ajarctl.yaml"}},
+  };
+  for (const auto& [args, wanted] : cases) {
+    const ParsedArgs p = parse_global_options(args);
+    for (const auto& w : wanted) {
+      EXPECT_NE(p.error.find(w), std::string::npos) << args[0] << ": '" << p.error << "'";
+    }
+  }
+}
+
+// --client-config and the options it sets apply in command-line order.
+TEST(GlobalOptions, ClientConfigAndOptionsInCommandLineOrder) {
+  const std::string path = ::testing::TempDir() + "ajarctl_client_config_test.yaml";
+  {
+    std::ofstream f(path);
+    f << "connect: robot.site:7451\ntls:\n  ca: ca.crt\n";
+  }
+  const auto later = parse_global_options(words(
+      {"--client-config", path.c_str(), "--connect", "other:2", "--ca", "/etc/ca.crt", "status"}));
+  ASSERT_TRUE(later.error.empty()) << later.error;
+  EXPECT_EQ(later.options.endpoint.host, "other");
+  EXPECT_EQ(later.options.tls.ca, "/etc/ca.crt");
+  const auto earlier = parse_global_options(
+      words({"--connect", "other:2", "--client-config", path.c_str(), "status"}));
+  ASSERT_TRUE(earlier.error.empty()) << earlier.error;
+  EXPECT_EQ(earlier.options.endpoint.host, "robot.site");
+  EXPECT_EQ(earlier.options.endpoint.port, 7451);
+  EXPECT_EQ(earlier.options.tls.ca,
+            (std::filesystem::path(path).parent_path() / "ca.crt").string());
+  std::filesystem::remove(path);
+}
+
+TEST(Commands, EachMistakeNamesTheCommandTheOptionAndItsValue) {
+  const std::pair<std::vector<std::string>, std::vector<std::string>> cases[] = {
+      {words({"ping", "-n", "0"}), {"ping: ", "-n", "1..1000000", "'0'", "usage: ping"}},
+      {words({"ping", "-n", "010x"}), {"-n", "'010x'"}},
+      {words({"ping", "-n"}), {"ping: ", "-n"}},
+      {words({"ping", "-i", "1e15"}), {"-i", "'1e15'"}},
+      {words({"ping", "-x", "1"}), {"ping: ", "-x"}},
+      {words({"watch", "--rate", "-1"}), {"watch: ", "--rate", "'-1'"}},
+      {words({"watch", "--duration", "1e12"}), {"--duration", "'1e12'"}},
+      {words({"align", "--wait-timeout", "0"}), {"align: ", "--wait-timeout", "'0'"}},
+      {words({"align", "--later"}), {"align: ", "--later"}},
+      {words({"engage", "now"}), {"engage: ", "now"}},
+      {words({"drive", "--linear", "nan", "--for", "1"}), {"drive: ", "--linear", "'nan'"}},
+      {words({"drive", "--for", "0", "--linear", "1"}), {"--for", "'0'"}},
+      {words({"drive", "--linear", "0.1"}), {"--for"}},
+      {words({"reset", "--all"}), {"reset: ", "--all"}},
+      {words({"status", "now"}), {"status: ", "now"}},
+      {words({"stop", "--now"}), {"stop: ", "--now"}},
+      {words({"measure", "width", "1", "2", "3", "4", "5", "x"}), {"measure width", "'x'"}},
+      {words({"contact", "1", "2", "3", "--frame", "world"}), {"contact: ", "--frame", "'world'"}},
+      {words({"approach", "0.5", "--soon"}), {"approach: ", "--soon"}},
+      {words({"sleep", "-1"}), {"sleep wants SECONDS"}},
+  };
+  for (const auto& [args, wanted] : cases) {
+    const auto p = parse_command(args, core::Frame::kCamera);
+    EXPECT_FALSE(p.command) << args[0];
+    for (const auto& w : wanted) {
+      EXPECT_NE(p.error.find(w), std::string::npos) << args[0] << ": '" << p.error << "'";
+    }
+  }
+}
+
+TEST(Commands, NegativeNumbersAreValuesNotOptions) {
+  const auto contact = parse({"contact", "-0.5", "-1", "-2e-1", "--frame", "base"});
+  ASSERT_TRUE(contact.command) << contact.error;
+  const auto& point = std::get<protocol::SetContactPoint>(contact.command->request).contact;
+  EXPECT_EQ(point.position_m, core::Vec3(-0.5, -1, -0.2));
+  EXPECT_EQ(point.frame, core::Frame::kBase);
+  const auto drive = parse({"drive", "--angular", "-0.3", "--linear=-0.1", "--for", "2"});
+  ASSERT_TRUE(drive.command) << drive.error;
+  EXPECT_EQ(drive.command->angular_rad_s, -0.3);
+  EXPECT_EQ(drive.command->linear_m_s, -0.1);
+  const auto zero = parse({"drive", "--linear", "0", "--for", "1"});
+  ASSERT_TRUE(zero.command) << "a zero velocity is still a velocity: " << zero.error;
+}
+
+TEST(Commands, TheFrameOfOneCommandIsItsOwn) {
+  const auto p = parse({"measure", "--frame", "base", "width", "1", "0", "0", "1", "0.5", "0"});
+  ASSERT_TRUE(p.command) << p.error;
+  EXPECT_EQ(std::get<protocol::MeasureDoorWidth>(p.command->request).p1_hinge.frame,
+            core::Frame::kBase);
+  EXPECT_FALSE(parse({"status", "--frame", "base"}).command) << "no points: no --frame";
 }
 
 TEST(Script, SplitsWordsAndDropsComments) {

@@ -1,5 +1,6 @@
-// The control loop driven cycle by cycle with a fake clock (no thread, no timing), plus a few
-// checks of the real thread that wait on conditions.
+// The control loop driven cycle by cycle with a fake clock (no thread, no timing) over the
+// deterministic mock card behind the lifecycle wrapper, plus a few checks of the real thread (over
+// the mock card on the steady clock) that wait on conditions.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -8,13 +9,12 @@
 #include "ajar/core/geometry.hpp"
 #include "ajar/daemon/control_loop.hpp"
 #include "ajar/daemon/realtime.hpp"
-#include "fake_motion_card.hpp"
+#include "det_mock_card.hpp"
 
 namespace ajar::daemon {
 namespace {
 
-using ajar::testing::FakeCardControl;
-using ajar::testing::FakeMotionCard;
+using drivers::CardCall;
 
 constexpr std::int64_t kMs = 1'000'000;
 
@@ -26,11 +26,15 @@ class ControlLoopTest : public ::testing::Test {
     settings.motion_timeout_margin_s = 2.0;
     make_loop();
   }
-  void make_loop() {
+  // A loop over a new card: on the test's clock, or (real_clock) a plain mock on the steady clock.
+  void make_loop(bool real_clock = false) {
     loop.reset();
+    managed.reset();
     const int axes[2] = {settings.base.left.card_axis, settings.base.right.card_axis};
-    managed =
-        std::make_unique<drivers::ManagedMotionCard>(std::make_unique<FakeMotionCard>(card), axes);
+    auto mock =
+        real_clock ? std::make_unique<drivers::MockMotionCard>() : testing::make_det_card(now);
+    card = mock.get();
+    managed = std::make_unique<drivers::ManagedMotionCard>(std::move(mock), axes);
     ASSERT_TRUE(managed->configure().ok());
     ASSERT_TRUE(managed->activate().ok());
     loop = std::make_unique<ControlLoop>(*managed, settings);
@@ -59,7 +63,7 @@ class ControlLoopTest : public ::testing::Test {
   }
 
   ControlLoopSettings settings;
-  std::shared_ptr<FakeCardControl> card = std::make_shared<FakeCardControl>();
+  drivers::MockMotionCard* card = nullptr;  // managed's
   std::unique_ptr<drivers::ManagedMotionCard> managed;
   std::unique_ptr<ControlLoop> loop;
   std::int64_t now = 1'000 * kMs;
@@ -87,9 +91,12 @@ TEST_F(ControlLoopTest, RunsAMoveToCompletion) {
   ASSERT_EQ(rs.size(), 1U);
   EXPECT_EQ(rs[0].kind, LoopReportKind::kMotionFinished);
   EXPECT_EQ(rs[0].motion_id, 7U);
-  EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.move_calls; }), 1);
-  const auto moves = card->with_lock([](FakeCardControl& c) { return c.last_moves; });
-  const auto profile = card->with_lock([](FakeCardControl& c) { return c.last_profile; });
+  EXPECT_EQ(card->calls(CardCall::kMoveRelative), 1U);
+  const auto log = card->log_from(0);
+  ASSERT_FALSE(log.empty());
+  ASSERT_EQ(log.back().kind, CardCall::kMoveRelative);
+  const auto moves = log.back().moves;
+  const auto profile = log.back().profile;
   ASSERT_EQ(moves.size(), 2U);
   EXPECT_EQ(moves[0].axis, settings.base.left.card_axis);
   EXPECT_EQ(moves[0].distance_counts, 1200);
@@ -106,7 +113,7 @@ TEST_F(ControlLoopTest, RunsAMoveToCompletion) {
 
 TEST_F(ControlLoopTest, PublishesOdometryFromEncoderCounts) {
   ASSERT_TRUE(loop->post_move({1, -5000, -5000}));  // polarity: right is -1, so both roll...
-  run(30);
+  run(40);                                          // 63 ms at the wheels' top speed
   const LoopSnapshot s = loop->snapshot();
   const double left = core::counts_to_wheel_rad(-5000, settings.base.left, settings.base);
   const double right = core::counts_to_wheel_rad(-5000, settings.base.right, settings.base);
@@ -130,11 +137,10 @@ TEST_F(ControlLoopTest, CommandQueueIsBoundedAndSaysWhenFull) {
 }
 
 TEST_F(ControlLoopTest, AxisAlarmDuringMotionStopsAndLatches) {
-  card->hold_motion = true;
+  card->stick_next_move();
   ASSERT_TRUE(loop->post_move({1, 50000, -50000}));
   run(3);
-  card->with_lock(
-      [&](FakeCardControl& c) { return c.alarm_axes.insert(settings.base.right.card_axis); });
+  card->inject_alarm(settings.base.right.card_axis);
   run(5);
   auto rs = reports();
   ASSERT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kAxisAlarm));
@@ -143,16 +149,15 @@ TEST_F(ControlLoopTest, AxisAlarmDuringMotionStopsAndLatches) {
       EXPECT_EQ(r.axis, settings.base.right.card_axis);
     }
   }
-  EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.smooth_stops; }), 1);
+  EXPECT_GE(card->calls(CardCall::kSmoothStop), 1U);
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kAxisAlarm);
 
   // No move starts with the fault latched.
-  card->hold_motion = false;
   ASSERT_TRUE(loop->post_move({2, 10, 10}));
   run(1);
   rs = reports();
   EXPECT_TRUE(has(rs, LoopReportKind::kMoveRefused, ErrorCode::kFaultLatched));
-  EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.move_calls; }), 1);
+  EXPECT_EQ(card->calls(CardCall::kMoveRelative), 1U);
 
   // Recover clears the card and the latch (a few cycles: clear, enable, servo on); the next move
   // runs.
@@ -166,7 +171,7 @@ TEST_F(ControlLoopTest, AxisAlarmDuringMotionStopsAndLatches) {
 }
 
 TEST_F(ControlLoopTest, MotionDeadlineStopsAndLatchesTimeout) {
-  card->hold_motion = true;
+  card->stick_next_move();
   ASSERT_TRUE(loop->post_move({1, 1000, -1000}));
   run(1);
   const auto profile = wheel_profile(settings.base);
@@ -182,7 +187,7 @@ TEST_F(ControlLoopTest, MotionDeadlineStopsAndLatchesTimeout) {
 }
 
 TEST_F(ControlLoopTest, DeadmanStopsASilentControllersMotion) {
-  card->hold_motion = true;
+  card->stick_next_move();
   loop->heartbeat(now);
   ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
   const int silent_cycles = static_cast<int>(settings.deadman_timeout_s / 0.002);
@@ -192,7 +197,7 @@ TEST_F(ControlLoopTest, DeadmanStopsASilentControllersMotion) {
   const auto rs = reports();
   EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kDeadman));
   EXPECT_TRUE(has(rs, LoopReportKind::kMotionStopped, ErrorCode::kDeadman));
-  EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.smooth_stops; }), 1);
+  EXPECT_GE(card->calls(CardCall::kSmoothStop), 1U);
 }
 
 TEST_F(ControlLoopTest, FreshHeartbeatsKeepTheMotionGoing) {
@@ -218,13 +223,13 @@ TEST_F(ControlLoopTest, IdleWithoutHeartbeatIsNotAFault) {
 }
 
 TEST_F(ControlLoopTest, EmergencyStopReachesTheCardInTheNextCycle) {
-  card->hold_motion = true;
+  card->stick_next_move();
   ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
   run(2);
   loop->request_emergency_stop();
-  EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }), 0);
+  EXPECT_EQ(card->calls(CardCall::kEmergencyStop), 0U);
   run(1);
-  EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }), 1);
+  EXPECT_EQ(card->calls(CardCall::kEmergencyStop), 1U);
   run(2);
   const auto rs = reports();
   EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kEmergencyStopped));
@@ -235,12 +240,12 @@ TEST_F(ControlLoopTest, EmergencyStopReachesTheCardInTheNextCycle) {
 TEST_F(ControlLoopTest, EmergencyStopWhileIdleStillLatches) {
   loop->request_emergency_stop();
   run(1);
-  EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }), 1);
+  EXPECT_EQ(card->calls(CardCall::kEmergencyStop), 1U);
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kEmergencyStopped);
 }
 
 TEST_F(ControlLoopTest, StopEndsMotionSmoothlyWithoutFault) {
-  card->hold_motion = true;
+  card->stick_next_move();
   ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
   run(2);
   loop->request_stop();
@@ -250,15 +255,12 @@ TEST_F(ControlLoopTest, StopEndsMotionSmoothlyWithoutFault) {
   EXPECT_FALSE(has(rs, LoopReportKind::kFault, ErrorCode::kOk));
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kOk);
   EXPECT_FALSE(loop->snapshot().motion_active);
-  card->with_lock([](FakeCardControl& c) {
-    EXPECT_GE(c.smooth_stops, 1);
-    EXPECT_EQ(c.emergency_stops, 0);
-    return 0;
-  });
+  EXPECT_GE(card->calls(CardCall::kSmoothStop), 1U);
+  EXPECT_EQ(card->calls(CardCall::kEmergencyStop), 0U);
 }
 
 TEST_F(ControlLoopTest, FaultStopLatchesTheGivenCode) {
-  card->hold_motion = true;
+  card->stick_next_move();
   ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
   run(2);
   loop->request_fault_stop(ErrorCode::kDeadman);
@@ -269,8 +271,8 @@ TEST_F(ControlLoopTest, FaultStopLatchesTheGivenCode) {
 }
 
 TEST_F(ControlLoopTest, AStopThatNeverEndsBecomesAnEmergencyStop) {
-  card->hold_motion = true;
-  card->hold_stop = true;
+  card->stick_next_move();
+  card->set_stops_never_rest(true);
   ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
   run(2);
   loop->request_stop();
@@ -278,11 +280,11 @@ TEST_F(ControlLoopTest, AStopThatNeverEndsBecomesAnEmergencyStop) {
   const auto rs = reports();
   EXPECT_TRUE(has(rs, LoopReportKind::kMotionStopped, ErrorCode::kMotionTimeout));
   EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kMotionTimeout));
-  EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }), 1);
+  EXPECT_GE(card->calls(CardCall::kEmergencyStop), 1U);
 }
 
 TEST_F(ControlLoopTest, CardRefusingTheMoveLatchesAndReports) {
-  card->fail_move = true;
+  card->refuse_next_move(ErrorCode::kCardBadParameter);
   ASSERT_TRUE(loop->post_move({4, 10, 10}));
   run(1);
   const auto rs = reports();
@@ -293,7 +295,7 @@ TEST_F(ControlLoopTest, CardRefusingTheMoveLatchesAndReports) {
 TEST_F(ControlLoopTest, ThreadRunsAndHealthFollowsTheLoop) {
   settings.realtime = true;  // refused without privileges: a warning, and it still runs
   settings.lock_memory = true;
-  make_loop();
+  make_loop(/*real_clock=*/true);
   EXPECT_FALSE(loop->healthy(monotonic_now_ns()));
   const auto warnings = loop->start_thread();
   for (const auto& w : warnings) {

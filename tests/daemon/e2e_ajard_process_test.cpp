@@ -6,8 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "ajard_process.hpp"
-#include "test_client_e2e.hpp"
-#include "test_client_harness.hpp"
+#include "e2e_fixture.hpp"
 
 namespace ajar::test {
 namespace {
@@ -15,18 +14,9 @@ namespace {
 using protocol::ProcedureState;
 using protocol::Role;
 
-class AjardBinary : public ::testing::Test {
+class AjardBinary : public EndToEndOnMock {
  protected:
-  // A config file for the subprocess: config/ajard.yaml on mock drivers, logging to stderr.
-  std::string write_config(const std::string& name = "ajard.yaml") {
-    daemon::Config c = e2e_config(drivers::DriverKind::kMock, dir_.path(), 20.0);
-    const std::string path = dir_.path() + "/" + name;
-    std::ofstream(path) << daemon::to_yaml(c);
-    return path;
-  }
   std::string path(const std::string& name) const { return dir_.path() + "/" + name; }
-
-  TempDir dir_;
 };
 
 TEST_F(AjardBinary, HelpDescribesEveryOptionAndVersionPrintsTheVersion) {
@@ -47,15 +37,15 @@ TEST_F(AjardBinary, UsageErrorsExitTwo) {
   AjardProcess unknown({"--frobnicate"}, dir_.path(), "unknown");
   EXPECT_EQ(unknown.wait_exit(), 2);
   EXPECT_NE(unknown.err().find("--frobnicate"), std::string::npos);
-  AjardProcess bad_listen({"--config", write_config(), "--listen", "localhost"}, dir_.path(),
+  AjardProcess bad_listen({"--config", write_config(20.0), "--listen", "localhost"}, dir_.path(),
                           "listen");
   EXPECT_EQ(bad_listen.wait_exit(), 2);
   EXPECT_NE(bad_listen.err().find("--listen"), std::string::npos);
 }
 
 TEST_F(AjardBinary, CheckConfigPrintsTheEffectiveConfig) {
-  AjardProcess check({"--check-config", write_config(), "--listen", "127.0.0.1:9999"}, dir_.path(),
-                     "check");
+  AjardProcess check({"--check-config", write_config(20.0), "--listen", "127.0.0.1:9999"},
+                     dir_.path(), "check");
   ASSERT_EQ(check.wait_exit(), 0) << check.err();
   EXPECT_NE(check.out().find("network"), std::string::npos);
   EXPECT_NE(check.out().find("9999"), std::string::npos);  // overrides are applied
@@ -79,8 +69,8 @@ TEST_F(AjardBinary, AStartUpFailureExitsOneNamingWhatFailed) {
   boost::asio::io_context io;
   boost::asio::ip::tcp::acceptor taken(io, {boost::asio::ip::make_address("127.0.0.1"), 0});
   const auto port = taken.local_endpoint().port();
-  AjardProcess busy({"--config", write_config(), "--listen", "127.0.0.1:" + std::to_string(port),
-                     "--state-dir", path("state")},
+  AjardProcess busy({"--config", write_config(20.0), "--listen",
+                     "127.0.0.1:" + std::to_string(port), "--state-dir", path("state")},
                     dir_.path(), "busy");
   EXPECT_EQ(busy.wait_exit(), 1);
   EXPECT_NE(busy.err().find("cannot listen on 127.0.0.1:" + std::to_string(port)),
@@ -89,7 +79,7 @@ TEST_F(AjardBinary, AStartUpFailureExitsOneNamingWhatFailed) {
 }
 
 TEST_F(AjardBinary, ServesPersistsOnSigtermAndRestoresAfterARestart) {
-  const std::string config = write_config();
+  const std::string config = write_config(20.0);
   const std::vector<std::string> args{"--config",    config,       "--listen",    "127.0.0.1:0",
                                       "--port-file", path("port"), "--state-dir", path("state")};
   {
@@ -121,7 +111,7 @@ TEST_F(AjardBinary, ServesPersistsOnSigtermAndRestoresAfterARestart) {
 }
 
 TEST_F(AjardBinary, SighupReloadsTheLoggingLevelAndKeepsServing) {
-  const std::string config = write_config();
+  const std::string config = write_config(20.0);
   AjardProcess ajard({"--config", config, "--listen", "127.0.0.1:0", "--port-file", path("port"),
                       "--state-dir", path("state")},
                      dir_.path(), "hup");

@@ -6,9 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "ajar/daemon/engine.hpp"
-#include "test_client_e2e.hpp"
-#include "test_client_harness.hpp"
+#include "e2e_fixture.hpp"
 
 namespace ajar::test {
 namespace {
@@ -18,30 +16,10 @@ using protocol::MessageType;
 using protocol::ProcedureState;
 using protocol::Role;
 
-class Daemon {
- public:
-  explicit Daemon(const daemon::Config& config) : engine_(daemon::make_engine(config)) {
-    server_ = std::make_unique<ServerThread>(*engine_, daemon::ServerOptions::from(config.network));
-  }
-  ~Daemon() { stop(); }
-  void stop() { server_.reset(); }  // stops the server, shuts the engine down (persists)
-  std::uint16_t port() const { return server_->port(); }
-
- private:
-  std::unique_ptr<daemon::Engine> engine_;
-  std::unique_ptr<ServerThread> server_;
-};
-
-class EndToEnd : public ::testing::TestWithParam<drivers::DriverKind> {
- protected:
-  daemon::Config config(double speedup = 10.0) {
-    return e2e_config(GetParam(), dir_.path(), speedup);
-  }
-  TempDir dir_;
-};
+class EndToEnd : public EndToEndTest {};
 
 TEST_P(EndToEnd, TheWholeProcedureWithAnObserverWatching) {
-  Daemon d(config());
+  InProcessDaemon d(config());
   TestClient observer(d.port());
   observer.hello(Role::kObserver);
   ASSERT_TRUE(std::holds_alternative<protocol::Ack>(observer.request(protocol::Subscribe{50})));
@@ -63,7 +41,7 @@ TEST_P(EndToEnd, TheWholeProcedureWithAnObserverWatching) {
 }
 
 TEST_P(EndToEnd, ControllerKilledMidAlignmentStopsTheMotionAndLatchesAFault) {
-  Daemon d(config(1.0));
+  InProcessDaemon d(config(1.0));
   TestClient observer(d.port());
   observer.hello(Role::kObserver);
   observer.request_as<protocol::Ack>(protocol::Subscribe{100});
@@ -96,7 +74,7 @@ TEST_P(EndToEnd, ControllerKilledMidAlignmentStopsTheMotionAndLatchesAFault) {
 }
 
 TEST_P(EndToEnd, EmergencyStopFromAnObserverLatchesUntilReset) {
-  Daemon d(config(1.0));
+  InProcessDaemon d(config(1.0));
   TestClient controller(d.port());
   controller.hello(Role::kController);
   TestClient observer(d.port());
@@ -116,7 +94,7 @@ TEST_P(EndToEnd, EmergencyStopFromAnObserverLatchesUntilReset) {
 }
 
 TEST_P(EndToEnd, ADuplicatedRequestExecutesOnceAlsoAcrossAReconnect) {
-  Daemon d(config());
+  InProcessDaemon d(config());
   constexpr std::uint64_t kInstance = 0xA11CE;
   protocol::Ack first;
   {
@@ -149,12 +127,12 @@ TEST_P(EndToEnd, ADuplicatedRequestExecutesOnceAlsoAcrossAReconnect) {
 
 TEST_P(EndToEnd, RestartRestoresTheParametersAndNothingMoves) {
   {
-    Daemon d(config());
+    InProcessDaemon d(config());
     TestClient controller(d.port());
     controller.hello(Role::kController);
     measure_door(controller);
   }  // shutdown persists
-  Daemon again(config());
+  InProcessDaemon again(config());
   TestClient observer(again.port());
   observer.hello(Role::kObserver);
   const auto status = observer.request_as<protocol::Status>(protocol::GetStatus{});
@@ -169,23 +147,13 @@ TEST_P(EndToEnd, RestartRestoresTheParametersAndNothingMoves) {
   EXPECT_FALSE(observer.last_telemetry()->moving);
 }
 
-std::string driver_name(const ::testing::TestParamInfo<drivers::DriverKind>& p) {
-  return kind_name(p.param);
-}
-
-INSTANTIATE_TEST_SUITE_P(Drivers, EndToEnd,
-                         ::testing::Values(drivers::DriverKind::kMock, drivers::DriverKind::kSim),
-                         driver_name);
+INSTANTIATE_TEST_SUITE_P(Drivers, EndToEnd, kE2eDriverKinds, driver_name);
 
 // The rest on mock drivers (the network side does not depend on the driver kind).
-class EndToEndMock : public ::testing::Test {
- protected:
-  daemon::Config config() { return e2e_config(drivers::DriverKind::kMock, dir_.path(), 20.0); }
-  TempDir dir_;
-};
+class EndToEndMock : public EndToEndOnMock {};
 
 TEST_F(EndToEndMock, EveryErrorPathAnswersWithCodeAndFieldAndNothingMoves) {
-  Daemon d(config());
+  InProcessDaemon d(config(20.0));
   TestClient observer(d.port());
   EXPECT_EQ(error_code_of(observer.request(protocol::GetStatus{})), ErrorCode::kHelloRequired);
   observer.hello(Role::kObserver);
@@ -236,9 +204,9 @@ TEST_F(EndToEndMock, EveryErrorPathAnswersWithCodeAndFieldAndNothingMoves) {
 }
 
 TEST_F(EndToEndMock, TwoHundredFiftySixObserversWhileAControllerCompletesTheProcedure) {
-  auto c = config();
+  auto c = config(20.0);
   c.network.max_clients = 300;
-  Daemon d(c);
+  InProcessDaemon d(c);
   std::vector<std::unique_ptr<TestClient>> observers;
   for (int i = 0; i < 256; ++i) {
     observers.push_back(std::make_unique<TestClient>(d.port()));
@@ -255,9 +223,9 @@ TEST_F(EndToEndMock, TwoHundredFiftySixObserversWhileAControllerCompletesTheProc
 }
 
 TEST_F(EndToEndMock, MalformedFramesAndASlowReaderLeaveTheControllerUntouched) {
-  auto c = config();
+  auto c = config(20.0);
   c.network.send_queue_frames = 16;
-  Daemon d(c);
+  InProcessDaemon d(c);
   TestClient controller(d.port());
   controller.hello(Role::kController);
   measure_door(controller);

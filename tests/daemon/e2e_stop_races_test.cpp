@@ -11,13 +11,11 @@
 #include <fstream>
 #include <memory>
 
-#include <boost/crc.hpp>
 #include <gtest/gtest.h>
 
-#include "ajar/daemon/engine.hpp"
 #include "ajard_process.hpp"
-#include "test_client_e2e.hpp"
-#include "test_client_harness.hpp"
+#include "e2e_fixture.hpp"
+#include "state_file_checksum.hpp"
 
 namespace ajar::test {
 namespace {
@@ -26,21 +24,7 @@ using protocol::EventKind;
 using protocol::MessageType;
 using protocol::ProcedureState;
 using protocol::Role;
-
-class InProcess {
- public:
-  explicit InProcess(const daemon::Config& config) : engine_(daemon::make_engine(config)) {
-    server_ = std::make_unique<ServerThread>(*engine_, daemon::ServerOptions::from(config.network));
-  }
-  ~InProcess() { server_.reset(); }
-  std::uint16_t port() const { return server_->port(); }
-  daemon::Engine& engine() { return *engine_; }
-  std::size_t session_count() { return server_->session_count(); }
-
- private:
-  std::unique_ptr<daemon::Engine> engine_;
-  std::unique_ptr<ServerThread> server_;
-};
+using ajar::testing::with_checksum;
 
 // Several requests as ONE write (one TCP segment on loopback).
 std::vector<std::uint8_t> one_write(
@@ -111,40 +95,39 @@ void ready_to_align(TestClient& controller) {
   ASSERT_EQ(ack_state(controller.request(plane_at_yaw(0.6))), ProcedureState::kReadyToAlign);
 }
 
-class StopRaces : public ::testing::Test {
- protected:
-  daemon::Config config(double speedup = 1.0) {
-    return e2e_config(drivers::DriverKind::kMock, dir_.path(), speedup);
+// The daemon on mock drivers at real speed (speedup 1), an observer watching telemetry at the loop
+// rate and a greeted controller.
+struct Watched {
+  explicit Watched(const daemon::Config& config)
+      : daemon(config), watcher(daemon.port()), controller(daemon.port()) {
+    watcher.hello(Role::kObserver);
+    watcher.request_as<protocol::Ack>(protocol::Subscribe{1000});
+    controller.hello(Role::kController);
   }
-  // An observer watching telemetry at the loop rate.
-  std::unique_ptr<TestClient> watcher(std::uint16_t port) {
-    auto w = std::make_unique<TestClient>(port);
-    w->hello(Role::kObserver);
-    w->request_as<protocol::Ack>(protocol::Subscribe{1000});
-    return w;
-  }
-  TempDir dir_;
+  InProcessDaemon daemon;
+  TestClient watcher;
+  TestClient controller;
 };
+
+class StopRaces : public EndToEndOnMock {};
 
 // The bug that opened issue 10: AlignBase and Stop in one write. The Stop is acknowledged, so the
 // queued move must never start.
 TEST_F(StopRaces, AlignBaseAndStopInOneWriteTurnsNothing) {
-  InProcess d(config());
-  auto w = watcher(d.port());
-  TestClient controller(d.port());
-  controller.hello(Role::kController);
+  Watched robot(config(1.0));
+  auto& [d, w, controller] = robot;
   for (std::uint32_t round = 0; round < 10;
        ++round) {  // the race has several outcomes: try it repeatedly
     SCOPED_TRACE("round " + std::to_string(round));
     ready_to_align(controller);
-    const WheelCounts before = wait_at_rest(*w);
+    const WheelCounts before = wait_at_rest(w);
     controller.send_raw(one_write(
         {{protocol::AlignBase{}, 100u + 2 * round}, {protocol::Stop{}, 101u + 2 * round}}));
     const auto align = controller.reply_to(100 + 2 * round);
     const auto stop = controller.reply_to(101 + 2 * round);
     ASSERT_TRUE(std::holds_alternative<protocol::Ack>(stop)) << TestClient::describe(stop);
     (void)align;  // accepted then cancelled, or refused: either way nothing may turn
-    ASSERT_TRUE(wheels_stay_put(*w, before));
+    ASSERT_TRUE(wheels_stay_put(w, before));
     ASSERT_NE(status_of(controller).state, ProcedureState::kAligning);
   }
 }
@@ -152,12 +135,10 @@ TEST_F(StopRaces, AlignBaseAndStopInOneWriteTurnsNothing) {
 // A table full of sockets that never said Hello: a new connection's Hello + EmergencyStop (one
 // write) is executed: the fault latches and the wheels stop.
 TEST_F(StopRaces, AFullTableOfSilentSocketsCannotLockOutAnEmergencyStop) {
-  auto c = config();
+  auto c = config(1.0);
   c.network.max_clients = 24;
-  InProcess d(c);
-  auto w = watcher(d.port());
-  TestClient controller(d.port());
-  controller.hello(Role::kController);
+  Watched robot(c);
+  auto& [d, w, controller] = robot;
   measure_door(controller, 0.6);
   ASSERT_EQ(ack_state(controller.request(protocol::AlignBase{})), ProcedureState::kAligning);
   std::vector<std::unique_ptr<TestClient>> silent;
@@ -173,8 +154,8 @@ TEST_F(StopRaces, AFullTableOfSilentSocketsCannotLockOutAnEmergencyStop) {
   const auto status = status_of(operator_);
   EXPECT_EQ(status.state, ProcedureState::kFault);
   EXPECT_EQ(status.latched_fault, ErrorCode::kEmergencyStopped);
-  const WheelCounts rest = wait_at_rest(*w, ProcedureState::kFault);
-  EXPECT_TRUE(wheels_stay_put(*w, rest));
+  const WheelCounts rest = wait_at_rest(w, ProcedureState::kFault);
+  EXPECT_TRUE(wheels_stay_put(w, rest));
   // One of the silent sockets made room (TOO_MANY_CLIENTS, closed); the controller is untouched.
   EXPECT_TRUE(eventually([&] {
     for (auto& s : silent)
@@ -187,24 +168,22 @@ TEST_F(StopRaces, AFullTableOfSilentSocketsCannotLockOutAnEmergencyStop) {
 // Reset (clearing a latched fault) + AlignBase + Stop in one write: the Stop cancels the queued
 // move, nothing turns, and the fault stays cleared.
 TEST_F(StopRaces, ResetAlignBaseAndStopInOneWriteTurnsNothing) {
-  InProcess d(config());
-  auto w = watcher(d.port());
-  TestClient controller(d.port());
-  controller.hello(Role::kController);
+  Watched robot(config(1.0));
+  auto& [d, w, controller] = robot;
   measure_door(controller, 0.6);
   for (std::uint32_t round = 0; round < 5; ++round) {
     SCOPED_TRACE("round " + std::to_string(round));
     ASSERT_TRUE(
         std::holds_alternative<protocol::Ack>(controller.request(protocol::EmergencyStop{})));
     ASSERT_EQ(status_of(controller).state, ProcedureState::kFault);
-    const WheelCounts before = wait_at_rest(*w);
+    const WheelCounts before = wait_at_rest(w);
     const std::uint32_t id = 200 + 3 * round;
     controller.send_raw(one_write(
         {{protocol::Reset{}, id}, {protocol::AlignBase{}, id + 1}, {protocol::Stop{}, id + 2}}));
     ASSERT_TRUE(std::holds_alternative<protocol::Ack>(controller.reply_to(id)));
     (void)controller.reply_to(id + 1);
     ASSERT_TRUE(std::holds_alternative<protocol::Ack>(controller.reply_to(id + 2)));
-    ASSERT_TRUE(wheels_stay_put(*w, before));
+    ASSERT_TRUE(wheels_stay_put(w, before));
     const auto status = status_of(controller);
     EXPECT_NE(status.state, ProcedureState::kAligning);
     EXPECT_EQ(status.latched_fault, ErrorCode::kOk);
@@ -215,10 +194,8 @@ TEST_F(StopRaces, ResetAlignBaseAndStopInOneWriteTurnsNothing) {
 // Two Resets in one write during a fault: both answered, and a fault the loop raises afterwards
 // (the deadman of a controller that falls silent mid-alignment) is still latched.
 TEST_F(StopRaces, TwoResetsInOneWriteLeaveLaterFaultsLatching) {
-  InProcess d(config());
-  auto w = watcher(d.port());
-  TestClient controller(d.port());
-  controller.hello(Role::kController);
+  Watched robot(config(1.0));
+  auto& [d, w, controller] = robot;
   measure_door(controller, 0.6);
   ASSERT_TRUE(std::holds_alternative<protocol::Ack>(controller.request(protocol::EmergencyStop{})));
   controller.send_raw(one_write({{protocol::Reset{}, 300}, {protocol::Reset{}, 301}}));
@@ -234,7 +211,7 @@ TEST_F(StopRaces, TwoResetsInOneWriteLeaveLaterFaultsLatching) {
     ASSERT_TRUE(std::holds_alternative<protocol::Ack>(reply)) << id << TestClient::describe(reply);
   }
   ASSERT_EQ(status_of(controller).latched_fault, ErrorCode::kOk);
-  w->events().clear();  // the e-stop's fault_latched is history
+  w.events().clear();  // the e-stop's fault_latched is history
   // The card is back (the recovery finished): the move is accepted.
   protocol::Message align;
   ASSERT_TRUE(eventually([&] {
@@ -244,21 +221,21 @@ TEST_F(StopRaces, TwoResetsInOneWriteLeaveLaterFaultsLatching) {
   // The controller now falls silent while the base turns: the loop's deadman must latch.
   bool deadman = false;
   while (!deadman) {  // (late e-stop fault_latched events are skipped)
-    const auto e = w->wait_event(EventKind::kFaultLatched, 20s);
+    const auto e = w.wait_event(EventKind::kFaultLatched, 20s);
     if (!e) break;
     deadman = e->fault == ErrorCode::kDeadman;
   }
   EXPECT_TRUE(deadman);
-  EXPECT_EQ(status_of(*w).latched_fault, ErrorCode::kDeadman);
+  EXPECT_EQ(status_of(w).latched_fault, ErrorCode::kDeadman);
 }
 
 // An EmergencyStop from an observer while the controller's commands are being written to a slow
 // disk (1.5 s per save, within SessionHub::kHeldReplyLimit): the e-stop is executed and
 // acknowledged while that save is still running.
 TEST_F(StopRaces, AnEmergencyStopDoesNotWaitForTheControllersSlowDisk) {
-  auto c = config();
+  auto c = config(1.0);
   c.state.debug_write_delay_ms = 1500;
-  InProcess d(c);
+  InProcessDaemon d(c);
   TestClient observer(d.port());
   observer.hello(Role::kObserver);
   TestClient controller(d.port());
@@ -279,9 +256,9 @@ TEST_F(StopRaces, AnEmergencyStopDoesNotWaitForTheControllersSlowDisk) {
 // A disk that does not finish a save in time (4 s here) holds the controller's width Ack at most
 // SessionHub::kHeldReplyLimit; its own Stop behind it is then acknowledged, in request order.
 TEST_F(StopRaces, AHungDiskHoldsAnAckBoundedlyAndTheStopBehindItArrives) {
-  auto c = config();
+  auto c = config(1.0);
   c.state.debug_write_delay_ms = 4000;
-  InProcess d(c);
+  InProcessDaemon d(c);
   TestClient controller(d.port());
   controller.hello(Role::kController);
   controller.send_raw(one_write({{good_width(), 21}, {protocol::Stop{}, 22}}));
@@ -294,9 +271,9 @@ TEST_F(StopRaces, AHungDiskHoldsAnAckBoundedlyAndTheStopBehindItArrives) {
 
 // One session's replies stay in request order when its first command waits for the disk.
 TEST_F(StopRaces, DurableAcksKeepOneSessionsRequestOrder) {
-  auto c = config();
+  auto c = config(1.0);
   c.state.debug_write_delay_ms = 200;
-  InProcess d(c);
+  InProcessDaemon d(c);
   TestClient controller(d.port());
   controller.hello(Role::kController);
   controller.send_raw(one_write({{good_width(), 11},
@@ -321,25 +298,10 @@ TEST_F(StopRaces, DurableAcksKeepOneSessionsRequestOrder) {
 // ---- against the ajard binary
 // --------------------------------------------------------------------
 
-class AjardStopRaces : public ::testing::Test {
+class AjardStopRaces : public EndToEndOnMock {
  protected:
-  std::string write_config(double speedup) {
-    daemon::Config c = e2e_config(drivers::DriverKind::kMock, dir_.path(), speedup);
-    const std::string path = dir_.path() + "/ajard.yaml";
-    std::ofstream(path) << daemon::to_yaml(c);
-    return path;
-  }
   std::string state_file() const { return dir_.path() + "/state/ajard.state"; }
-  TempDir dir_;
 };
-
-std::string with_checksum(const std::string& body) {
-  boost::crc_32_type crc;
-  crc.process_bytes(body.data(), body.size());
-  char line[32];
-  std::snprintf(line, sizeof(line), "crc32 %08x\n", crc.checksum());
-  return body + line;
-}
 
 // A state file with a valid checksum but impossible content is not restored; it is kept beside the
 // new file and the log says so.

@@ -5,21 +5,11 @@
 #include <fstream>
 #include <sstream>
 
-#include <boost/crc.hpp>
-
 #include "fake_engine_fixture.hpp"
+#include "state_file_checksum.hpp"
 
 namespace ajar::testing {
 namespace {
-
-// A state file body with a correct checksum line (what a buggy writer would produce).
-std::string with_checksum(const std::string& body) {
-  boost::crc_32_type crc;
-  crc.process_bytes(body.data(), body.size());
-  char line[32];
-  std::snprintf(line, sizeof(line), "crc32 %08x\n", crc.checksum());
-  return body + line;
-}
 
 std::string read_file(const std::string& path) {
   std::ifstream in(path);
@@ -65,7 +55,6 @@ TEST_F(EngineTest, RestartDuringAlignmentComesBackReadyToAlignWithoutMoving) {
   std::filesystem::copy_file(file, saved);
   engine.reset();
   std::filesystem::rename(saved, file);
-  card = std::make_shared<FakeCardControl>();
   start();
   EXPECT_TRUE(engine->status().restored_from_disk);
   EXPECT_EQ(engine->status().state, ProcedureState::kReadyToAlign);
@@ -162,7 +151,6 @@ TEST_F(EngineTest, ImpossibleStateIsRejectedAndKept) {
   text.replace(at, 7, "fault 65535");
   text = with_checksum(text.substr(0, text.rfind("crc32 ")));
   std::ofstream(file, std::ios::trunc) << text;
-  card = std::make_shared<FakeCardControl>();
   start();
   EXPECT_EQ(engine->status().state, ProcedureState::kAwaitingWidth);
   EXPECT_FALSE(engine->status().restored_from_disk);

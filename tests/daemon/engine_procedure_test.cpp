@@ -26,7 +26,9 @@ TEST_F(EngineTest, RunsTheWholeProcedure) {
 
   expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
   ASSERT_TRUE(wait_for_state(ProcedureState::kAligned));
-  const auto moves = card->with_lock([](FakeCardControl& c) { return c.last_moves; });
+  const auto log = card->log_from(0);
+  ASSERT_FALSE(log.empty());
+  const auto moves = log.back().moves;
   ASSERT_EQ(moves.size(), 2U);
   EXPECT_EQ(moves[0].axis, config.base.left.card_axis);
   EXPECT_EQ(moves[0].distance_counts, plane.left_counts);
@@ -104,14 +106,13 @@ TEST_F(EngineTest, StopDuringAlignmentStopsSmoothlyWithoutFault) {
   ASSERT_TRUE(wait_for([&] { return move_calls() == 1; }));
   expect_ack(send(protocol::Stop{}), ProcedureState::kReadyToAlign);
   ASSERT_TRUE(wait_for([&] { return saw_event(EventKind::kMotionStopped); }));
-  EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.smooth_stops; }), 1);
-  EXPECT_EQ(card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }), 0);
+  EXPECT_GE(card->calls(drivers::CardCall::kSmoothStop), 1U);
+  EXPECT_EQ(card->calls(drivers::CardCall::kEmergencyStop), 0U);
   EXPECT_GE(arm->stops(), 1U);
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kOk);
   // The base turned by an unknown part: the plane must be measured again.
   expect_refused(send(protocol::AlignBase{}), ErrorCode::kMissingPlane);
-  card->with_lock([](FakeCardControl& c) { return c.hold_motion = false; });
-  expect_ack(send(plane_at_yaw(0.05)), ProcedureState::kReadyToAlign);
+  expect_ack(send(plane_at_yaw(0.05)), ProcedureState::kReadyToAlign);  // this one runs
   expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
   EXPECT_TRUE(wait_for_state(ProcedureState::kAligned));
 }
@@ -145,8 +146,7 @@ TEST_P(EveryState, EmergencyStopLatchesAndResetClears) {
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kEmergencyStopped);
   EXPECT_TRUE(saw_event(EventKind::kFaultLatched, ErrorCode::kEmergencyStopped));
   EXPECT_GE(arm->stops(), 1U);
-  ASSERT_TRUE(wait_for(
-      [&] { return card->with_lock([](FakeCardControl& c) { return c.emergency_stops; }) >= 1; }));
+  ASSERT_TRUE(wait_for([&] { return card->calls(drivers::CardCall::kEmergencyStop) >= 1; }));
   // Nothing starts while the fault is latched.
   expect_refused(send(protocol::AlignBase{}), ErrorCode::kFaultLatched);
   expect_refused(send(protocol::Engage{}), ErrorCode::kFaultLatched);
@@ -160,7 +160,6 @@ TEST_P(EveryState, EmergencyStopLatchesAndResetClears) {
   EXPECT_EQ(after, state_after_interruption(GetParam()));
   // The loop recovered too: a fresh alignment runs (from any state with a plane).
   if (engine->status().has_plane && after == ProcedureState::kReadyToAlign) {
-    card->with_lock([](FakeCardControl& c) { return c.hold_motion = false; });
     // The wheels come to rest under the loop's supervision before a new motion is accepted.
     if (GetParam() == ProcedureState::kAligning) {
       ASSERT_TRUE(wait_for([&] { return saw_event(EventKind::kMotionStopped); }));
@@ -199,7 +198,7 @@ TEST_F(EngineTest, DeadmanStopsASilentControllerAndLatches) {
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kDeadman);
   EXPECT_TRUE(saw_event(EventKind::kFaultLatched, ErrorCode::kDeadman));
   ASSERT_TRUE(wait_for([&] { return saw_event(EventKind::kMotionStopped); }));
-  EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.smooth_stops; }), 1);
+  EXPECT_GE(card->calls(drivers::CardCall::kSmoothStop), 1U);
   EXPECT_GE(arm->stops(), 1U);
 }
 
@@ -220,7 +219,7 @@ TEST_F(EngineTest, ControllerLostDuringAlignmentStopsAtOnce) {
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kDeadman);
   EXPECT_TRUE(saw_event(EventKind::kFaultLatched, ErrorCode::kDeadman));
   ASSERT_TRUE(wait_for([&] { return saw_event(EventKind::kMotionStopped); }));
-  EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.smooth_stops; }), 1);
+  EXPECT_GE(card->calls(drivers::CardCall::kSmoothStop), 1U);
 }
 
 TEST_F(EngineTest, ControllerLostWhileIdleChangesNothing) {
@@ -237,8 +236,7 @@ TEST_F(EngineTest, AxisAlarmDuringAlignmentLatchesUntilReset) {
   start();
   walk_to(ProcedureState::kAligning);
   ASSERT_TRUE(wait_for([&] { return move_calls() == 1; }));  // the move is running
-  card->with_lock(
-      [&](FakeCardControl& c) { return c.alarm_axes.insert(config.base.left.card_axis); });
+  card->inject_alarm(config.base.left.card_axis);
   ASSERT_TRUE(wait_for_state(ProcedureState::kFault));
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kAxisAlarm);
   EXPECT_TRUE(saw_event(EventKind::kFaultLatched, ErrorCode::kAxisAlarm));
@@ -298,7 +296,7 @@ TEST_F(EngineTest, RemeasuredPlaneAfterAlignment) {
 }
 
 TEST_F(EngineTest, StartupErrorNamesTheDriver) {
-  card->fail_open = true;
+  configure_card = [](drivers::MockMotionCard& c) { c.set_open_fails(true); };
   try {
     start();
     FAIL() << "start() should throw";

@@ -125,7 +125,7 @@ TEST_F(EngineTest, ShutdownWhileAligningEmitsMotionStoppedWithTheReason) {
     }
   }
   EXPECT_TRUE(said);
-  EXPECT_GE(card->with_lock([](FakeCardControl& c) { return c.smooth_stops; }), 1);
+  EXPECT_GE(card->calls(drivers::CardCall::kSmoothStop), 1U);
 }
 
 }  // namespace

@@ -1,11 +1,12 @@
-// Shared fixture for engine tests: an engine over the fake card and the mock arm, its events, and
-// helpers that poll the engine (as the I/O thread does) until a condition holds. Never asserts
-// timing.
+// Shared fixture for engine tests: an engine over the mock card and the mock arm on the steady
+// clock (its real control thread), its events, and helpers that poll the engine (as the I/O thread
+// does) until a condition holds. Never asserts timing.
 #pragma once
 
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <functional>
 #include <thread>
 #include <vector>
 
@@ -13,7 +14,7 @@
 #include "ajar/daemon/engine.hpp"
 #include "ajar/drivers/mock_arm.hpp"
 #include "fake_door.hpp"
-#include "fake_motion_card.hpp"
+#include "ajar/drivers/mock_card.hpp"
 
 namespace ajar::testing {
 
@@ -31,7 +32,12 @@ class EngineTest : public ::testing::Test {
 
   void start() {
     drivers::DriverSet set;
-    set.card = std::make_unique<FakeMotionCard>(card);
+    auto mock_card =
+        std::make_unique<drivers::MockMotionCard>(drivers::MockFault::kOff, 0, kCardTimeScale);
+    card = mock_card.get();
+    card->record_calls(true);
+    if (configure_card) configure_card(*card);
+    set.card = std::move(mock_card);
     set.arm = make_mock_arm(arm);
     engine = daemon::make_engine(config, std::move(set));
     engine->set_event_sink([this](const protocol::Event& e) { events.push_back(e); });
@@ -39,7 +45,6 @@ class EngineTest : public ::testing::Test {
   }
   void restart() {
     engine.reset();
-    card = std::make_shared<FakeCardControl>();
     events.clear();
     start();
   }
@@ -72,16 +77,18 @@ class EngineTest : public ::testing::Test {
     }
     return false;
   }
-  int move_calls() {
-    return card->with_lock([](FakeCardControl& c) { return c.move_calls; });
-  }
+  int move_calls() { return static_cast<int>(card->calls(drivers::CardCall::kMoveRelative)); }
 
   // Walks the procedure to `target` (one of the resting states or kAligning/kEngaging).
   void walk_to(protocol::ProcedureState target);
 
   TempDir tmp;
   daemon::Config config = test_config(tmp.path());
-  std::shared_ptr<FakeCardControl> card = std::make_shared<FakeCardControl>();
+  // The card's simulated time runs this much faster than the steady clock: an alignment takes
+  // tens of milliseconds.
+  static constexpr double kCardTimeScale = 20;
+  drivers::MockMotionCard* card = nullptr;  // the engine's (a new one each start)
+  std::function<void(drivers::MockMotionCard&)> configure_card;  // before each start
   drivers::MockManipulator* arm = nullptr;  // the engine's (a new one each start)
   std::unique_ptr<daemon::Engine> engine;
   std::vector<protocol::Event> events;
@@ -118,7 +125,7 @@ inline void EngineTest::walk_to(protocol::ProcedureState target) {
   expect_ack(send(plane_at_yaw(0.1)), ProcedureState::kReadyToAlign);
   if (target == ProcedureState::kReadyToAlign) return;
   if (target == ProcedureState::kAligning) {
-    card->with_lock([](FakeCardControl& c) { return c.hold_motion = true; });
+    card->stick_next_move();  // the alignment never ends on its own
   }
   expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
   if (target == ProcedureState::kAligning) {

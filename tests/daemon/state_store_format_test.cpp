@@ -5,11 +5,10 @@
 #include <fstream>
 #include <sstream>
 
-#include <boost/crc.hpp>
-
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/state_store.hpp"
 #include "fake_door.hpp"
+#include "state_file_checksum.hpp"
 
 namespace ajar::daemon {
 namespace {
@@ -83,23 +82,11 @@ TEST(StateFormat, RefusesCorruptTruncatedAndForeignFiles) {
   // A future version with a valid checksum is refused by version, not by checksum.
   std::string v2 = encode_state(ProcedureRecord{});
   v2 = v2.substr(0, v2.rfind("crc32")).replace(0, 12, "ajar-state 2");
-  char crc[32];
-  boost::crc_32_type sum;
-  sum.process_bytes(v2.data(), v2.size());
-  std::snprintf(crc, sizeof(crc), "crc32 %08x\n", sum.checksum());
-  auto refused = decode_state(v2 + crc);
+  auto refused = decode_state(with_checksum(v2));
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().field, "state_file");
   EXPECT_NE(refused.error().message.find("version 2"), std::string::npos)
       << refused.error().message;
-}
-
-std::string with_checksum(const std::string& body) {
-  boost::crc_32_type sum;
-  sum.process_bytes(body.data(), body.size());
-  char crc[32];
-  std::snprintf(crc, sizeof(crc), "crc32 %08x\n", sum.checksum());
-  return body + crc;
 }
 
 // The body of a good file with `from` replaced by `to`, signed again: checksum-valid nonsense.

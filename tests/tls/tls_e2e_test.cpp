@@ -13,8 +13,7 @@
 
 #include <gtest/gtest.h>
 
-#include "ajar/daemon/engine.hpp"
-#include "test_client_e2e.hpp"
+#include "e2e_fixture.hpp"
 #include "tls_support.hpp"
 
 namespace ajar::test {
@@ -24,20 +23,6 @@ using client::Client;
 using protocol::EventKind;
 using protocol::ProcedureState;
 using protocol::Role;
-
-// ajard in-process: the real engine on the parameter's drivers, the server with network.tls.
-class TlsDaemon {
- public:
-  explicit TlsDaemon(const daemon::Config& config) : engine_(daemon::make_engine(config)) {
-    server_ = std::make_unique<ServerThread>(*engine_, daemon::ServerOptions::from(config.network));
-  }
-  std::uint16_t port() const { return server_->port(); }
-  ServerThread& thread() { return *server_; }
-
- private:
-  std::unique_ptr<daemon::Engine> engine_;
-  std::unique_ptr<ServerThread> server_;
-};
 
 // What an observer saw: events and whether the wheels were moving at the last telemetry.
 class Watcher {
@@ -101,14 +86,14 @@ protocol::Status wait_for_state(Client& c, ProcedureState state) {
   return status;
 }
 
-class TlsEndToEnd : public ::testing::TestWithParam<drivers::DriverKind> {
+class TlsEndToEnd : public EndToEndTest {
  protected:
-  daemon::Config config(double speedup) {
-    daemon::Config c = e2e_config(GetParam(), dir_.path(), speedup);
+  daemon::Config tls_config(double speedup) {
+    daemon::Config c = config(speedup);
     c.network.tls = pki_.server_config();
     return c;
   }
-  std::unique_ptr<Client> greeted(TlsDaemon& d, const std::string& name, Role role) {
+  std::unique_ptr<Client> greeted(InProcessDaemon& d, const std::string& name, Role role) {
     auto c = std::make_unique<Client>(options_with(pki_.client_tls(name), name));
     EXPECT_TRUE(c->connect({"127.0.0.1", d.port()}).ok());
     const auto hello = c->hello(role);
@@ -122,14 +107,29 @@ class TlsEndToEnd : public ::testing::TestWithParam<drivers::DriverKind> {
     ASSERT_EQ(state_of(controller.request(plane_at_yaw(yaw_rad))), ProcedureState::kReadyToAlign);
     ASSERT_EQ(state_of(controller.request(protocol::AlignBase{})), ProcedureState::kAligning);
   }
+  // alice (controller, heartbeat every 100 ms) turning the base toward a door yawed 0.6 rad, bob
+  // (observer) watching telemetry at 100 Hz: set once the motion started.
+  struct Aligning {
+    std::unique_ptr<Client> controller;
+    std::unique_ptr<Client> observer;
+    std::unique_ptr<Watcher> watched;
+  };
+  void start_aligning(InProcessDaemon& d, Aligning& a) {
+    a.controller = greeted(d, "alice", Role::kController);
+    a.controller->set_heartbeat(100ms);
+    a.observer = greeted(d, "bob", Role::kObserver);
+    a.watched = std::make_unique<Watcher>(*a.observer);
+    ASSERT_TRUE(a.observer->request(protocol::Subscribe{100}).ok());
+    start_alignment(*a.controller, 0.6);
+    ASSERT_TRUE(a.watched->wait_event(EventKind::kMotionStarted));
+  }
 
   LogCapture log_;
   Pki pki_;
-  TempDir dir_;
 };
 
 TEST_P(TlsEndToEnd, AControllerCertificateCompletesTheWholeProcedure) {
-  TlsDaemon d(config(10.0));
+  InProcessDaemon d(tls_config(10.0));
   auto observer = greeted(d, "bob", Role::kObserver);
   Watcher watched(*observer);
   ASSERT_TRUE(observer->request(protocol::Subscribe{50}).ok());
@@ -152,14 +152,11 @@ TEST_P(TlsEndToEnd, AControllerCertificateCompletesTheWholeProcedure) {
 }
 
 TEST_P(TlsEndToEnd, EmergencyStopFromAnObserverCertificateStopsARunningAlignment) {
-  TlsDaemon d(config(1.0));
-  auto controller = greeted(d, "alice", Role::kController);
-  controller->set_heartbeat(100ms);
-  auto observer = greeted(d, "bob", Role::kObserver);
-  Watcher watched(*observer);
-  ASSERT_TRUE(observer->request(protocol::Subscribe{100}).ok());
-  start_alignment(*controller, 0.6);
-  ASSERT_TRUE(watched.wait_event(EventKind::kMotionStarted));
+  InProcessDaemon d(tls_config(1.0));
+  Aligning a;
+  ASSERT_NO_FATAL_FAILURE(start_aligning(d, a));
+  auto& [controller, observer, watched_ptr] = a;
+  Watcher& watched = *watched_ptr;
 
   EXPECT_TRUE(observer->request(protocol::EmergencyStop{}).ok());
   ASSERT_TRUE(watched.wait_event(EventKind::kFaultLatched));
@@ -171,17 +168,14 @@ TEST_P(TlsEndToEnd, EmergencyStopFromAnObserverCertificateStopsARunningAlignment
 }
 
 TEST_P(TlsEndToEnd, RevokingTheControllerMidAlignmentClosesItAndTheDeadmanStopsTheBase) {
-  TlsDaemon d(config(1.0));
-  auto controller = greeted(d, "alice", Role::kController);
-  controller->set_heartbeat(100ms);
-  auto observer = greeted(d, "bob", Role::kObserver);
-  Watcher watched(*observer);
-  ASSERT_TRUE(observer->request(protocol::Subscribe{100}).ok());
-  start_alignment(*controller, 0.6);
-  ASSERT_TRUE(watched.wait_event(EventKind::kMotionStarted));
+  InProcessDaemon d(tls_config(1.0));
+  Aligning a;
+  ASSERT_NO_FATAL_FAILURE(start_aligning(d, a));
+  auto& [controller, observer, watched_ptr] = a;
+  Watcher& watched = *watched_ptr;
 
   pki_.run("revoke alice");
-  reload(d.thread(), pki_.server_config());
+  reload(d.server(), pki_.server_config());
   EXPECT_TRUE(controller->wait_closed(10s));
   ASSERT_TRUE(watched.wait_event(EventKind::kFaultLatched));
   EXPECT_EQ(watched.event(EventKind::kFaultLatched)->fault, ErrorCode::kDeadman);
@@ -189,9 +183,7 @@ TEST_P(TlsEndToEnd, RevokingTheControllerMidAlignmentClosesItAndTheDeadmanStopsT
   EXPECT_TRUE(log_.contains("TLS: closing session", "certificate revoked"));
 }
 
-INSTANTIATE_TEST_SUITE_P(Drivers, TlsEndToEnd,
-                         ::testing::Values(drivers::DriverKind::kMock, drivers::DriverKind::kSim),
-                         [](const auto& p) { return std::string(kind_name(p.param)); });
+INSTANTIATE_TEST_SUITE_P(Drivers, TlsEndToEnd, kE2eDriverKinds, driver_name);
 
 }  // namespace
 }  // namespace ajar::test

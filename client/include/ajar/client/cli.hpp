@@ -1,4 +1,5 @@
-// ajarctl: command-line parsing and the commands themselves (ajarctl's main() is run_ajarctl).
+// ajarctl: command-line parsing (CLI11: client/src/cli.cpp) and the commands themselves (ajarctl's
+// main() is run_ajarctl).
 // docs/ajarctl.md is the user's manual; usage() is the --help text.
 #pragma once
 

@@ -1,0 +1,113 @@
+// The interleaving proof's harness (interleaving_test.cpp): the coverage counters, the engine as
+// the hub sees it (recording what reaches it), and one client connection as the hub sees it.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <stdlib.h>
+
+#include "ajar/daemon/engine.hpp"
+#include "ajar/daemon/session_hub.hpp"
+
+namespace ajar::testing::interleaving {
+
+constexpr std::int64_t kPeriodNs = 2'000'000;  // 500 Hz
+constexpr double kEps = 1e-9;
+
+inline std::string shm_dir() {
+  // State files on tmpfs when available: thousands of engines each persist dozens of times.
+  std::string pattern = std::filesystem::exists("/dev/shm") ? "/dev/shm/ajar-interleave-XXXXXX"
+                                                            : "/tmp/ajar-interleave-XXXXXX";
+  return ::mkdtemp(pattern.data()) != nullptr ? pattern : std::string("/tmp");
+}
+
+// Situations a campaign must reach (so that the test cannot silently stop exploring).
+struct Coverage {
+  std::map<std::string, long> counts;
+  void bump(const std::string& what) { ++counts[what]; }
+  void add(const Coverage& other) {
+    for (const auto& [k, v] : other.counts)
+      counts[k] += v;
+  }
+  long get(const std::string& what) const {
+    const auto it = counts.find(what);
+    return it == counts.end() ? 0 : it->second;
+  }
+};
+
+// The engine as the hub sees it, recording what reaches it (exactly-once is checked against it).
+class RecordingEngine final : public daemon::Engine {
+ public:
+  explicit RecordingEngine(daemon::Engine& inner) : inner_(inner) {}
+  int executions = 0;                 // handle_command calls
+  protocol::Message last_reply;       // of the last one
+  std::function<void()> before_lost;  // called before the engine hears of a controller loss
+
+  void set_event_sink(EventSink sink) override { inner_.set_event_sink(std::move(sink)); }
+  void start() override { inner_.start(); }
+  void shutdown() noexcept override { inner_.shutdown(); }
+  protocol::Message handle_command(const protocol::Message& request) override {
+    ++executions;
+    last_reply = inner_.handle_command(request);
+    return last_reply;
+  }
+  void controller_heartbeat() noexcept override { inner_.controller_heartbeat(); }
+  void controller_lost() override {
+    if (before_lost) before_lost();
+    inner_.controller_lost();
+  }
+  void begin_read_batch() override { inner_.begin_read_batch(); }
+  void end_read_batch() override { inner_.end_read_batch(); }
+  void poll() override { inner_.poll(); }
+  std::uint64_t accepted_generation() const noexcept override {
+    return inner_.accepted_generation();
+  }
+  std::uint64_t settled_generation() const noexcept override { return inner_.settled_generation(); }
+  protocol::Status status() const override { return inner_.status(); }
+  protocol::Telemetry telemetry() const override { return inner_.telemetry(); }
+  protocol::Welcome welcome_template() const override { return inner_.welcome_template(); }
+  protocol::RobotModel robot_model() const override { return inner_.robot_model(); }
+  bool control_loop_healthy() const noexcept override { return inner_.control_loop_healthy(); }
+  std::uint64_t daemon_time_ns() const noexcept override { return inner_.daemon_time_ns(); }
+  void run_loop_cycle() noexcept override { inner_.run_loop_cycle(); }
+  std::vector<std::string> take_warnings() override { return inner_.take_warnings(); }
+
+ private:
+  daemon::Engine& inner_;
+};
+
+// One client connection as the hub sees it; the frames it was sent are decoded by the test.
+class FakeLink final : public daemon::SessionLink {
+ public:
+  FakeLink(std::uint64_t id, std::uint64_t client_instance)
+      : id_(id), instance(client_instance), peer_("127.0.0.1:" + std::to_string(40000 + id)) {}
+  std::uint64_t id() const noexcept override { return id_; }
+  const std::string& peer() const noexcept override { return peer_; }
+  bool send(daemon::SharedFrame frame) override {
+    if (closed) return false;
+    frames.push_back(std::move(frame));
+    return true;
+  }
+  void close_after_flush(std::string_view) override { closed = true; }
+  void abort(std::string_view) override { closed = true; }
+
+  struct Expected {
+    std::uint32_t request_id = 0;
+    std::optional<protocol::Message> reply;  // when known (the engine's or the recorded reply)
+    bool immediate = true;                   // false once it was seen held
+  };
+  std::uint64_t id_;
+  std::uint64_t instance;  // Hello.client_instance_id
+  std::string peer_;
+  bool closed = false;
+  std::vector<daemon::SharedFrame> frames;
+  std::deque<Expected> expected;
+};
+}  // namespace ajar::testing::interleaving

@@ -1,0 +1,238 @@
+// The interleaving proof's world (interleaving_test.cpp): one seed's engine over the
+// deterministic mock card and the mock arm behind the real SessionHub, on a fake clock. Its jobs
+// live in three files: the sessions (world_sessions.cpp), the random scenario
+// (world_scenario.cpp), and the invariants checked after every command and cycle
+// (world_checks.cpp).
+#pragma once
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ajar/daemon/config.hpp"
+#include "ajar/daemon/control_loop.hpp"
+#include "ajar/drivers/mock_arm.hpp"
+#include "ajar/drivers/mock_card.hpp"
+#include "det_mock_card.hpp"
+#include "fake_door.hpp"
+#include "fake_engine_fixture.hpp"
+#include "harness.hpp"
+
+namespace ajar::testing::interleaving {
+
+using protocol::EventKind;
+using protocol::MessageType;
+using protocol::ProcedureState;
+
+// One seed's world: the engine over the deterministic mock card and the mock arm behind the
+// SessionHub, the clock, and the model the invariants are checked against.
+class World {
+ public:
+  World(std::uint64_t seed, const std::string& dir, bool verbose) : rng_(seed), verbose_(verbose) {
+    config_ = test_config(dir);
+    config_.state.directory = dir + "/state-" + std::to_string(seed % 8);
+    config_.safety.deadman_timeout_s = 0.05;
+    config_.control.motion_timeout_margin_s = 0.2;
+    config_.safety.arm_task_timeout_s = 1.0;
+    // Jogs end sooner than with the defaults on most seeds (CPU); the defaults on some.
+    if (seed % 4 != 0) {
+      config_.drive.command_timeout_s = seed % 4 == 1 ? 0.1 : 0.2;
+      config_.drive.max_linear_accel_m_s2 = 1.5;
+      config_.drive.max_angular_accel_rad_s2 = 3.0;
+    }
+    // A slow state store on some seeds: saves lag behind (writer thread); durable Acks are held,
+    // nothing else may wait on it.
+    if (seed % 5 == 0) config_.state.debug_write_delay_ms = static_cast<int>(1 + seed % 3);
+    left_axis_ = config_.base.left.card_axis;
+    right_axis_ = config_.base.right.card_axis;
+    auto card = make_det_card(now_);
+    card_ = card.get();
+    card_->set_enable_delay_reads(static_cast<int>(rng_() % 3));
+    calm_ = seed % 3 == 0;
+    // The wheels at the configured speed (constant): an alignment lasts a hundred cycles or so.
+    const auto profile = daemon::wheel_profile(config_.base);
+    max_wheel_counts_per_ms_ = profile.velocity_counts_per_ms;
+    counts_per_ms_per_rad_s_ = profile.velocity_counts_per_ms / config_.base.max_wheel_speed_rad_s;
+    const auto& d = config_.drive;
+    jog_bound_ns_ = static_cast<std::int64_t>(
+                        (d.command_timeout_s +
+                         std::max(d.max_linear_speed_m_s / d.max_linear_accel_m_s2,
+                                  d.max_angular_speed_rad_s / d.max_angular_accel_rad_s2)) *
+                        1e9) +
+                    3 * kPeriodNs;
+    drivers::DriverSet set;
+    set.card = std::move(card);
+    set.arm = make_mock_arm(arm_);
+    daemon::EngineOptions options;
+    options.now_ns = [this] { return now_; };
+    options.manual_loop = true;
+    std::filesystem::remove_all(config_.state.directory);
+    engine_ = daemon::make_engine(config_, std::move(set), std::move(options));
+    recorder_ = std::make_unique<RecordingEngine>(*engine_);
+    recorder_->before_lost = [this] { stop_expected(false, "controller lost"); };
+    hub_ = std::make_unique<daemon::SessionHub>(*recorder_);
+    engine_->set_event_sink([this](const protocol::Event& e) {
+      on_event(e);
+      hub_->on_event(e);
+    });
+    engine_->start();
+    controller_ = connect(protocol::Role::kController, false, 0x1000 + seed);
+    observer_ = connect(protocol::Role::kObserver, false, 0);
+  }
+  ~World() {
+    if (engine_) engine_->shutdown();
+  }
+
+  // The whole scenario; returns the first violation (empty: none).
+  std::string run(int steps) {
+    for (int i = 0; i < steps && violation_.empty(); ++i)
+      step();
+    if (violation_.empty()) quiesce();
+    return violation_;
+  }
+  const std::vector<std::string>& trace() const { return trace_; }
+  const Coverage& coverage() const { return coverage_; }
+
+ private:
+  // ---- sessions (world_sessions.cpp) ----
+
+  FakeLink* connect(protocol::Role role, bool take_over, std::uint64_t instance);
+
+  void disconnect(FakeLink* link, const char* why);
+
+  // One read from a link: its frames go through the hub in one engine batch. Each frame is either
+  // a new request or a repeat of the last one (same request id).
+  struct Frame {
+    protocol::Message message;
+    bool repeat = false;
+    std::uint32_t request_id = 0;  // a repeat: the request it repeats
+  };
+  void read(FakeLink& link, const std::vector<Frame>& frames);
+  void read(FakeLink& link, std::initializer_list<protocol::Message> messages);
+
+  void deliver(FakeLink& link, const Frame& f);
+
+  // The replies a link received: each request gets exactly one, in request order, with the
+  // engine's reply (or, for a repeat, the recorded one).
+  void drain(FakeLink& link);
+  static bool has_reply(const FakeLink& link, std::uint32_t request_id);
+  void drain_all();
+
+  // ---- the scenario (world_scenario.cpp) ----
+
+  void step();
+
+  Frame random_command();
+
+  protocol::Drive random_drive();
+
+  protocol::Approach random_approach();
+
+  protocol::Message next_procedure_step();
+
+  // The operator's drive keys: pressed (the client re-sends the Drive while held), released (a
+  // zero Drive), or the client simply stops sending (the command timeout must end the jog).
+  void key_action();
+
+  void observer_action();
+
+  void lose_controller();
+
+  void inject_card_fault();
+
+  void arm_event();
+
+  // Everything clears up: a controller speaks, the card answers, the arm finishes, the key is
+  // released. Within a bounded time nothing moves any more, every motion is closed, a Reset
+  // recovers everything, and every request got its reply (held ones once their save settled).
+  void quiesce();
+
+  // ---- what a command did, the loop, the invariants (world_checks.cpp) ----
+
+  void on_executed(const protocol::Message& m, const protocol::Message& reply,
+                   const protocol::Status& before, std::ostringstream& line);
+
+  void cycle(bool poll);
+
+  void stop_expected(bool emergency, const char* why);
+
+  bool card_jogging();
+
+  void on_card_call(const drivers::CardCallRecord& c);
+
+  // The jog seen from the outside after a cycle: the commanded body velocity (Status) within the
+  // drive limits, changing no faster than the acceleration limits (it drops to zero at once only
+  // in a cycle that stopped the card), and no wheel jogging past the command timeout.
+  void check_jog(bool stop_call);
+
+  void on_event(const protocol::Event& e);
+
+  void check_now();
+
+  void fail(const std::string& what);
+  void note(const std::string& line);
+  int pick(int n);
+
+  // ---- the world ----
+
+  std::mt19937_64 rng_;
+  bool verbose_;
+  daemon::Config config_;
+  std::int64_t now_ = 1'000'000'000;
+  std::uint64_t tick_ = 0;
+  drivers::MockMotionCard* card_ = nullptr;  // the engine's
+  int left_axis_ = 1, right_axis_ = 2;
+  bool stops_never_rest_ = false;
+  drivers::MockManipulator* arm_ = nullptr;  // the engine's
+  std::unique_ptr<daemon::Engine> engine_;
+  std::unique_ptr<RecordingEngine> recorder_;
+  std::unique_ptr<daemon::SessionHub> hub_;
+  std::vector<std::unique_ptr<FakeLink>> links_;
+  std::uint64_t next_link_id_ = 1;
+  std::uint32_t next_request_ = 1;
+  FakeLink* controller_ = nullptr;
+  FakeLink* observer_ = nullptr;
+  struct Sent {  // a request that reached the engine
+    std::uint64_t link_instance = 0;
+    protocol::Message message;
+    protocol::Message reply;
+  };
+  std::map<std::uint32_t, Sent> sent_;
+  std::uint32_t last_request_ = 0;
+
+  bool calm_ = false;
+  bool alive_ = true;
+  std::optional<protocol::Drive> key_;
+  int key_every_ = 10, key_count_ = 0;
+  protocol::PlaneAck plane_;
+  double plane_yaw_odometry_rad_ = 0;  // odometry when plane_ was measured
+  std::deque<std::pair<std::int64_t, std::int64_t>> allowed_moves_;
+  bool jog_permit_ = false;         // a Drive was accepted since the last acknowledged stop
+  std::int64_t last_drive_ns_ = 0;  // when the last Drive was accepted
+  std::int64_t jog_bound_ns_ = 0;   // timeout + deceleration (+ margin) after the last Drive
+  double max_wheel_counts_per_ms_ = 0, counts_per_ms_per_rad_s_ = 0;
+  double jog_left_ = 0, jog_right_ = 0;  // the last jog velocities the card got (counts/ms)
+  std::int64_t last_jog_ns_ = 0;
+  double commanded_lin_ = 0, commanded_ang_ = 0;  // Status commanded_* after the last cycle
+  bool stop_due_ = false, estop_due_ = false;
+  std::size_t stop_call_ = 0;  // the card's log size at the last acknowledged stop
+  int motion_open_ = 0;
+  char open_kind_ = 0;  // the open motion: 'a'lign, a'p'proach, 'd'rive, 'e'ngage
+  bool fault_event_open_ = false;
+  ErrorCode last_fault_ = ErrorCode::kOk;
+  bool reset_seen_ = false;
+  Coverage coverage_;
+  std::vector<std::string> trace_;
+  std::string violation_;
+};
+
+}  // namespace ajar::testing::interleaving
