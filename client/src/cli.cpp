@@ -5,11 +5,8 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <filesystem>
 #include <sstream>
 #include <tuple>
-
-#include <yaml-cpp/yaml.h>
 
 #include "cli_detail.hpp"
 
@@ -67,57 +64,6 @@ std::string parse_points(std::span<const std::string> words, core::Frame frame,
       }
     }
     points.push_back(framed(frame, xyz[0], xyz[1], xyz[2]));
-  }
-  return {};
-}
-
-// --client-config FILE: `connect: HOST:PORT` and `tls: {ca, certificate, private_key,
-// server_name}`; relative paths are taken from the file's folder. Empty, or what is wrong.
-std::string load_client_config(const std::string& path, GlobalOptions& o) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception& e) {
-    return "--client-config " + path + ": " + e.what();
-  }
-  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
-  auto text = [&](const YAML::Node& map, const char* key, std::string& out,
-                  bool is_path) -> std::string {
-    const YAML::Node n = map[key];
-    if (!n) return {};
-    if (!n.IsScalar() || n.Scalar().empty())
-      return path + ": " + key + ": must be a non-empty string";
-    std::filesystem::path value = n.Scalar();
-    out = is_path && value.is_relative() ? (folder / value).string() : value.string();
-    return {};
-  };
-  if (!root.IsMap()) return path + ": must be a map (connect, tls)";
-  for (const auto& entry : root) {
-    const auto key = entry.first.as<std::string>();
-    if (key != "connect" && key != "tls") return path + ": unknown key '" + key + "'";
-  }
-  std::string connect;
-  if (auto e = text(root, "connect", connect, false); !e.empty()) return e;
-  if (!connect.empty()) {
-    auto endpoint = parse_endpoint(connect);
-    if (!endpoint) return path + ": connect: wants HOST:PORT, got '" + connect + "'";
-    o.endpoint = *endpoint;
-  }
-  if (const YAML::Node tls = root["tls"]) {
-    if (!tls.IsMap()) return path + ": tls: must be a map";
-    for (const auto& entry : tls) {
-      const auto key = entry.first.as<std::string>();
-      if (key != "ca" && key != "certificate" && key != "private_key" && key != "server_name")
-        return path + ": tls." + key + ": unknown key (allowed: ca, certificate, private_key, " +
-               "server_name)";
-    }
-    for (auto [key, out, is_path] :
-         {std::tuple<const char*, std::string*, bool>{"ca", &o.tls.ca, true},
-          {"certificate", &o.tls.certificate, true},
-          {"private_key", &o.tls.private_key, true},
-          {"server_name", &o.tls.server_name, false}}) {
-      if (auto e = text(tls, key, *out, is_path); !e.empty()) return e;
-    }
   }
   return {};
 }
@@ -200,7 +146,7 @@ std::unique_ptr<CLI::App> global_parser(GlobalOptions& o) {
   text(
       "--client-config", "FILE", "connect and tls settings from YAML (docs/ajarctl.md)",
       [&o](const std::string& v) {
-        if (auto e = load_client_config(v, o); !e.empty()) throw CLI::ValidationError(e);
+        if (auto e = detail::load_client_config(v, o); !e.empty()) throw CLI::ValidationError(e);
       },
       non_empty);
   app->add_flag("--json", o.json, "one JSON object per line per reply or event (docs/ajarctl.md)");
@@ -397,20 +343,24 @@ CommandParse parse_command(std::span<const std::string> words, core::Frame frame
   c.wait = !a.no_wait;
   const std::vector<std::string>& args = a.words;
 
-  if (name == "ping") {
-    c.kind = Command::Kind::kPing;
-    c.request = protocol::Ping{};
-    return {c, {}};
-  }
-  if (name == "status") {
-    c.kind = Command::Kind::kStatus;
-    c.request = protocol::GetStatus{};
-    return {c, {}};
-  }
-  if (name == "model") {
-    c.kind = Command::Kind::kRequest;
-    c.request = protocol::GetRobotModel{};
-    return {c, {}};
+  // The commands that are one request with nothing more to read: kind, request, role.
+  using Kind = Command::Kind;
+  static const std::tuple<std::string_view, Kind, protocol::Message, bool> kFixed[] = {
+      {"ping", Kind::kPing, protocol::Ping{}, false},
+      {"status", Kind::kStatus, protocol::GetStatus{}, false},
+      {"model", Kind::kRequest, protocol::GetRobotModel{}, false},
+      {"align", Kind::kAlign, protocol::AlignBase{}, true},
+      {"engage", Kind::kEngage, protocol::Engage{}, true},
+      {"stop", Kind::kRequest, protocol::Stop{}, false},  // any role may stop
+      {"estop", Kind::kRequest, protocol::EmergencyStop{}, false},
+  };
+  for (const auto& [fixed, kind, request, controller] : kFixed) {
+    if (fixed == name) {
+      c.kind = kind;
+      c.request = request;
+      c.needs_controller = controller;
+      return {c, {}};
+    }
   }
   if (name == "watch") {
     c.kind = Command::Kind::kWatch;
@@ -461,16 +411,6 @@ CommandParse parse_command(std::span<const std::string> words, core::Frame frame
     c.request = protocol::SetContactPoint{points[0]};
     return {c, {}};
   }
-  if (name == "align" || name == "engage") {
-    c.kind = name == "align" ? Command::Kind::kAlign : Command::Kind::kEngage;
-    c.needs_controller = true;
-    if (name == "align") {
-      c.request = protocol::AlignBase{};
-    } else {
-      c.request = protocol::Engage{};
-    }
-    return {c, {}};
-  }
   if (name == "drive") {
     c.kind = Command::Kind::kDrive;
     c.needs_controller = true;
@@ -486,15 +426,6 @@ CommandParse parse_command(std::span<const std::string> words, core::Frame frame
     c.kind = Command::Kind::kApproach;
     c.needs_controller = true;
     c.request = protocol::Approach{standoff_m};
-    return {c, {}};
-  }
-  if (name == "stop" || name == "estop") {
-    c.kind = Command::Kind::kRequest;
-    if (name == "stop") {
-      c.request = protocol::Stop{};
-    } else {
-      c.request = protocol::EmergencyStop{};
-    }
     return {c, {}};
   }
   if (name == "reset") {

@@ -46,6 +46,11 @@ std::unique_ptr<CLI::App> global_parser(GlobalOptions& o);
 std::unique_ptr<CLI::App> command_parser(const CommandInfo& info, core::Frame& frame,
                                          CommandArgs& a);
 
+// --client-config FILE: `connect: HOST:PORT` and `tls: {ca, certificate, private_key,
+// server_name}` into `o`; relative paths are taken from the file's folder. Empty, or what is wrong
+// (naming the file and the key). cli_config.cpp.
+std::string load_client_config(const std::string& path, GlobalOptions& o);
+
 // The closest name within a third of the word's length (at least 1, at most 3 edits), or one the
 // word is a prefix of; empty if none is close.
 std::string closest(std::string_view word, const std::vector<std::string>& names);

@@ -23,7 +23,7 @@ std::string outside_message(double u_px, double v_px) {
 
 }  // namespace
 
-Status check_intrinsics(const PinholeIntrinsics& k) {
+Outcome check_intrinsics(const PinholeIntrinsics& k) {
   const std::array<std::pair<const char*, double>, 4> values{
       {{"fx_px", k.fx_px}, {"fy_px", k.fy_px}, {"cx_px", k.cx_px}, {"cy_px", k.cy_px}}};
   for (const auto& [field, value] : values) {

@@ -46,7 +46,7 @@ Vec3 orient_toward_robot(const Vec3& n, const Vec3& point_on_plane) {
 }
 
 // First pair (i < j, ordered by j then i) closer than the minimum separation.
-Status check_separation(std::span<const Vec3> points, const Tolerances& tol) {
+Outcome check_separation(std::span<const Vec3> points, const Tolerances& tol) {
   for (std::size_t j = 1; j < points.size(); ++j) {
     for (std::size_t i = 0; i < j; ++i) {
       const double d = (points[j] - points[i]).norm();
@@ -61,7 +61,7 @@ Status check_separation(std::span<const Vec3> points, const Tolerances& tol) {
   return Ok{};
 }
 
-Status check_points_finite(std::span<const Vec3> points) {
+Outcome check_points_finite(std::span<const Vec3> points) {
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (auto s = check_finite(points[i], format("points[%zu]", i)); !s) return s;
   }
@@ -295,7 +295,7 @@ WheelCommand wheel_command(double yaw_rad, const BaseGeometry& base) {
 
 // ---- Validation predicates -------------------------------------------------------------------
 
-Status check_finite(const Vec3& p, std::string_view field) {
+Outcome check_finite(const Vec3& p, std::string_view field) {
   static constexpr const char* kAxis[3] = {"x", "y", "z"};
   for (int i = 0; i < 3; ++i) {
     if (!std::isfinite(p[i])) {
@@ -308,8 +308,8 @@ Status check_finite(const Vec3& p, std::string_view field) {
   return Ok{};
 }
 
-Status check_depth(const FramedPoint& p, const CameraToBase& t, const Limits& limits,
-                   std::string_view field) {
+Outcome check_depth(const FramedPoint& p, const CameraToBase& t, const Limits& limits,
+                    std::string_view field) {
   double depth = 0.0;
   switch (p.frame) {
     case Frame::kCamera:
@@ -335,8 +335,8 @@ Status check_depth(const FramedPoint& p, const CameraToBase& t, const Limits& li
 
 namespace {
 
-Status check_range(double value, double lo, double hi, ErrorCode code, const char* what,
-                   std::string_view field) {
+Outcome check_range(double value, double lo, double hi, ErrorCode code, const char* what,
+                    std::string_view field) {
   if (!std::isfinite(value)) {
     return error(ErrorCode::kNonFinite, std::string(field),
                  format("%s is not a finite number", what));
@@ -351,17 +351,17 @@ Status check_range(double value, double lo, double hi, ErrorCode code, const cha
 
 }  // namespace
 
-Status check_door_width(double width_m, const Limits& limits, std::string_view field) {
+Outcome check_door_width(double width_m, const Limits& limits, std::string_view field) {
   return check_range(width_m, limits.min_door_width_m, limits.max_door_width_m,
                      ErrorCode::kWidthOutOfRange, "door width", field);
 }
 
-Status check_handle_length(double length_m, const Limits& limits, std::string_view field) {
+Outcome check_handle_length(double length_m, const Limits& limits, std::string_view field) {
   return check_range(length_m, limits.min_handle_length_m, limits.max_handle_length_m,
                      ErrorCode::kHandleLengthOutOfRange, "handle length", field);
 }
 
-Status check_yaw(double yaw_rad, const Limits& limits, std::string_view field) {
+Outcome check_yaw(double yaw_rad, const Limits& limits, std::string_view field) {
   if (!std::isfinite(yaw_rad)) {
     return error(ErrorCode::kNonFinite, std::string(field),
                  "yaw correction is not a finite number");
@@ -382,7 +382,7 @@ double reach_margin_m(const Vec3& p_base_m, const ArmWorkspace& arm) {
                    arm.max_z_m - p_base_m.z()});
 }
 
-Status check_reach(const Vec3& p_base_m, const ArmWorkspace& arm, std::string_view field) {
+Outcome check_reach(const Vec3& p_base_m, const ArmWorkspace& arm, std::string_view field) {
   if (auto s = check_finite(p_base_m, field); !s) return s;
   const double margin = reach_margin_m(p_base_m, arm);
   if (!(margin >= 0.0)) {

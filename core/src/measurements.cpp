@@ -23,7 +23,7 @@ Result<Vec3> point_in_base(const FramedPoint& p, const CameraToBase& t, const Li
   return base;
 }
 
-using RangeCheck = Status (*)(double, const Limits&, std::string_view);
+using RangeCheck = Outcome (*)(double, const Limits&, std::string_view);
 
 Result<SpanMeasurement> measure_two_points(const FramedPoint& p1, const FramedPoint& p2,
                                            const CameraToBase& t, const Limits& limits,

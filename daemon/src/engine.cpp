@@ -124,7 +124,7 @@ class EngineImpl final : public Engine {
     if (started_) return;
     store_.prepare();
     // Lifecycle policy (with its waits) runs here, before the control thread exists.
-    Status card_up = card_->configure();
+    Outcome card_up = card_->configure();
     if (card_up) card_up = card_->activate();
     if (!card_up) {
       bring_down_card();
@@ -513,7 +513,7 @@ class EngineImpl final : public Engine {
   }
 
   // Whether Drive (jog = true) or Approach may move the base now.
-  Status check_base_may_drive(bool jog) const {
+  Outcome check_base_may_drive(bool jog) const {
     if (procedure_.fault() != ErrorCode::kOk) {
       return make_error(
           ErrorCode::kFaultLatched, "",
@@ -552,7 +552,7 @@ class EngineImpl final : public Engine {
   }
 
   // Measurements, AlignBase and Engage while a Drive or Approach moves the wheels.
-  Status check_wheels_at_rest() const {
+  Outcome check_wheels_at_rest() const {
     if (wheel_motion_ == 0 || wheel_kind_ == WheelKind::kAlign) return Ok{};
     return make_error(
         ErrorCode::kMotionInProgress, "",
@@ -649,7 +649,7 @@ class EngineImpl final : public Engine {
     return ack(type, protocol::EmptyAck{});
   }
 
-  Status recover_arm() {
+  Outcome recover_arm() {
     if (arm_->state() == drivers::LifecycleState::kFault) {
       if (auto s = arm_->recover(); !s) return s;
     }

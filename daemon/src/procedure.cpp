@@ -69,7 +69,7 @@ ProcedureState Procedure::state() const noexcept {
   return ProcedureState::kReadyToEngage;
 }
 
-Status Procedure::check_measure_allowed() const {
+Outcome Procedure::check_measure_allowed() const {
   if (record_.fault != ErrorCode::kOk) {
     return make_error(
         ErrorCode::kFaultLatched, "",
@@ -82,8 +82,8 @@ Status Procedure::check_measure_allowed() const {
   return Ok{};
 }
 
-Status Procedure::check_prerequisites(bool need_width, bool need_handle, bool need_plane,
-                                      bool need_aligned) const {
+Outcome Procedure::check_prerequisites(bool need_width, bool need_handle, bool need_plane,
+                                       bool need_aligned) const {
   if (need_width && !width_)
     return missing(ErrorCode::kMissingDoorWidth, "measure the door width first");
   if (need_handle && !handle_)
@@ -95,7 +95,7 @@ Status Procedure::check_prerequisites(bool need_width, bool need_handle, bool ne
   return Ok{};
 }
 
-Status Procedure::check_fresh(bool plane, bool contact) const {
+Outcome Procedure::check_fresh(bool plane, bool contact) const {
   const auto moved = [&](const core::PlanarPose& since) {
     return fmt::format("the base moved {:.3f} m and turned {:.3f} rad since it was ",
                        core::travel_m(since, pose_), std::abs(core::turn_rad(since, pose_)));
@@ -318,7 +318,7 @@ void Procedure::clear_parameters() {
   plane_stale_ = contact_stale_ = false;
 }
 
-Status Procedure::restore(const ProcedureRecord& record) {
+Outcome Procedure::restore(const ProcedureRecord& record) {
   Procedure replay(camera_to_base_, limits_, base_, procedure_limits_);
   replay.pose_ = pose_;  // restored measurements count as taken where the base is now
   if (record.width) {

@@ -306,7 +306,7 @@ Result<std::string> StateStore::reject_current_file() const {
   return target;
 }
 
-Status StateStore::save(const ProcedureRecord& record) const {
+Outcome StateStore::save(const ProcedureRecord& record) const {
   const std::string text = encode_state(record);
   const std::string tmp = path_ + ".tmp";
   // Every failure after the open removes the temporary file: no stray .tmp is left behind.
@@ -374,7 +374,7 @@ void StateStore::run() {
     pending_.reset();
     const std::uint64_t generation = pending_generation_;
     lock.unlock();
-    const Status saved = save(record);
+    const Outcome saved = save(record);
     lock.lock();
     if (!saved) {
       if (saved.error().message != last_error_) errors_.push_back(saved.error().message);

@@ -248,7 +248,7 @@ Result<Message> decode(std::string_view line) {
   }
   m.command = *cmd;
 
-  auto want_fields = [&](std::size_t n) -> Status {
+  auto want_fields = [&](std::size_t n) -> Outcome {
     if (f.size() != n) {
       return bad(
           ErrorCode::kBadPayloadLength, to_string(m.command),
@@ -256,13 +256,13 @@ Result<Message> decode(std::string_view line) {
     }
     return Ok{};
   };
-  auto task_id_at = [&](std::size_t i) -> Status {
+  auto task_id_at = [&](std::size_t i) -> Outcome {
     const auto id = parse_uint<std::uint32_t>(f[i], 0xFFFFFFFFU);
     if (!id) return bad(ErrorCode::kBadPayloadLength, "task_id", "not a number");
     m.task_id = *id;
     return Ok{};
   };
-  auto phase_at = [&](std::size_t i) -> Status {
+  auto phase_at = [&](std::size_t i) -> Outcome {
     const auto p = phase_from(f[i]);
     if (!p)
       return bad(ErrorCode::kInvalidEnumValue, "phase", "unknown '" + std::string(f[i]) + "'");

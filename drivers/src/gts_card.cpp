@@ -141,7 +141,7 @@ ErrorCode GtsMotionCard::call(short code, const char* name, int axis) noexcept {
   return fail(last_, gts_error_code(code), name, axis, "", code);
 }
 
-Status GtsMotionCard::start_up_call(short code, std::string_view name) const {
+Outcome GtsMotionCard::start_up_call(short code, std::string_view name) const {
   if (code == gts::kCmdSuccess) return Ok{};
   return gts_error(code, name, 0);
 }
@@ -156,14 +156,14 @@ ErrorCode GtsMotionCard::check_axes(std::span<const int> axes, const char* name)
   return card::check_axes(axes, settings_.axis_count, name, last_);
 }
 
-Status GtsMotionCard::open() {
+Outcome GtsMotionCard::open() {
   if (open_) (void)close();  // GT_Open on an open card: start over
   if (auto s = start_up_call(api_->open(static_cast<short>(settings_.channel), 1), "GT_Open"); !s) {
     return s;
   }
   open_ = true;
   std::fill(std::begin(jog_mode_), std::end(jog_mode_), false);  // GT_Reset: no profile mode
-  Status s = [&]() -> Status {
+  Outcome s = [&]() -> Outcome {
     if (auto r = start_up_call(api_->reset(), "GT_Reset"); !r) return r;
     if (!settings_.card_config_path.empty()) {
       std::string file = settings_.card_config_path;
@@ -178,7 +178,7 @@ Status GtsMotionCard::open() {
   return s;
 }
 
-Status GtsMotionCard::close() {
+Outcome GtsMotionCard::close() {
   if (!open_) return Ok{};
   open_ = false;
   return start_up_call(api_->close(), "GT_Close");

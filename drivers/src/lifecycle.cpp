@@ -98,12 +98,12 @@ ErrorCode ManagedMotionCard::refuse(const char* call) noexcept {
   }
 }
 
-Status ManagedMotionCard::as_status(ErrorCode e) const {
+Outcome ManagedMotionCard::as_status(ErrorCode e) const {
   if (e == ErrorCode::kOk) return Ok{};
   return make_error(e, last_.axis != 0 ? "axis" : "", describe(last_));
 }
 
-Status ManagedMotionCard::configure() {
+Outcome ManagedMotionCard::configure() {
   if (state_ != LifecycleState::kUnconfigured) {
     return wrong_state("configure()", "unconfigured", state_);
   }
@@ -113,7 +113,7 @@ Status ManagedMotionCard::configure() {
   return Ok{};
 }
 
-Status ManagedMotionCard::activate() {
+Outcome ManagedMotionCard::activate() {
   if (state_ != LifecycleState::kInactive) return wrong_state("activate()", "inactive", state_);
   if (const auto e = track(impl_->clear_faults(axes())); e != ErrorCode::kOk) return as_status(e);
   if (const auto e = track(impl_->enable_axes(axes())); e != ErrorCode::kOk) return as_status(e);
@@ -146,9 +146,9 @@ Status ManagedMotionCard::activate() {
   return Ok{};
 }
 
-Status ManagedMotionCard::deactivate() {
+Outcome ManagedMotionCard::deactivate() {
   if (state_ != LifecycleState::kActive) return wrong_state("deactivate()", "active", state_);
-  Status stopped = as_status(track(impl_->smooth_stop(axes())));
+  Outcome stopped = as_status(track(impl_->smooth_stop(axes())));
   const auto deadline =
       std::chrono::steady_clock::now() + std::chrono::milliseconds(stop_timeout_ms_);
   bool resting = false;
@@ -173,17 +173,17 @@ Status ManagedMotionCard::deactivate() {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   if (!stopped) (void)track(impl_->emergency_stop(axes()));
-  Status disabled = as_status(track(impl_->disable_axes(axes())));
+  Outcome disabled = as_status(track(impl_->disable_axes(axes())));
   if (state_ == LifecycleState::kActive) state_ = LifecycleState::kInactive;
   if (!stopped) return stopped;
   return disabled;
 }
 
-Status ManagedMotionCard::cleanup() {
+Outcome ManagedMotionCard::cleanup() {
   if (state_ != LifecycleState::kInactive && state_ != LifecycleState::kFault) {
     return wrong_state("cleanup()", "inactive or fault", state_);
   }
-  Status s = impl_->close();
+  Outcome s = impl_->close();
   state_ = LifecycleState::kUnconfigured;
   fault_cause_ = ErrorCode::kOk;
   return s;
@@ -215,20 +215,20 @@ ErrorCode ManagedMotionCard::recover_axes() noexcept {
   return ErrorCode::kOk;
 }
 
-Status ManagedMotionCard::recover() {
+Outcome ManagedMotionCard::recover() {
   if (state_ != LifecycleState::kFault) return wrong_state("recover()", "fault", state_);
   return as_status(recover_axes());
 }
 
-Status ManagedMotionCard::open() {
+Outcome ManagedMotionCard::open() {
   return configure();
 }
 
-Status ManagedMotionCard::close() {
+Outcome ManagedMotionCard::close() {
   if (state_ == LifecycleState::kUnconfigured) return Ok{};
-  Status stopped = Ok{};
+  Outcome stopped = Ok{};
   if (state_ == LifecycleState::kActive) stopped = deactivate();
-  Status closed = cleanup();
+  Outcome closed = cleanup();
   if (!stopped) return stopped;
   return closed;
 }
@@ -299,14 +299,14 @@ ManagedManipulator::ManagedManipulator(std::unique_ptr<Manipulator> impl) : impl
   if (!impl_) throw std::invalid_argument("ManagedManipulator: no manipulator");
 }
 
-Status ManagedManipulator::track(Status s) {
+Outcome ManagedManipulator::track(Outcome s) {
   if (!s && state_ != LifecycleState::kUnconfigured && arm_unhealthy(s.error().code)) {
     state_ = LifecycleState::kFault;
   }
   return s;
 }
 
-Status ManagedManipulator::configure() {
+Outcome ManagedManipulator::configure() {
   if (state_ != LifecycleState::kUnconfigured) {
     return wrong_state("configure()", "unconfigured", state_);
   }
@@ -315,44 +315,44 @@ Status ManagedManipulator::configure() {
   return Ok{};
 }
 
-Status ManagedManipulator::activate() {
+Outcome ManagedManipulator::activate() {
   if (state_ != LifecycleState::kInactive) return wrong_state("activate()", "inactive", state_);
   state_ = LifecycleState::kActive;
   return Ok{};
 }
 
-Status ManagedManipulator::deactivate() {
+Outcome ManagedManipulator::deactivate() {
   if (state_ != LifecycleState::kActive) return wrong_state("deactivate()", "active", state_);
-  Status s = track(impl_->stop());
+  Outcome s = track(impl_->stop());
   if (state_ == LifecycleState::kActive) state_ = LifecycleState::kInactive;
   return s;
 }
 
-Status ManagedManipulator::cleanup() {
+Outcome ManagedManipulator::cleanup() {
   if (state_ != LifecycleState::kInactive && state_ != LifecycleState::kFault) {
     return wrong_state("cleanup()", "inactive or fault", state_);
   }
-  Status s = impl_->disconnect();
+  Outcome s = impl_->disconnect();
   state_ = LifecycleState::kUnconfigured;
   return s;
 }
 
-Status ManagedManipulator::recover() {
+Outcome ManagedManipulator::recover() {
   if (state_ != LifecycleState::kFault) return wrong_state("recover()", "fault", state_);
   if (auto s = impl_->clear_fault(); !s) return s;
   state_ = LifecycleState::kInactive;
   return Ok{};
 }
 
-Status ManagedManipulator::connect() {
+Outcome ManagedManipulator::connect() {
   return configure();
 }
 
-Status ManagedManipulator::disconnect() {
+Outcome ManagedManipulator::disconnect() {
   if (state_ == LifecycleState::kUnconfigured) return Ok{};
-  Status stopped = Ok{};
+  Outcome stopped = Ok{};
   if (state_ == LifecycleState::kActive) stopped = deactivate();
-  Status closed = cleanup();
+  Outcome closed = cleanup();
   if (!stopped) return stopped;
   return closed;
 }
@@ -364,11 +364,11 @@ Result<std::uint32_t> ManagedManipulator::hand_off(const DoorTask& task) {
   return r;
 }
 
-Status ManagedManipulator::stop() {
+Outcome ManagedManipulator::stop() {
   return track(impl_->stop());
 }
 
-Status ManagedManipulator::clear_fault() {
+Outcome ManagedManipulator::clear_fault() {
   if (state_ == LifecycleState::kUnconfigured) return not_active("clear_fault()", state_);
   if (state_ == LifecycleState::kFault) return recover();
   return track(impl_->clear_fault());

@@ -19,7 +19,7 @@ std::optional<Error> MockManipulator::enter_locked(const char* call) {
   return error;
 }
 
-Status MockManipulator::connect() {
+Outcome MockManipulator::connect() {
   MockFault fault;
   int slow_ms;
   {
@@ -38,7 +38,7 @@ Status MockManipulator::connect() {
   return Ok{};
 }
 
-Status MockManipulator::disconnect() {
+Outcome MockManipulator::disconnect() {
   std::lock_guard lock(mutex_);
   if (auto e = enter_locked("disconnect")) return std::move(*e);
   connected_ = false;
@@ -103,7 +103,7 @@ Result<std::uint32_t> MockManipulator::hand_off(const DoorTask& task) {
   return id;
 }
 
-Status MockManipulator::stop() {
+Outcome MockManipulator::stop() {
   std::lock_guard lock(mutex_);
   if (auto e = enter_locked("stop")) return std::move(*e);
   ++stops_;
@@ -114,7 +114,7 @@ Status MockManipulator::stop() {
   return Ok{};
 }
 
-Status MockManipulator::clear_fault() {
+Outcome MockManipulator::clear_fault() {
   std::lock_guard lock(mutex_);
   if (auto e = enter_locked("clear_fault")) return std::move(*e);
   settle_locked(clock_());

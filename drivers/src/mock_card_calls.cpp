@@ -39,7 +39,7 @@ profile::Motion constant_jog(std::int64_t t0_ns, double from, double velocity) {
 #define AJAR_MOCK_TRY(expr) \
   if (const ErrorCode e_ = (expr); e_ != ErrorCode::kOk) return e_
 
-Status MockMotionCard::open() {
+Outcome MockMotionCard::open() {
   Lock lock;
   (void)enter(lock, CardCall::kOpen, "open", false);
   if (open_fails_) return make_error(ErrorCode::kCardOpenFailed, "", "mock card: no card");
@@ -50,7 +50,7 @@ Status MockMotionCard::open() {
   return Ok{};
 }
 
-Status MockMotionCard::close() {
+Outcome MockMotionCard::close() {
   Lock lock;
   (void)enter(lock, CardCall::kClose, "close", false);
   open_ = false;

@@ -15,7 +15,7 @@ SerialManipulator::~SerialManipulator() {
   (void)disconnect();
 }
 
-Status SerialManipulator::connect() {
+Outcome SerialManipulator::connect() {
   {
     std::lock_guard lock(impl_->mutex);
     if (impl_->running) return Ok{};
@@ -48,7 +48,7 @@ Status SerialManipulator::connect() {
   return Ok{};
 }
 
-Status SerialManipulator::disconnect() {
+Outcome SerialManipulator::disconnect() {
   {
     std::lock_guard lock(impl_->mutex);
     if (!impl_->running) return Ok{};
@@ -93,7 +93,7 @@ Result<std::uint32_t> SerialManipulator::hand_off(const DoorTask& task) {
   return id;
 }
 
-Status SerialManipulator::stop() {
+Outcome SerialManipulator::stop() {
   std::lock_guard lock(impl_->mutex);
   auto& s = impl_->snapshot;
   if (impl_->task_pending) {  // never sent: cancel it here
@@ -113,7 +113,7 @@ Status SerialManipulator::stop() {
   return Ok{};
 }
 
-Status SerialManipulator::clear_fault() {
+Outcome SerialManipulator::clear_fault() {
   std::lock_guard lock(impl_->mutex);
   if (!impl_->running || impl_->snapshot.phase == ArmPhase::kDisconnected) {
     return make_error(ErrorCode::kArmDisconnected, "",

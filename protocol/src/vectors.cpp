@@ -209,7 +209,7 @@ std::string format_vector(const GoldenVector& v, std::string_view comment) {
   return out;
 }
 
-ajar::Status check_vector(const GoldenVector& v) {
+Outcome check_vector(const GoldenVector& v) {
   const StreamDecoder::Outcome whole = decode_frame(v.bytes);
   const auto streamed = feed_bytewise(v.bytes);
   if (streamed.empty()) return mismatch(v, "the stream decoder produced nothing");

@@ -49,7 +49,7 @@ void run(const daemon::Config& base_config, bool fifo, double seconds) {
   s.motion_timeout_margin_s = config.control.motion_timeout_margin_s;
   s.base = config.base;
   drivers::ManagedMotionCard card(std::move(set.card), axes);
-  Status up = card.configure();
+  Outcome up = card.configure();
   if (up) up = card.activate();
   if (!up) fail("card bring-up: " + up.error().message);
   daemon::ControlLoop loop(card, s);

@@ -28,7 +28,7 @@ struct PinholeIntrinsics {
 
 // Ok, or kNonFinite / kBadCount naming "fx_px", "fy_px", "cx_px", "cy_px", "width_px",
 // "height_px": focal lengths > 0, image 1..16384 pixels a side, principal point finite.
-Status check_intrinsics(const PinholeIntrinsics& k);
+Outcome check_intrinsics(const PinholeIntrinsics& k);
 
 // Pinhole deprojection: the camera-frame point at depth `depth_m` (camera z) seen at pixel (u, v):
 // x = (u - cx) z / fx, y = (v - cy) z / fy, z = depth.

@@ -122,17 +122,17 @@ double base_yaw_from_wheels_rad(double left_wheel_rad, double right_wheel_rad,
 // Each returns Ok or an Error whose field names the offending input (using `field`).
 
 // kNonFinite naming the coordinate: field "p2" -> "p2.z".
-Status check_finite(const Vec3& p, std::string_view field);
+Outcome check_finite(const Vec3& p, std::string_view field);
 // A point given in the camera frame must lie within [min_depth_m, max_depth_m] along camera z.
 // A base-frame point is taken back to the camera frame first. Bounds inclusive.
 // kPointOutOfDepthRange (field), kUnknownFrame (field + ".frame").
-Status check_depth(const FramedPoint& p, const CameraToBase& t, const Limits& limits,
-                   std::string_view field);
-Status check_door_width(double width_m, const Limits& limits, std::string_view field = "width_m");
-Status check_handle_length(double length_m, const Limits& limits,
-                           std::string_view field = "handle_length_m");
-Status check_yaw(double yaw_rad, const Limits& limits,
-                 std::string_view field = "yaw_deviation_rad");
+Outcome check_depth(const FramedPoint& p, const CameraToBase& t, const Limits& limits,
+                    std::string_view field);
+Outcome check_door_width(double width_m, const Limits& limits, std::string_view field = "width_m");
+Outcome check_handle_length(double length_m, const Limits& limits,
+                            std::string_view field = "handle_length_m");
+Outcome check_yaw(double yaw_rad, const Limits& limits,
+                  std::string_view field = "yaw_deviation_rad");
 
 // Ranges are inclusive; a NaN value gives kNonFinite. Messages carry the value and the range, e.g.
 // "door width 40.000 m is outside the allowed range 0.500..2.000 m".
@@ -142,6 +142,6 @@ Status check_yaw(double yaw_rad, const Limits& limits,
 // z - min_z, max_z - z) with r = |p - shoulder|; negative = outside (then by how much it misses
 // the most violated boundary). check_reach: kOutOfReach when the margin is negative.
 double reach_margin_m(const Vec3& p_base_m, const ArmWorkspace& arm);
-Status check_reach(const Vec3& p_base_m, const ArmWorkspace& arm, std::string_view field);
+Outcome check_reach(const Vec3& p_base_m, const ArmWorkspace& arm, std::string_view field);
 
 }  // namespace ajar::core

@@ -47,9 +47,10 @@ class [[nodiscard]] Result {
   std::variant<T, Error> state_;
 };
 
-// Result<void> equivalent.
+// Outcome: Result<void> (success, or an Error saying what failed). Not protocol::Status, the
+// wire message.
 struct Ok {};
-using Status = Result<Ok>;
+using Outcome = Result<Ok>;
 
 inline Error make_error(ErrorCode code, std::string field, std::string message) {
   return Error{code, std::move(field), std::move(message)};

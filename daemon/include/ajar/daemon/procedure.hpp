@@ -119,18 +119,18 @@ class Procedure {
   // The stale flags as of the last observe_pose; the travel since the plane as of `now`.
   protocol::Staleness staleness(const core::PlanarPose& now) const noexcept;
   // kMeasurementStale (field "plane", saying how far the base moved) when the plane is stale.
-  Status plane_fresh() const { return check_fresh(true, false); }
+  Outcome plane_fresh() const { return check_fresh(true, false); }
 
   // Replays a persisted record through core's validation. Aligning at the time of the record ->
   // kReadyToAlign with the plane consumed; engaging -> kReadyToEngage; engaged and faults are kept.
   // On an error nothing is restored (the procedure stays clean) and the error says what failed.
-  Status restore(const ProcedureRecord& record);
+  Outcome restore(const ProcedureRecord& record);
 
  private:
-  Status check_measure_allowed() const;
-  Status check_fresh(bool plane, bool contact) const;
-  Status check_prerequisites(bool need_width, bool need_handle, bool need_plane,
-                             bool need_aligned) const;
+  Outcome check_measure_allowed() const;
+  Outcome check_fresh(bool plane, bool contact) const;
+  Outcome check_prerequisites(bool need_width, bool need_handle, bool need_plane,
+                              bool need_aligned) const;
 
   core::CameraToBase camera_to_base_;
   core::Limits limits_;

@@ -83,7 +83,7 @@ class StateStore {
 
   // Synchronous atomic replace on the caller's thread (see above). Error: kInternal, field
   // "state_file", naming the path and errno. Do not mix with a running writer thread.
-  Status save(const ProcedureRecord& record) const;
+  Outcome save(const ProcedureRecord& record) const;
 
   // ---- writer thread -------------------------------------------------------------------------
   void start();  // starts the writer thread (idempotent)

@@ -43,8 +43,8 @@ class GtsMotionCard final : public MotionCard {
   // GT_Open(channel, 1), GT_Reset, GT_LoadConfig (when card_config_path is set), GT_ClrSts of all
   // axes. When a step after GT_Open fails the card is closed again (GT_Close) and the first
   // error is returned; opening an open card closes it first.
-  Status open() override;
-  Status close() override;  // GT_Close
+  Outcome open() override;
+  Outcome close() override;  // GT_Close
   // GT_GetSts per axis (kAxisAlarm if a drive alarm is latched: nothing is switched on), then
   // GT_AxisOn per axis. The servo comes on a few ms later (status 0x200).
   ErrorCode enable_axes(std::span<const int> axes) noexcept override;
@@ -73,7 +73,7 @@ class GtsMotionCard final : public MotionCard {
   ErrorCode check_open(const char* call) noexcept;
   ErrorCode check_axes(std::span<const int> axes, const char* call) noexcept;
   ErrorCode call(short code, const char* name, int axis) noexcept;
-  Status start_up_call(short code, std::string_view name) const;
+  Outcome start_up_call(short code, std::string_view name) const;
 
   GtsCardSettings settings_;
   void* handle_ = nullptr;

@@ -67,22 +67,22 @@ class ManagedMotionCard final : public MotionCard {
   ManagedMotionCard(std::unique_ptr<MotionCard> impl, std::span<const int> axes,
                     int stop_timeout_ms = 5000, int enable_timeout_ms = 2000);
 
-  Status configure();  // open(): unconfigured -> inactive
+  Outcome configure();  // open(): unconfigured -> inactive
   // Clear faults, enable axes, poll (1 ms sleeps) until every axis reports servo-on: inactive ->
   // active. kMotionTimeout after enable_timeout_ms, kAxisAlarm if a drive alarm shows (the wrapper
   // then stays inactive).
-  Status activate();
+  Outcome activate();
   // Smooth stop, poll (1 ms sleeps) until the axes rest or stop_timeout_ms passed (then emergency
   // stop), disable axes: active -> inactive.
-  Status deactivate();
-  Status cleanup();  // close(): inactive or fault -> unconfigured
+  Outcome deactivate();
+  Outcome cleanup();  // close(): inactive or fault -> unconfigured
   // fault -> inactive: clear faults, then every axis must answer axis_status() without a drive
   // alarm or following error; otherwise stays in fault and returns why.
-  Status recover();
+  Outcome recover();
   LifecycleState state() const noexcept { return state_; }
 
-  Status open() override;
-  Status close() override;
+  Outcome open() override;
+  Outcome close() override;
   ErrorCode enable_axes(std::span<const int> axes) noexcept override;
   ErrorCode disable_axes(std::span<const int> axes) noexcept override;
   ErrorCode clear_faults(std::span<const int> axes) noexcept override;
@@ -110,7 +110,7 @@ class ManagedMotionCard final : public MotionCard {
   void latch_fault(ErrorCode cause) noexcept;
   ErrorCode refuse(const char* call) noexcept;  // a motion call outside kActive
   ErrorCode recover_axes() noexcept;            // recover() without text
-  Status as_status(ErrorCode e) const;          // kOk or the failure as text
+  Outcome as_status(ErrorCode e) const;         // kOk or the failure as text
 };
 
 class ManagedManipulator final : public Manipulator {
@@ -118,25 +118,25 @@ class ManagedManipulator final : public Manipulator {
   // Throws std::invalid_argument for a null impl.
   explicit ManagedManipulator(std::unique_ptr<Manipulator> impl);
 
-  Status configure();   // connect(): unconfigured -> inactive
-  Status activate();    // inactive -> active
-  Status deactivate();  // stop(): active -> inactive
-  Status cleanup();     // disconnect(): inactive or fault -> unconfigured
-  Status recover();     // fault -> inactive (clear_fault)
+  Outcome configure();   // connect(): unconfigured -> inactive
+  Outcome activate();    // inactive -> active
+  Outcome deactivate();  // stop(): active -> inactive
+  Outcome cleanup();     // disconnect(): inactive or fault -> unconfigured
+  Outcome recover();     // fault -> inactive (clear_fault)
   LifecycleState state() const noexcept { return state_; }
 
-  Status connect() override;
-  Status disconnect() override;
+  Outcome connect() override;
+  Outcome disconnect() override;
   Result<std::uint32_t> hand_off(const DoorTask& task) override;
-  Status stop() override;
-  Status clear_fault() override;
+  Outcome stop() override;
+  Outcome clear_fault() override;
   ArmStatus status() const override;
 
  private:
   std::unique_ptr<Manipulator> impl_;
   LifecycleState state_ = LifecycleState::kUnconfigured;
 
-  Status track(Status s);
+  Outcome track(Outcome s);
 };
 
 }  // namespace ajar::drivers

@@ -40,14 +40,14 @@ class Manipulator {
   virtual ~Manipulator() = default;
 
   // Starts the link (opens the device, starts the worker). Start-up only.
-  virtual Status connect() = 0;
-  virtual Status disconnect() = 0;
+  virtual Outcome connect() = 0;
+  virtual Outcome disconnect() = 0;
   // Queues the hand-off of a task; returns the task id at once. The acknowledgement, retries and
   // outcome show up in status(). Refuses (kArmDisconnected, kWrongState) without queueing.
   virtual Result<std::uint32_t> hand_off(const DoorTask& task) = 0;
   // Stops the arm (queued ahead of anything else). Never blocks.
-  virtual Status stop() = 0;
-  virtual Status clear_fault() = 0;
+  virtual Outcome stop() = 0;
+  virtual Outcome clear_fault() = 0;
   virtual ArmStatus status() const = 0;
 };
 

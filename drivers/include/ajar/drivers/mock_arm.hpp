@@ -36,11 +36,11 @@ class MockManipulator final : public Manipulator {
   explicit MockManipulator(MockFault fault = MockFault::kOff, int slow_ms = 50,
                            MockClock clock = {});
 
-  Status connect() override;
-  Status disconnect() override;
+  Outcome connect() override;
+  Outcome disconnect() override;
   Result<std::uint32_t> hand_off(const DoorTask& task) override;
-  Status stop() override;
-  Status clear_fault() override;
+  Outcome stop() override;
+  Outcome clear_fault() override;
   ArmStatus status() const override;
 
   // Test controls and observations.

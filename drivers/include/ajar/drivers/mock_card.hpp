@@ -131,8 +131,8 @@ class MockMotionCard final : public MotionCard {
   std::size_t log_size() const;
   std::vector<CardCallRecord> log_from(std::size_t index) const;
 
-  Status open() override;
-  Status close() override;
+  Outcome open() override;
+  Outcome close() override;
   // Realtime calls (motion_card.hpp): the servo comes on at once in enable_axes().
   ErrorCode enable_axes(std::span<const int> axes) noexcept override;
   ErrorCode disable_axes(std::span<const int> axes) noexcept override;

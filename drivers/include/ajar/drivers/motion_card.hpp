@@ -4,7 +4,7 @@
 // thread) owns a card.
 //
 // Two kinds of call:
-// - start-up / shut-down (open(), close()): may take long, return a Status with a message.
+// - start-up / shut-down (open(), close()): may take long, return an Outcome with a message.
 // - realtime (everything else): noexcept, never allocate, never sleep or poll; each returns as
 //   soon as the card calls it makes return. kOk on success, else the ErrorCode. What failed
 //   (the vendor call, the axis, the vendor's raw return code, a static reason) is kept as numbers
@@ -87,8 +87,8 @@ class MotionCard {
 
   // ---- start-up / shut-down ----
   // Opens the card and loads its configuration (may take long).
-  virtual Status open() = 0;
-  virtual Status close() = 0;
+  virtual Outcome open() = 0;
+  virtual Outcome close() = 0;
 
   // ---- realtime: noexcept, no allocation, no waiting ----
   // Issues servo-on for the axes and returns (kAxisAlarm if a drive alarm is latched). The servo

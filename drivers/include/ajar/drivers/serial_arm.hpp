@@ -35,16 +35,16 @@ class SerialManipulator final : public Manipulator {
   // Opens the device and waits (start-up only, at most (retries + 1) * ack_timeout_ms) for the
   // controller's first status report. kArmDisconnected naming the device if it cannot be opened or
   // configured; kArmTimeout if the controller does not answer. Either way the port is closed again.
-  Status connect() override;
-  Status disconnect() override;
+  Outcome connect() override;
+  Outcome disconnect() override;
   // kArmDisconnected when not connected; kWrongState while a task is busy, queued or the arm is
   // faulted (clear_fault first).
   Result<std::uint32_t> hand_off(const DoorTask& task) override;
   // Queued ahead of everything else. When the link is down the stop stays queued and is sent on
   // reconnect, and kArmDisconnected is returned so the caller knows it has not reached the arm.
-  Status stop() override;
+  Outcome stop() override;
   // Queues CLR when the arm is in kFault (a no-op otherwise); the reply sets the phase.
-  Status clear_fault() override;
+  Outcome clear_fault() override;
   ArmStatus status() const override;
 
   // Diagnostics (logs, tests).

@@ -49,7 +49,7 @@ std::string format_vector(const GoldenVector& v, std::string_view comment = {});
 // to a message that is wire_equal), and its type must match the direction; an error that does not
 // lose framing must skip exactly this frame (a Ping appended after it still decodes).
 // Error on mismatch: kInternal with a message saying what differed.
-ajar::Status check_vector(const GoldenVector& v);  // ajar::Status: protocol::Status is a message
+Outcome check_vector(const GoldenVector& v);
 
 // "CRC_MISMATCH" -> ErrorCode::kCrcMismatch (the inverse of ajar::to_string(ErrorCode)).
 std::optional<ErrorCode> error_code_from_string(std::string_view name) noexcept;
