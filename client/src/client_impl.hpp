@@ -127,31 +127,23 @@ struct Client::Impl {
       is_connected = false;
     }
     changed.notify_all();
-    DisconnectHandler handler;
-    {
-      std::lock_guard lock(handler_mutex);
-      handler = disconnect_handler;
-    }
-    if (handler && !why.empty()) handler(why);
+    if (const auto handler = copy_of(disconnect_handler); handler && !why.empty()) handler(why);
+  }
+
+  // A callback, copied under handler_mutex: it runs without the lock (it may replace itself).
+  template <typename Handler>
+  Handler copy_of(const Handler& handler) {
+    std::lock_guard lock(handler_mutex);
+    return handler;
   }
 
   void dispatch(protocol::Envelope&& envelope) {
     if (const auto* event = std::get_if<protocol::Event>(&envelope.message)) {
-      EventHandler handler;
-      {
-        std::lock_guard lock(handler_mutex);
-        handler = event_handler;
-      }
-      if (handler) handler(*event);
+      if (const auto handler = copy_of(event_handler)) handler(*event);
       return;
     }
     if (const auto* telemetry = std::get_if<protocol::Telemetry>(&envelope.message)) {
-      TelemetryHandler handler;
-      {
-        std::lock_guard lock(handler_mutex);
-        handler = telemetry_handler;
-      }
-      if (handler) handler(*telemetry);
+      if (const auto handler = copy_of(telemetry_handler)) handler(*telemetry);
       return;
     }
     if (envelope.request_id != 0 && heartbeat_ids.erase(envelope.request_id) > 0) return;

@@ -152,35 +152,32 @@ void MockMotionCard::halt(Axis& a) noexcept {
   a.stuck = a.stop_held = false;
 }
 
-AxisStatus MockMotionCard::status_of(Axis& a) noexcept {
-  double speed = 0;
-  const double position = sample(a, &speed);
+AxisStatus MockMotionCard::flags_of(const Axis& a) noexcept {
   AxisStatus st;
   st.enabled = a.enabled;
-  st.moving = a.moving;
-  st.in_position = !a.moving && a.enabled;
   st.alarm = a.alarm;
   st.following_error = a.following_error;
   st.positive_limit = a.positive_limit;
   st.negative_limit = a.negative_limit;
   st.smooth_stopped = a.smooth_stopped;
   st.emergency_stopped = a.emergency_stopped;
+  return st;
+}
+
+AxisStatus MockMotionCard::status_of(Axis& a) noexcept {
+  double speed = 0;
+  const double position = sample(a, &speed);
+  AxisStatus st = flags_of(a);
+  st.moving = a.moving;
+  st.in_position = !a.moving && a.enabled;
   st.profile_position_counts = std::llround(position);
   st.encoder_position_counts = std::llround(position);
   return st;
 }
 
 ErrorCode MockMotionCard::check_can_move(int n, double direction, const char* call) noexcept {
-  const Axis& a = axis(n);
-  AxisStatus st;
-  st.enabled = a.enabled;
-  st.alarm = a.alarm;
-  st.following_error = a.following_error;
-  st.positive_limit = a.positive_limit;
-  st.negative_limit = a.negative_limit;
-  st.emergency_stopped = a.emergency_stopped;
   const std::int64_t sign = direction > 0 ? 1 : (direction < 0 ? -1 : 0);
-  return card::check_can_move(st, n, sign, call, last_);
+  return card::check_can_move(flags_of(axis(n)), n, sign, call, last_);
 }
 
 ErrorCode MockMotionCard::check_can_start(int n, double direction, bool jog,

@@ -3,31 +3,34 @@
 # unfindable (CMAKE_DISABLE_FIND_PACKAGE_*) must configure, never look for libserial or libsystemd,
 # build ajar::client, and install the find_package(ajar) files (checked by building
 # tests/consumer against that install).
-# The build directory is BUILD_DIR/package-client-only, kept between runs (incremental).
+# The build directory is BUILD_DIR-client-only, a sibling of BUILD_DIR at the same depth and kept
+# between runs: its compile commands are then those of BUILD_DIR's core, protocol, security and
+# client to the letter (ccache makes paths relative), so with ccache on (scripts/cmake-common.sh)
+# a CI run compiles them once, not twice.
 #   client_only_test.sh SOURCE_DIR BUILD_DIR
 set -euo pipefail
 src=$(realpath "$1")
-tmp=$(realpath "$2")/package-client-only
+tmp=$(realpath "$2")-client-only
 rm -rf "$tmp/prefix" "$tmp/consumer"
 mkdir -p "$tmp"
 launcher=()
 if command -v ccache >/dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
-cmake -S "$src" -B "$tmp/build" -DCMAKE_BUILD_TYPE=Release -DAJAR_CLIENT_ONLY=ON \
+cmake -S "$src" -B "$tmp" -DCMAKE_BUILD_TYPE=Release -DAJAR_CLIENT_ONLY=ON \
   -DCMAKE_DISABLE_FIND_PACKAGE_yaml-cpp=ON -DCMAKE_DISABLE_FIND_PACKAGE_spdlog=ON \
   -DCMAKE_INSTALL_PREFIX="$tmp/prefix" "${launcher[@]}" >"$tmp/configure.log" ||
   { cat "$tmp/configure.log"; exit 1; }
-if grep -Eq '^(LIBSERIAL|LIBSYSTEMD|spdlog|yaml-cpp)_' "$tmp/build/CMakeCache.txt"; then
+if grep -Eq '^(LIBSERIAL|LIBSYSTEMD|spdlog|yaml-cpp)_' "$tmp/CMakeCache.txt"; then
   echo "FAIL: the client-only build looked for a daemon dependency:"
-  grep -E '^(LIBSERIAL|LIBSYSTEMD|spdlog|yaml-cpp)_' "$tmp/build/CMakeCache.txt"
+  grep -E '^(LIBSERIAL|LIBSYSTEMD|spdlog|yaml-cpp)_' "$tmp/CMakeCache.txt"
   exit 1
 fi
-cmake --build "$tmp/build" -j2 >"$tmp/build.log" || { tail -50 "$tmp/build.log"; exit 1; }
+cmake --build "$tmp" -j2 >"$tmp/build.log" || { tail -50 "$tmp/build.log"; exit 1; }
 for t in ajard ajar_daemon ajar_drivers ajarctl; do
-  if grep -qx "\.\.\. $t" <(cmake --build "$tmp/build" --target help); then
+  if grep -qx "\.\.\. $t" <(cmake --build "$tmp" --target help); then
     echo "FAIL: the client-only build has target $t"; exit 1
   fi
 done
-cmake --install "$tmp/build" >/dev/null
+cmake --install "$tmp" >/dev/null
 cmake -S "$src/tests/consumer" -B "$tmp/consumer" -DCMAKE_PREFIX_PATH="$tmp/prefix" \
   "${launcher[@]}" >/dev/null
 cmake --build "$tmp/consumer" >/dev/null

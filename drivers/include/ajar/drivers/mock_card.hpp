@@ -166,6 +166,7 @@ class MockMotionCard final : public MotionCard {
   // Samples the motion at now; finishes motion that has ended. Returns position, sets velocity.
   double sample(Axis& a, double* velocity) noexcept;
   void halt(Axis& a) noexcept;
+  static AxisStatus flags_of(const Axis& a) noexcept;  // the latched flags, no motion sampled
   AxisStatus status_of(Axis& a) noexcept;
   // The state check before a move or jog of axis n in `direction` (sign).
   ErrorCode check_can_move(int n, double direction, const char* call) noexcept;

@@ -1,0 +1,198 @@
+// The control loop's motions: executing a queued command, the card's recovery, starting a
+// trapezoid move or a jog, and advancing a jog each cycle (docs/control-loop.md, "Jog").
+#include <algorithm>
+#include <cmath>
+
+#include "ajar/core/driving.hpp"
+#include "ajar/daemon/control_loop.hpp"
+#include "control_loop_units.hpp"
+
+namespace ajar::daemon {
+
+void ControlLoop::execute(const Command& c, std::int64_t now_ns) noexcept {
+  handle_stops(now_ns);  // every stop posted before this command acts first
+  switch (c.kind) {
+    case CommandKind::kMove:
+    case CommandKind::kDriveStart:
+      if (c.stop_stamp != handled_stop_) {  // a stop was posted after it: it never starts
+        report({LoopReportKind::kMoveCancelled, fault_, c.id, 0, 0});
+        snapshot_.last_motion_id = c.id;
+        return;
+      }
+      if (c.kind == CommandKind::kMove) {
+        start_move(c, now_ns);
+      } else {
+        start_jog(c, now_ns);
+      }
+      return;
+    case CommandKind::kDriveUpdate:
+      // Dropped when a stop was posted after it (the stop ends the jog), or when its jog already
+      // ended (its terminal report is on the way).
+      if (c.stop_stamp != handled_stop_ || motion_ != Motion::kJogging || c.id != motion_id_)
+        return;
+      jog_target_ = c.velocity;
+      jog_stamp_ns_ = c.stamp_ns;
+      return;
+    case CommandKind::kRecover:
+      if (recovery_ != Recovery::kNone) end_recovery(ErrorCode::kOk);  // cannot happen: queue waits
+      recover_sequence_ = c.id;
+      // An emergency or fault stop posted after it, handled or not yet (read live: a stop posted
+      // while this cycle runs must not be cleared by the recovery it followed).
+      if (c.latch_stamp != latch_generation_.load()) {
+        report({LoopReportKind::kRecovered,
+                fault_ != ErrorCode::kOk ? fault_ : ErrorCode::kEmergencyStopped, 0, 0, c.id});
+        return;
+      }
+      fault_ = ErrorCode::kOk;
+      recovery_ = Recovery::kWaitRest;
+      advance_recovery(now_ns);
+      return;
+  }
+}
+
+void ControlLoop::end_recovery(ErrorCode code) noexcept {
+  recovery_ = Recovery::kNone;
+  report({LoopReportKind::kRecovered, code, 0, 0, recover_sequence_});
+}
+
+void ControlLoop::advance_recovery(std::int64_t now_ns) noexcept {
+  if (recovery_ != Recovery::kWaitRest && now_ns > recovery_deadline_ns_) {
+    latch(ErrorCode::kMotionTimeout, 0);  // the servo did not come on in time; ends the recovery
+    return;
+  }
+  switch (recovery_) {
+    case Recovery::kNone:
+      return;
+    case Recovery::kWaitRest:  // the wheels come to rest first (a stop has its own deadline)
+      if (motion_ != Motion::kIdle) return;
+      recovery_ = Recovery::kClear;
+      recovery_deadline_ns_ = now_ns + recovery_timeout_ns_;
+      [[fallthrough]];
+    case Recovery::kClear:
+      if (const ErrorCode e = (card_.clear_faults(axes_)); e != ErrorCode::kOk) return latch(e, 0);
+      recovery_ = Recovery::kEnable;
+      return;
+    case Recovery::kEnable:
+      if (const ErrorCode e = (card_.enable_axes(axes_)); e != ErrorCode::kOk) return latch(e, 0);
+      recovery_ = Recovery::kPoll;
+      return;
+    case Recovery::kPoll:
+      if (!answered_) return;  // not answering: keep polling until the deadline
+      for (int i = 0; i < 2; ++i) {
+        if (status_[i].alarm) return latch(ErrorCode::kAxisAlarm, axes_[i]);
+        if (status_[i].following_error) return latch(ErrorCode::kFollowingError, axes_[i]);
+        if (!status_[i].enabled) return;
+      }
+      end_recovery(ErrorCode::kOk);
+      return;
+  }
+}
+
+// Why no motion may start in this cycle (kOk: it may). A drive fault seen in this cycle's status
+// latches; a status read that failed in this cycle refuses without latching (supervision decides
+// about a card that stays silent).
+ErrorCode ControlLoop::check_can_start() noexcept {
+  refused_axis_ = 0;
+  if (motion_ != Motion::kIdle) return ErrorCode::kMotionInProgress;
+  if (fault_ != ErrorCode::kOk) return ErrorCode::kFaultLatched;
+  if (!answered_)
+    return read_error_ == ErrorCode::kOk ? ErrorCode::kCardCommunication : read_error_;
+  for (int i = 0; i < 2; ++i) {
+    const drivers::AxisStatus& st = status_[i];
+    const ErrorCode code = st.alarm                                   ? ErrorCode::kAxisAlarm
+                           : st.following_error                       ? ErrorCode::kFollowingError
+                           : (st.positive_limit || st.negative_limit) ? ErrorCode::kLimitHit
+                                                                      : ErrorCode::kOk;
+    if (code != ErrorCode::kOk) {
+      latch(code, axes_[i]);
+      refused_axis_ = axes_[i];
+      return code;
+    }
+  }
+  return ErrorCode::kOk;
+}
+
+void ControlLoop::start_move(const Command& move, std::int64_t now_ns) noexcept {
+  const auto refuse = [&](ErrorCode code, int axis) {
+    report({LoopReportKind::kMoveRefused, code, move.id, axis, 0});
+    snapshot_.last_motion_id = move.id;
+  };
+  if (const ErrorCode e = check_can_start(); e != ErrorCode::kOk) return refuse(e, refused_axis_);
+  const drivers::TrapezoidProfile& profile =
+      move.profile == MoveProfile::kStraight ? straight_profile_ : profile_;
+  const drivers::AxisMove moves[2] = {{axes_[0], move.left_counts}, {axes_[1], move.right_counts}};
+  if (const ErrorCode e = (card_.move_relative(moves, profile)); e != ErrorCode::kOk) {
+    latch(e, 0);
+    return refuse(e, 0);
+  }
+  motion_id_ = move.id;
+  target_counts_[0] = snapshot_profile_counts_[0] + move.left_counts;
+  target_counts_[1] = snapshot_profile_counts_[1] + move.right_counts;
+  seen_moving_ = false;
+  stop_reason_ = ErrorCode::kOk;
+  motion_ = Motion::kMoving;
+  const double planned = std::max(planned_duration_s(move.left_counts, profile),
+                                  planned_duration_s(move.right_counts, profile));
+  motion_deadline_ns_ = now_ns + seconds_to_ns(planned * 1.5 + settings_.motion_timeout_margin_s);
+  // A stop posted while the card took the move (vendor calls take time) acts in this cycle.
+  if (stop_generation_.load() != handled_stop_ ||
+      emergency_generation_.load() != handled_emergency_)
+    handle_stops(now_ns);
+}
+
+void ControlLoop::start_jog(const Command& drive, std::int64_t now_ns) noexcept {
+  if (const ErrorCode e = check_can_start(); e != ErrorCode::kOk) {
+    report({LoopReportKind::kMoveRefused, e, drive.id, refused_axis_, 0});
+    snapshot_.last_motion_id = drive.id;
+    return;
+  }
+  motion_id_ = drive.id;
+  motion_ = Motion::kJogging;
+  stop_reason_ = ErrorCode::kOk;
+  jog_target_ = drive.velocity;
+  jog_stamp_ns_ = drive.stamp_ns;
+  jog_command_ = {};
+  jog_last_ns_ = now_ns;
+  jog_sent_ = false;
+  advance_jog(now_ns);
+  // A stop posted while the card took the jog acts in this cycle.
+  if (stop_generation_.load() != handled_stop_ ||
+      emergency_generation_.load() != handled_emergency_)
+    handle_stops(now_ns);
+}
+
+void ControlLoop::advance_jog(std::int64_t now_ns) noexcept {
+  const bool timed_out = now_ns - jog_stamp_ns_ > drive_timeout_ns_;
+  const core::BodyVelocity target = timed_out ? core::BodyVelocity{} : jog_target_;
+  const double dt_s =
+      static_cast<double>(std::clamp<std::int64_t>(now_ns - jog_last_ns_, 0, 10 * period_ns_)) /
+      kNsPerS;
+  jog_last_ns_ = now_ns;
+  const core::BodyVelocity next = core::limit_velocity(target, jog_command_, dt_s, settings_.drive);
+  const bool changed = next.linear_m_s != jog_command_.linear_m_s ||
+                       next.angular_rad_s != jog_command_.angular_rad_s;
+  jog_command_ = next;
+  if (changed || !jog_sent_) {
+    const core::WheelVelocity w = core::wheel_velocity(next, settings_.base);
+    const double per_ms = counts_per_wheel_rad_ / 1e3;
+    const drivers::AxisVelocity axes[2] = {
+        {axes_[0], w.left_rad_s * per_ms * (settings_.base.left.polarity < 0 ? -1 : 1)},
+        {axes_[1], w.right_rad_s * per_ms * (settings_.base.right.polarity < 0 ? -1 : 1)}};
+    if (const ErrorCode e = card_.jog(axes, jog_profile_); e != ErrorCode::kOk) {
+      latch(e, 0);
+      stop_reason_ = e;
+      begin_stop(now_ns);
+      return;
+    }
+    jog_sent_ = true;
+  }
+  const bool at_rest = answered_ && !status_[0].moving && !status_[1].moving;
+  if (next.linear_m_s == 0 && next.angular_rad_s == 0 && target.linear_m_s == 0 &&
+      target.angular_rad_s == 0 && at_rest && !changed) {
+    // The timeout ended it only when the last Drive still asked for motion.
+    finish(LoopReportKind::kMotionFinished, ErrorCode::kOk,
+           timed_out && (jog_target_.linear_m_s != 0 || jog_target_.angular_rad_s != 0));
+  }
+}
+
+}  // namespace ajar::daemon
