@@ -3,23 +3,14 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdio>
 #include <string>
+
+#include <fmt/format.h>
 
 namespace ajar::core {
 namespace {
 
 constexpr int kMaxSidePx = 16384;
-
-Error error(ErrorCode code, const char* field, const std::string& message) {
-  return Error{code, field, message};
-}
-
-std::string outside_message(double u_px, double v_px) {
-  std::array<char, 160> buf{};
-  std::snprintf(buf.data(), buf.size(), "pixel (%.1f, %.1f) is outside the image", u_px, v_px);
-  return buf.data();
-}
 
 }  // namespace
 
@@ -28,16 +19,16 @@ Outcome check_intrinsics(const PinholeIntrinsics& k) {
       {{"fx_px", k.fx_px}, {"fy_px", k.fy_px}, {"cx_px", k.cx_px}, {"cy_px", k.cy_px}}};
   for (const auto& [field, value] : values) {
     if (!std::isfinite(value)) {
-      return error(ErrorCode::kNonFinite, field, std::string(field) + " is not finite");
+      return make_error(ErrorCode::kNonFinite, field, std::string(field) + " is not finite");
     }
   }
-  if (k.fx_px <= 0) return error(ErrorCode::kBadCount, "fx_px", "focal length fx must be > 0");
-  if (k.fy_px <= 0) return error(ErrorCode::kBadCount, "fy_px", "focal length fy must be > 0");
+  if (k.fx_px <= 0) return make_error(ErrorCode::kBadCount, "fx_px", "focal length fx must be > 0");
+  if (k.fy_px <= 0) return make_error(ErrorCode::kBadCount, "fy_px", "focal length fy must be > 0");
   if (k.width_px < 1 || k.width_px > kMaxSidePx) {
-    return error(ErrorCode::kBadCount, "width_px", "image width must be 1..16384 pixels");
+    return make_error(ErrorCode::kBadCount, "width_px", "image width must be 1..16384 pixels");
   }
   if (k.height_px < 1 || k.height_px > kMaxSidePx) {
-    return error(ErrorCode::kBadCount, "height_px", "image height must be 1..16384 pixels");
+    return make_error(ErrorCode::kBadCount, "height_px", "image height must be 1..16384 pixels");
   }
   return Ok{};
 }
@@ -61,18 +52,19 @@ float DepthView::at(int u_px, int v_px) const {
 Result<DepthPick> pick_point(const PinholeIntrinsics& k, const DepthView& depth, double u_px,
                              double v_px, const PickRule& rule) {
   if (!std::isfinite(u_px) || !std::isfinite(v_px)) {
-    return error(ErrorCode::kNonFinite, "pixel", "the clicked pixel is not finite");
+    return make_error(ErrorCode::kNonFinite, "pixel", "the clicked pixel is not finite");
   }
   if (depth.width_px != k.width_px || depth.height_px != k.height_px ||
       depth.depth_m.size() !=
           static_cast<std::size_t>(depth.width_px) * static_cast<std::size_t>(depth.height_px)) {
-    return error(ErrorCode::kBadCount, "pixel",
-                 "the depth image does not match the camera intrinsics");
+    return make_error(ErrorCode::kBadCount, "pixel",
+                      "the depth image does not match the camera intrinsics");
   }
   const double ur = std::round(u_px);
   const double vr = std::round(v_px);
   if (ur < 0 || vr < 0 || ur >= k.width_px || vr >= k.height_px) {
-    return error(ErrorCode::kBadCount, "pixel", outside_message(u_px, v_px));
+    return make_error(ErrorCode::kBadCount, "pixel",
+                      fmt::format("pixel ({:.1f}, {:.1f}) is outside the image", u_px, v_px));
   }
   const int u = static_cast<int>(ur);
   const int v = static_cast<int>(vr);
@@ -97,10 +89,10 @@ Result<DepthPick> pick_point(const PinholeIntrinsics& k, const DepthView& depth,
     }
     const double needed = rule.min_valid_fraction * total;
     if (valid == 0 || valid < needed) {
-      return error(ErrorCode::kPointOutOfDepthRange, "depth",
-                   "no depth at pixel (" + std::to_string(u) + ", " + std::to_string(v) +
-                       "): only " + std::to_string(valid) + " of " + std::to_string(total) +
-                       " pixels around it are measured; pick a measurable area");
+      return make_error(ErrorCode::kPointOutOfDepthRange, "depth",
+                        fmt::format("no depth at pixel ({}, {}): only {} of {} pixels around it "
+                                    "are measured; pick a measurable area",
+                                    u, v, valid, total));
     }
     auto* first = samples.data();
     auto* mid = first + valid / 2;

@@ -7,12 +7,9 @@
 
 #include <Eigen/SVD>
 
-#include "message.hpp"
+#include <fmt/format.h>
 
 namespace ajar::core {
-
-using detail::error;
-using detail::format;
 
 namespace {
 
@@ -51,10 +48,11 @@ Outcome check_separation(std::span<const Vec3> points, const Tolerances& tol) {
     for (std::size_t i = 0; i < j; ++i) {
       const double d = (points[j] - points[i]).norm();
       if (!(d >= tol.min_point_separation_m)) {
-        return error(ErrorCode::kPointsTooClose, format("points[%zu]", j),
-                     format("points[%zu] is %.4f m from points[%zu]; picked points must be at "
-                            "least %.3f m apart",
-                            j, d, i, tol.min_point_separation_m));
+        return make_error(
+            ErrorCode::kPointsTooClose, fmt::format("points[{}]", j),
+            fmt::format("points[{}] is {:.4f} m from points[{}]; picked points must be at "
+                        "least {:.3f} m apart",
+                        j, d, i, tol.min_point_separation_m));
       }
     }
   }
@@ -63,7 +61,7 @@ Outcome check_separation(std::span<const Vec3> points, const Tolerances& tol) {
 
 Outcome check_points_finite(std::span<const Vec3> points) {
   for (std::size_t i = 0; i < points.size(); ++i) {
-    if (auto s = check_finite(points[i], format("points[%zu]", i)); !s) return s;
+    if (auto s = check_finite(points[i], fmt::format("points[{}]", i)); !s) return s;
   }
   return Ok{};
 }
@@ -83,31 +81,34 @@ Eigen::Matrix4d paper_camera_to_base_m() {
 
 Result<CameraToBase> CameraToBase::from_matrix(const Eigen::Matrix4d& matrix, double tolerance) {
   if (!matrix.allFinite()) {
-    return error(ErrorCode::kNonFinite, "matrix",
-                 "the camera->base transform contains NaN or infinity; every entry must be a "
-                 "finite number");
+    return make_error(ErrorCode::kNonFinite, "matrix",
+                      "the camera->base transform contains NaN or infinity; every entry must be a "
+                      "finite number");
   }
   if (matrix(3, 0) != 0.0 || matrix(3, 1) != 0.0 || matrix(3, 2) != 0.0 || matrix(3, 3) != 1.0) {
-    return error(ErrorCode::kTransformNotRigid, "bottom_row",
-                 format("the camera->base transform's bottom row is [%g %g %g %g]; it must be "
-                        "exactly [0 0 0 1]",
-                        matrix(3, 0), matrix(3, 1), matrix(3, 2), matrix(3, 3)));
+    return make_error(
+        ErrorCode::kTransformNotRigid, "bottom_row",
+        fmt::format("the camera->base transform's bottom row is [{:g} {:g} {:g} {:g}]; it must be "
+                    "exactly [0 0 0 1]",
+                    matrix(3, 0), matrix(3, 1), matrix(3, 2), matrix(3, 3)));
   }
   const Eigen::Matrix3d r = matrix.topLeftCorner<3, 3>();
   const double orthonormality_error =
       (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (!(orthonormality_error <= tolerance)) {
-    return error(ErrorCode::kTransformNotRigid, "rotation",
-                 format("the camera->base rotation is not orthonormal: R^T R differs from the "
-                        "identity by up to %.3g; at most %.3g is allowed",
-                        orthonormality_error, tolerance));
+    return make_error(
+        ErrorCode::kTransformNotRigid, "rotation",
+        fmt::format("the camera->base rotation is not orthonormal: R^T R differs from the "
+                    "identity by up to {:.3g}; at most {:.3g} is allowed",
+                    orthonormality_error, tolerance));
   }
   const double det = r.determinant();
   if (!(std::abs(det - 1.0) <= tolerance)) {
-    return error(ErrorCode::kTransformNotRigid, "determinant",
-                 format("the camera->base rotation has determinant %.6f; a rotation has +1 "
-                        "(within %.3g); -1 is a mirror image",
-                        det, tolerance));
+    return make_error(
+        ErrorCode::kTransformNotRigid, "determinant",
+        fmt::format("the camera->base rotation has determinant {:.6f}; a rotation has +1 "
+                    "(within {:.3g}); -1 is a mirror image",
+                    det, tolerance));
   }
   Eigen::Isometry3d iso = Eigen::Isometry3d::Identity();
   if (orthonormality_error == 0.0) {
@@ -138,26 +139,29 @@ Result<Span> measure_span(const Vec3& p1_base_m, const Vec3& p2_base_m, const To
   if (auto s = check_finite(p2_base_m, "p2"); !s) return std::move(s).error();
   const double length = (p1_base_m - p2_base_m).norm();
   if (!(length >= tol.min_point_separation_m)) {
-    return error(ErrorCode::kPointsTooClose, "p2",
-                 format("p1 and p2 are %.4f m apart; the two points must be at least %.3f m "
-                        "apart",
-                        length, tol.min_point_separation_m));
+    return make_error(
+        ErrorCode::kPointsTooClose, "p2",
+        fmt::format("p1 and p2 are {:.4f} m apart; the two points must be at least {:.3f} m "
+                    "apart",
+                    length, tol.min_point_separation_m));
   }
   const double dy = p1_base_m.y() - p2_base_m.y();
   if (!(std::abs(dy) >= tol.min_point_separation_m)) {
-    return error(ErrorCode::kAmbiguousDirection, "p2",
-                 format("p1 and p2 are at the same lateral position (y1 - y2 = %.4f m in the base "
-                        "frame), so the direction of rotation is unknown; pick them at least "
-                        "%.3f m apart sideways",
-                        dy, tol.min_point_separation_m));
+    return make_error(
+        ErrorCode::kAmbiguousDirection, "p2",
+        fmt::format("p1 and p2 are at the same lateral position (y1 - y2 = {:.4f} m in the base "
+                    "frame), so the direction of rotation is unknown; pick them at least "
+                    "{:.3f} m apart sideways",
+                    dy, tol.min_point_separation_m));
   }
   const double lateral_fraction = std::abs(dy) / length;
   if (!(lateral_fraction >= tol.min_lateral_fraction)) {
-    return error(
+    return make_error(
         ErrorCode::kPointsNotSideBySide, "p2",
-        format("p1 and p2 are %.3f m apart but only %.3f m of that is sideways (%.0f%%); "
-               "pick them side by side, at least %.0f%% sideways",
-               length, std::abs(dy), lateral_fraction * 100.0, tol.min_lateral_fraction * 100.0));
+        fmt::format("p1 and p2 are {:.3f} m apart but only {:.3f} m of that is sideways ({:.0f}%); "
+                    "pick them side by side, at least {:.0f}% sideways",
+                    length, std::abs(dy), lateral_fraction * 100.0,
+                    tol.min_lateral_fraction * 100.0));
   }
   return Span{length,
               dy > 0 ? RotationDirection::kCounterClockwise : RotationDirection::kClockwise};
@@ -176,11 +180,12 @@ Result<Plane> plane_from_three_points(const Vec3& a_m, const Vec3& b_m, const Ve
   // |AB x AC| = longest edge * height over it, so this is the triangle's height / longest edge.
   const double flatness = cross.norm() / longest_sq;
   if (!(flatness >= tol.collinearity)) {
-    return error(ErrorCode::kPointsCollinear, "points",
-                 format("the three points are nearly on one line (height / length = %.4f); they "
-                        "must span a plane with at least %.4f: pick them further apart, not in a "
-                        "row",
-                        flatness, tol.collinearity));
+    return make_error(
+        ErrorCode::kPointsCollinear, "points",
+        fmt::format("the three points are nearly on one line (height / length = {:.4f}); they "
+                    "must span a plane with at least {:.4f}: pick them further apart, not in a "
+                    "row",
+                    flatness, tol.collinearity));
   }
   Plane plane;
   plane.centroid_m = (a_m + b_m + c_m) / 3.0;
@@ -192,8 +197,8 @@ Result<Plane> plane_from_three_points(const Vec3& a_m, const Vec3& b_m, const Ve
 Result<Plane> fit_plane(std::span<const Vec3> points_base_m, const Tolerances& tol) {
   const std::size_t n = points_base_m.size();
   if (n < 3) {
-    return error(ErrorCode::kBadCount, "points",
-                 format("a plane needs at least 3 points; got %zu", n));
+    return make_error(ErrorCode::kBadCount, "points",
+                      fmt::format("a plane needs at least 3 points; got {}", n));
   }
   if (n == 3) {
     return plane_from_three_points(points_base_m[0], points_base_m[1], points_base_m[2], tol);
@@ -214,10 +219,11 @@ Result<Plane> fit_plane(std::span<const Vec3> points_base_m, const Tolerances& t
   const Vec3 sv = svd.singularValues();
   const double flatness = sv(1) / sv(0);
   if (!(flatness >= tol.collinearity)) {
-    return error(ErrorCode::kPointsCollinear, "points",
-                 format("the %zu points are nearly on one line (spread ratio %.4f); they must "
-                        "span a plane with at least %.4f: pick them further apart, not in a row",
-                        n, flatness, tol.collinearity));
+    return make_error(
+        ErrorCode::kPointsCollinear, "points",
+        fmt::format("the {} points are nearly on one line (spread ratio {:.4f}); they must "
+                    "span a plane with at least {:.4f}: pick them further apart, not in a row",
+                    n, flatness, tol.collinearity));
   }
   Plane plane;
   plane.centroid_m = centroid;
@@ -236,26 +242,28 @@ Result<Plane> fit_plane(std::span<const Vec3> points_base_m, const Tolerances& t
 Result<double> yaw_deviation_rad(const Plane& plane, const Tolerances& tol) {
   const double norm = plane.normal.norm();
   if (!plane.normal.allFinite() || !(norm > 0.0)) {
-    return error(ErrorCode::kNonFinite, "normal",
-                 "the plane's normal is not a finite, non-zero vector");
+    return make_error(ErrorCode::kNonFinite, "normal",
+                      "the plane's normal is not a finite, non-zero vector");
   }
   const Vec3 n = plane.normal / norm;
   const double horizontal = std::hypot(n.x(), n.y());
   const double tilt = std::atan2(std::abs(n.z()), horizontal);
   if (!(tilt <= tol.max_door_tilt_rad)) {
-    return error(ErrorCode::kPlaneNotVertical, "points",
-                 format("the door plane's normal tilts %.3f rad (%.1f deg) out of the horizontal; "
-                        "a door may tilt at most %.3f rad (%.1f deg): pick points on the door "
-                        "leaf, not on the floor or ceiling",
-                        tilt, deg(tilt), tol.max_door_tilt_rad, deg(tol.max_door_tilt_rad)));
+    return make_error(
+        ErrorCode::kPlaneNotVertical, "points",
+        fmt::format("the door plane's normal tilts {:.3f} rad ({:.1f} deg) out of the horizontal; "
+                    "a door may tilt at most {:.3f} rad ({:.1f} deg): pick points on the door "
+                    "leaf, not on the floor or ceiling",
+                    tilt, deg(tilt), tol.max_door_tilt_rad, deg(tol.max_door_tilt_rad)));
   }
   // The base's +x must point into the door: along -normal (the normal faces the robot).
   const double yaw = std::atan2(-n.y(), -n.x());
   if (!(std::abs(yaw) < kPi / 2)) {
-    return error(ErrorCode::kYawOutOfRange, "yaw_deviation_rad",
-                 format("the door plane does not face the front of the robot (squaring up would "
-                        "take a turn of %.3f rad, %.1f deg); drive the robot in front of the door",
-                        yaw, deg(yaw)));
+    return make_error(
+        ErrorCode::kYawOutOfRange, "yaw_deviation_rad",
+        fmt::format("the door plane does not face the front of the robot (squaring up would "
+                    "take a turn of {:.3f} rad, {:.1f} deg); drive the robot in front of the door",
+                    yaw, deg(yaw)));
   }
   return yaw;
 }
@@ -299,10 +307,10 @@ Outcome check_finite(const Vec3& p, std::string_view field) {
   static constexpr const char* kAxis[3] = {"x", "y", "z"};
   for (int i = 0; i < 3; ++i) {
     if (!std::isfinite(p[i])) {
-      std::string name = format("%.*s.%s", static_cast<int>(field.size()), field.data(), kAxis[i]);
-      std::string message = format("%s is %s; every coordinate must be a finite number",
-                                   name.c_str(), std::isnan(p[i]) ? "NaN" : "infinite");
-      return error(ErrorCode::kNonFinite, std::move(name), std::move(message));
+      std::string name = fmt::format("{}.{}", field, kAxis[i]);
+      std::string message = fmt::format("{} is {}; every coordinate must be a finite number", name,
+                                        std::isnan(p[i]) ? "NaN" : "infinite");
+      return make_error(ErrorCode::kNonFinite, std::move(name), std::move(message));
     }
   }
   return Ok{};
@@ -319,16 +327,16 @@ Outcome check_depth(const FramedPoint& p, const CameraToBase& t, const Limits& l
       depth = t.to_camera(p.position_m).z();
       break;
     default:
-      return error(ErrorCode::kUnknownFrame, std::string(field) + ".frame",
-                   format("%.*s names frame %d; it must be camera (0) or base (1)",
-                          static_cast<int>(field.size()), field.data(), static_cast<int>(p.frame)));
+      return make_error(ErrorCode::kUnknownFrame, std::string(field) + ".frame",
+                        fmt::format("{} names frame {}; it must be camera (0) or base (1)", field,
+                                    static_cast<int>(p.frame)));
   }
   if (!(depth >= limits.min_depth_m && depth <= limits.max_depth_m)) {
-    return error(ErrorCode::kPointOutOfDepthRange, std::string(field),
-                 format("%.*s is %.3f m from the camera along its optical axis; the sensor "
-                        "measures depth %.3f..%.3f m",
-                        static_cast<int>(field.size()), field.data(), depth, limits.min_depth_m,
-                        limits.max_depth_m));
+    return make_error(
+        ErrorCode::kPointOutOfDepthRange, std::string(field),
+        fmt::format("{} is {:.3f} m from the camera along its optical axis; the sensor "
+                    "measures depth {:.3f}..{:.3f} m",
+                    field, depth, limits.min_depth_m, limits.max_depth_m));
   }
   return Ok{};
 }
@@ -338,13 +346,13 @@ namespace {
 Outcome check_range(double value, double lo, double hi, ErrorCode code, const char* what,
                     std::string_view field) {
   if (!std::isfinite(value)) {
-    return error(ErrorCode::kNonFinite, std::string(field),
-                 format("%s is not a finite number", what));
+    return make_error(ErrorCode::kNonFinite, std::string(field),
+                      fmt::format("{} is not a finite number", what));
   }
   if (!(value >= lo && value <= hi)) {
-    return error(
-        code, std::string(field),
-        format("%s %.3f m is outside the allowed range %.3f..%.3f m", what, value, lo, hi));
+    return make_error(code, std::string(field),
+                      fmt::format("{} {:.3f} m is outside the allowed range {:.3f}..{:.3f} m", what,
+                                  value, lo, hi));
   }
   return Ok{};
 }
@@ -363,15 +371,16 @@ Outcome check_handle_length(double length_m, const Limits& limits, std::string_v
 
 Outcome check_yaw(double yaw_rad, const Limits& limits, std::string_view field) {
   if (!std::isfinite(yaw_rad)) {
-    return error(ErrorCode::kNonFinite, std::string(field),
-                 "yaw correction is not a finite number");
+    return make_error(ErrorCode::kNonFinite, std::string(field),
+                      "yaw correction is not a finite number");
   }
   if (!(std::abs(yaw_rad) <= limits.max_yaw_correction_rad)) {
-    return error(ErrorCode::kYawOutOfRange, std::string(field),
-                 format("yaw correction %.3f rad (%.1f deg) is beyond the maximum %.3f rad "
-                        "(%.1f deg); drive the robot more squarely in front of the door",
-                        yaw_rad, deg(yaw_rad), limits.max_yaw_correction_rad,
-                        deg(limits.max_yaw_correction_rad)));
+    return make_error(
+        ErrorCode::kYawOutOfRange, std::string(field),
+        fmt::format("yaw correction {:.3f} rad ({:.1f} deg) is beyond the maximum {:.3f} rad "
+                    "({:.1f} deg); drive the robot more squarely in front of the door",
+                    yaw_rad, deg(yaw_rad), limits.max_yaw_correction_rad,
+                    deg(limits.max_yaw_correction_rad)));
   }
   return Ok{};
 }
@@ -387,13 +396,14 @@ Outcome check_reach(const Vec3& p_base_m, const ArmWorkspace& arm, std::string_v
   const double margin = reach_margin_m(p_base_m, arm);
   if (!(margin >= 0.0)) {
     const double r = (p_base_m - arm.shoulder_m).norm();
-    return error(ErrorCode::kOutOfReach, std::string(field),
-                 format("%.*s (base %.3f, %.3f, %.3f m) is outside the arm's workspace by %.3f m: "
-                        "it is %.3f m from the shoulder (reach %.3f..%.3f m) at height %.3f m "
-                        "(allowed %.3f..%.3f m)",
-                        static_cast<int>(field.size()), field.data(), p_base_m.x(), p_base_m.y(),
-                        p_base_m.z(), -margin, r, arm.min_reach_m, arm.max_reach_m, p_base_m.z(),
-                        arm.min_z_m, arm.max_z_m));
+    return make_error(
+        ErrorCode::kOutOfReach, std::string(field),
+        fmt::format(
+            "{} (base {:.3f}, {:.3f}, {:.3f} m) is outside the arm's workspace by {:.3f} m: "
+            "it is {:.3f} m from the shoulder (reach {:.3f}..{:.3f} m) at height {:.3f} m "
+            "(allowed {:.3f}..{:.3f} m)",
+            field, p_base_m.x(), p_base_m.y(), p_base_m.z(), -margin, r, arm.min_reach_m,
+            arm.max_reach_m, p_base_m.z(), arm.min_z_m, arm.max_z_m));
   }
   return Ok{};
 }

@@ -3,12 +3,9 @@
 #include <array>
 #include <string>
 
-#include "message.hpp"
+#include <fmt/format.h>
 
 namespace ajar::core {
-
-using detail::error;
-using detail::format;
 
 namespace {
 
@@ -58,13 +55,13 @@ Result<PlaneMeasurement> measure_door_plane(std::span<const FramedPoint> points,
   const std::size_t n = points.size();
   if (n < static_cast<std::size_t>(kMinPlanePoints) ||
       n > static_cast<std::size_t>(kMaxPlanePoints)) {
-    return error(ErrorCode::kBadCount, "points",
-                 format("the door plane needs %d to %d points; got %zu", kMinPlanePoints,
-                        kMaxPlanePoints, n));
+    return make_error(ErrorCode::kBadCount, "points",
+                      fmt::format("the door plane needs {} to {} points; got {}", kMinPlanePoints,
+                                  kMaxPlanePoints, n));
   }
   std::array<Vec3, kMaxPlanePoints> in_base;
   for (std::size_t i = 0; i < n; ++i) {
-    auto b = point_in_base(points[i], t, limits, format("points[%zu]", i));
+    auto b = point_in_base(points[i], t, limits, fmt::format("points[{}]", i));
     if (!b) return std::move(b).error();
     in_base[i] = *b;
   }
@@ -72,10 +69,11 @@ Result<PlaneMeasurement> measure_door_plane(std::span<const FramedPoint> points,
   auto plane = fit_plane(std::span<const Vec3>(in_base.data(), n), tol);
   if (!plane) return std::move(plane).error();
   if (!(plane->rms_residual_m <= tol.max_plane_rms_m)) {
-    return error(ErrorCode::kPlaneResidualTooLarge, "rms_residual_m",
-                 format("the %zu points are %.4f m (RMS) off a common plane; at most %.4f m is "
-                        "allowed: pick points on the flat door leaf",
-                        n, plane->rms_residual_m, tol.max_plane_rms_m));
+    return make_error(
+        ErrorCode::kPlaneResidualTooLarge, "rms_residual_m",
+        fmt::format("the {} points are {:.4f} m (RMS) off a common plane; at most {:.4f} m is "
+                    "allowed: pick points on the flat door leaf",
+                    n, plane->rms_residual_m, tol.max_plane_rms_m));
   }
   auto yaw = yaw_deviation_rad(*plane, tol);
   if (!yaw) return std::move(yaw).error();

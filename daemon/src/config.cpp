@@ -457,6 +457,14 @@ bool is_loopback_address(const std::string& address) {
   return false;
 }
 
+std::string_view to_string(LogLevel level) noexcept {
+  return word_of(kLogLevels, level);
+}
+
+std::string_view to_string(LogSink sink) noexcept {
+  return word_of(kLogSinks, sink);
+}
+
 Config default_config() {
   Config c;
   c.camera_to_base_m = core::paper_camera_to_base_m();

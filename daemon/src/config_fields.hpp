@@ -54,7 +54,7 @@ inline constexpr Word<drivers::DriverKind> kDriverKinds[] = {{"sim", drivers::Dr
                                                              {"real", drivers::DriverKind::kReal}};
 
 inline constexpr Word<drivers::MockFault> kMockFaults[] = {
-    {"none", drivers::MockFault::kOff},
+    {"none", drivers::MockFault::kNone},
     {"stuck", drivers::MockFault::kStuck},
     {"slow", drivers::MockFault::kSlow},
     {"error", drivers::MockFault::kErrorCode},
@@ -63,13 +63,21 @@ inline constexpr Word<drivers::MockFault> kMockFaults[] = {
 
 inline constexpr Word<char> kParities[] = {{"none", 'N'}, {"even", 'E'}, {"odd", 'O'}};
 
-// logging.level: the config word and spdlog's level name (LoggingConfig::level holds the latter).
-inline constexpr Word<std::string_view> kLogLevels[] = {
-    {"trace", "trace"}, {"debug", "debug"},       {"info", "info"}, {"warn", "warn"},
-    {"error", "error"}, {"critical", "critical"}, {"none", "off"}};
+inline constexpr Word<LogLevel> kLogLevels[] = {
+    {"trace", LogLevel::kTrace}, {"debug", LogLevel::kDebug}, {"info", LogLevel::kInfo},
+    {"warn", LogLevel::kWarn},   {"error", LogLevel::kError}, {"critical", LogLevel::kCritical},
+    {"none", LogLevel::kNone}};
 
-inline constexpr Word<std::string_view> kLogSinks[] = {
-    {"auto", "auto"}, {"stderr", "stderr"}, {"journald", "journald"}};
+inline constexpr Word<LogSink> kLogSinks[] = {
+    {"auto", LogSink::kAuto}, {"stderr", LogSink::kStderr}, {"journald", LogSink::kJournald}};
+
+template <typename T, std::size_t N>
+constexpr std::string_view word_of(const Word<T> (&words)[N], T value) noexcept {
+  for (const auto& w : words) {
+    if (w.value == value) return w.word;
+  }
+  return "?";
+}
 
 inline constexpr Word<bool> kUnlisted[] = {{"observer", true}, {"refuse", false}};
 inline constexpr Word<bool> kRoles[] = {{"controller", true}, {"observer", false}};

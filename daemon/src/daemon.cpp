@@ -175,7 +175,8 @@ class Runner {
             (key.starts_with("network.tls.") && key != "network.tls.enabled");  // tls.hpp
         std::string& list = reloadable ? applied : need_restart;
         list += (list.empty() ? "" : ", ") + key;
-        if (key == "logging.level") list += " (now " + fresh.logging.level + ")";
+        if (key == "logging.level")
+          list += " (now " + std::string(to_string(fresh.logging.level)) + ")";
       }
       if (fresh.logging.level != config_.logging.level) {
         set_log_level(fresh.logging.level);

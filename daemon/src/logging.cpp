@@ -8,39 +8,38 @@
 #include <spdlog/sinks/systemd_sink.h>
 #include <spdlog/spdlog.h>
 
-#include "ajar/daemon/config.hpp"
-
 namespace ajar::daemon {
 namespace {
 
 constexpr std::size_t kQueueLines = 8192;
 
-bool parse_level(std::string_view text, spdlog::level::level_enum& level) {
-  static constexpr std::string_view kNames[] = {"trace", "debug",    "info", "warn",
-                                                "error", "critical", "off"};
-  for (int i = 0; i < 7; ++i) {
-    if (text == kNames[i]) {
-      level = static_cast<spdlog::level::level_enum>(i);
-      return true;
-    }
+spdlog::level::level_enum spdlog_level(LogLevel level) noexcept {
+  switch (level) {
+    case LogLevel::kTrace:
+      return spdlog::level::trace;
+    case LogLevel::kDebug:
+      return spdlog::level::debug;
+    case LogLevel::kInfo:
+      return spdlog::level::info;
+    case LogLevel::kWarn:
+      return spdlog::level::warn;
+    case LogLevel::kError:
+      return spdlog::level::err;
+    case LogLevel::kCritical:
+      return spdlog::level::critical;
+    case LogLevel::kNone:
+      return spdlog::level::off;
   }
-  return false;
+  return spdlog::level::info;
 }
 
 }  // namespace
 
-LogSink choose_log_sink(std::string_view configured) {
-  if (configured == "journald") return LogSink::kJournald;
-  if (configured == "stderr") return LogSink::kStderr;
-  if (configured == "auto" &&
-      (std::getenv("JOURNAL_STREAM") != nullptr || std::getenv("INVOCATION_ID") != nullptr)) {
-    return LogSink::kJournald;
-  }
-  return LogSink::kStderr;
-}
-
-std::string_view to_string(LogSink sink) noexcept {
-  return sink == LogSink::kJournald ? "journald" : "stderr";
+LogSink choose_log_sink(LogSink configured) {
+  if (configured != LogSink::kAuto) return configured;
+  const bool under_systemd =
+      std::getenv("JOURNAL_STREAM") != nullptr || std::getenv("INVOCATION_ID") != nullptr;
+  return under_systemd ? LogSink::kJournald : LogSink::kStderr;
 }
 
 void init_logging(const LoggingConfig& config) {
@@ -56,18 +55,13 @@ void init_logging(const LoggingConfig& config) {
   }
   auto logger = std::make_shared<spdlog::async_logger>(
       "ajard", sink, spdlog::thread_pool(), spdlog::async_overflow_policy::overrun_oldest);
-  spdlog::level::level_enum level = spdlog::level::info;
-  parse_level(config.level, level);
-  logger->set_level(level);
+  logger->set_level(spdlog_level(config.level));
   logger->flush_on(spdlog::level::warn);
   spdlog::set_default_logger(std::move(logger));
 }
 
-bool set_log_level(std::string_view level) {
-  spdlog::level::level_enum parsed = spdlog::level::info;
-  if (!parse_level(level, parsed)) return false;
-  spdlog::default_logger()->set_level(parsed);
-  return true;
+void set_log_level(LogLevel level) {
+  spdlog::default_logger()->set_level(spdlog_level(level));
 }
 
 void shutdown_logging() noexcept {

@@ -7,34 +7,12 @@
 #include <fmt/format.h>
 
 #include "ajar/core/measurements.hpp"
+#include "ajar/protocol/acks.hpp"
 
 namespace ajar::daemon {
 namespace {
 
 using protocol::ProcedureState;
-
-protocol::SpanAck to_ack(const core::SpanMeasurement& m) {
-  protocol::SpanAck ack;
-  ack.length_m = m.span.length_m;
-  ack.direction = m.span.direction;
-  ack.p1_base_m = m.p1_base_m;
-  ack.p2_base_m = m.p2_base_m;
-  return ack;
-}
-
-protocol::PlaneAck to_ack(const core::PlaneMeasurement& m) {
-  protocol::PlaneAck ack;
-  ack.normal = m.plane.normal;
-  ack.yaw_deviation_rad = m.yaw_deviation_rad;
-  ack.left_wheel_rad = m.wheels.left_wheel_rad;
-  ack.right_wheel_rad = m.wheels.right_wheel_rad;
-  ack.left_counts = m.wheels.left_counts;
-  ack.right_counts = m.wheels.right_counts;
-  ack.residual_yaw_rad = m.wheels.residual_yaw_rad;
-  ack.rms_residual_m = m.plane.rms_residual_m;
-  ack.point_count = static_cast<std::uint8_t>(m.point_count);
-  return ack;
-}
 
 Error missing(ErrorCode code, const char* message) {
   return make_error(code, "", message);
@@ -158,7 +136,7 @@ Result<protocol::SpanAck> Procedure::measure_width(const protocol::MeasureDoorWi
   if (auto s = check_measure_allowed(); !s) return std::move(s).error();
   auto r = core::measure_door_width(m.p1_hinge, m.p2_moving_edge, camera_to_base_, limits_);
   if (!r) return std::move(r).error();
-  width_ = to_ack(*r);
+  width_ = protocol::span_ack_from(*r);
   width_pose_ = pose_;
   record_.width = m;
   if (record_.phase == Phase::kEngaged) record_.phase = Phase::kIdle;
@@ -170,7 +148,7 @@ Result<protocol::SpanAck> Procedure::measure_handle(const protocol::MeasureHandl
   if (auto s = check_prerequisites(true, false, false, false); !s) return std::move(s).error();
   auto r = core::measure_handle(m.p1_axis, m.p2_free_end, camera_to_base_, limits_);
   if (!r) return std::move(r).error();
-  handle_ = to_ack(*r);
+  handle_ = protocol::span_ack_from(*r);
   record_.handle = m;
   if (record_.phase == Phase::kEngaged) record_.phase = Phase::kIdle;
   return *handle_;
@@ -188,7 +166,7 @@ Result<protocol::PlaneAck> Procedure::measure_plane(const protocol::MeasureDoorP
   if (!r) return std::move(r).error();
   const bool keeps_alignment =
       record_.aligned && std::abs(r->yaw_deviation_rad) <= procedure_limits_.aligned_tolerance_rad;
-  plane_ = to_ack(*r);
+  plane_ = protocol::plane_ack_from(*r);
   wheels_ = r->wheels;
   plane_fit_ = r->plane;
   plane_pose_ = plane_ref_ = pose_;

@@ -8,24 +8,48 @@
 namespace ajar::drivers::arm {
 namespace {
 
-struct CommandName {
-  Command command;
-  std::string_view name;
+// One word list per enum of the protocol (docs/manipulator-serial.md): both directions read it.
+template <typename Enum>
+struct Word {
+  Enum value;
+  std::string_view word;
 };
-constexpr std::array<CommandName, 8> kCommandNames{{{Command::kTask, "TASK"},
-                                                    {Command::kStatus, "STAT"},
-                                                    {Command::kStop, "STOP"},
-                                                    {Command::kClear, "CLR"},
-                                                    {Command::kAck, "ACK"},
-                                                    {Command::kNak, "NAK"},
-                                                    {Command::kReport, "STA"},
-                                                    {Command::kDone, "DONE"}}};
 
-std::optional<Command> command_from(std::string_view name) {
-  for (const auto& entry : kCommandNames) {
-    if (entry.name == name) return entry.command;
+constexpr std::array<Word<Command>, 8> kCommandWords{{{Command::kTask, "TASK"},
+                                                      {Command::kStatus, "STAT"},
+                                                      {Command::kStop, "STOP"},
+                                                      {Command::kClear, "CLR"},
+                                                      {Command::kAck, "ACK"},
+                                                      {Command::kNak, "NAK"},
+                                                      {Command::kReport, "STA"},
+                                                      {Command::kDone, "DONE"}}};
+constexpr std::array<Word<ControllerPhase>, 4> kPhaseWords{{{ControllerPhase::kIdle, "IDLE"},
+                                                            {ControllerPhase::kBusy, "BUSY"},
+                                                            {ControllerPhase::kDone, "DONE"},
+                                                            {ControllerPhase::kFault, "FAULT"}}};
+constexpr std::array<Word<RejectReason>, 4> kReasonWords{{{RejectReason::kBusy, "BUSY"},
+                                                          {RejectReason::kFault, "FAULT"},
+                                                          {RejectReason::kRefused, "REFUSED"},
+                                                          {RejectReason::kBadRequest, "BADREQ"}}};
+
+template <typename Enum, std::size_t N>
+std::optional<Enum> from_word(const std::array<Word<Enum>, N>& words, std::string_view s) {
+  for (const auto& entry : words) {
+    if (entry.word == s) return entry.value;
   }
   return std::nullopt;
+}
+
+template <typename Enum, std::size_t N>
+const char* word_of(const std::array<Word<Enum>, N>& words, Enum value) noexcept {
+  for (const auto& entry : words) {
+    if (entry.value == value) return entry.word.data();
+  }
+  return "UNKNOWN";
+}
+
+std::optional<Command> command_from(std::string_view name) {
+  return from_word(kCommandWords, name);
 }
 
 bool is_request(Command c) {
@@ -34,19 +58,11 @@ bool is_request(Command c) {
 }
 
 std::optional<ControllerPhase> phase_from(std::string_view s) {
-  if (s == "IDLE") return ControllerPhase::kIdle;
-  if (s == "BUSY") return ControllerPhase::kBusy;
-  if (s == "DONE") return ControllerPhase::kDone;
-  if (s == "FAULT") return ControllerPhase::kFault;
-  return std::nullopt;
+  return from_word(kPhaseWords, s);
 }
 
 std::optional<RejectReason> reason_from(std::string_view s) {
-  if (s == "BUSY") return RejectReason::kBusy;
-  if (s == "FAULT") return RejectReason::kFault;
-  if (s == "REFUSED") return RejectReason::kRefused;
-  if (s == "BADREQ") return RejectReason::kBadRequest;
-  return std::nullopt;
+  return from_word(kReasonWords, s);
 }
 
 std::optional<core::RotationDirection> direction_from(std::string_view s) {
@@ -112,38 +128,15 @@ std::vector<std::string_view> split(std::string_view body) {
 }  // namespace
 
 const char* to_string(Command c) noexcept {
-  for (const auto& entry : kCommandNames) {
-    if (entry.command == c) return entry.name.data();
-  }
-  return "UNKNOWN";
+  return word_of(kCommandWords, c);
 }
 
 const char* to_string(ControllerPhase p) noexcept {
-  switch (p) {
-    case ControllerPhase::kIdle:
-      return "IDLE";
-    case ControllerPhase::kBusy:
-      return "BUSY";
-    case ControllerPhase::kDone:
-      return "DONE";
-    case ControllerPhase::kFault:
-      return "FAULT";
-  }
-  return "UNKNOWN";
+  return word_of(kPhaseWords, p);
 }
 
 const char* to_string(RejectReason r) noexcept {
-  switch (r) {
-    case RejectReason::kBusy:
-      return "BUSY";
-    case RejectReason::kFault:
-      return "FAULT";
-    case RejectReason::kRefused:
-      return "REFUSED";
-    case RejectReason::kBadRequest:
-      return "BADREQ";
-  }
-  return "UNKNOWN";
+  return word_of(kReasonWords, r);
 }
 
 std::uint16_t crc16_ccitt(std::string_view bytes) noexcept {

@@ -39,6 +39,18 @@ Error not_active(const char* what, LifecycleState state) {
   return make_error(ErrorCode::kDriverNotActive, "", msg);
 }
 
+// close() / disconnect(): deactivate() when active, then cleanup(); from any state to unconfigured.
+// The first error is returned (the cleanup runs also when the deactivation failed).
+template <typename Managed>
+Outcome shut_down(Managed& driver) {
+  if (driver.state() == LifecycleState::kUnconfigured) return Ok{};
+  Outcome stopped = Ok{};
+  if (driver.state() == LifecycleState::kActive) stopped = driver.deactivate();
+  Outcome closed = driver.cleanup();
+  if (!stopped) return stopped;
+  return closed;
+}
+
 }  // namespace
 
 const char* to_string(LifecycleState s) noexcept {
@@ -225,12 +237,7 @@ Outcome ManagedMotionCard::open() {
 }
 
 Outcome ManagedMotionCard::close() {
-  if (state_ == LifecycleState::kUnconfigured) return Ok{};
-  Outcome stopped = Ok{};
-  if (state_ == LifecycleState::kActive) stopped = deactivate();
-  Outcome closed = cleanup();
-  if (!stopped) return stopped;
-  return closed;
+  return shut_down(*this);
 }
 
 ErrorCode ManagedMotionCard::enable_axes(std::span<const int> axes) noexcept {
@@ -349,12 +356,7 @@ Outcome ManagedManipulator::connect() {
 }
 
 Outcome ManagedManipulator::disconnect() {
-  if (state_ == LifecycleState::kUnconfigured) return Ok{};
-  Outcome stopped = Ok{};
-  if (state_ == LifecycleState::kActive) stopped = deactivate();
-  Outcome closed = cleanup();
-  if (!stopped) return stopped;
-  return closed;
+  return shut_down(*this);
 }
 
 Result<std::uint32_t> ManagedManipulator::hand_off(const DoorTask& task) {

@@ -78,7 +78,7 @@ Result<std::uint32_t> MockManipulator::hand_off(const DoorTask& task) {
   task_outcome_ = ErrorCode::kOk;
   int duration_ms = kTaskDurationMs;
   switch (fault_) {
-    case MockFault::kOff:
+    case MockFault::kNone:
       break;
     case MockFault::kStuck:
       task_never_ends_ = true;

@@ -210,8 +210,8 @@ int main(int argc, char** argv) {
     }
   }
   ajar::daemon::LoggingConfig quiet;
-  quiet.level = "off";
-  quiet.sink = "stderr";
+  quiet.level = ajar::daemon::LogLevel::kNone;
+  quiet.sink = ajar::daemon::LogSink::kStderr;
   ajar::daemon::init_logging(quiet);
 
   std::printf(

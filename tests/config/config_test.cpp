@@ -217,7 +217,7 @@ TEST_F(ConfigTest, ChangedKeysNameEveryDifferenceByItsPath) {
   const Config a = load_config(repo_file("config/ajard.yaml"));
   EXPECT_TRUE(changed_keys(a, a).empty());
   Config b = a;
-  b.logging.level = a.logging.level == "debug" ? "info" : "debug";
+  b.logging.level = a.logging.level == LogLevel::kDebug ? LogLevel::kInfo : LogLevel::kDebug;
   b.network.port = static_cast<std::uint16_t>(a.network.port + 1);
   b.base.right.card_axis = a.base.right.card_axis + 1;
   b.camera_to_base_m(0, 3) += 0.01;
@@ -250,9 +250,9 @@ TEST_F(ConfigTest, ADuplicateSectionIsRefusedWithTheLinesOfBoth) {
 TEST_F(ConfigTest, NoneMeansNoFaultAndNoLogging) {
   const Config c = load_config(
       write("drivers:\n  mock: {card_fault: none, arm_fault: stuck}\nlogging:\n  level: none\n"));
-  EXPECT_EQ(c.drivers.mock.card_fault, drivers::MockFault::kOff);
+  EXPECT_EQ(c.drivers.mock.card_fault, drivers::MockFault::kNone);
   EXPECT_EQ(c.drivers.mock.arm_fault, drivers::MockFault::kStuck);
-  EXPECT_EQ(c.logging.level, "off");  // spdlog's name
+  EXPECT_EQ(c.logging.level, LogLevel::kNone);
   const std::string yaml = to_yaml(c);
   EXPECT_NE(yaml.find("card_fault: none"), std::string::npos) << yaml;
   EXPECT_NE(yaml.find("level: none"), std::string::npos) << yaml;

@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "ajar/console/frame.hpp"
+#include "wall_source.hpp"
 
 namespace ajar::console {
 namespace {
@@ -28,31 +29,6 @@ namespace beast = boost::beast;
 namespace http = beast::http;
 namespace websocket = beast::websocket;
 using tcp = asio::ip::tcp;
-
-// A flat wall 2 m away; the left half has no depth.
-class WallSource final : public FrameSource {
- public:
-  std::string describe() const override { return "test wall"; }
-  double rate_hz() const override { return 30; }
-  bool next(const BasePose&, Frame& out, std::string&) override {
-    out.intrinsics.width_px = 64;
-    out.intrinsics.height_px = 48;
-    out.intrinsics.fx_px = out.intrinsics.fy_px = 57;
-    out.intrinsics.cx_px = 31.5;
-    out.intrinsics.cy_px = 23.5;
-    out.rgb.assign(64 * 48 * 3, 128);
-    out.depth_m.assign(64 * 48, 2.0F);
-    for (int v = 0; v < 48; ++v) {
-      for (int u = 0; u < 32; ++u)
-        out.depth_m[static_cast<std::size_t>(v * 64 + u)] = 0.0F;
-    }
-    out.sequence = ++sequence_;
-    return true;
-  }
-
- private:
-  std::uint64_t sequence_ = 0;
-};
 
 struct Fixture : ::testing::Test {
   std::filesystem::path web;
@@ -69,7 +45,9 @@ struct Fixture : ::testing::Test {
     o.daemon = {"127.0.0.1", 1};  // nothing listens there: the console keeps retrying
     o.listen_port = 0;
     o.web_dir = web.string();
-    server = std::make_unique<ConsoleServer>(o, std::make_unique<WallSource>(), nullptr);
+    // A flat wall 2 m away; the left half has no depth.
+    server = std::make_unique<ConsoleServer>(
+        o, std::make_unique<testing::WallSource>(64, 48, 57.0, 30.0, true), nullptr);
     port = server->listen();
     runner = std::thread([this] { server->run(); });
   }

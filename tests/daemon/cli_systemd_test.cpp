@@ -88,14 +88,14 @@ TEST(SystemdNotifier, WatchdogIntervalIsHalfOfWatchdogUsecForThisProcess) {
 TEST(Logging, SinkFollowsTheConfigAndTheSystemdEnvironment) {
   ::unsetenv("JOURNAL_STREAM");
   ::unsetenv("INVOCATION_ID");
-  EXPECT_EQ(choose_log_sink("auto"), LogSink::kStderr);
-  EXPECT_EQ(choose_log_sink("journald"), LogSink::kJournald);
+  EXPECT_EQ(choose_log_sink(LogSink::kAuto), LogSink::kStderr);
+  EXPECT_EQ(choose_log_sink(LogSink::kJournald), LogSink::kJournald);
   ::setenv("INVOCATION_ID", "0123456789abcdef0123456789abcdef", 1);
-  EXPECT_EQ(choose_log_sink("auto"), LogSink::kJournald);
-  EXPECT_EQ(choose_log_sink("stderr"), LogSink::kStderr);
+  EXPECT_EQ(choose_log_sink(LogSink::kAuto), LogSink::kJournald);
+  EXPECT_EQ(choose_log_sink(LogSink::kStderr), LogSink::kStderr);
   ::unsetenv("INVOCATION_ID");
   ::setenv("JOURNAL_STREAM", "8:12345", 1);
-  EXPECT_EQ(choose_log_sink("auto"), LogSink::kJournald);
+  EXPECT_EQ(choose_log_sink(LogSink::kAuto), LogSink::kJournald);
   ::unsetenv("JOURNAL_STREAM");
 }
 

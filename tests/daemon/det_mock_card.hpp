@@ -18,7 +18,7 @@ using drivers::CardCall;
 constexpr std::int64_t kDetStopDelayNs = 6'000'000;
 
 inline std::unique_ptr<drivers::MockMotionCard> make_det_card(const std::int64_t& now_ns) {
-  auto mock = std::make_unique<drivers::MockMotionCard>(drivers::MockFault::kOff, 0, 1.0, 8,
+  auto mock = std::make_unique<drivers::MockMotionCard>(drivers::MockFault::kNone, 0, 1.0, 8,
                                                         [&now_ns] { return now_ns; });
   mock->set_motion_model(drivers::MockMotionModel::kConstantSpeed, kDetStopDelayNs);
   mock->record_calls(true);

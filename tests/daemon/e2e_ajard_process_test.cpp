@@ -119,7 +119,7 @@ TEST_F(AjardBinary, SighupReloadsTheLoggingLevelAndKeepsServing) {
   ASSERT_TRUE(port) << ajard.err();
   {
     auto c = e2e_config(drivers::DriverKind::kMock, dir_.path(), 20.0);
-    c.logging.level = "debug";
+    c.logging.level = daemon::LogLevel::kDebug;
     c.network.max_clients = 7;  // not reloadable: named as needing a restart
     std::ofstream(config) << daemon::to_yaml(c);
   }

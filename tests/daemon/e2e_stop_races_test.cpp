@@ -20,11 +20,11 @@
 namespace ajar::test {
 namespace {
 
+using ajar::testing::with_checksum;
 using protocol::EventKind;
 using protocol::MessageType;
 using protocol::ProcedureState;
 using protocol::Role;
-using ajar::testing::with_checksum;
 
 // Several requests as ONE write (one TCP segment on loopback).
 std::vector<std::uint8_t> one_write(
@@ -109,7 +109,15 @@ struct Watched {
   TestClient controller;
 };
 
-class StopRaces : public EndToEndOnMock {};
+class StopRaces : public EndToEndOnMock {
+ protected:
+  // Real speed, and every save of the state file takes `write_delay_ms` (a slow or hung disk).
+  daemon::Config slow_disk(int write_delay_ms) {
+    auto c = config(1.0);
+    c.state.debug_write_delay_ms = write_delay_ms;
+    return c;
+  }
+};
 
 // The bug that opened issue 10: AlignBase and Stop in one write. The Stop is acknowledged, so the
 // queued move must never start.
@@ -233,9 +241,7 @@ TEST_F(StopRaces, TwoResetsInOneWriteLeaveLaterFaultsLatching) {
 // disk (1.5 s per save, within SessionHub::kHeldReplyLimit): the e-stop is executed and
 // acknowledged while that save is still running.
 TEST_F(StopRaces, AnEmergencyStopDoesNotWaitForTheControllersSlowDisk) {
-  auto c = config(1.0);
-  c.state.debug_write_delay_ms = 1500;
-  InProcessDaemon d(c);
+  InProcessDaemon d(slow_disk(1500));
   TestClient observer(d.port());
   observer.hello(Role::kObserver);
   TestClient controller(d.port());
@@ -256,9 +262,7 @@ TEST_F(StopRaces, AnEmergencyStopDoesNotWaitForTheControllersSlowDisk) {
 // A disk that does not finish a save in time (4 s here) holds the controller's width Ack at most
 // SessionHub::kHeldReplyLimit; its own Stop behind it is then acknowledged, in request order.
 TEST_F(StopRaces, AHungDiskHoldsAnAckBoundedlyAndTheStopBehindItArrives) {
-  auto c = config(1.0);
-  c.state.debug_write_delay_ms = 4000;
-  InProcessDaemon d(c);
+  InProcessDaemon d(slow_disk(4000));
   TestClient controller(d.port());
   controller.hello(Role::kController);
   controller.send_raw(one_write({{good_width(), 21}, {protocol::Stop{}, 22}}));
@@ -271,9 +275,7 @@ TEST_F(StopRaces, AHungDiskHoldsAnAckBoundedlyAndTheStopBehindItArrives) {
 
 // One session's replies stay in request order when its first command waits for the disk.
 TEST_F(StopRaces, DurableAcksKeepOneSessionsRequestOrder) {
-  auto c = config(1.0);
-  c.state.debug_write_delay_ms = 200;
-  InProcessDaemon d(c);
+  InProcessDaemon d(slow_disk(200));
   TestClient controller(d.port());
   controller.hello(Role::kController);
   controller.send_raw(one_write({{good_width(), 11},

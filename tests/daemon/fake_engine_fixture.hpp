@@ -33,7 +33,7 @@ class EngineTest : public ::testing::Test {
   void start() {
     drivers::DriverSet set;
     auto mock_card =
-        std::make_unique<drivers::MockMotionCard>(drivers::MockFault::kOff, 0, kCardTimeScale);
+        std::make_unique<drivers::MockMotionCard>(drivers::MockFault::kNone, 0, kCardTimeScale);
     card = mock_card.get();
     card->record_calls(true);
     if (configure_card) configure_card(*card);

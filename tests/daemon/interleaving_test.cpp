@@ -44,7 +44,7 @@ std::uint64_t env_u64(const char* name, std::uint64_t fallback) {
 }
 
 TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
-  daemon::set_log_level("off");  // the hub logs every command
+  daemon::set_log_level(daemon::LogLevel::kNone);  // the hub logs every command
   const std::string dir = shm_dir();
   const char* one = std::getenv("AJAR_SEED");
   const std::uint64_t first = one != nullptr ? env_u64("AJAR_SEED", 0) : 1;
@@ -65,7 +65,7 @@ TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
                     << out.str() << "replay with AJAR_SEED=" << seed;
     }
   }
-  daemon::set_log_level("info");
+  daemon::set_log_level(daemon::LogLevel::kInfo);
   std::filesystem::remove_all(dir);
   std::ostringstream counters;
   for (const auto& [k, v] : total.counts)

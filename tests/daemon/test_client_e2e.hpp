@@ -31,7 +31,7 @@ inline daemon::Config e2e_config(drivers::DriverKind kind, const std::string& di
   c.state.directory = dir + "/state";
   c.network.bind_address = "127.0.0.1";
   c.network.port = 0;
-  c.logging.sink = "stderr";
+  c.logging.sink = daemon::LogSink::kStderr;
   return c;
 }
 

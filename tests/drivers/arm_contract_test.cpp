@@ -22,7 +22,7 @@ struct MockArm {
   void make(Scenario s) {
     const MockFault fault = s == Scenario::kLongTasks     ? MockFault::kStuck
                             : s == Scenario::kRefuseTasks ? MockFault::kErrorCode
-                                                          : MockFault::kOff;
+                                                          : MockFault::kNone;
     arm = std::make_unique<MockManipulator>(fault, 5);
   }
   Manipulator& get() { return *arm; }

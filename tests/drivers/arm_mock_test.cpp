@@ -28,7 +28,7 @@ struct ArmMock : ::testing::Test {
 };
 
 TEST_F(ArmMock, OffFinishesTasksAfterTheTaskDuration) {
-  MockManipulator& a = arm(MockFault::kOff);
+  MockManipulator& a = arm(MockFault::kNone);
   ASSERT_TRUE(a.hand_off(sample_task()).ok());
   clock.advance_ms(MockManipulator::kTaskDurationMs - 1);
   EXPECT_EQ(phase(), ArmPhase::kBusy);
@@ -94,14 +94,14 @@ TEST_F(ArmMock, GarbageEndsInTimeoutAfterSlowMs) {
 
 TEST_F(ArmMock, FaultCanBeChangedAtRunTime) {
   MockManipulator& a = arm(MockFault::kErrorCode);
-  a.set_fault(MockFault::kOff);
+  a.set_fault(MockFault::kNone);
   ASSERT_TRUE(a.hand_off(sample_task()).ok());
   clock.advance_ms(MockManipulator::kTaskDurationMs);
   EXPECT_EQ(phase(), ArmPhase::kDone);
 }
 
 TEST_F(ArmMock, ScriptedRefusalFailsOnlyTheNextCallAndCallsAreLogged) {
-  MockManipulator& a = arm(MockFault::kOff);
+  MockManipulator& a = arm(MockFault::kNone);
   a.fail_next_call(make_error(ErrorCode::kArmTimeout, "", "no ack"));
   const auto refused = a.hand_off(sample_task());
   ASSERT_FALSE(refused.ok());

@@ -28,7 +28,7 @@ constexpr std::array<int, 2> kWheels{1, 2};
 struct MockMaker {
   MockMotionCard* raw = nullptr;
   std::unique_ptr<MotionCard> make() {
-    auto card = std::make_unique<MockMotionCard>(MockFault::kOff, 0, kFastTimeScale, 4);
+    auto card = std::make_unique<MockMotionCard>(MockFault::kNone, 0, kFastTimeScale, 4);
     raw = card.get();
     return card;
   }

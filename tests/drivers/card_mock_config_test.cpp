@@ -34,7 +34,7 @@ struct MockCardConfig : ::testing::Test {
   bool moving(int axis) { return status_of(card, axis)->moving; }
 
   FakeClock clock;
-  MockMotionCard card{MockFault::kOff, 0, 1.0, 4, clock.clock()};
+  MockMotionCard card{MockFault::kNone, 0, 1.0, 4, clock.clock()};
 };
 
 TEST_F(MockCardConfig, ConstantSpeedMovesRunAtTheProfileVelocityFromTheFirstInstant) {

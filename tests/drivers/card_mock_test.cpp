@@ -22,7 +22,7 @@ constexpr AxisMove kMove[] = {{1, 500}};
 constexpr TrapezoidProfile kSlowProfile{1, 0.01, 0.01, 0};
 
 std::unique_ptr<MockMotionCard> ready_card(FakeClock& clock, MockFault fault, int slow_ms = 0) {
-  auto card = std::make_unique<MockMotionCard>(MockFault::kOff, slow_ms, 1.0, 4, clock.clock());
+  auto card = std::make_unique<MockMotionCard>(MockFault::kNone, slow_ms, 1.0, 4, clock.clock());
   EXPECT_TRUE(card->open().ok());
   EXPECT_TRUE(card->enable_axes(kWheels) == ErrorCode::kOk);
   card->set_fault(fault);
@@ -95,7 +95,7 @@ TEST(MockCardFaults, GarbageReportsImplausibleStatus) {
 
 TEST(MockCardTime, MovesTakeTheirSimulatedDuration) {
   FakeClock clock;
-  auto card = ready_card(clock, MockFault::kOff);
+  auto card = ready_card(clock, MockFault::kNone);
   const AxisMove move[] = {{1, 10'000}};  // 10 100 ms with kSlowProfile
   ASSERT_TRUE(card->move_relative(move, kSlowProfile) == ErrorCode::kOk);
   clock.advance_ms(100);  // end of the ramp: 50 counts
@@ -113,7 +113,7 @@ TEST(MockCardTime, MovesTakeTheirSimulatedDuration) {
 
 TEST(MockCardTime, TimeScaleSpeedsTheClockUp) {
   FakeClock clock;
-  MockMotionCard card(MockFault::kOff, 0, 1000.0, 4, clock.clock());
+  MockMotionCard card(MockFault::kNone, 0, 1000.0, 4, clock.clock());
   ASSERT_TRUE(card.open().ok());
   ASSERT_TRUE(card.enable_axes(kWheels) == ErrorCode::kOk);
   const AxisMove move[] = {{1, 10'000}};

@@ -23,7 +23,7 @@ constexpr std::array<int, 2> kWheels{1, 2};
 class ManagedCard : public ::testing::Test {
  protected:
   ManagedCard() {
-    auto mock = std::make_unique<MockMotionCard>(MockFault::kOff, 0, kFastTimeScale, 4);
+    auto mock = std::make_unique<MockMotionCard>(MockFault::kNone, 0, kFastTimeScale, 4);
     mock_ = mock.get();
     card_ = std::make_unique<ManagedMotionCard>(std::move(mock), kWheels);
   }
@@ -101,7 +101,7 @@ TEST(ManagedCardDeadline, DeactivateFallsBackToEmergencyStopAfterItsDeadline) {
   // A fake clock that stands still while deactivate() waits: the smooth stop (a deceleration that
   // would take ~100 s) cannot finish within the 0 ms stop deadline.
   testing::FakeClock clock;
-  auto mock = std::make_unique<MockMotionCard>(MockFault::kOff, 0, 1.0, 4, clock.clock());
+  auto mock = std::make_unique<MockMotionCard>(MockFault::kNone, 0, 1.0, 4, clock.clock());
   ManagedMotionCard card(std::move(mock), kWheels, 0);
   ASSERT_TRUE(card.configure().ok());
   ASSERT_TRUE(card.activate().ok());
@@ -162,7 +162,7 @@ TEST_F(ManagedCard, CommunicationFailuresLatch) {
   EXPECT_EQ(card_->state(), LifecycleState::kFault);
   // A move is then refused with the cause, CARD_COMMUNICATION (502), not DRIVER_NOT_ACTIVE (501):
   // a caller that latches what it is told reports why the card is unusable.
-  mock_->set_fault(MockFault::kOff);
+  mock_->set_fault(MockFault::kNone);
   EXPECT_EQ(move(), ErrorCode::kCardCommunication);
   EXPECT_STREQ(card_->last_failure().call, "move_relative");
   // Recovery (clear_faults in fault) makes it usable again once the card answers.

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "ajar/core/measurements.hpp"
+#include "ajar/protocol/acks.hpp"
 #include "ajar/protocol/codec.hpp"
 #include "ajar/protocol/robot_model.hpp"
 
@@ -131,18 +132,15 @@ T value_or_throw(Result<T> r, const char* what) {
   if (!r) throw std::runtime_error(std::string(what) + ": " + r.error().message);
   return std::move(r).value();
 }
-inline SpanAck span_ack(const core::SpanMeasurement& m) {
-  return {m.span.length_m, m.span.direction, m.p1_base_m, m.p2_base_m};
-}
 inline SpanAck width_ack() {
   const auto r = width_request();
-  return span_ack(value_or_throw(
+  return span_ack_from(value_or_throw(
       core::measure_door_width(r.p1_hinge, r.p2_moving_edge, sample_transform(), sample_limits()),
       "width sample"));
 }
 inline SpanAck handle_ack() {
   const auto r = handle_request();
-  return span_ack(value_or_throw(
+  return span_ack_from(value_or_throw(
       core::measure_handle(r.p1_axis, r.p2_free_end, sample_transform(), sample_limits()),
       "handle sample"));
 }
@@ -152,17 +150,7 @@ inline PlaneAck plane_ack() {
       core::measure_door_plane(std::span<const core::FramedPoint>(r.points.data(), r.count),
                                sample_transform(), sample_limits(), sample_base()),
       "plane sample");
-  PlaneAck p;
-  p.normal = m.plane.normal;
-  p.yaw_deviation_rad = m.yaw_deviation_rad;
-  p.left_wheel_rad = m.wheels.left_wheel_rad;
-  p.right_wheel_rad = m.wheels.right_wheel_rad;
-  p.left_counts = m.wheels.left_counts;
-  p.right_counts = m.wheels.right_counts;
-  p.residual_yaw_rad = m.wheels.residual_yaw_rad;
-  p.rms_residual_m = m.plane.rms_residual_m;
-  p.point_count = static_cast<std::uint8_t>(m.point_count);
-  return p;
+  return plane_ack_from(m);
 }
 inline ContactAck contact_ack() {
   const auto m = value_or_throw(

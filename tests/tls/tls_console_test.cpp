@@ -19,6 +19,7 @@
 
 #include "ajar/console/server.hpp"
 #include "tls_support.hpp"
+#include "wall_source.hpp"
 
 namespace ajar::test {
 namespace {
@@ -27,25 +28,9 @@ namespace asio = boost::asio;
 namespace http = boost::beast::http;
 
 // A grey wall 2 m away: the console needs a camera, this test does not look at it.
-class Wall final : public console::FrameSource {
- public:
-  std::string describe() const override { return "test wall"; }
-  double rate_hz() const override { return 5; }
-  bool next(const console::BasePose&, console::Frame& out, std::string&) override {
-    out.intrinsics.width_px = 16;
-    out.intrinsics.height_px = 12;
-    out.intrinsics.fx_px = out.intrinsics.fy_px = 15;
-    out.intrinsics.cx_px = 7.5;
-    out.intrinsics.cy_px = 5.5;
-    out.rgb.assign(16 * 12 * 3, 128);
-    out.depth_m.assign(16 * 12, 2.0F);
-    out.sequence = ++sequence_;
-    return true;
-  }
-
- private:
-  std::uint64_t sequence_ = 0;
-};
+std::unique_ptr<console::FrameSource> wall() {
+  return std::make_unique<console::testing::WallSource>(16, 12, 15.0, 5.0, false);
+}
 
 class TlsConsole : public ::testing::Test {
  protected:
@@ -80,7 +65,7 @@ class TlsConsole : public ::testing::Test {
 };
 
 TEST_F(TlsConsole, TheConsoleConnectsToATlsDaemonWithItsCertificate) {
-  console::ConsoleServer console(console_options("alice"), std::make_unique<Wall>(), nullptr);
+  console::ConsoleServer console(console_options("alice"), wall(), nullptr);
   const std::uint16_t port = console.listen();
   std::thread runner([&] { console.run(); });
   EXPECT_TRUE(eventually([&] {
@@ -94,7 +79,7 @@ TEST_F(TlsConsole, TheConsoleConnectsToATlsDaemonWithItsCertificate) {
 
 TEST_F(TlsConsole, AKeyReadableByOthersIsRefusedBeforeTheConsoleListens) {
   ASSERT_EQ(::chmod(pki_.path("alice.key").c_str(), 0640), 0);
-  console::ConsoleServer console(console_options("alice"), std::make_unique<Wall>(), nullptr);
+  console::ConsoleServer console(console_options("alice"), wall(), nullptr);
   try {
     console.listen();
     ADD_FAILURE() << "a group-readable key was accepted";
@@ -108,7 +93,7 @@ TEST_F(TlsConsole, AKeyReadableByOthersIsRefusedBeforeTheConsoleListens) {
 TEST_F(TlsConsole, ACertificateWithoutItsKeyIsRefused) {
   auto o = console_options("alice");
   o.tls.private_key.clear();
-  console::ConsoleServer console(o, std::make_unique<Wall>(), nullptr);
+  console::ConsoleServer console(o, wall(), nullptr);
   EXPECT_THROW(console.listen(), std::runtime_error);
 }
 

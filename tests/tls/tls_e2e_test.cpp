@@ -107,25 +107,27 @@ class TlsEndToEnd : public EndToEndTest {
     ASSERT_EQ(state_of(controller.request(plane_at_yaw(yaw_rad))), ProcedureState::kReadyToAlign);
     ASSERT_EQ(state_of(controller.request(protocol::AlignBase{})), ProcedureState::kAligning);
   }
-  // alice (controller, heartbeat every 100 ms) turning the base toward a door yawed 0.6 rad, bob
-  // (observer) watching telemetry at 100 Hz: set once the motion started.
-  struct Aligning {
-    std::unique_ptr<Client> controller;
-    std::unique_ptr<Client> observer;
-    std::unique_ptr<Watcher> watched;
-  };
-  void start_aligning(InProcessDaemon& d, Aligning& a) {
-    a.controller = greeted(d, "alice", Role::kController);
-    a.controller->set_heartbeat(100ms);
-    a.observer = greeted(d, "bob", Role::kObserver);
-    a.watched = std::make_unique<Watcher>(*a.observer);
-    ASSERT_TRUE(a.observer->request(protocol::Subscribe{100}).ok());
-    start_alignment(*a.controller, 0.6);
-    ASSERT_TRUE(a.watched->wait_event(EventKind::kMotionStarted));
+  // ajard over TLS at real speed, alice (controller, heartbeat every 100 ms) turning the base
+  // toward a door yawed 0.6 rad, bob (observer) watching telemetry at 100 Hz: set once the motion
+  // started.
+  void start_aligning() {
+    daemon_ = std::make_unique<InProcessDaemon>(tls_config(1.0));
+    controller_ = greeted(*daemon_, "alice", Role::kController);
+    controller_->set_heartbeat(100ms);
+    observer_ = greeted(*daemon_, "bob", Role::kObserver);
+    watched_ = std::make_unique<Watcher>(*observer_);
+    ASSERT_TRUE(observer_->request(protocol::Subscribe{100}).ok());
+    start_alignment(*controller_, 0.6);
+    ASSERT_TRUE(watched_->wait_event(EventKind::kMotionStarted));
   }
 
   LogCapture log_;
   Pki pki_;
+  // start_aligning()'s daemon and clients (destroyed in reverse: the watcher first).
+  std::unique_ptr<InProcessDaemon> daemon_;
+  std::unique_ptr<Client> controller_;
+  std::unique_ptr<Client> observer_;
+  std::unique_ptr<Watcher> watched_;
 };
 
 TEST_P(TlsEndToEnd, AControllerCertificateCompletesTheWholeProcedure) {
@@ -152,34 +154,26 @@ TEST_P(TlsEndToEnd, AControllerCertificateCompletesTheWholeProcedure) {
 }
 
 TEST_P(TlsEndToEnd, EmergencyStopFromAnObserverCertificateStopsARunningAlignment) {
-  InProcessDaemon d(tls_config(1.0));
-  Aligning a;
-  ASSERT_NO_FATAL_FAILURE(start_aligning(d, a));
-  auto& [controller, observer, watched_ptr] = a;
-  Watcher& watched = *watched_ptr;
+  ASSERT_NO_FATAL_FAILURE(start_aligning());
 
-  EXPECT_TRUE(observer->request(protocol::EmergencyStop{}).ok());
-  ASSERT_TRUE(watched.wait_event(EventKind::kFaultLatched));
-  EXPECT_EQ(watched.event(EventKind::kFaultLatched)->fault, ErrorCode::kEmergencyStopped);
-  EXPECT_EQ(wait_for_state(*controller, ProcedureState::kFault).latched_fault,
+  EXPECT_TRUE(observer_->request(protocol::EmergencyStop{}).ok());
+  ASSERT_TRUE(watched_->wait_event(EventKind::kFaultLatched));
+  EXPECT_EQ(watched_->event(EventKind::kFaultLatched)->fault, ErrorCode::kEmergencyStopped);
+  EXPECT_EQ(wait_for_state(*controller_, ProcedureState::kFault).latched_fault,
             ErrorCode::kEmergencyStopped);
-  EXPECT_TRUE(watched.wait_at_rest());
-  EXPECT_EQ(controller->request(protocol::AlignBase{}).error.code, ErrorCode::kFaultLatched);
+  EXPECT_TRUE(watched_->wait_at_rest());
+  EXPECT_EQ(controller_->request(protocol::AlignBase{}).error.code, ErrorCode::kFaultLatched);
 }
 
 TEST_P(TlsEndToEnd, RevokingTheControllerMidAlignmentClosesItAndTheDeadmanStopsTheBase) {
-  InProcessDaemon d(tls_config(1.0));
-  Aligning a;
-  ASSERT_NO_FATAL_FAILURE(start_aligning(d, a));
-  auto& [controller, observer, watched_ptr] = a;
-  Watcher& watched = *watched_ptr;
+  ASSERT_NO_FATAL_FAILURE(start_aligning());
 
   pki_.run("revoke alice");
-  reload(d.server(), pki_.server_config());
-  EXPECT_TRUE(controller->wait_closed(10s));
-  ASSERT_TRUE(watched.wait_event(EventKind::kFaultLatched));
-  EXPECT_EQ(watched.event(EventKind::kFaultLatched)->fault, ErrorCode::kDeadman);
-  EXPECT_TRUE(watched.wait_at_rest());
+  reload(daemon_->server(), pki_.server_config());
+  EXPECT_TRUE(controller_->wait_closed(10s));
+  ASSERT_TRUE(watched_->wait_event(EventKind::kFaultLatched));
+  EXPECT_EQ(watched_->event(EventKind::kFaultLatched)->fault, ErrorCode::kDeadman);
+  EXPECT_TRUE(watched_->wait_at_rest());
   EXPECT_TRUE(log_.contains("TLS: closing session", "certificate revoked"));
 }
 

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -91,10 +92,17 @@ struct SafetyConfig {
   double arm_task_timeout_s = 120;  // an arm task not done within this -> arm stop + ARM_TIMEOUT
 };
 
+// logging.level: trace | debug | info | warn | error | critical | none (nothing is logged).
+enum class LogLevel : std::uint8_t { kTrace, kDebug, kInfo, kWarn, kError, kCritical, kNone };
+// logging.sink: auto (journald under systemd, else stderr) | stderr | journald.
+enum class LogSink : std::uint8_t { kAuto, kStderr, kJournald };
+// The config word of a value ("none", "journald"), from the one word table (config_fields.hpp).
+std::string_view to_string(LogLevel level) noexcept;
+std::string_view to_string(LogSink sink) noexcept;
+
 struct LoggingConfig {
-  // spdlog's level name: trace | debug | info | warn | error | critical | off (config word: none)
-  std::string level = "info";
-  std::string sink = "auto";  // auto (journald under systemd, else stderr) | stderr | journald
+  LogLevel level = LogLevel::kInfo;
+  LogSink sink = LogSink::kAuto;
 };
 
 struct StateConfig {

@@ -5,24 +5,18 @@
 // The logger is spdlog's default logger ("ajard"), so daemon code logs with spdlog::info() etc.
 #pragma once
 
-#include <string>
-#include <string_view>
+#include "ajar/daemon/config.hpp"
 
 namespace ajar::daemon {
 
-struct LoggingConfig;
-
-enum class LogSink { kStderr, kJournald };
-
-// "auto" -> journald when JOURNAL_STREAM or INVOCATION_ID is set, else stderr; "stderr",
-// "journald" as named. Unknown values: stderr.
-LogSink choose_log_sink(std::string_view configured);
-std::string_view to_string(LogSink sink) noexcept;
+// kAuto -> kJournald when JOURNAL_STREAM or INVOCATION_ID is set, else kStderr; kStderr and
+// kJournald as configured. Never kAuto.
+LogSink choose_log_sink(LogSink configured);
 
 // Installs the asynchronous default logger. Call once at start-up, before any thread logs.
 void init_logging(const LoggingConfig& config);
-// Changes the level ("trace" ... "off"). False (and no change) for an unknown level.
-bool set_log_level(std::string_view level);
+// Changes the level (kNone: nothing is logged).
+void set_log_level(LogLevel level);
 // Flushes and stops the logging thread. Call once at exit.
 void shutdown_logging() noexcept;
 

@@ -3,7 +3,7 @@
 // derived from the time the task was handed off, on its clock (mock_clock.hpp: the steady clock
 // unless one is injected; an injected clock must be safe to call from any thread).
 //
-//   kOff          a task is busy for kTaskDurationMs, then done.
+//   kNone         a task is busy for kTaskDurationMs, then done.
 //   kStuck        a task stays busy forever (until stop()).
 //   kSlow         a task is busy for slow_ms * 4; connect() takes slow_ms.
 //   kErrorCode    the arm refuses every task: kFault with kArmRejected.
@@ -33,7 +33,7 @@ class MockManipulator final : public Manipulator {
  public:
   static constexpr int kTaskDurationMs = 20;
 
-  explicit MockManipulator(MockFault fault = MockFault::kOff, int slow_ms = 50,
+  explicit MockManipulator(MockFault fault = MockFault::kNone, int slow_ms = 50,
                            MockClock clock = {});
 
   Outcome connect() override;

@@ -6,7 +6,7 @@
 // axis_status() sees moves complete after their simulated duration.
 //
 // Fault menu (MockFault, settings.hpp):
-//   kOff          normal behaviour
+//   kNone         normal behaviour
 //   kStuck        moves are accepted but never progress: the axes report moving forever
 //   kSlow         every call sleeps slow_ms (real time) before it runs
 //   kErrorCode    every realtime call (all but open()/close()) fails with kDriverError
@@ -90,7 +90,7 @@ enum class MockMotionModel : std::uint8_t { kProfile, kConstantSpeed };
 class MockMotionCard final : public MotionCard {
  public:
   // Simulated time = clock x time_scale from construction on (clock: mock_clock.hpp).
-  explicit MockMotionCard(MockFault fault = MockFault::kOff, int slow_ms = 50,
+  explicit MockMotionCard(MockFault fault = MockFault::kNone, int slow_ms = 50,
                           double time_scale = 1.0, int axis_count = 4, MockClock clock = {});
 
   void set_fault(MockFault fault) noexcept { fault_ = fault; }

@@ -30,11 +30,11 @@ struct SerialArmSettings {
 };
 
 // The in-process mock's fault menu (tests and rehearsals).
-enum class MockFault : std::uint8_t { kOff, kStuck, kSlow, kErrorCode, kIntermittent, kGarbage };
+enum class MockFault : std::uint8_t { kNone, kStuck, kSlow, kErrorCode, kIntermittent, kGarbage };
 
 struct MockSettings {
-  MockFault card_fault = MockFault::kOff;
-  MockFault arm_fault = MockFault::kOff;
+  MockFault card_fault = MockFault::kNone;
+  MockFault arm_fault = MockFault::kNone;
   int slow_ms = 50;
 };
 

@@ -1,0 +1,298 @@
+// Internal to the engine's sources: EngineImpl, the Engine behind make_engine(). One class, three
+// files by job: lifecycle, sessions' views and the read batch (engine.cpp), the commands
+// (engine_commands.cpp), the loop's reports, the arm, faults, events and persistence
+// (engine_reports.cpp). docs/procedure.md and docs/control-loop.md describe the behaviour.
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "ajar/core/geometry.hpp"
+#include "ajar/daemon/config.hpp"
+#include "ajar/daemon/control_loop.hpp"
+#include "ajar/daemon/engine.hpp"
+#include "ajar/daemon/procedure.hpp"
+#include "ajar/daemon/realtime.hpp"
+#include "ajar/daemon/state_store.hpp"
+#include "ajar/daemon/wire_model.hpp"
+#include "ajar/version.hpp"
+
+namespace ajar::daemon::detail {
+
+using protocol::EventKind;
+using protocol::MessageType;
+using protocol::ProcedureState;
+
+inline core::CameraToBase camera_to_base_or_throw(const Config& config) {
+  auto t = core::CameraToBase::from_matrix(config.camera_to_base_m);
+  if (!t) {
+    throw StartupError("camera_to_base_m: " + t.error().message + " (" + t.error().field + ")");
+  }
+  return *t;
+}
+
+inline ControlLoopSettings loop_settings(const Config& c) {
+  ControlLoopSettings s;
+  s.rate_hz = c.control.rate_hz;
+  s.realtime = c.control.realtime;
+  s.priority = c.control.priority;
+  s.lock_memory = c.control.lock_memory;
+  s.deadman_timeout_s = c.safety.deadman_timeout_s;
+  s.motion_timeout_margin_s = c.control.motion_timeout_margin_s;
+  s.recovery_timeout_s = std::max(0.1, c.drivers.card.poll_timeout_ms / 1000.0);
+  s.base = c.base;
+  s.drive = c.drive;
+  return s;
+}
+
+// The words of the events that close a wheel motion.
+inline const char* what_moves(bool jog, bool approach) {
+  return jog ? "driving" : approach ? "approach" : "alignment";
+}
+
+inline protocol::DriverState to_wire(drivers::LifecycleState s) {
+  switch (s) {
+    case drivers::LifecycleState::kUnconfigured:
+      return protocol::DriverState::kUnconfigured;
+    case drivers::LifecycleState::kInactive:
+      return protocol::DriverState::kInactive;
+    case drivers::LifecycleState::kActive:
+      return protocol::DriverState::kActive;
+    case drivers::LifecycleState::kFault:
+      return protocol::DriverState::kFault;
+  }
+  return protocol::DriverState::kFault;
+}
+
+inline protocol::ArmState to_wire(drivers::ArmPhase p) {
+  switch (p) {
+    case drivers::ArmPhase::kDisconnected:
+      return protocol::ArmState::kDisconnected;
+    case drivers::ArmPhase::kIdle:
+      return protocol::ArmState::kIdle;
+    case drivers::ArmPhase::kBusy:
+      return protocol::ArmState::kBusy;
+    case drivers::ArmPhase::kDone:
+      return protocol::ArmState::kDone;
+    case drivers::ArmPhase::kFault:
+      return protocol::ArmState::kFault;
+  }
+  return protocol::ArmState::kFault;
+}
+
+enum class WheelKind : std::uint8_t { kAlign, kApproach, kJog };
+
+inline std::string describe(const Error& e) {
+  std::string s(to_string(e.code));
+  if (!e.field.empty()) s += " (" + e.field + ")";
+  if (!e.message.empty()) s += ": " + e.message;
+  return s;
+}
+
+class EngineImpl final : public Engine {
+ public:
+  EngineImpl(const Config& config, drivers::DriverSet drivers, EngineOptions options);
+
+  ~EngineImpl() override { shutdown(); }
+
+  void set_event_sink(EventSink sink) override { sink_ = std::move(sink); }
+
+  void start() override;
+
+  // Stops the wheels and the arm, tells every session (motion_stopped with the reason) while the
+  // sink is still connected, persists, then joins the loop and brings the drivers down.
+  void shutdown() noexcept override;
+
+  protocol::Message handle_command(const protocol::Message& request) override;
+
+  void controller_heartbeat() noexcept override { loop_->heartbeat(now_ns()); }
+
+  void controller_lost() override;
+
+  void begin_read_batch() override { in_read_batch_ = true; }
+
+  void end_read_batch() override;
+
+  void poll() override;
+
+  protocol::Status status() const override;
+
+  protocol::Telemetry telemetry() const override;
+
+  protocol::Welcome welcome_template() const override;
+
+  protocol::RobotModel robot_model() const override { return robot_model_of(config_); }
+
+  bool control_loop_healthy() const noexcept override {
+    return manual_loop_ || loop_->healthy(monotonic_now_ns());
+  }
+
+  std::uint64_t daemon_time_ns() const noexcept override {
+    return static_cast<std::uint64_t>(now_ns() - start_ns_);
+  }
+
+  void run_loop_cycle() noexcept override {
+    if (manual_loop_) loop_->cycle(now_ns());
+  }
+
+  std::vector<std::string> startup_warnings() const override { return startup_warnings_; }
+
+  std::vector<std::string> take_warnings() override;
+
+  std::uint64_t accepted_generation() const noexcept override { return store_.submitted(); }
+  std::uint64_t settled_generation() const noexcept override { return store_.settled(); }
+
+ private:
+  // ---- commands --------------------------------------------------------------------------------
+
+  protocol::Message dispatch(const protocol::Message& request);
+
+  template <typename T>
+  protocol::Message answer(MessageType type, Result<T> result) {
+    if (!result) return refuse(type, result.error());
+    dirty_ = true;
+    return ack(type, std::move(result).value());
+  }
+
+  protocol::Message ack(MessageType type, protocol::AckBody body);
+
+  static protocol::Message refuse(MessageType type, const Error& e);
+
+  protocol::Message align(MessageType type);
+
+  // Drive (jog): a start opens a jog motion, later ones update its velocity (docs/procedure.md).
+  protocol::Message drive(MessageType type, const protocol::Drive& m);
+
+  // Approach: one straight trapezoidal move to `standoff_m` from the door plane.
+  protocol::Message approach(MessageType type, const protocol::Approach& m);
+
+  // Hands a motion to the loop: held for the end of this read while one is being handled (a stop
+  // later in the same read cancels it before any wheel turns), else posted now. False: the loop's
+  // command queue is full (nothing was queued).
+  bool hand_over(const MoveCommand& move);
+  bool hand_over(const DriveCommand& drive);
+  static Error queue_full();
+
+  // Whether Drive (jog = true) or Approach may move the base now.
+  Outcome check_base_may_drive(bool jog) const;
+
+  void begin_wheel_motion(std::uint32_t id, WheelKind kind);
+
+  // Measurements, AlignBase and Engage while a Drive or Approach moves the wheels.
+  Outcome check_wheels_at_rest() const;
+
+  template <typename Message>
+  void fill_motion(const LoopSnapshot& snap, Message& m) const {
+    m.odometry_x_m = snap.pose.x_m;
+    m.odometry_y_m = snap.pose.y_m;
+    m.door = procedure_.door(snap.pose);
+    m.staleness = procedure_.staleness(snap.pose);
+    m.commanded_linear_m_s = snap.commanded.linear_m_s;
+    m.commanded_angular_rad_s = snap.commanded.angular_rad_s;
+  }
+
+  protocol::Message engage(MessageType type);
+
+  void stop_motion();
+
+  protocol::Message stop(MessageType type);
+
+  protocol::Message emergency_stop(MessageType type);
+
+  // With a fault latched: recovers the arm here and the card in the loop (recover request with a
+  // fresh sequence number; the loop answers exactly that sequence), then clears the fault.
+  protocol::Message reset(MessageType type, const protocol::Reset& r);
+
+  Outcome recover_arm();
+
+  // ---- reports and the arm ---------------------------------------------------------------------
+
+  // Every wheel motion the engine announced (motion_started) is closed by exactly one event, from
+  // the loop's terminal report for that motion id.
+  void drain_reports();
+
+  // A wheel motion that never turned a wheel (refused or cancelled): the plane still holds.
+  void close_unstarted_move(std::uint32_t motion_id, ErrorCode code, bool cancelled);
+
+  // A move held for the end of this read is dropped: no wheel has turned.
+  void cancel_held_move(ErrorCode code);
+
+  std::string reason(ErrorCode code) const;
+
+  // The arm task: done, fault, disconnect, a controller that dropped the task, or the deadline.
+  void supervise_arm();
+
+  void end_arm_motion(EventKind kind, const std::string& detail);
+
+  // Backstop when reports were dropped (report queue full): the snapshot is authoritative.
+  void reconcile();
+
+  // ---- faults, events, persistence -------------------------------------------------------------
+
+  // A fault latches once (the first is the root cause): the procedure's motion phases end, the arm
+  // is told to stop (an open arm task is closed), and the latch is announced once (fault_latched
+  // event, and a warning for the journal through take_warnings()).
+  void latch(ErrorCode code, const std::string& detail);
+
+  void emit(EventKind kind, ErrorCode fault, const std::string& detail);
+
+  void flush();
+
+  // Hands the record to the state store's writer thread (never waits on the disk). Failures come
+  // back through take_warnings().
+  void persist();
+
+  // Before the writer thread starts. A file that cannot be read, decoded or validated is moved
+  // aside (ajard.state.rejected-<time>) and the procedure starts clean; both are startup warnings.
+  void restore();
+
+  void reject_state_file(std::string warning);
+
+  std::int64_t now_ns() const noexcept { return clock_(); }
+
+  // Lifecycle policy for the card (waits allowed): only while the control thread is not running.
+  void bring_down_card() noexcept;
+
+  Config config_;
+  std::function<std::int64_t()> clock_;
+  bool manual_loop_ = false;
+  std::shared_ptr<void> keepalive_;                   // first: outlives the drivers
+  std::unique_ptr<drivers::ManagedMotionCard> card_;  // outlives the loop that drives it
+  std::unique_ptr<ControlLoop> loop_;
+  std::unique_ptr<drivers::ManagedManipulator> arm_;
+  Procedure procedure_;
+  StateStore store_;
+  std::int64_t start_ns_;
+  EventSink sink_;
+
+  bool started_ = false;
+  bool stopped_ = false;
+  bool restored_ = false;
+  bool dirty_ = false;
+  std::uint32_t motion_id_ = 0;
+  std::uint32_t wheel_motion_ = 0;  // the announced wheel motion the loop has not ended (0: none)
+  bool in_read_batch_ = false;
+  std::optional<MoveCommand> held_move_;      // accepted in this read, not yet handed to the loop
+  std::optional<DriveCommand> held_drive_;    // likewise (the last Drive of this read)
+  WheelKind wheel_kind_ = WheelKind::kAlign;  // what wheel_motion_ is
+  bool wheel_stopping_ = false;               // a stop was asked for wheel_motion_
+  std::uint32_t arm_task_id_ = 0;
+  bool arm_motion_ = false;  // an announced arm task not yet ended
+  bool arm_seen_busy_ = false;
+  std::int64_t arm_deadline_ns_ = 0;
+  std::uint32_t recover_sequence_ = 0;  // the last recover request sent to the loop
+  std::string stop_reason_;             // why every motion is stopping (shutdown), else empty
+  ProcedureState last_state_ = ProcedureState::kAwaitingWidth;
+  std::vector<std::string> startup_warnings_;
+  std::vector<std::string> warnings_;
+};
+
+}  // namespace ajar::daemon::detail

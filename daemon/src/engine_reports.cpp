@@ -1,0 +1,214 @@
+// The engine's side of what happens: the control loop's reports closing wheel motions, the arm's
+// task, fault latching, events to the sessions, and the state file (persist and restore).
+#include "engine_impl.hpp"
+
+namespace ajar::daemon::detail {
+
+void EngineImpl::drain_reports() {
+  const LoopSnapshot snap = loop_->snapshot();
+  if (procedure_.observe_pose(snap.pose)) dirty_ = true;
+  LoopReport r;
+  while (loop_->pop_report(r)) {
+    switch (r.kind) {
+      case LoopReportKind::kMotionFinished: {
+        if (r.motion_id != wheel_motion_) break;
+        wheel_motion_ = 0;
+        if (procedure_.phase() == Phase::kAligning) {
+          procedure_.alignment_finished();
+          dirty_ = true;
+        }
+        std::string detail = "base aligned";
+        if (wheel_kind_ == WheelKind::kApproach) {
+          const auto door = procedure_.door(snap.pose);
+          detail = fmt::format("approach finished: the door is {:.3f} m away", door.distance_m);
+        } else if (wheel_kind_ == WheelKind::kJog) {
+          detail = r.command_timeout
+                       ? "driving ended: no Drive command within drive.command_timeout_s "
+                         "(the base decelerated to rest)"
+                       : "driving ended: the base is at rest";
+        }
+        emit(EventKind::kMotionFinished, ErrorCode::kOk, detail);
+        break;
+      }
+      case LoopReportKind::kMotionStopped:
+        if (r.motion_id != wheel_motion_) break;
+        wheel_motion_ = 0;
+        if (procedure_.phase() == Phase::kAligning) {  // stopped on its own (should not happen)
+          procedure_.alignment_interrupted();
+          dirty_ = true;
+        }
+        emit(EventKind::kMotionStopped, r.code, "wheels stopped" + reason(r.code));
+        break;
+      case LoopReportKind::kMoveRefused:
+      case LoopReportKind::kMoveCancelled:
+        close_unstarted_move(r.motion_id, r.code, r.kind == LoopReportKind::kMoveCancelled);
+        break;
+      case LoopReportKind::kFault:
+        if (r.sequence != recover_sequence_) {
+          // Latched before the loop took our last Reset's recovery, which clears it (and
+          // fails, latching again, if the cause persists). Not lost: the journal has it.
+          warnings_.push_back("control loop fault " + std::string(to_string(r.code)) +
+                              " before the Reset's recovery ran: that recovery clears it");
+          break;
+        }
+        latch(r.code, r.axis != 0 ? "axis " + std::to_string(r.axis) : std::string("control loop"));
+        break;
+      case LoopReportKind::kRecovered:
+        if (r.sequence != recover_sequence_) break;  // an earlier Reset's recovery
+        if (r.code != ErrorCode::kOk) latch(r.code, "the motion card did not recover");
+        break;
+    }
+  }
+}
+
+void EngineImpl::close_unstarted_move(std::uint32_t motion_id, ErrorCode code, bool cancelled) {
+  if (motion_id != wheel_motion_) return;
+  wheel_motion_ = 0;
+  if (wheel_kind_ == WheelKind::kAlign) {
+    procedure_.alignment_not_started();  // also after a stop interrupted it: nothing turned
+  }
+  dirty_ = true;
+  emit(EventKind::kMotionStopped, code,
+       (cancelled ? "the move was cancelled before it started" : "the move did not start") +
+           reason(code));
+}
+
+void EngineImpl::cancel_held_move(ErrorCode code) {
+  if (held_drive_) {  // an update needs nothing more: the stop ends its jog
+    const DriveCommand drive = *held_drive_;
+    held_drive_.reset();
+    if (drive.start) close_unstarted_move(drive.motion_id, code, true);
+  }
+  if (!held_move_) return;
+  const std::uint32_t id = held_move_->motion_id;
+  held_move_.reset();
+  close_unstarted_move(id, code, true);
+}
+
+std::string EngineImpl::reason(ErrorCode code) const {
+  if (!stop_reason_.empty()) return ": " + stop_reason_;
+  return code == ErrorCode::kOk ? std::string() : ": " + std::string(to_string(code));
+}
+
+void EngineImpl::supervise_arm() {
+  if (!arm_motion_) return;
+  const drivers::ArmStatus st = arm_->status();
+  if (st.phase == drivers::ArmPhase::kBusy && st.task_id == arm_task_id_) arm_seen_busy_ = true;
+  if (st.phase == drivers::ArmPhase::kDone && st.task_id == arm_task_id_) {
+    procedure_.engaging_finished();
+    end_arm_motion(EventKind::kMotionFinished, "the arm finished the door task");
+    dirty_ = true;
+  } else if (st.phase == drivers::ArmPhase::kFault) {
+    latch(st.last_error == ErrorCode::kOk ? ErrorCode::kArmRejected : st.last_error,
+          "the arm reported a fault");
+  } else if (st.phase == drivers::ArmPhase::kDisconnected) {
+    latch(ErrorCode::kArmDisconnected, "the arm is disconnected");
+  } else if (arm_->state() == drivers::LifecycleState::kFault) {
+    latch(ErrorCode::kDriverError, "the arm driver failed");
+  } else if (arm_seen_busy_ && st.phase != drivers::ArmPhase::kBusy) {
+    latch(ErrorCode::kArmFault, "the arm controller dropped the task (reset mid-task?)");
+  } else if (now_ns() > arm_deadline_ns_) {
+    (void)arm_->stop();
+    latch(ErrorCode::kArmTimeout, "the arm task did not finish within safety.arm_task_timeout_s");
+  }
+}
+
+void EngineImpl::end_arm_motion(EventKind kind, const std::string& detail) {
+  if (!arm_motion_) return;
+  arm_motion_ = false;
+  loop_->set_arm_moving(false);
+  emit(kind, ErrorCode::kOk, detail);
+}
+
+void EngineImpl::reconcile() {
+  const LoopSnapshot snap = loop_->snapshot();
+  if (snap.reports_dropped == 0) return;
+  if (snap.recover_sequence == recover_sequence_ && !snap.recovering &&
+      snap.fault != ErrorCode::kOk) {
+    latch(snap.fault, "control loop");
+  }
+  if (wheel_motion_ != 0 && !snap.motion_active && snap.last_motion_id == wheel_motion_) {
+    wheel_motion_ = 0;
+    if (procedure_.phase() == Phase::kAligning) procedure_.alignment_interrupted();
+    dirty_ = true;
+    emit(EventKind::kMotionStopped, ErrorCode::kOk, "wheels at rest");
+  }
+}
+
+void EngineImpl::latch(ErrorCode code, const std::string& detail) {
+  const bool was_clear = procedure_.fault() == ErrorCode::kOk;
+  if (wheel_motion_ != 0) wheel_stopping_ = true;  // the loop stops the wheels for a fault
+  procedure_.latch_fault(code);
+  (void)arm_->stop();  // whatever latched, the arm does not go on
+  if (arm_motion_) {
+    end_arm_motion(EventKind::kMotionStopped,
+                   "arm stopped: " + std::string(to_string(code)) + ": " + detail);
+  }
+  loop_->set_arm_moving(false);
+  if (was_clear) {
+    const std::string text = std::string(to_string(code)) + ": " + detail;
+    emit(EventKind::kFaultLatched, code, text);
+    warnings_.push_back("fault latched: " + text);
+  }
+  dirty_ = true;
+}
+
+void EngineImpl::emit(EventKind kind, ErrorCode fault, const std::string& detail) {
+  protocol::Event e;
+  e.kind = kind;
+  e.state = procedure_.state();
+  e.fault = kind == EventKind::kFaultLatched ? fault : ErrorCode::kOk;
+  e.daemon_time_ns = daemon_time_ns();
+  e.detail.assign(detail);
+  if (sink_) sink_(e);
+}
+
+void EngineImpl::flush() {
+  if (dirty_) {
+    dirty_ = false;
+    persist();
+  }
+  const ProcedureState now = procedure_.state();
+  if (now != last_state_) {
+    last_state_ = now;
+    emit(EventKind::kStateChanged, procedure_.fault(), std::string(protocol::to_string(now)));
+  }
+}
+
+void EngineImpl::persist() {
+  if (!started_) return;
+  store_.submit(procedure_.record());
+}
+
+void EngineImpl::restore() {
+  auto loaded = store_.load();
+  if (!loaded) {
+    reject_state_file("state file rejected, starting with a clean procedure: " +
+                      loaded.error().message);
+    return;
+  }
+  if (!loaded->found) return;
+  if (auto s = procedure_.restore(loaded->record); !s) {
+    reject_state_file("state file " + store_.path() +
+                      " rejected: it no longer validates with this config, starting with a "
+                      "clean procedure: " +
+                      describe(s.error()));
+    return;
+  }
+  restored_ = true;
+  // The normalised record (aligning -> ready to align, ...), written before anything is served.
+  if (auto s = store_.save(procedure_.record()); !s) {
+    startup_warnings_.push_back("state not persisted: " + s.error().message);
+  }
+}
+
+void EngineImpl::reject_state_file(std::string warning) {
+  startup_warnings_.push_back(std::move(warning));
+  if (!std::filesystem::exists(store_.path())) return;
+  auto kept = store_.reject_current_file();
+  startup_warnings_.push_back(kept ? "kept the rejected state file as " + *kept
+                                   : "could not keep the rejected state file: " +
+                                         kept.error().message);
+}
+
+}  // namespace ajar::daemon::detail
