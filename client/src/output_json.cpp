@@ -19,18 +19,6 @@ JsonObject left_right(std::int64_t left, std::int64_t right) {
   return o;
 }
 
-JsonObject loop_object(const protocol::LoopStatistics& loop) {
-  JsonObject o;
-  o.add("rate_hz", loop.rate_hz)
-      .add("cycles", loop.cycles)
-      .add("overruns", loop.overruns)
-      .add("period_p50_ns", static_cast<std::uint64_t>(loop.period_p50_ns))
-      .add("period_p99_ns", static_cast<std::uint64_t>(loop.period_p99_ns))
-      .add("period_max_ns", static_cast<std::uint64_t>(loop.period_max_ns))
-      .add("jitter_p99_ns", static_cast<std::uint64_t>(loop.jitter_p99_ns));
-  return o;
-}
-
 // [lo, hi]
 JsonArray range(float lo, float hi) {
   JsonArray a;
@@ -90,6 +78,18 @@ JsonObject wheel_object(const protocol::WheelModel& w) {
 }
 
 }  // namespace
+
+JsonObject loop_object(const protocol::LoopStatistics& loop) {
+  JsonObject o;
+  o.add("rate_hz", loop.rate_hz)
+      .add("cycles", loop.cycles)
+      .add("overruns", loop.overruns)
+      .add("period_p50_ns", static_cast<std::uint64_t>(loop.period_p50_ns))
+      .add("period_p99_ns", static_cast<std::uint64_t>(loop.period_p99_ns))
+      .add("period_max_ns", static_cast<std::uint64_t>(loop.period_max_ns))
+      .add("jitter_p99_ns", static_cast<std::uint64_t>(loop.jitter_p99_ns));
+  return o;
+}
 
 JsonObject error_object(std::string_view code, std::string_view field, std::string_view message) {
   JsonObject o;

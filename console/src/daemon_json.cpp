@@ -3,6 +3,7 @@
 #include <cstdint>
 
 #include "ajar/client/json.hpp"
+#include "ajar/client/output.hpp"
 
 namespace ajar::console {
 namespace {
@@ -32,17 +33,6 @@ JsonObject contact_json(const protocol::ContactAck& a) {
   return JsonObject()
       .add("contact_base_m", a.contact_base_m)
       .add("reach_margin_m", a.reach_margin_m);
-}
-
-JsonObject loop_json(const protocol::LoopStatistics& l) {
-  return JsonObject()
-      .add("rate_hz", l.rate_hz)
-      .add("cycles", l.cycles)
-      .add("overruns", l.overruns)
-      .add("period_p50_ns", static_cast<std::uint64_t>(l.period_p50_ns))
-      .add("period_p99_ns", static_cast<std::uint64_t>(l.period_p99_ns))
-      .add("period_max_ns", static_cast<std::uint64_t>(l.period_max_ns))
-      .add("jitter_p99_ns", static_cast<std::uint64_t>(l.jitter_p99_ns));
 }
 
 }  // namespace
@@ -91,7 +81,7 @@ JsonObject status_json(const protocol::Status& s) {
   o.add("card", protocol::to_string(s.card));
   o.add("arm", protocol::to_string(s.arm));
   o.add("arm_state", protocol::to_string(s.arm_state));
-  o.add("loop", loop_json(s.loop));
+  o.add("loop", client::loop_object(s.loop));
   return o;
 }
 
@@ -117,7 +107,7 @@ JsonObject telemetry_json(const protocol::Telemetry& t) {
       .add("commanded_linear_m_s", t.commanded_linear_m_s)
       .add("commanded_angular_rad_s", t.commanded_angular_rad_s)
       .add("arm_state", protocol::to_string(t.arm_state))
-      .add("loop", loop_json(t.loop));
+      .add("loop", client::loop_object(t.loop));
 }
 
 }  // namespace ajar::console

@@ -26,6 +26,9 @@ void add_span_fields(JsonObject& o, const protocol::SpanAck& span, std::string_v
 void add_plane_fields(JsonObject& o, const protocol::PlaneAck& plane);
 void add_contact_fields(JsonObject& o, const protocol::ContactAck& contact);
 void add_approach_fields(JsonObject& o, const protocol::ApproachAck& approach);
+// The loop's statistics (rate_hz, cycles, overruns, period_p50/p99/max_ns, jitter_p99_ns), in
+// Status and Telemetry; the console sends the same object.
+JsonObject loop_object(const protocol::LoopStatistics& loop);
 JsonObject status_object(const protocol::Status& status);
 JsonObject welcome_object(const protocol::Welcome& welcome);
 // GetRobotModel's reply under the wire names of docs/protocol.md 5.22 (camera_to_base as three
