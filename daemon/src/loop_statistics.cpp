@@ -211,15 +211,17 @@ TimingSummary LoopStatisticsRecorder::timing(std::int64_t now_ns) const {
   std::lock_guard lock(reader_mutex_);
   advance_window(now_ns);
   TimingSummary t;
-  const Copy* base = reset_base_.get();
-  t.all.samples = span_of(kLatency, base, t.all.latency);
-  span_of(kExecution, base, t.all.execution);
-  span_of(kPeriod, base, t.all.period);
+  // The control thread keeps recording while this reads: the recent window first, then since
+  // start, so that a Status never shows more recent samples than samples since start.
   const Copy& start = window_copies_.front();
   t.window_s = static_cast<float>(static_cast<double>(now_ns - start.time_ns) * 1e-9);
   t.recent.samples = span_of(kLatency, &start, t.recent.latency);
   span_of(kExecution, &start, t.recent.execution);
   span_of(kPeriod, &start, t.recent.period);
+  const Copy* base = reset_base_.get();
+  t.all.samples = span_of(kLatency, base, t.all.latency);
+  span_of(kExecution, base, t.all.execution);
+  span_of(kPeriod, base, t.all.period);
   return t;
 }
 
