@@ -61,10 +61,7 @@ protocol::Message EngineImpl::refuse(MessageType type, const Error& e) {
 protocol::Message EngineImpl::align(MessageType type) {
   auto wheels = procedure_.check_align();
   if (!wheels) return refuse(type, wheels.error());
-  if (wheel_motion_ != 0) {
-    return refuse(type, make_error(ErrorCode::kMotionInProgress, "",
-                                   "the wheels are still stopping: wait for them to rest"));
-  }
+  if (auto s = check_wheels_stopped(); !s) return refuse(type, s.error());
   if (wheels->left_counts == 0 && wheels->right_counts == 0) {  // already square to the door
     procedure_.alignment_started();
     procedure_.alignment_finished();
@@ -215,6 +212,12 @@ Outcome EngineImpl::check_base_may_drive(bool jog) const {
                     "motion_finished");
 }
 
+Outcome EngineImpl::check_wheels_stopped() const {
+  if (wheel_motion_ == 0) return Ok{};
+  return make_error(ErrorCode::kMotionInProgress, "",
+                    "the wheels are still stopping: wait for them to rest");
+}
+
 void EngineImpl::begin_wheel_motion(std::uint32_t id, WheelKind kind) {
   wheel_motion_ = id;
   wheel_kind_ = kind;
@@ -233,10 +236,7 @@ Outcome EngineImpl::check_wheels_at_rest() const {
 protocol::Message EngineImpl::engage(MessageType type) {
   auto task = procedure_.check_engage();
   if (!task) return refuse(type, task.error());
-  if (wheel_motion_ != 0) {
-    return refuse(type, make_error(ErrorCode::kMotionInProgress, "",
-                                   "the wheels are still stopping: wait for them to rest"));
-  }
+  if (auto s = check_wheels_stopped(); !s) return refuse(type, s.error());
   auto id = arm_->hand_off(*task);
   if (!id) {
     Error e = id.error();

@@ -189,6 +189,9 @@ class EngineImpl final : public Engine {
   // Measurements, AlignBase and Engage while a Drive or Approach moves the wheels.
   Outcome check_wheels_at_rest() const;
 
+  // AlignBase and Engage while any wheel motion (also an alignment's stop) has not ended.
+  Outcome check_wheels_stopped() const;
+
   template <typename Message>
   void fill_motion(const LoopSnapshot& snap, Message& m) const {
     m.odometry_x_m = snap.pose.x_m;
