@@ -171,6 +171,9 @@ void ControlLoop::request_fault_stop(ErrorCode code) noexcept {
 void ControlLoop::set_arm_moving(bool moving) noexcept {
   arm_moving_.store(moving, std::memory_order_release);
 }
+void ControlLoop::set_arm_at_door(bool at_door) noexcept {
+  arm_at_door_.store(at_door, std::memory_order_release);
+}
 bool ControlLoop::pop_report(LoopReport& r) noexcept {
   return reports_.pop(r);
 }

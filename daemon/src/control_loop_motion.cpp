@@ -95,6 +95,7 @@ ErrorCode ControlLoop::check_can_start() noexcept {
   refused_axis_ = 0;
   if (motion_ != Motion::kIdle) return ErrorCode::kMotionInProgress;
   if (fault_ != ErrorCode::kOk) return ErrorCode::kFaultLatched;
+  if (arm_at_door_.load(std::memory_order_acquire)) return ErrorCode::kDriveNotAllowed;
   if (!answered_)
     return read_error_ == ErrorCode::kOk ? ErrorCode::kCardCommunication : read_error_;
   for (int i = 0; i < 2; ++i) {

@@ -21,6 +21,7 @@ EngineImpl::EngineImpl(const Config& config, drivers::DriverSet drivers, EngineO
   card_ = std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
                                                        config.drivers.card.poll_timeout_ms);
   loop_ = std::make_unique<ControlLoop>(*card_, loop_settings(config));
+  loop_->set_arm_at_door(true);  // the arm interlock: until the arm reports idle
   arm_ = std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm));
 }
 

@@ -68,6 +68,7 @@ protocol::Message EngineImpl::align(MessageType type) {
     dirty_ = true;
     return ack(type, protocol::EmptyAck{});
   }
+  if (auto s = check_arm_clear(); !s) return refuse(type, s.error());
   loop_->heartbeat(now_ns());  // the controller just spoke
   const MoveCommand move{++motion_id_, wheels->left_counts, wheels->right_counts};
   if (!hand_over(move)) return refuse(type, queue_full());
@@ -180,7 +181,7 @@ Error EngineImpl::queue_full() {
   return make_error(ErrorCode::kQueueFull, "", "control loop command queue full: retry later");
 }
 
-Outcome EngineImpl::check_base_may_drive(bool jog) const {
+Outcome EngineImpl::check_base_may_drive(bool jog) {
   if (procedure_.fault() != ErrorCode::kOk) {
     return make_error(
         ErrorCode::kFaultLatched, "",
@@ -191,12 +192,12 @@ Outcome EngineImpl::check_base_may_drive(bool jog) const {
     return make_error(ErrorCode::kMotionInProgress, "",
                       "the base is aligning: wait for motion_finished, or Stop");
   }
-  if (phase == Phase::kEngaging || phase == Phase::kEngaged ||
-      arm_->status().phase == drivers::ArmPhase::kBusy) {
+  if (phase == Phase::kEngaging || phase == Phase::kEngaged) {
     return make_error(ErrorCode::kDriveNotAllowed, "",
                       "the arm is at the door (engaging or engaged): the base must not move; "
                       "re-measure or Reset first");
   }
+  if (auto s = check_arm_clear(); !s) return s;
   if (wheel_motion_ == 0) return Ok{};
   if (wheel_stopping_) {
     return make_error(ErrorCode::kDriveNotAllowed, "",
@@ -245,7 +246,11 @@ protocol::Message EngineImpl::engage(MessageType type) {
   }
   arm_task_id_ = *id;
   arm_motion_ = true;
-  arm_seen_busy_ = false;
+  arm_at_door_ = true;  // until it reports idle after this task
+  loop_->set_arm_at_door(true);
+  // A driver shows the task busy at once (the mock, the serial driver's snapshot): a controller
+  // that drops it before the first poll is caught too.
+  arm_seen_busy_ = arm_->status().phase == drivers::ArmPhase::kBusy;
   arm_deadline_ns_ = now_ns() + static_cast<std::int64_t>(config_.safety.arm_task_timeout_s * 1e9);
   loop_->heartbeat(now_ns());
   loop_->set_arm_moving(true);
@@ -260,11 +265,13 @@ void EngineImpl::stop_motion() {
   cancel_held_move(ErrorCode::kOk);
   if (wheel_motion_ != 0) wheel_stopping_ = true;
   loop_->request_stop();
-  (void)arm_->stop();
+  stop_arm();
   loop_->set_arm_moving(false);
   if (procedure_.phase() == Phase::kAligning) procedure_.alignment_interrupted();
   if (procedure_.phase() == Phase::kEngaging) procedure_.engaging_interrupted();
-  end_arm_motion(EventKind::kMotionStopped, "arm stopped");
+  end_arm_motion(
+      EventKind::kMotionStopped,
+      arm_stop_pending_ ? "arm told to stop: the base waits until it reports idle" : "arm stopped");
   dirty_ = true;
 }
 
@@ -277,7 +284,7 @@ protocol::Message EngineImpl::emergency_stop(MessageType type) {
   cancel_held_move(ErrorCode::kEmergencyStopped);
   if (wheel_motion_ != 0) wheel_stopping_ = true;
   loop_->request_emergency_stop();
-  (void)arm_->stop();
+  stop_arm();
   latch(ErrorCode::kEmergencyStopped, "emergency stop: wheels and arm stopped");
   return ack(type, protocol::EmptyAck{});
 }
@@ -286,12 +293,23 @@ protocol::Message EngineImpl::reset(MessageType type, const protocol::Reset& r) 
   if (procedure_.phase() == Phase::kAligning || procedure_.phase() == Phase::kEngaging ||
       (wheel_motion_ != 0 && !wheel_stopping_) || held_move_ || held_drive_) {
     stop_motion();  // also a jog or an approach
+  } else if (arm_at_door_) {
+    stop_arm();  // e.g. a done task (the next door): the arm returns to rest
   }
   if (procedure_.fault() != ErrorCode::kOk) {
     if (auto s = recover_arm(); !s) {
       Error e = s.error();
       if (e.field.empty()) e.field = "arm";
       return refuse(type, e);
+    }
+    // The arm interlock: the fault clears only once the arm answers, reporting idle.
+    const drivers::ArmStatus arm = observe_arm();
+    if (arm_at_door_ || arm.phase != drivers::ArmPhase::kIdle ||
+        arm_->state() != drivers::LifecycleState::kActive) {
+      return refuse(type, make_error(ErrorCode::kArmNotClear, "arm",
+                                     "the arm has not reported idle (" + describe_arm(arm) +
+                                         "): it may still be at the door, the fault stays "
+                                         "latched; Reset again once it reports idle"));
     }
     if (!loop_->request_recover(recover_sequence_ + 1)) return refuse(type, queue_full());
     ++recover_sequence_;
@@ -303,6 +321,66 @@ protocol::Message EngineImpl::reset(MessageType type, const protocol::Reset& r) 
   if (r.clear_parameters) procedure_.clear_parameters();
   dirty_ = true;
   return ack(type, protocol::EmptyAck{});
+}
+
+drivers::ArmStatus EngineImpl::observe_arm() {
+  const drivers::ArmStatus st = arm_->status();
+  const bool idle =
+      st.phase == drivers::ArmPhase::kIdle && arm_->state() == drivers::LifecycleState::kActive;
+  if (idle && !arm_motion_) {
+    arm_at_door_ = false;
+    arm_stop_pending_ = false;
+  }
+  loop_->set_arm_at_door(arm_at_door_ || !idle);
+  return st;
+}
+
+Outcome EngineImpl::check_arm_clear() {
+  const drivers::ArmStatus st = observe_arm();
+  if (!arm_at_door_ && st.phase == drivers::ArmPhase::kIdle &&
+      arm_->state() == drivers::LifecycleState::kActive) {
+    return Ok{};
+  }
+  std::string what;
+  switch (st.phase) {
+    case drivers::ArmPhase::kBusy:
+      what = arm_stop_pending_ ? ": its stop is not confirmed yet, wait for it to report idle"
+                               : ": wait for it to report idle, or Stop";
+      break;
+    case drivers::ArmPhase::kDone:
+      what = ": its task is done but it has not withdrawn; Stop sends it back to rest";
+      break;
+    case drivers::ArmPhase::kIdle:  // the driver is not active
+      what = ": Reset";
+      break;
+    case drivers::ArmPhase::kDisconnected:
+    case drivers::ArmPhase::kFault:
+      what = ": check the arm and its link; Reset once it reports idle";
+      break;
+  }
+  return make_error(ErrorCode::kDriveNotAllowed, "arm",
+                    "the arm has not reported that it is clear of the door since its last task "
+                    "(arm " +
+                        describe_arm(st) + ")" + what + "; the base must not move");
+}
+
+void EngineImpl::stop_arm() {
+  (void)arm_->stop();  // a refusal (link down) is no confirmation either: the deadline decides
+  observe_arm();
+  if (arm_at_door_ && !arm_stop_pending_ && procedure_.fault() == ErrorCode::kOk) {
+    arm_stop_pending_ = true;
+    arm_stop_deadline_ns_ =
+        now_ns() + static_cast<std::int64_t>(config_.safety.arm_stop_timeout_s * 1e9);
+  }
+}
+
+std::string EngineImpl::describe_arm(const drivers::ArmStatus& st) const {
+  std::string s(protocol::to_string(to_wire(st.phase)));
+  if (st.last_error != ErrorCode::kOk) s += " (" + std::string(to_string(st.last_error)) + ")";
+  if (arm_->state() != drivers::LifecycleState::kActive) {
+    s += std::string(", driver ") + drivers::to_string(arm_->state());
+  }
+  return s;
 }
 
 Outcome EngineImpl::recover_arm() {

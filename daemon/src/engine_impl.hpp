@@ -182,7 +182,7 @@ class EngineImpl final : public Engine {
   static Error queue_full();
 
   // Whether Drive (jog = true) or Approach may move the base now.
-  Outcome check_base_may_drive(bool jog) const;
+  Outcome check_base_may_drive(bool jog);
 
   void begin_wheel_motion(std::uint32_t id, WheelKind kind);
 
@@ -234,6 +234,27 @@ class EngineImpl final : public Engine {
   void supervise_arm();
 
   void end_arm_motion(EventKind kind, const std::string& detail);
+
+  // ---- the arm interlock (docs/procedure.md, "The arm interlock") ------------------------------
+
+  // Reads the arm's report. An idle report from an active arm, with no task open, means the arm
+  // is clear of the door: it clears arm_at_door_ and confirms a pending stop. The loop is told
+  // whether the arm may be at the door (its own refusal to start a wheel motion). Returns it.
+  drivers::ArmStatus observe_arm();
+
+  // Ok while the arm has reported idle since its last task and still does; else DRIVE_NOT_ALLOWED
+  // (field `arm`) naming the arm's state. Every command that turns the wheels asks it.
+  Outcome check_arm_clear();
+
+  // Tells the arm to stop. While the arm may be at the door (and no fault is latched already) the
+  // stop must be confirmed by an idle report within safety.arm_stop_timeout_s, else
+  // ARM_NOT_CLEAR latches (supervise_arm_stop).
+  void stop_arm();
+
+  void supervise_arm_stop();
+
+  // The arm's state in words ("busy", "disconnected (ARM_TIMEOUT)", ...).
+  std::string describe_arm(const drivers::ArmStatus& st) const;
 
   // Backstop when reports were dropped (report queue full): the snapshot is authoritative.
   void reconcile();
@@ -291,6 +312,9 @@ class EngineImpl final : public Engine {
   bool arm_motion_ = false;  // an announced arm task not yet ended
   bool arm_seen_busy_ = false;
   std::int64_t arm_deadline_ns_ = 0;
+  bool arm_at_door_ = true;        // a task since the arm last reported idle (unknown at start)
+  bool arm_stop_pending_ = false;  // a stop sent while arm_at_door_, not yet confirmed
+  std::int64_t arm_stop_deadline_ns_ = 0;
   std::uint32_t recover_sequence_ = 0;  // the last recover request sent to the loop
   std::string stop_reason_;             // why every motion is stopping (shutdown), else empty
   ProcedureState last_state_ = ProcedureState::kAwaitingWidth;

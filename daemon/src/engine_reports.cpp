@@ -91,6 +91,7 @@ std::string EngineImpl::reason(ErrorCode code) const {
 }
 
 void EngineImpl::supervise_arm() {
+  supervise_arm_stop();
   if (!arm_motion_) return;
   const drivers::ArmStatus st = arm_->status();
   if (st.phase == drivers::ArmPhase::kBusy && st.task_id == arm_task_id_) arm_seen_busy_ = true;
@@ -102,7 +103,9 @@ void EngineImpl::supervise_arm() {
     latch(st.last_error == ErrorCode::kOk ? ErrorCode::kArmRejected : st.last_error,
           "the arm reported a fault");
   } else if (st.phase == drivers::ArmPhase::kDisconnected) {
-    latch(ErrorCode::kArmDisconnected, "the arm is disconnected");
+    const bool silent = st.last_error == ErrorCode::kArmTimeout;
+    latch(silent ? ErrorCode::kArmTimeout : ErrorCode::kArmDisconnected,
+          silent ? "the arm controller stopped answering" : "the arm is disconnected");
   } else if (arm_->state() == drivers::LifecycleState::kFault) {
     latch(ErrorCode::kDriverError, "the arm driver failed");
   } else if (arm_seen_busy_ && st.phase != drivers::ArmPhase::kBusy) {
@@ -111,6 +114,15 @@ void EngineImpl::supervise_arm() {
     (void)arm_->stop();
     latch(ErrorCode::kArmTimeout, "the arm task did not finish within safety.arm_task_timeout_s");
   }
+}
+
+void EngineImpl::supervise_arm_stop() {
+  const drivers::ArmStatus st = observe_arm();
+  if (!arm_stop_pending_ || now_ns() <= arm_stop_deadline_ns_) return;
+  arm_stop_pending_ = false;
+  latch(ErrorCode::kArmNotClear,
+        "the arm did not confirm its stop (report idle) within safety.arm_stop_timeout_s (arm " +
+            describe_arm(st) + "): it may still be at the door");
 }
 
 void EngineImpl::end_arm_motion(EventKind kind, const std::string& detail) {
@@ -139,7 +151,7 @@ void EngineImpl::latch(ErrorCode code, const std::string& detail) {
   const bool was_clear = procedure_.fault() == ErrorCode::kOk;
   if (wheel_motion_ != 0) wheel_stopping_ = true;  // the loop stops the wheels for a fault
   procedure_.latch_fault(code);
-  (void)arm_->stop();  // whatever latched, the arm does not go on
+  stop_arm();  // whatever latched, the arm does not go on
   if (arm_motion_) {
     end_arm_motion(EventKind::kMotionStopped,
                    "arm stopped: " + std::string(to_string(code)) + ": " + detail);

@@ -68,7 +68,7 @@ enum class ErrorCode : std::uint16_t {
   kNoDoorDistance = 410,    // Approach: no width points and no plane give the distance
   kNotSquareToDoor = 411,   // Approach: the base is not square to the door within tolerance
   kApproachTooFar = 412,    // Approach: the move is longer than the configured maximum
-  kDriveNotAllowed = 413,   // Drive/Approach not allowed now (aligning, engaging, engaged, ...)
+  kDriveNotAllowed = 413,   // the base may not move now (engaging, engaged, arm not idle, ...)
 
   // 5xx: drivers.
   kDriverError = 500,        // generic driver failure (see message)
@@ -87,6 +87,8 @@ enum class ErrorCode : std::uint16_t {
   kEmergencyStopped = 513,  // an emergency stop was commanded: Reset to continue
   kCardOpenFailed = 514,    // GTS -6: the card could not be opened (missing, in use, driver)
   kArmFault = 515,          // the arm controller reported a fault (task aborted): clear_fault
+  kArmNotClear = 516,  // the arm has not reported idle (clear of the door): a stop not confirmed
+                       // in time latches it; Reset is refused with it until the arm reports idle
 
   kInternal = 900,  // a bug: please report
 };

@@ -90,6 +90,7 @@ struct ControlConfig {
 struct SafetyConfig {
   double deadman_timeout_s = 0.5;   // controller silent this long during motion -> stop + fault
   double arm_task_timeout_s = 120;  // an arm task not done within this -> arm stop + ARM_TIMEOUT
+  double arm_stop_timeout_s = 2.0;  // an arm stop not confirmed (idle) within this -> ARM_NOT_CLEAR
 };
 
 // logging.level: trace | debug | info | warn | error | critical | none (nothing is logged).

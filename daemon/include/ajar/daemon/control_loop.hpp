@@ -186,6 +186,10 @@ class ControlLoop {
   void request_emergency_stop() noexcept;            // never refused; latches kEmergencyStopped
   void request_fault_stop(ErrorCode code) noexcept;  // never refused; stop, latch `code`
   void set_arm_moving(bool moving) noexcept;         // the deadman also watches the arm
+  // The arm interlock's second line (the engine's checks are the first): while set, no move or jog
+  // starts (kMoveRefused with kDriveNotAllowed). The engine sets it while the arm may be at the
+  // door (docs/procedure.md, "The arm interlock"). Off for a loop without an engine.
+  void set_arm_at_door(bool at_door) noexcept;
   bool pop_report(LoopReport& report) noexcept;
 
   // ---- any thread ----
@@ -255,6 +259,7 @@ class ControlLoop {
   std::atomic<std::uint32_t> latch_generation_{0};     // emergency and fault stops
   std::atomic<std::uint32_t> emergency_generation_{0};
   std::atomic<bool> arm_moving_{false};
+  std::atomic<bool> arm_at_door_{false};
   std::atomic<std::int64_t> heartbeat_ns_{0};
   std::atomic<bool> exit_requested_{false};
 
