@@ -7,7 +7,8 @@
 // after a reconnect), observers that send commands (refused, never executed) and stops (executed),
 // controller loss (disconnect) and take-over by a second controller session, silence (deadman),
 // card faults at random cycles (the mock card's test menu), a slow state store (held durable Acks),
-// and arm outcomes (done, fault, disconnect, a controller that resets mid-task). The loop runs by
+// and arm outcomes (done, fault, disconnect, a controller that resets mid-task, stops answering
+// mid-task or at a stop, or answers stops but stays busy: world_arm.cpp). The loop runs by
 // hand (EngineOptions::manual_loop), so a seed replays exactly. After every command and every cycle
 // the invariants are checked (docs/control-loop.md, "Proof"); a campaign also asserts that the
 // interesting situations were actually reached (coverage counters, printed).
@@ -79,6 +80,13 @@ TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
         "approach stopped", "move cancelled before it started", "recovery (Reset of a fault)",
         "card fault mid-motion", "deadman", "duplicate executed once", "take-over",
         "durable ack held"}) {
+    EXPECT_GE(total.get(what), 10) << "the campaign no longer reaches: " << what;
+  }
+  // The arm controller's faults and the arm interlock (world_arm.cpp).
+  for (const char* what :
+       {"arm silent mid-task", "arm silent mid-stop", "arm reset mid-task", "arm stop ignored",
+        "arm stop not confirmed (latched)", "Reset refused: the arm not clear",
+        "wheel motion refused: the arm not clear", "cycles with the arm at the door"}) {
     EXPECT_GE(total.get(what), 10) << "the campaign no longer reaches: " << what;
   }
 }

@@ -21,16 +21,21 @@ void World::on_executed(const protocol::Message& m, const protocol::Message& rep
                        std::holds_alternative<protocol::EmergencyStop>(m) ||
                        std::holds_alternative<protocol::Reset>(m);
   if (is_stop) {
-    if (ack == nullptr) return fail("a Stop/EmergencyStop/Reset was not acknowledged");
+    if (ack == nullptr && !reset_refused_by_the_arm(reply, before)) {
+      return fail("a Stop/EmergencyStop/Reset was not acknowledged");
+    }
     if (std::holds_alternative<protocol::Stop>(m) && open_kind_ == 'd' && card_jogging()) {
       coverage_.bump("jog stopped by a Stop");
     }
     stop_expected(std::holds_alternative<protocol::EmergencyStop>(m), "acknowledged stop");
     if (std::holds_alternative<protocol::Reset>(m)) {
       reset_seen_ = true;
-      if (before.latched_fault != ErrorCode::kOk) coverage_.bump("recovery (Reset of a fault)");
+      if (before.latched_fault != ErrorCode::kOk && ack != nullptr) {
+        coverage_.bump("recovery (Reset of a fault)");
+      }
     }
   }
+  check_arm_on_executed(m, reply);
   if (ack == nullptr) return;
   if (std::holds_alternative<protocol::MeasureDoorPlane>(m)) {
     plane_ = std::get<protocol::PlaneAck>(ack->body);
@@ -267,6 +272,7 @@ void World::on_event(const protocol::Event& e) {
     case EventKind::kFaultLatched:
       if (fault_event_open_) fail("a second fault_latched event for one latch");
       if (e.fault == ErrorCode::kDeadman) coverage_.bump("deadman");
+      if (e.fault == ErrorCode::kArmNotClear) coverage_.bump("arm stop not confirmed (latched)");
       fault_event_open_ = true;
       break;
     case EventKind::kFaultCleared:
@@ -278,6 +284,7 @@ void World::on_event(const protocol::Event& e) {
 }
 
 void World::check_now() {
+  check_arm_interlock();
   if (!violation_.empty()) return;
   const ErrorCode fault = engine_->status().latched_fault;
   if (last_fault_ != ErrorCode::kOk && fault != last_fault_ && !reset_seen_) {

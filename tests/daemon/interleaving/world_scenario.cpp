@@ -256,6 +256,7 @@ void World::inject_card_fault() {
 }
 
 void World::arm_event() {
+  if (pick(2) == 0) return inject_arm_fault();
   const auto st = arm_->status();
   if (st.phase != drivers::ArmPhase::kBusy) return;
   switch (calm_ && pick(2) == 0 ? 0 : pick(4)) {  // calm: the task mostly succeeds
@@ -285,6 +286,7 @@ void World::quiesce() {
   card_->fail_next_calls(0);
   stops_never_rest_ = false;
   card_->set_stops_never_rest(false);
+  arm_clears_up();
   if (controller_ == nullptr) controller_ = connect(protocol::Role::kController, true, 0x55);
   // Bounded: every deadline (motion, stop, arm task, recovery, command timeout) is far shorter.
   const auto settled = [&] {
