@@ -13,6 +13,10 @@ void ControlLoop::report(const LoopReport& r) noexcept {
 }
 
 void ControlLoop::latch(ErrorCode code, int axis) noexcept {
+  if (fault_ == ErrorCode::kOk && stall_pending_.load()) {
+    code = ErrorCode::kLoopStalled;  // what a call that hung reports once it returns
+    axis = 0;
+  }
   if (fault_ == ErrorCode::kOk) {  // the first fault is the root cause
     fault_ = code;
     report({LoopReportKind::kFault, code, motion_id_, axis, recover_sequence_});
@@ -50,6 +54,16 @@ void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
   }
   if (latches != handled_latch_) {
     handled_latch_ = latches;
+    if (stall_pending_.exchange(false)) {   // the supervisor stopped the card out of band
+      (void)(card_.emergency_stop(axes_));  // and now in band: it may not have taken that one
+      jog_command_ = {};
+      if (motion_ != Motion::kIdle) {
+        stop_reason_ = ErrorCode::kLoopStalled;
+        motion_ = Motion::kStopping;
+        motion_deadline_ns_ = now_ns + stop_timeout_ns_;
+      }
+      latch(ErrorCode::kLoopStalled, 0);
+    }
     ErrorCode queued = ErrorCode::kOk;
     while (fault_codes_.pop(queued)) {
       if (moving()) {
