@@ -136,6 +136,8 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "ARM_FAULT";
     case ErrorCode::kArmNotClear:
       return "ARM_NOT_CLEAR";
+    case ErrorCode::kLoopStalled:
+      return "LOOP_STALLED";
     case ErrorCode::kVelocityMismatch:
       return "VELOCITY_MISMATCH";
     case ErrorCode::kInternal:

@@ -89,6 +89,7 @@ enum class ErrorCode : std::uint16_t {
   kArmFault = 515,          // the arm controller reported a fault (task aborted): clear_fault
   kArmNotClear = 516,  // the arm has not reported idle (clear of the door): a stop not confirmed
                        // in time latches it; Reset is refused with it until the arm reports idle
+  kLoopStalled = 517,  // the control loop stopped cycling (a card call hung): base stopped
   kVelocityMismatch = 520,  // the wheels did not do what the card was told (a card that does not
                             // apply a command, or reports stale status): emergency stop
 
