@@ -4,11 +4,16 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <fstream>
 #include <memory>
+#include <sstream>
+#include <string>
 #include <vector>
 
+#include "ajar/daemon/config.hpp"
 #include "ajar/daemon/loop_supervisor.hpp"
 #include "ajar/drivers/mock_card.hpp"
+#include "fake_door.hpp"
 
 namespace ajar::daemon {
 namespace {
@@ -194,6 +199,41 @@ TEST_F(LoopSupervisorTest, TheTimeoutIsAtLeastTwoLoopPeriods) {
     ASSERT_EQ(quiet_checks(t + 1, 99 * kMs), -1);
   }
   EXPECT_EQ(supervisor->stalls(), 0U);
+}
+
+// The systemd watchdog stays the last resort: systemd aborts ajard WatchdogSec after the last ping,
+// that is at least WatchdogSec / 2 (the ping interval) after the loop stalled; the supervisor acts
+// at worst one check after control.stall_timeout_s (a check lands just before the timeout) — for
+// the largest timeout the config accepts, before that.
+TEST(LoopSupervisorWatchdog, TheSupervisorActsBeforeSystemdsWatchdogForEveryAcceptedTimeout) {
+  std::ifstream unit(AJAR_SOURCE_DIR "/systemd/ajard.service");
+  ASSERT_TRUE(unit);
+  double watchdog_s = 0;
+  for (std::string line; std::getline(unit, line);) {
+    if (line.rfind("WatchdogSec=", 0) == 0) watchdog_s = std::stod(line.substr(12));
+  }
+  ASSERT_GT(watchdog_s, 0) << "no WatchdogSec in systemd/ajard.service";
+
+  ajar::testing::TempDir dir;
+  const auto config_with = [&](double timeout_s) {
+    const std::string path = dir.path() + "/stall.yaml";
+    std::ofstream(path) << "control:\n  stall_timeout_s: " << timeout_s << "\n";
+    return load_config(path);
+  };
+  constexpr double kLargest = 0.5;  // config_fields.hpp
+  EXPECT_THROW(config_with(kLargest + 0.01), ConfigError);
+  const Config c = config_with(kLargest);
+  ASSERT_EQ(c.control.stall_timeout_s, kLargest);
+
+  drivers::MockMotionCard card;
+  LoopSupervisorSettings settings;
+  settings.loop_rate_hz = 10;  // the slowest loop the config accepts: the longest floor
+  settings.stall_timeout_s = c.control.stall_timeout_s;
+  const LoopSupervisor supervisor(SupervisedLoop{[] { return true; }, [] { return 0; }, [] {}},
+                                  card, kWheels, settings);
+  const double worst_s =
+      static_cast<double>(supervisor.stall_timeout_ns() + supervisor.check_period_ns()) / 1e9;
+  EXPECT_LT(worst_s, watchdog_s / 2);
 }
 
 }  // namespace
