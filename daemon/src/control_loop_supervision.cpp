@@ -51,11 +51,14 @@ void ControlLoop::emergency_fault(ErrorCode code, int axis, std::int64_t now_ns)
 }
 
 void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
+  // An emergency stop the card did not take (it did not answer) is sent again every cycle.
+  if (estop_pending_) estop_pending_ = card_.emergency_stop(axes_) != ErrorCode::kOk;
   // Latch generation first: every emergency or fault stop it counts is visible below.
   const std::uint32_t latches = latch_generation_.load();
   if (const std::uint32_t e = emergency_generation_.load(); e != handled_emergency_) {
     handled_emergency_ = e;
     const bool sent = card_.emergency_stop(axes_) == ErrorCode::kOk;
+    estop_pending_ = !sent;
     jog_command_ = {};
     if (motion_ != Motion::kIdle) {
       stop_reason_ = ErrorCode::kEmergencyStopped;

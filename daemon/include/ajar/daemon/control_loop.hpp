@@ -19,9 +19,9 @@
 // Every cycle (cycle(), noexcept, no allocation, no locks, no waiting, no logging), in this order:
 //   1. axis status of both wheels (odometry; the wheels' measured velocity from the encoder
 //      deltas; what supervision and a new move start from);
-//   2. stops: emergency stop (card emergency stop in this cycle), fault stops (smooth stop, latch
-//      the code: the first latched code is the one reported and kept), smooth stop (also of a
-//      jog);
+//   2. stops: emergency stop (card emergency stop in this cycle; re-sent every cycle until the
+//      card takes it), fault stops (smooth stop, latch the code: the first latched code is the one
+//      reported and kept), smooth stop (also of a jog);
 //   3. one step of a running recovery (Reset), a state machine advanced once per cycle: wait for
 //      the wheels to rest, clear faults, enable the axes, then poll their status every cycle until
 //      the servo is on without alarm, or fail at recovery_timeout_s. While it runs the command
@@ -307,6 +307,7 @@ class ControlLoop {
 
   // Loop-private state.
   std::uint32_t handled_stop_ = 0, handled_latch_ = 0, handled_emergency_ = 0;
+  bool estop_pending_ = false;  // the card did not take the last emergency stop: sent again
   Motion motion_ = Motion::kIdle;
   std::uint32_t motion_id_ = 0;
   std::int64_t motion_deadline_ns_ = 0;  // move, jog coming to rest, stop
