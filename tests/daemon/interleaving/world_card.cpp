@@ -65,16 +65,20 @@ void World::init_card_limits(std::uint64_t seed) {
 }
 
 void World::inject_card_misbehaviour() {
+  // One misbehaviour at a time: stale status that hides a motion another fault left running (a
+  // dropped stop or zero update) cannot be seen by the loop (docs/control-loop.md, "Proof").
+  if (card_->misbehaving()) return;
   const bool moving = card_->any_moving();
   // Issue 22's case more often: a jog at speed whose card stops applying the updates.
   const bool jogging = open_kind_ == 'd' && card_jogging();
-  switch (jogging && pick(2) == 0 ? 1 : pick(8)) {
+  switch (jogging && pick(4) != 0 ? 1 : pick(8)) {
     case 0:
       note("card: accepts the next move and does not apply it");
       card_->drop_next_calls(CardCall::kMoveRelative, 1);
       coverage_.bump("card drops a move");
       return;
     case 1: {
+      // Every later update of this jog (cleared when it closes), or the next few.
       const int n = jogging || pick(3) == 0 ? 1'000'000 : 1 + pick(20);
       note("card: accepts the next " + std::to_string(n) + " jog updates and does not apply them");
       card_->drop_next_calls(CardCall::kJog, n);
@@ -227,7 +231,8 @@ void World::check_wheels(bool halted) {
       return fail("a wheel accelerated harder than the limit of its motion (" +
                   std::to_string((v - wheel_v_[i]) / dt_ms) + " counts/ms^2, limit " +
                   std::to_string(limit.accel) + "; from " + std::to_string(wheel_v_[i]) + " to " +
-                  std::to_string(v) + " counts/ms, " + std::string(1, wheel_kind_ ? wheel_kind_ : '-') + ")");
+                  std::to_string(v) + " counts/ms, " +
+                  std::string(1, wheel_kind_ ? wheel_kind_ : '-') + ")");
     }
     wheel_v_[i] = v;
     // A jog the card did not apply: a wheel far from what it was told (half the top speed) for

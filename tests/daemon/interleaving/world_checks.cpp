@@ -92,6 +92,14 @@ void World::cycle(bool poll) {
     on_card_call(c);
   }
   check_wheels(estop_call);
+  if (verbose_ && std::getenv("AJAR_DEBUG")) {
+    const auto l = card_->peek(left_axis_), r = card_->peek(right_axis_);
+    note("DEBUG fault " + std::string(to_string(engine_->status().latched_fault)) + " L mv " +
+         std::to_string(l.moving) + " lim " + std::to_string(l.positive_limit) + " v " +
+         std::to_string(card_->velocity(left_axis_)) + " R mv " + std::to_string(r.moving) +
+         " lim " + std::to_string(r.positive_limit) + " v " +
+         std::to_string(card_->velocity(right_axis_)));
+  }
   // One period after an acknowledged stop: the wheels are commanded to stop (a silent card: in
   // the first cycle it answers again).
   if (stop_due_ && card_->answering()) {
@@ -105,10 +113,14 @@ void World::cycle(bool poll) {
       const auto st = card_->peek(axis);
       // A stop call the card took since this motion began (applied or not: a stop the card did
       // not apply has its own deadline, check_wheels).
+      // A zero jog (coming to rest) counts too.
       const std::size_t began = card_->motion_call(axis);
+      const auto since = card_->log_from(began);
       const bool told = count_calls(*card_, CardCall::kSmoothStop, began) +
-                            count_calls(*card_, CardCall::kEmergencyStop, began) >
-                        0;
+                                count_calls(*card_, CardCall::kEmergencyStop, began) >
+                            0 ||
+                        (!since.empty() && since.front().kind == CardCall::kJog &&
+                         since.front().velocity_counts_per_ms(axis) == 0);
       if (st.moving && !st.smooth_stopped && began < stop_call_ && !told) {
         return fail("the wheels were not commanded to stop within one period of a stop");
       }
@@ -273,6 +285,7 @@ void World::on_event(const protocol::Event& e) {
         coverage_.bump("move cancelled before it started");
       if (open_kind_ == 'a' || open_kind_ == 'p') allowed_moves_.clear();  // its permit ends
       if (open_kind_ == 'd') jog_permit_ = false;
+      if (open_kind_ == 'd') card_->drop_next_calls(CardCall::kJog, 0);  // that jog's updates
       open_kind_ = 0;
       break;
     case EventKind::kFaultLatched:

@@ -100,6 +100,9 @@ struct ControlLoopSettings {
   double velocity_tolerance = 0.1;
   double velocity_lag_s = 0.1;
   double velocity_mismatch_s = 0.2;
+  // A simulated card (drivers.sim.speedup) runs this much faster than the loop's clock: the card's
+  // velocities and durations (a move's planned time, a ramp) are in its time, converted here.
+  double card_time_scale = 1.0;
   core::BaseGeometry base;
   core::DriveLimits drive;  // jog limits and command timeout; the straight move's speed
 };
@@ -280,6 +283,7 @@ class ControlLoop {
   drivers::JogProfile jog_profile_;
   double counts_per_wheel_rad_;
   double max_wheel_counts_per_ms_;  // base.max_wheel_speed_rad_s at the card
+  double card_scale_;               // card time per loop time (card_time_scale)
   std::int64_t drive_timeout_ns_;
   std::int64_t period_ns_;
   std::int64_t deadman_ns_;
