@@ -270,6 +270,7 @@ class World {
   bool jog_told_active_ = false;  // the last motion call was a jog
   std::int64_t disagree_since_[2] = {-1, -1};
   bool card_halted_ = false;  // an injected fault halted a wheel since the last check
+  bool stuck_move_pending_ = false;  // the next move sticks (stick_next_move)
   ErrorCode last_fault_ = ErrorCode::kOk;
   bool reset_seen_ = false;
   Coverage coverage_;

@@ -154,6 +154,8 @@ void World::check_card_call(const drivers::CardCallRecord& c, bool straight) {
       const double distance = static_cast<double>(std::max(
           std::abs(c.distance_counts(left_axis_)), std::abs(c.distance_counts(right_axis_))));
       wheel_kind_ = straight ? 's' : 't';
+      card_halted_ = card_halted_ || stuck_move_pending_;  // a stuck move holds the wheel
+      stuck_move_pending_ = false;
       jog_told_active_ = false;
       rest_by_drive_ = false;
       rest_by_ns_ =

@@ -98,7 +98,8 @@ void World::cycle(bool poll) {
          std::to_string(l.moving) + " lim " + std::to_string(l.positive_limit) + " v " +
          std::to_string(card_->velocity(left_axis_)) + " R mv " + std::to_string(r.moving) +
          " lim " + std::to_string(r.positive_limit) + " v " +
-         std::to_string(card_->velocity(right_axis_)));
+         std::to_string(card_->velocity(right_axis_)) + " telemetry moving " +
+         std::to_string(engine_->telemetry().moving));
   }
   // One period after an acknowledged stop: the wheels are commanded to stop (a silent card: in
   // the first cycle it answers again).

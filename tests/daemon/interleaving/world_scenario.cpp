@@ -252,6 +252,7 @@ void World::inject_card_fault() {
     case 5:
       note("card: the next move never progresses");
       card_->stick_next_move();
+      stuck_move_pending_ = true;  // on a wheel still moving: the mock halts it (check_wheels)
       return;
     default:
       stops_never_rest_ = !stops_never_rest_;
