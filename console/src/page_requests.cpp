@@ -123,13 +123,14 @@ core::PlanarPose planar(const BasePose& p) {
 }  // namespace
 
 // Why a pick on frame `f` cannot be trusted (empty when it can): a frozen camera, or no pose.
-std::string ConsoleServer::Impl::frame_problem(const FrameEntry& f) const {
+std::string ConsoleServer::Impl::frame_problem(const FrameEntry& f, bool pose_too) const {
   const auto now = Clock::now();
   if (frames.empty() || now - frames.back()->captured > kFrozenAfter) {
     return "the image is FROZEN: no frame from the camera for " +
            seconds_text(now - (frames.empty() ? f.captured : frames.back()->captured)) +
            ": nothing picked";
   }
+  if (!pose_too) return "";
   if (f.pose_from == Clock::time_point{} || f.captured - f.pose_from > kFrozenAfter) {
     return "no telemetry from ajard when this frame was taken: where the base was is unknown: "
            "nothing picked";
@@ -149,9 +150,10 @@ void ConsoleServer::Impl::pick(const std::shared_ptr<WsSession>& s, const PageMe
   const auto v = m.number("v");
   const auto f = frame_for(m);
   if (!u || !v || !f) return notice(s, f ? "pick: u and v needed" : "pick: no frame yet");
-  if (const auto why = frame_problem(*f); !why.empty()) return refuse_pick(s, "frame", why);
+  if (const auto why = frame_problem(*f, false); !why.empty()) return refuse_pick(s, "frame", why);
   const auto p = core::pick_point(f->frame.intrinsics, f->frame.depth(), *u, *v);
   if (!p) return refuse_pick(s, p.error().field, p.error().message);
+  if (const auto why = frame_problem(*f, true); !why.empty()) return refuse_pick(s, "frame", why);
   auto& list = picks[active];
   if (list.size() >= kStepCapacity[active]) {
     if (active == kPlane) {
@@ -173,7 +175,7 @@ void ConsoleServer::Impl::rect(const std::shared_ptr<WsSession>& s, const PageMe
   const auto v1 = m.number("v1");
   const auto f = frame_for(m);
   if (!u0 || !v0 || !u1 || !v1 || !f) return notice(s, "rect: u0, v0, u1, v1 needed");
-  if (const auto why = frame_problem(*f); !why.empty()) return refuse_pick(s, "frame", why);
+  if (const auto why = frame_problem(*f, true); !why.empty()) return refuse_pick(s, "frame", why);
   const double ul = std::min(*u0, *u1);
   const double ur = std::max(*u0, *u1);
   const double vt = std::min(*v0, *v1);
@@ -239,10 +241,11 @@ std::string point_field(Step step, std::size_t i) {
 void ConsoleServer::Impl::send_step(const std::shared_ptr<WsSession>& s) {
   const Step step = active;
   const auto& list = picks[step];
-  const auto refuse = [&](const std::string& field, const std::string& message) {
+  const auto refuse = [&](const std::string& field, const std::string& message,
+                          const char* code = "PICK_AGAIN") {
     results[step] = JsonObject()
                         .add("ok", false)
-                        .add("code", "PICK_AGAIN")
+                        .add("code", code)
                         .add("field", field)
                         .add("message", message)
                         .add("sent", false);
@@ -266,8 +269,8 @@ void ConsoleServer::Impl::send_step(const std::shared_ptr<WsSession>& s) {
   }
   std::string why;
   const auto now = pose_now(why);
-  if (!now) return refuse("", "not sent: " + why);
-  if (!camera_to_base) return refuse("", "not sent: the daemon's calibration is not known yet");
+  if (!now) return refuse("", why, "NO_POSE");
+  if (!camera_to_base) return refuse("", "the daemon's calibration is not known yet", "NO_POSE");
   // The daemon's rule, pick by pick: the worst motion since any of them.
   PickMotion worst;
   std::size_t worst_i = 0;
@@ -300,7 +303,7 @@ void ConsoleServer::Impl::send_step(const std::shared_ptr<WsSession>& s) {
       const core::Vec3 p1 = step == kWidth ? camera_to_base->to_base(points[0]) : base[0];
       const core::Vec3 p2 = step == kWidth ? camera_to_base->to_base(points[1]) : base[1];
       if (const auto problem = hinge_side_problem(p1, p2, axis); !problem.empty()) {
-        return refuse(step == kHandle ? "width.p1" : "p1", "not sent: " + problem);
+        return refuse(step == kHandle ? "width.p1" : "p1", problem, "HINGE_SIDE");
       }
     }
   }

@@ -204,7 +204,8 @@ struct ConsoleServer::Impl {
   void hover(const std::shared_ptr<WsSession>& s, const PageMessage& m);
   void pick(const std::shared_ptr<WsSession>& s, const PageMessage& m);
   void rect(const std::shared_ptr<WsSession>& s, const PageMessage& m);
-  std::string frame_problem(const FrameEntry& f) const;  // frozen camera, unknown pose
+  // Why a pick on `f` is refused: a frozen camera; with pose_too also an unknown base pose.
+  std::string frame_problem(const FrameEntry& f, bool pose_too) const;
   void refuse_pick(const std::shared_ptr<WsSession>& s, const std::string& field,
                    const std::string& message);
   void send_step(const std::shared_ptr<WsSession>& s);

@@ -303,10 +303,18 @@ JsonObject ConsoleServer::Impl::guidance_json() const {
       g.add("default_standoff_m", default_standoff(limits, lowest, kPreferredStandoff_m, distance));
     }
   }
-  // Hinge side: the handle's axis must lie nearer P2 (the moving edge) than P1.
-  if (landmarks.size() >= 3 && sent[kWidth] && sent[kHandle]) {
-    g.add("hinge_problem",
-          hinge_side_problem(landmarks[0].base_m, landmarks[1].base_m, landmarks[2].base_m));
+  // Hinge side: the handle's axis (accepted, or picked and not sent yet) must lie nearer P2 (the
+  // moving edge) than P1.
+  if (landmarks.size() >= 2 && sent[kWidth]) {
+    std::optional<core::Vec3> axis;
+    if (sent[kHandle] && landmarks.size() >= 3) axis = landmarks[2].base_m;
+    if (!picks[kHandle].empty()) {
+      const auto& p = picks[kHandle][0];
+      axis = core::rebase(camera_to_base->to_base(p.camera_m), p.pose, now);
+    }
+    if (axis) {
+      g.add("hinge_problem", hinge_side_problem(landmarks[0].base_m, landmarks[1].base_m, *axis));
+    }
   }
   // Picks to look at again: plane points far off the plane of the others or outside the door's
   // measured edges; width points off the accepted door plane.

@@ -523,6 +523,7 @@ function updateHeader() {
   $('role-box').classList.toggle('observer', observer);
   $('role-box').title = state && state.controller ? state.controller : '';
   $('btn-take-over').hidden = !(live.link && live.daemon && observer);
+  $('deadman').hidden = !$('btn-take-over').hidden;  // an observer feeds no deadman: Take over there
   const fed = live.link && live.daemon && role === 'controller' && state.connection.heartbeat;
   $('deadman-text').textContent = !live.link ? 'NOT fed (no link)' : observer ? 'not ours (observer)' : fed ? 'fed by this page' : 'NOT fed';
   $('deadman').classList.toggle('unfed', !fed);

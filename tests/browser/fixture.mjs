@@ -134,7 +134,7 @@ export async function openPage(stack, viewport = VIEWPORTS[0]) {
   P.box = async () => (await page.$('#image')).boundingBox();
   // Image pixel -> page coordinates (the image scales with the window).
   P.at = async (p) => {
-    await page.$eval('#image', (e) => e.scrollIntoView({ block: 'nearest' }));
+    await page.$eval('#canvas-wrap', (e) => e.scrollIntoView({ block: 'nearest' }));
     const b2 = await P.box();
     return { x: b2.x + (p.u + 0.5) * b2.width / 640, y: b2.y + (p.v + 0.5) * b2.height / 480 };
   };
@@ -212,6 +212,7 @@ export async function openPage(stack, viewport = VIEWPORTS[0]) {
       await check(vp);
       await P.shot(`${name}-${vp.name}`);
     }
+    await page.setViewportSize({ width: VIEWPORTS[0].width, height: VIEWPORTS[0].height });
   };
   // True when the element is entirely inside the viewport (above the fold, not cut off).
   P.inViewport = async (sel) => page.$eval(sel, (e) => {
