@@ -30,7 +30,16 @@
 //                 set_enable_delay_reads(n) (the servo shows on after n axis_status() reads of the
 //                 axis), set_alarm_persists() (clear_faults() leaves a drive alarm latched),
 //                 set_block_status() (axis_status() waits until cleared: stalls the loop)
+//   card faults   (a card that misbehaves, for the control loop's supervision; none touches
+//                 emergency_stop() except the silence) drop_next_calls(kind, n): the next n calls
+//                 of `kind` (move, jog, smooth stop) answer kOk and change nothing (accepted, not
+//                 applied); fail_after_next_call(kind): the next call of `kind` is applied, then
+//                 answers kCardCommunication; set_stale_status_reads(n): the next n axis_status()
+//                 reads of each axis repeat that axis' last answer; stop_answering_for_ns(ns):
+//                 every realtime call (emergency_stop too) fails with kCardCommunication until the
+//                 card's clock has advanced by ns, while the motion it runs goes on
 //   observation   peek(axis): the axis as axis_status() would report it, without a call;
+//                 velocity(axis): the simulated wheel's velocity now (counts/ms, signed);
 //                 jogging(axis): it moves in velocity mode; motion_call(axis): the log index of
 //                 the call that started its current motion
 //
@@ -77,6 +86,7 @@ struct CardCallRecord {
   TrapezoidProfile profile;              // move_relative
   std::vector<AxisVelocity> velocities;  // jog
   JogProfile jog_profile;                // jog
+  bool applied = true;                   // false: accepted but not applied (drop_next_calls)
 
   // The distance (move) or velocity (jog) this call gave `axis`; 0 when it did not name it.
   std::int64_t distance_counts(int axis) const noexcept;
@@ -123,8 +133,15 @@ class MockMotionCard final : public MotionCard {
   }
   void set_alarm_persists(bool persists) noexcept { set_locked(alarm_persists_, persists); }
   void set_block_status(bool block);
+  // Card faults (see the top of this file).
+  void drop_next_calls(CardCall kind, int n = 1) noexcept;
+  void fail_after_next_call(CardCall kind) noexcept;
+  void set_stale_status_reads(int n) noexcept;
+  void stop_answering_for_ns(std::int64_t ns) noexcept;
+  bool answering() const noexcept;  // false while stop_answering_for_ns() lasts
   // Observation (see the top of this file). log_size() is the index the next logged call gets.
   AxisStatus peek(int axis) noexcept;
+  double velocity(int axis) noexcept;
   bool any_moving() noexcept;
   bool jogging(int axis) noexcept;
   std::size_t motion_call(int axis) const noexcept;
@@ -159,6 +176,9 @@ class MockMotionCard final : public MotionCard {
     int enable_pending = 0;    // status reads until the servo shows on
     std::size_t motion_call = 0;
     profile::Motion motion;
+    int stale_reads = 0;  // axis_status() repeats last_status this many more times
+    bool has_last_status = false;
+    AxisStatus last_status;
   };
   using Lock = std::unique_lock<std::mutex>;
 
@@ -189,6 +209,10 @@ class MockMotionCard final : public MotionCard {
     const ErrorCode result = body();
     return recording_ ? logged(record(kind, axes), result) : result;
   }
+  // Card faults: whether this call of `kind` is dropped (accepted, not applied) / fails after it
+  // was applied; each consumes one.
+  bool take_drop(CardCall kind) noexcept;
+  ErrorCode applied_result(CardCall kind, ErrorCode result, const char* call) noexcept;
   // Logs the call (when recording) and returns `result`.
   ErrorCode logged(CardCallRecord&& record, ErrorCode result) noexcept;
   CardCallRecord record(CardCall kind, std::span<const int> axes = {}) const;
@@ -227,6 +251,10 @@ class MockMotionCard final : public MotionCard {
   int enable_delay_reads_ = 0;
   bool alarm_persists_ = false;
   bool block_status_ = false;
+  std::array<int, kCardCallKinds> drop_calls_{};
+  std::array<int, kCardCallKinds> fail_after_calls_{};
+  bool call_applied_ = true;  // the call being logged was applied
+  std::int64_t silent_until_ns_ = -1;
   std::vector<CardCallRecord> log_;
   std::vector<Axis> axes_;
   CardFailure last_;
