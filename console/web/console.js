@@ -114,7 +114,9 @@ function watchdog() {
   else if (!daemon) { why = 'no link to ajard'; age = tAge; }
   else if (fAge > limit) { why = 'camera'; age = fAge; }
   else if (tAge > limit) { why = 'no telemetry from ajard'; age = tAge; }
-  live = { link, daemon, frozen: !!why, why, frameAge: fAge, telemetryAge: tAge };
+  // ajard answers: connected and its telemetry is fresh. Otherwise nothing it said is current.
+  const answering = daemon && tAge <= limit;
+  live = { link, daemon, answering, frozen: !!why, why, frameAge: fAge, telemetryAge: tAge };
   const badge = $('live-badge');
   badge.className = why ? 'frozen' : '';
   badge.textContent = why ? `FROZEN ${isFinite(age) ? secs(age) : ''} — ${why}` : `LIVE ${secs(fAge)}`;
@@ -509,10 +511,11 @@ function updateConn() {
   const el = $('conn');
   const page = live.link;
   const daemon = live.daemon;
-  el.className = 'pill ' + (daemon ? 'ok' : page ? 'partial' : '');
+  el.className = 'pill ' + (live.answering ? 'ok' : page ? 'partial' : '');
   $('conn-text').textContent = !page ? (ws && ws.readyState === WebSocket.OPEN ? 'console not answering' : 'console unreachable')
-    : daemon ? 'ajard' + (state.welcome && state.welcome.driver_kind ? ` (${state.welcome.driver_kind})` : '')
-      : `ajard: ${state ? state.connection.message : '…'}`;
+    : !daemon ? `ajard: ${state ? state.connection.message : '…'}`
+      : !live.answering ? 'ajard not answering'
+        : 'ajard' + (state.welcome && state.welcome.driver_kind ? ` (${state.welcome.driver_kind})` : '');
   el.title = page && state ? `page ↔ console ↔ ajard ${state.connection.daemon}` : 'page ↔ console ↔ ajard';
 }
 
@@ -524,19 +527,23 @@ function updateHeader() {
   $('role-box').title = state && state.controller ? state.controller : '';
   $('btn-take-over').hidden = !(live.link && live.daemon && observer);
   $('deadman').hidden = !$('btn-take-over').hidden;  // an observer feeds no deadman: Take over there
-  const fed = live.link && live.daemon && role === 'controller' && state.connection.heartbeat;
-  $('deadman-text').textContent = !live.link ? 'NOT fed (no link)' : observer ? 'not ours (observer)' : fed ? 'fed by this page' : 'NOT fed';
+  const fed = live.link && live.answering && role === 'controller' && state.connection.heartbeat;
+  $('deadman-text').textContent = !live.link ? 'NOT fed (no link)' : !live.answering ? 'unknown (ajard not answering)' : observer ? 'not ours (observer)' : fed ? 'fed by this page' : 'NOT fed';
   $('deadman').classList.toggle('unfed', !fed);
   const fault = state && state.status ? state.status.latched_fault : 'OK';
-  $('fault').textContent = !live.link ? 'unknown' : fault === 'OK' ? 'none' : fault;
+  $('fault').textContent = !live.answering ? 'unknown' : fault === 'OK' ? 'none' : fault;
   $('fault-box').classList.toggle('latched', fault !== 'OK');
   const st = lastTelemetry ? lastTelemetry.state : state && state.status ? state.status.state : null;
-  $('state').textContent = live.link && st ? st : '—';
+  $('state').textContent = !live.answering ? 'unknown' : st || '—';
   // What moves now: the page's own jog, the daemon's motion events, or telemetry's "moving".
   let motion = '';
+  // The daemon's motion events name the motion; telemetry (20 Hz) says whether anything still moves.
+  const t = lastTelemetry;
+  const busy = t && (t.moving || t.state === 'aligning' || t.state === 'engaging');
   if (jogHeld) motion = 'jogging';
-  else if (state && state.motion) motion = state.motion;
-  else if (lastTelemetry && lastTelemetry.moving) motion = 'moving';
+  else if (state && state.motion && busy) motion = state.motion;
+  else if (busy) motion = t.state === 'engaging' ? 'engaging' : 'moving';
+  if (!live.answering && !jogHeld) motion = '';
   $('motion').textContent = motion ? '· ' + motion.toUpperCase() : '';
   $('state-box').dataset.motion = motion;
   $('state-box').title = $('state').textContent + ' ' + $('motion').textContent;
@@ -615,7 +622,7 @@ function updateHud() {
     if (t.contact_stale) warn += (warn ? '\n' : '') + 'CONTACT STALE: set the contact point again';
   }
   const fault = state && state.status && state.status.latched_fault !== 'OK' ? `FAULT ${state.status.latched_fault}: Reset fault first` : '';
-  if (!live.link || !live.daemon) { door = 'door: unknown (no link)'; warn = ''; }
+  if (!live.answering) { door = 'door: unknown (ajard not answering)'; warn = ''; }
   $('hud-door').textContent = door;
   $('hud-warn').textContent = [fault, warn].filter(Boolean).join('\n');
 }

@@ -210,7 +210,10 @@ export async function openPage(stack, viewport = VIEWPORTS[0]) {
   // Log lines after `mark` (the number of lines when it was taken).
   P.logMark = async () => page.$$eval('#log div', (l) => l.length);
   P.logSince = async (mark) => page.$$eval('#log div', (l, m) => l.slice(m).map((d) => d.textContent), mark);
-  P.shot = async (name) => page.screenshot({ path: path.join(artifacts, `${name}.png`) });
+  P.shot = async (name) => {
+    await page.evaluate(() => window.scrollTo(0, 0));
+    await page.screenshot({ path: path.join(artifacts, `${name}.png`) });
+  };
   // The assertion `check(vp)` at each screen size, with a screenshot each.
   P.atEachViewport = async (name, check) => {
     for (const vp of VIEWPORTS) {

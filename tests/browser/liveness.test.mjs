@@ -41,6 +41,12 @@ test('issue 23 item 5: FROZEN within 1 s when the console or ajard stops; NO LIN
       assert.match(await page.textContent('#live-badge'), /^FROZEN [0-9.]+ m?s — no telemetry from ajard/);
       assert.match(await page.textContent('#estop'), /NO LINK — use the robot’s hardware e-stop/);
       assert.ok(await P.inViewport('#live-badge'));
+      // Nothing ajard said is shown as current: not the state, the fault, the deadman, the door.
+      assert.equal(await page.textContent('#conn-text'), 'ajard not answering');
+      assert.equal(await page.textContent('#state'), 'unknown');
+      assert.equal(await page.textContent('#fault'), 'unknown');
+      assert.match(await page.textContent('#deadman-text'), /unknown/);
+      assert.match(await page.textContent('#hud-door'), /unknown/);
     });
     process.kill(stack.ajard.pid, 'SIGCONT');
     await page.waitForFunction(() => document.getElementById('live-badge').dataset.state === 'live', null, { timeout: 10000 });
