@@ -88,6 +88,9 @@ ControlLoop::ControlLoop(drivers::MotionCard& card, const ControlLoopSettings& s
       jog_profile_(jog_profile(settings.base, settings.drive)),
       counts_per_wheel_rad_(counts_per_wheel_rad(settings.base)),
       max_wheel_counts_per_ms_(settings.base.max_wheel_speed_rad_s * counts_per_wheel_rad_ / 1e3),
+      card_scale_(settings.card_time_scale > 0 && std::isfinite(settings.card_time_scale)
+                      ? settings.card_time_scale
+                      : 1.0),
       drive_timeout_ns_(seconds_to_ns(settings.drive.command_timeout_s)),
       period_ns_(std::max<std::int64_t>(1, std::llround(kNsPerS / settings.rate_hz))),
       deadman_ns_(seconds_to_ns(settings.deadman_timeout_s)),
