@@ -44,7 +44,7 @@ class World {
     config_.safety.deadman_timeout_s = 0.05;
     config_.control.motion_timeout_margin_s = 0.2;
     config_.safety.arm_task_timeout_s = 1.0;
-    config_.safety.arm_stop_timeout_s = seed % 2 == 0 ? 0.1 : 0.3;
+    config_.safety.arm_stop_timeout_s = seed % 2 == 0 ? 0.04 : 0.15;
     // Jogs end sooner than with the defaults on most seeds (CPU); the defaults on some.
     if (seed % 4 != 0) {
       config_.drive.command_timeout_s = seed % 4 == 1 ? 0.1 : 0.2;
@@ -75,8 +75,8 @@ class World {
     drivers::DriverSet set;
     set.card = std::move(card);
     // The arm on the world's clock (a seed replays exactly): tasks stay busy until the scenario
-    // says; a silent controller shows as disconnected 10 ms later.
-    auto arm = std::make_unique<drivers::MockManipulator>(drivers::MockArmFault::kStuck, 10,
+    // says; a silent controller shows as disconnected 40 ms later.
+    auto arm = std::make_unique<drivers::MockManipulator>(drivers::MockArmFault::kStuck, 40,
                                                           [this] { return now_; });
     arm_ = arm.get();
     set.arm = std::move(arm);
@@ -302,7 +302,7 @@ class World {
   double jog_told_[2] = {0, 0};   // the jog velocities the card was last told
   bool jog_told_active_ = false;  // the last motion call was a jog
   std::int64_t disagree_since_[2] = {-1, -1};
-  bool card_halted_ = false;  // an injected fault halted a wheel since the last check
+  bool card_halted_ = false;         // an injected fault halted a wheel since the last check
   bool stuck_move_pending_ = false;  // the next move sticks (stick_next_move)
   ErrorCode last_fault_ = ErrorCode::kOk;
   bool reset_seen_ = false;

@@ -8,10 +8,13 @@
 namespace ajar::testing::interleaving {
 
 void World::inject_arm_fault() {
-  const bool busy = arm_->status().phase == drivers::ArmPhase::kBusy && !arm_->silent();
-  const int what = pick(6);
-  if (what >= 4) return arm_clears_up();
-  if (!busy) {  // for the next task, by time (the config's words: drivers.mock.arm_fault)
+  const auto phase = arm_->status().phase;
+  const bool stuck = arm_->silent() || phase == drivers::ArmPhase::kDisconnected;
+  const bool busy = phase == drivers::ArmPhase::kBusy && !stuck;
+  int what = pick(6);
+  if (stuck ? what >= 2 : busy && what >= 4) return arm_clears_up();
+  what %= 4;
+  if (!busy) {  // for the next tasks, by time (the config's words: drivers.mock.arm_fault)
     static constexpr drivers::MockArmFault kNext[] = {
         drivers::MockArmFault::kSilentMidTask, drivers::MockArmFault::kSilentMidStop,
         drivers::MockArmFault::kResetMidTask, drivers::MockArmFault::kStopIgnored};
@@ -26,12 +29,12 @@ void World::inject_arm_fault() {
     case 0:
       note("arm: the controller stops answering mid-task");
       arm_->go_silent();
-      return;
+      break;
     case 1:
       note("arm: the controller will not answer the next stop");
       arm_->silence_next_stop();
       arm_silence_on_stop_ = true;
-      return;
+      break;
     case 2:
       note("arm: the controller resets mid-task (idle, the task forgotten)");
       arm_->reset_controller();
@@ -39,7 +42,11 @@ void World::inject_arm_fault() {
     default:
       note("arm: the controller answers stops but stays busy");
       arm_->ignore_stops(true);
-      return;
+      break;
+  }
+  // Often the operator stops it then (the reported case: Engage, the arm falls silent, Stop).
+  if (controller_ != nullptr && pick(2) == 0) {
+    read(*controller_, {protocol::Message{protocol::Stop{}}});
   }
 }
 

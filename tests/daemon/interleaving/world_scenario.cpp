@@ -264,7 +264,9 @@ void World::inject_card_fault() {
 }
 
 void World::arm_event() {
-  if (pick(2) == 0) return inject_arm_fault();
+  if (pick(2) == 0 || arm_->status().phase != drivers::ArmPhase::kBusy) {
+    return inject_arm_fault();  // world_arm.cpp (when idle: for the next task)
+  }
   const auto st = arm_->status();
   if (st.phase != drivers::ArmPhase::kBusy) return;
   switch (calm_ && pick(2) == 0 ? 0 : pick(4)) {  // calm: the task mostly succeeds
