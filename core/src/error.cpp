@@ -134,6 +134,10 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "CARD_OPEN_FAILED";
     case ErrorCode::kArmFault:
       return "ARM_FAULT";
+    case ErrorCode::kStateRejected:
+      return "STATE_REJECTED";
+    case ErrorCode::kUncleanShutdown:
+      return "UNCLEAN_SHUTDOWN";
     case ErrorCode::kInternal:
       return "INTERNAL";
   }

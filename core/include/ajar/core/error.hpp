@@ -87,6 +87,8 @@ enum class ErrorCode : std::uint16_t {
   kEmergencyStopped = 513,  // an emergency stop was commanded: Reset to continue
   kCardOpenFailed = 514,    // GTS -6: the card could not be opened (missing, in use, driver)
   kArmFault = 515,          // the arm controller reported a fault (task aborted): clear_fault
+  kStateRejected = 518,     // the state file could not be restored (latched at start): Reset
+  kUncleanShutdown = 519,   // the previous run did not end cleanly (latched at start): Reset
 
   kInternal = 900,  // a bug: please report
 };
