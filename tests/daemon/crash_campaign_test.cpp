@@ -112,6 +112,7 @@ class Campaign {
     TestClient controller(*port);
     controller.hello(Role::kController, 0x1000 + n, true);
     if (fault_ != ErrorCode::kOk) {
+      trace_ << " drive-refused";
       EXPECT_EQ(error_code_of(controller.request(protocol::Drive{0.1, 0.0})),
                 ErrorCode::kFaultLatched);
       observer.request_as<protocol::Ack>(protocol::Subscribe{100});
@@ -203,6 +204,9 @@ class Campaign {
   }
 
   void act(TestClient& controller, int what) {
+    static constexpr const char* kNames[] = {"width", "width", "handle", "plane", "align",
+                                             "drive", "stop",  "estop",  "reset", "status"};
+    trace_ << " " << (what >= 0 && what <= 9 ? kNames[what] : "wait");
     switch (what) {
       case 0:
       case 1: {
@@ -212,7 +216,6 @@ class Campaign {
         if (const auto* ack = std::get_if<protocol::Ack>(&reply)) {
           stored_.width_m = std::get<protocol::SpanAck>(ack->body).length_m;
         }
-        trace_ << " width";
         return;
       }
       case 2: {
@@ -224,19 +227,16 @@ class Campaign {
         if (const auto* ack = std::get_if<protocol::Ack>(&reply)) {
           stored_.handle_m = std::get<protocol::SpanAck>(ack->body).length_m;
         }
-        trace_ << " handle";
         return;
       }
       case 3: {
         const auto reply = controller.request(ajar::testing::plane_at_yaw(real(-0.3, 0.3)));
         learn(controller, reply);
         if (std::holds_alternative<protocol::Ack>(reply)) stored_.plane = true;
-        trace_ << " plane";
         return;
       }
       case 4:
         learn(controller, controller.request(protocol::AlignBase{}));
-        trace_ << " align";
         return;
       case 5: {
         const int updates = uniform(1, 3);
@@ -244,19 +244,17 @@ class Campaign {
           learn(controller, controller.request(protocol::Drive{real(-0.2, 0.2), real(-0.3, 0.3)}));
           std::this_thread::sleep_for(std::chrono::milliseconds(uniform(0, 60)));
         }
-        trace_ << " drive";
         return;
       }
       case 6:
         learn(controller, controller.request(protocol::Stop{}));
-        trace_ << " stop";
         return;
       case 7:
         learn(controller, controller.request(protocol::EmergencyStop{}));
-        trace_ << " estop";
         return;
       case 8: {
         const bool clear = chance(0.2);
+        if (clear) trace_ << "-clear";
         const auto reply = controller.request(protocol::Reset{clear});
         learn(controller, reply);
         if (std::holds_alternative<protocol::Ack>(reply)) {
@@ -264,17 +262,14 @@ class Campaign {
           if (clear) stored_ = Stored{};
           ++counters["resets"];
         }
-        trace_ << (clear ? " reset-clear" : " reset");
         return;
       }
       case 9:
         learn(controller, controller.request(protocol::GetStatus{}));
-        trace_ << " status";
         return;
       default:
         std::this_thread::sleep_for(std::chrono::milliseconds(uniform(0, 120)));
         learn(controller, controller.request(protocol::Ping{1}));
-        trace_ << " wait";
         return;
     }
   }
