@@ -134,10 +134,14 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "CARD_OPEN_FAILED";
     case ErrorCode::kArmFault:
       return "ARM_FAULT";
+    case ErrorCode::kLoopStalled:
+      return "LOOP_STALLED";
     case ErrorCode::kStateRejected:
       return "STATE_REJECTED";
     case ErrorCode::kUncleanShutdown:
       return "UNCLEAN_SHUTDOWN";
+    case ErrorCode::kVelocityMismatch:
+      return "VELOCITY_MISMATCH";
     case ErrorCode::kInternal:
       return "INTERNAL";
   }

@@ -46,6 +46,27 @@ drivers::TrapezoidProfile straight_profile(const core::BaseGeometry& base,
   return profile;
 }
 
+drivers::TrapezoidProfile move_profile(const MoveCommand& move, const core::BaseGeometry& base,
+                                       const core::DriveLimits& drive) noexcept {
+  // Wheel-forward counts (polarity removed): a turn in place has them exactly opposite.
+  const std::int64_t left = base.left.polarity < 0 ? -move.left_counts : move.left_counts;
+  const std::int64_t right = base.right.polarity < 0 ? -move.right_counts : move.right_counts;
+  const bool turn_in_place = left == -right;
+  return move.profile == MoveProfile::kStraight || !turn_in_place ? straight_profile(base, drive)
+                                                                  : wheel_profile(base);
+}
+
+drivers::JogProfile jog_profile(const core::BaseGeometry& base,
+                                const core::DriveLimits& drive) noexcept {
+  const double per_rad = counts_per_wheel_rad(base);
+  const double wheel_rad_s2 = std::min(
+      base.max_wheel_accel_rad_s2,
+      (drive.max_linear_accel_m_s2 + drive.max_angular_accel_rad_s2 * base.turning_radius_m) /
+          base.wheel_radius_m);
+  const double counts_per_ms2 = wheel_rad_s2 * per_rad / 1e6;
+  return drivers::JogProfile{counts_per_ms2, counts_per_ms2, 0};
+}
+
 double planned_duration_s(std::int64_t distance_counts,
                           const drivers::TrapezoidProfile& profile) noexcept {
   const double d = std::abs(static_cast<double>(distance_counts));
@@ -62,17 +83,14 @@ ControlLoop::ControlLoop(drivers::MotionCard& card, const ControlLoopSettings& s
     : card_(card),
       settings_(settings),
       axes_{settings.base.left.card_axis, settings.base.right.card_axis},
-      profile_(wheel_profile(settings.base)),
-      straight_profile_(straight_profile(settings.base, settings.drive)),
-      jog_profile_{profile_.acceleration_counts_per_ms2, profile_.deceleration_counts_per_ms2, 0},
+      jog_profile_(jog_profile(settings.base, settings.drive)),
       counts_per_wheel_rad_(counts_per_wheel_rad(settings.base)),
+      max_wheel_counts_per_ms_(settings.base.max_wheel_speed_rad_s * counts_per_wheel_rad_ / 1e3),
       drive_timeout_ns_(seconds_to_ns(settings.drive.command_timeout_s)),
       period_ns_(std::max<std::int64_t>(1, std::llround(kNsPerS / settings.rate_hz))),
       deadman_ns_(seconds_to_ns(settings.deadman_timeout_s)),
-      stop_timeout_ns_(
-          seconds_to_ns(1.5 * (profile_.velocity_counts_per_ms /
-                               std::max(profile_.deceleration_counts_per_ms2, 1e-12) / 1e3) +
-                        settings.motion_timeout_margin_s)),
+      margin_ns_(seconds_to_ns(settings.motion_timeout_margin_s)),
+      mismatch_ns_(seconds_to_ns(settings.velocity_mismatch_s)),
       recovery_timeout_ns_(seconds_to_ns(settings.recovery_timeout_s)),
       statistics_(settings.rate_hz) {}
 
@@ -125,9 +143,7 @@ void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
 bool ControlLoop::post_move(const MoveCommand& move) noexcept {
   Command c;
   c.kind = CommandKind::kMove;
-  c.id = move.motion_id;
-  c.left_counts = move.left_counts;
-  c.right_counts = move.right_counts;
+  c.move = move;
   c.stop_stamp = stop_generation_.load();
   c.latch_stamp = latch_generation_.load();
   return commands_.push(c);
@@ -135,9 +151,7 @@ bool ControlLoop::post_move(const MoveCommand& move) noexcept {
 bool ControlLoop::post_drive(const DriveCommand& drive) noexcept {
   Command c;
   c.kind = drive.start ? CommandKind::kDriveStart : CommandKind::kDriveUpdate;
-  c.id = drive.motion_id;
-  c.velocity = drive.velocity;
-  c.stamp_ns = drive.stamp_ns;
+  c.drive = drive;
   c.stop_stamp = stop_generation_.load();
   c.latch_stamp = latch_generation_.load();
   return commands_.push(c);
@@ -145,7 +159,7 @@ bool ControlLoop::post_drive(const DriveCommand& drive) noexcept {
 bool ControlLoop::request_recover(std::uint32_t sequence) noexcept {
   Command c;
   c.kind = CommandKind::kRecover;
-  c.id = sequence;
+  c.sequence = sequence;
   c.stop_stamp = stop_generation_.load();
   c.latch_stamp = latch_generation_.load();
   return commands_.push(c);
@@ -168,6 +182,11 @@ void ControlLoop::request_fault_stop(ErrorCode code) noexcept {
   stop_generation_.fetch_add(1);
   latch_generation_.fetch_add(1);
 }
+void ControlLoop::latch_stalled() noexcept {
+  stall_pending_.store(true);
+  stop_generation_.fetch_add(1);
+  latch_generation_.fetch_add(1);
+}
 void ControlLoop::set_arm_moving(bool moving) noexcept {
   arm_moving_.store(moving, std::memory_order_release);
 }
@@ -185,7 +204,7 @@ bool ControlLoop::healthy(std::int64_t now_ns) const noexcept {
 }
 
 void ControlLoop::cycle(std::int64_t now_ns) noexcept {
-  read_axes();  // first: odometry and a move's start position come from before any new command
+  read_axes(now_ns);  // first: odometry and a move's start position come from before any command
   handle_stops(now_ns);
   if (recovery_ != Recovery::kNone) advance_recovery(now_ns);
   while (recovery_ == Recovery::kNone) {  // the queue waits behind a running recovery
@@ -218,6 +237,7 @@ drivers::LifecycleState ControlLoop::card_state() const noexcept {
     case ErrorCode::kFollowingError:
     case ErrorCode::kDriverError:
     case ErrorCode::kDriverNotActive:
+    case ErrorCode::kLoopStalled:  // a card call hung
       return drivers::LifecycleState::kFault;
     default:
       break;

@@ -15,8 +15,8 @@ void ControlLoop::execute(const Command& c, std::int64_t now_ns) noexcept {
     case CommandKind::kMove:
     case CommandKind::kDriveStart:
       if (c.stop_stamp != handled_stop_) {  // a stop was posted after it: it never starts
-        report({LoopReportKind::kMoveCancelled, fault_, c.id, 0, 0});
-        snapshot_.last_motion_id = c.id;
+        report({LoopReportKind::kMoveCancelled, fault_, c.id(), 0, 0});
+        snapshot_.last_motion_id = c.id();
         return;
       }
       if (c.kind == CommandKind::kMove) {
@@ -28,19 +28,21 @@ void ControlLoop::execute(const Command& c, std::int64_t now_ns) noexcept {
     case CommandKind::kDriveUpdate:
       // Dropped when a stop was posted after it (the stop ends the jog), or when its jog already
       // ended (its terminal report is on the way).
-      if (c.stop_stamp != handled_stop_ || motion_ != Motion::kJogging || c.id != motion_id_)
+      if (c.stop_stamp != handled_stop_ || motion_ != Motion::kJogging ||
+          c.drive.motion_id != motion_id_)
         return;
-      jog_target_ = c.velocity;
-      jog_stamp_ns_ = c.stamp_ns;
+      jog_target_ = c.drive.velocity;
+      jog_stamp_ns_ = c.drive.stamp_ns;
       return;
     case CommandKind::kRecover:
       if (recovery_ != Recovery::kNone) end_recovery(ErrorCode::kOk);  // cannot happen: queue waits
-      recover_sequence_ = c.id;
+      recover_sequence_ = c.sequence;
       // An emergency or fault stop posted after it, handled or not yet (read live: a stop posted
       // while this cycle runs must not be cleared by the recovery it followed).
       if (c.latch_stamp != latch_generation_.load()) {
         report({LoopReportKind::kRecovered,
-                fault_ != ErrorCode::kOk ? fault_ : ErrorCode::kEmergencyStopped, 0, 0, c.id});
+                fault_ != ErrorCode::kOk ? fault_ : ErrorCode::kEmergencyStopped, 0, 0,
+                c.sequence});
         return;
       }
       fault_ = ErrorCode::kOk;
@@ -112,41 +114,49 @@ ErrorCode ControlLoop::check_can_start() noexcept {
   return ErrorCode::kOk;
 }
 
-void ControlLoop::start_move(const Command& move, std::int64_t now_ns) noexcept {
+void ControlLoop::start_move(const Command& c, std::int64_t now_ns) noexcept {
+  const MoveCommand& move = c.move;
   const auto refuse = [&](ErrorCode code, int axis) {
-    report({LoopReportKind::kMoveRefused, code, move.id, axis, 0});
-    snapshot_.last_motion_id = move.id;
+    report({LoopReportKind::kMoveRefused, code, move.motion_id, axis, 0});
+    snapshot_.last_motion_id = move.motion_id;
   };
   if (const ErrorCode e = check_can_start(); e != ErrorCode::kOk) return refuse(e, refused_axis_);
-  const drivers::TrapezoidProfile& profile =
-      move.profile == MoveProfile::kStraight ? straight_profile_ : profile_;
+  // The trapezoid the card is told; the deadline and the stop's deadline come from it.
+  const drivers::TrapezoidProfile profile = move_profile(move, settings_.base, settings_.drive);
   const drivers::AxisMove moves[2] = {{axes_[0], move.left_counts}, {axes_[1], move.right_counts}};
   if (const ErrorCode e = (card_.move_relative(moves, profile)); e != ErrorCode::kOk) {
+    // The card may have taken the move before it failed: nothing may run on unsupervised.
     latch(e, 0);
+    (void)card_.emergency_stop(axes_);
     return refuse(e, 0);
   }
-  motion_id_ = move.id;
+  motion_id_ = move.motion_id;
+  move_profile_ = profile;
+  stop_time_s_ =
+      profile.velocity_counts_per_ms / std::max(profile.deceleration_counts_per_ms2, 1e-12) / 1e3;
   target_counts_[0] = snapshot_profile_counts_[0] + move.left_counts;
   target_counts_[1] = snapshot_profile_counts_[1] + move.right_counts;
   seen_moving_ = false;
   stop_reason_ = ErrorCode::kOk;
   motion_ = Motion::kMoving;
+  mismatch_since_ns_[0] = mismatch_since_ns_[1] = -1;
   const double planned = std::max(planned_duration_s(move.left_counts, profile),
                                   planned_duration_s(move.right_counts, profile));
-  motion_deadline_ns_ = now_ns + seconds_to_ns(planned * 1.5 + settings_.motion_timeout_margin_s);
+  motion_deadline_ns_ = now_ns + seconds_to_ns(planned * 1.5) + margin_ns_;
   // A stop posted while the card took the move (vendor calls take time) acts in this cycle.
   if (stop_generation_.load() != handled_stop_ ||
       emergency_generation_.load() != handled_emergency_)
     handle_stops(now_ns);
 }
 
-void ControlLoop::start_jog(const Command& drive, std::int64_t now_ns) noexcept {
+void ControlLoop::start_jog(const Command& c, std::int64_t now_ns) noexcept {
+  const DriveCommand& drive = c.drive;
   if (const ErrorCode e = check_can_start(); e != ErrorCode::kOk) {
-    report({LoopReportKind::kMoveRefused, e, drive.id, refused_axis_, 0});
-    snapshot_.last_motion_id = drive.id;
+    report({LoopReportKind::kMoveRefused, e, drive.motion_id, refused_axis_, 0});
+    snapshot_.last_motion_id = drive.motion_id;
     return;
   }
-  motion_id_ = drive.id;
+  motion_id_ = drive.motion_id;
   motion_ = Motion::kJogging;
   stop_reason_ = ErrorCode::kOk;
   jog_target_ = drive.velocity;
@@ -154,6 +164,12 @@ void ControlLoop::start_jog(const Command& drive, std::int64_t now_ns) noexcept 
   jog_command_ = {};
   jog_last_ns_ = now_ns;
   jog_sent_ = false;
+  jog_resting_ = false;
+  stop_time_s_ = 0;
+  for (int i = 0; i < 2; ++i) {  // from rest (check_can_start saw the status)
+    told_counts_per_ms_[i] = expected_counts_per_ms_[i] = 0;
+    mismatch_since_ns_[i] = -1;
+  }
   advance_jog(now_ns);
   // A stop posted while the card took the jog acts in this cycle.
   if (stop_generation_.load() != handled_stop_ ||
@@ -164,10 +180,17 @@ void ControlLoop::start_jog(const Command& drive, std::int64_t now_ns) noexcept 
 void ControlLoop::advance_jog(std::int64_t now_ns) noexcept {
   const bool timed_out = now_ns - jog_stamp_ns_ > drive_timeout_ns_;
   const core::BodyVelocity target = timed_out ? core::BodyVelocity{} : jog_target_;
-  const double dt_s =
-      static_cast<double>(std::clamp<std::int64_t>(now_ns - jog_last_ns_, 0, 10 * period_ns_)) /
-      kNsPerS;
+  const std::int64_t elapsed_ns =
+      std::clamp<std::int64_t>(now_ns - jog_last_ns_, 0, 10 * period_ns_);
+  const double dt_s = static_cast<double>(elapsed_ns) / kNsPerS;
   jog_last_ns_ = now_ns;
+  // The card's ramp toward what it was told (jog_profile_), for the velocity check.
+  const double ramp =
+      jog_profile_.acceleration_counts_per_ms2 * static_cast<double>(elapsed_ns) / 1e6;
+  for (int i = 0; i < 2; ++i) {
+    expected_counts_per_ms_[i] +=
+        std::clamp(told_counts_per_ms_[i] - expected_counts_per_ms_[i], -ramp, ramp);
+  }
   const core::BodyVelocity next = core::limit_velocity(target, jog_command_, dt_s, settings_.drive);
   const bool changed = next.linear_m_s != jog_command_.linear_m_s ||
                        next.angular_rad_s != jog_command_.angular_rad_s;
@@ -179,16 +202,35 @@ void ControlLoop::advance_jog(std::int64_t now_ns) noexcept {
         {axes_[0], w.left_rad_s * per_ms * (settings_.base.left.polarity < 0 ? -1 : 1)},
         {axes_[1], w.right_rad_s * per_ms * (settings_.base.right.polarity < 0 ? -1 : 1)}};
     if (const ErrorCode e = card_.jog(axes, jog_profile_); e != ErrorCode::kOk) {
-      latch(e, 0);
-      stop_reason_ = e;
-      begin_stop(now_ns);
-      return;
+      // The card may have taken the velocities before it failed: stop it hard.
+      return emergency_fault(e, 0, now_ns);
+    }
+    for (int i = 0; i < 2; ++i) {
+      told_counts_per_ms_[i] = axes[i].velocity_counts_per_ms;
+      // The slowest stop of this jog: from the fastest the card was told, at the jog's ramp.
+      stop_time_s_ = std::max(stop_time_s_,
+                              std::abs(told_counts_per_ms_[i]) /
+                                  std::max(jog_profile_.deceleration_counts_per_ms2, 1e-12) / 1e3);
     }
     jog_sent_ = true;
   }
+  const bool told_zero = next.linear_m_s == 0 && next.angular_rad_s == 0 &&
+                         target.linear_m_s == 0 && target.angular_rad_s == 0;
+  if (!told_zero) {
+    jog_resting_ = false;
+  } else if (!jog_resting_) {
+    // Told zero: the card ramps the wheels from where they are to rest; a deadline for it.
+    jog_resting_ = true;
+    double rest_s = 0;
+    for (int i = 0; i < 2; ++i) {
+      rest_s =
+          std::max(rest_s, std::abs(expected_counts_per_ms_[i]) /
+                               std::max(jog_profile_.deceleration_counts_per_ms2, 1e-12) / 1e3);
+    }
+    motion_deadline_ns_ = now_ns + seconds_to_ns(rest_s * 1.5) + margin_ns_;
+  }
   const bool at_rest = answered_ && !status_[0].moving && !status_[1].moving;
-  if (next.linear_m_s == 0 && next.angular_rad_s == 0 && target.linear_m_s == 0 &&
-      target.angular_rad_s == 0 && at_rest && !changed) {
+  if (told_zero && at_rest && !changed) {
     // The timeout ended it only when the last Drive still asked for motion.
     finish(LoopReportKind::kMotionFinished, ErrorCode::kOk,
            timed_out && (jog_target_.linear_m_s != 0 || jog_target_.angular_rad_s != 0));

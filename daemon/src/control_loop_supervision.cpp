@@ -5,6 +5,7 @@
 
 #include "ajar/core/geometry.hpp"
 #include "ajar/daemon/control_loop.hpp"
+#include "control_loop_units.hpp"
 
 namespace ajar::daemon {
 
@@ -13,6 +14,10 @@ void ControlLoop::report(const LoopReport& r) noexcept {
 }
 
 void ControlLoop::latch(ErrorCode code, int axis) noexcept {
+  if (fault_ == ErrorCode::kOk && stall_pending_.load()) {
+    code = ErrorCode::kLoopStalled;  // what a call that hung reports once it returns
+    axis = 0;
+  }
   if (fault_ == ErrorCode::kOk) {  // the first fault is the root cause
     fault_ = code;
     report({LoopReportKind::kFault, code, motion_id_, axis, recover_sequence_});
@@ -27,11 +32,26 @@ void ControlLoop::finish(LoopReportKind kind, ErrorCode code, bool command_timeo
   jog_command_ = {};
 }
 
-void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
+void ControlLoop::enter_stopping(std::int64_t now_ns) noexcept {
   jog_command_ = {};
-  if ((card_.smooth_stop(axes_)) != ErrorCode::kOk) (void)(card_.emergency_stop(axes_));
+  jog_resting_ = false;
   motion_ = Motion::kStopping;
-  motion_deadline_ns_ = now_ns + stop_timeout_ns_;
+  // From the running motion's top speed at its deceleration, as the card was told.
+  motion_deadline_ns_ = now_ns + seconds_to_ns(stop_time_s_ * 1.5) + margin_ns_;
+}
+
+void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
+  stop_sent_ =
+      card_.smooth_stop(axes_) == ErrorCode::kOk || card_.emergency_stop(axes_) == ErrorCode::kOk;
+  enter_stopping(now_ns);
+}
+
+void ControlLoop::emergency_fault(ErrorCode code, int axis, std::int64_t now_ns) noexcept {
+  latch(code, axis);
+  stop_sent_ = card_.emergency_stop(axes_) == ErrorCode::kOk;
+  if (motion_ == Motion::kIdle) return;  // the idle check keeps stopping wheels that move
+  stop_reason_ = code;
+  enter_stopping(now_ns);
 }
 
 void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
@@ -39,17 +59,19 @@ void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
   const std::uint32_t latches = latch_generation_.load();
   if (const std::uint32_t e = emergency_generation_.load(); e != handled_emergency_) {
     handled_emergency_ = e;
-    (void)(card_.emergency_stop(axes_));
+    const bool sent = card_.emergency_stop(axes_) == ErrorCode::kOk;
     jog_command_ = {};
     if (motion_ != Motion::kIdle) {
       stop_reason_ = ErrorCode::kEmergencyStopped;
-      motion_ = Motion::kStopping;
-      motion_deadline_ns_ = now_ns + stop_timeout_ns_;
+      enter_stopping(now_ns);
+      stop_sent_ = sent;
     }
     latch(ErrorCode::kEmergencyStopped, 0);
   }
   if (latches != handled_latch_) {
     handled_latch_ = latches;
+    // The supervisor stopped the card out of band; now in band too (it may not have taken that).
+    if (stall_pending_.exchange(false)) emergency_fault(ErrorCode::kLoopStalled, 0, now_ns);
     ErrorCode queued = ErrorCode::kOk;
     while (fault_codes_.pop(queued)) {
       if (moving()) {
@@ -75,7 +97,7 @@ void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
   }
 }
 
-void ControlLoop::read_axes() noexcept {
+void ControlLoop::read_axes(std::int64_t now_ns) noexcept {
   answered_ = true;
   read_error_ = ErrorCode::kOk;
   for (int i = 0; i < 2; ++i) {
@@ -109,7 +131,57 @@ void ControlLoop::read_axes() noexcept {
     snapshot_.moving = status_[0].moving || status_[1].moving;
     snapshot_profile_counts_[0] = status_[0].profile_position_counts;
     snapshot_profile_counts_[1] = status_[1].profile_position_counts;
+    // The measured velocity: encoder counts since the last answered cycle (the previous one).
+    const double dt_ms = static_cast<double>(now_ns - last_read_ns_) / 1e6;
+    const bool consecutive = measured_valid_ || last_read_ns_ != 0;
+    measured_valid_ = consecutive && dt_ms > 0 && now_ns - last_read_ns_ <= 3 * period_ns_;
+    for (int i = 0; i < 2; ++i) {
+      const std::int64_t counts = status_[i].encoder_position_counts;
+      measured_counts_per_ms_[i] =
+          measured_valid_ ? static_cast<double>(counts - last_encoder_counts_[i]) / dt_ms : 0.0;
+      last_encoder_counts_[i] = counts;
+    }
+    last_read_ns_ = now_ns;
+  } else {
+    measured_valid_ = false;
+    last_read_ns_ = 0;  // the next answered cycle starts the measurement again
   }
+}
+
+int ControlLoop::check_velocity(std::int64_t now_ns) noexcept {
+  if (!answered_) return 0;
+  const double dt_ms = static_cast<double>(period_ns_) / 1e6;
+  for (int i = 0; i < 2; ++i) {
+    // What the card was told for this wheel: a velocity band and the ramp toward it.
+    double low = 0, high = 0, ramp = 0;
+    if (motion_ == Motion::kJogging) {  // between what it was told and its ramp toward it
+      low = std::min(told_counts_per_ms_[i], expected_counts_per_ms_[i]);
+      high = std::max(told_counts_per_ms_[i], expected_counts_per_ms_[i]);
+      ramp = jog_profile_.acceleration_counts_per_ms2;
+    } else if (motion_ == Motion::kMoving) {  // at most the trapezoid's speed, either way
+      high = move_profile_.velocity_counts_per_ms;
+      low = -high;
+      ramp = move_profile_.acceleration_counts_per_ms2;
+    } else if (motion_ == Motion::kStopping) {
+      mismatch_since_ns_[i] = -1;  // the stop's deadline supervises it
+      continue;
+    }
+    const double tolerance = settings_.velocity_tolerance * max_wheel_counts_per_ms_ +
+                             ramp * settings_.velocity_lag_s * 1e3 + 2.0 / dt_ms;
+    const double measured = measured_counts_per_ms_[i];
+    const bool off =
+        (motion_ == Motion::kIdle && status_[i].moving) ||
+        (measured_valid_ && (measured < low - tolerance || measured > high + tolerance));
+    if (!off) {
+      mismatch_since_ns_[i] = -1;
+    } else if (mismatch_since_ns_[i] < 0) {
+      mismatch_since_ns_[i] = now_ns;
+    }
+    if (mismatch_since_ns_[i] >= 0 && now_ns - mismatch_since_ns_[i] >= mismatch_ns_) {
+      return axes_[i];
+    }
+  }
+  return 0;
 }
 
 void ControlLoop::supervise(std::int64_t now_ns) noexcept {
@@ -136,14 +208,19 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
         }
       }
       if (fault == ErrorCode::kOk && silent) fault = ErrorCode::kDeadman;
-      if (fault == ErrorCode::kOk && motion_ == Motion::kMoving && now_ns > motion_deadline_ns_)
-        fault = ErrorCode::kMotionTimeout;
       if (fault != ErrorCode::kOk) {
         latch(fault, axis);
         stop_reason_ = fault;
         begin_stop(now_ns);
         break;
       }
+      // Deadlines (a move's planned duration; a jog told zero coming to rest) and a card that
+      // does not do what it was told: it is not trusted with a smooth stop.
+      const bool deadline =
+          (motion_ == Motion::kMoving || jog_resting_) && now_ns > motion_deadline_ns_;
+      if (deadline) return emergency_fault(ErrorCode::kMotionTimeout, 0, now_ns);
+      if (const int off = check_velocity(now_ns); off != 0)
+        return emergency_fault(ErrorCode::kVelocityMismatch, off, now_ns);
       if (motion_ == Motion::kJogging) break;  // advance_jog ends a jog
       if (status[0].moving || status[1].moving) seen_moving_ = true;
       const bool at_rest =
@@ -155,15 +232,24 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
       break;
     }
     case Motion::kStopping:
+      if (!stop_sent_) stop_sent_ = card_.emergency_stop(axes_) == ErrorCode::kOk;  // again
       if (answered && !status[0].moving && !status[1].moving) {
         finish(LoopReportKind::kMotionStopped, stop_reason_);
       } else if (now_ns > motion_deadline_ns_) {
-        (void)(card_.emergency_stop(axes_));
+        // The stop overran its deadline: emergency stop. Ended once the card took it (a card
+        // that keeps its wheels moving after that is stopped again by the idle check).
+        stop_sent_ = card_.emergency_stop(axes_) == ErrorCode::kOk;
         latch(ErrorCode::kMotionTimeout, 0);
-        finish(LoopReportKind::kMotionStopped, ErrorCode::kMotionTimeout);
+        if (stop_sent_) finish(LoopReportKind::kMotionStopped, ErrorCode::kMotionTimeout);
       }
       break;
     case Motion::kIdle:
+      // Nothing runs: wheels that move anyway (a card that did not apply a stop, or took a command
+      // it answered with an error) are emergency-stopped every cycle, and that latches.
+      if (const int off = check_velocity(now_ns); off != 0) {
+        emergency_fault(ErrorCode::kVelocityMismatch, off, now_ns);
+        break;
+      }
       if (fault_ != ErrorCode::kOk) break;
       if (arm_moving_.load(std::memory_order_acquire) && silent) {
         latch(ErrorCode::kDeadman, 0);

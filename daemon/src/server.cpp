@@ -85,13 +85,14 @@ struct Server::Impl {
       const auto limit = static_cast<std::size_t>(std::max(options.max_clients, 0));
       if (hub.session_count() + tls->pending() >= limit)
         tls->drop_oldest("dropped unfinished: max_clients reached");
-      tls->handshake(std::move(socket), peer,
-                     [this, id, peer](TlsStream stream, PeerAccess a, PeerCertificate c) {
-                       if (!accepting) return;
-                       track(id,
-                             start_session<TlsStream>(std::move(stream), id, peer, std::move(a)),
-                             std::move(c));
-                     });
+      tls->handshake(
+          std::move(socket), peer,
+          [this, id, peer](TlsStream stream, Admission a, PeerCertificate c) {
+            if (!accepting) return;
+            if (!a.admitted) return refuse_certificate(std::move(stream), id, peer, a);
+            track(id, start_session<TlsStream>(std::move(stream), id, peer, std::move(a.access)),
+                  std::move(c));
+          });
       return;
     }
     start_session<tcp::socket>(std::move(socket), id, peer, PeerAccess{});
@@ -147,6 +148,26 @@ struct Server::Impl {
       session->close_after_flush("certificate no longer admitted: " + why);
       it = tls_sessions.erase(it);
     }
+  }
+
+  // The TLS handshake succeeded but the policy running now refuses the certificate (reloaded after
+  // it was verified, tls.hpp): ERROR NOT_CONTROLLER (field "certificate", naming the identity and
+  // why), then a graceful close. No handler: nothing the peer sends is handled, not even a Stop.
+  void refuse_certificate(TlsStream stream, std::uint64_t id, const std::string& peer,
+                          const Admission& a) {
+    protocol::ErrorReply error;
+    error.code = ErrorCode::kNotController;
+    error.offending_type = protocol::MessageType::kHello;
+    error.field.assign("certificate");
+    error.message.assign("certificate " + a.access.identity + " not admitted: " + a.refusal +
+                         "; closing");
+    PeerAccess none = a.access;
+    none.may_control = false;
+    none.may_stop = false;
+    auto session = std::make_shared<TlsSession>(std::move(stream), id, peer, nullptr,
+                                                options.session, std::move(none));
+    session->refuse(encode_frame(protocol::Envelope{0, 0, error}),
+                    "certificate not admitted: " + a.refusal, Clock::duration::zero());
   }
 
   // A newcomer is always read: at max_clients the hub closes an idle session to make room.

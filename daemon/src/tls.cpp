@@ -80,13 +80,21 @@ std::string openssl_error() {
   return buffer;
 }
 
-// One loaded configuration: the SSL context (its verify callback reads `config`). Kept alive by
-// every handshake that started with it; a reload makes a new one.
+// One loaded configuration: the SSL context (its store: CA, CRL, flags) and the identities. Kept
+// alive by every handshake that started with it (OpenSSL runs the handshake in its context); a
+// reload makes a new one. A handshake is admitted under the generation RUNNING when its
+// certificate is verified and again when it completes, not under the one it started with.
 struct Generation {
   explicit Generation(const TlsConfig& c) : config(c) {}
   TlsConfig config;
   ssl::context context{ssl::context::tls_server};
   std::vector<std::string> warnings;  // logged at start and on every reload
+};
+
+// The running generation: replaced by reload(); every pending handshake holds this cell, so its
+// verify callback and its completion read the policy current at that moment.
+struct Running {
+  std::shared_ptr<Generation> generation;
 };
 
 std::string utc_text(const ASN1_TIME* t) {
@@ -134,8 +142,54 @@ std::vector<std::string> crl_warnings(const std::string& path) {
 // The handshake's scratch pad, reachable from the verify callback through the SSL's ex data.
 constexpr int kExIndex = 0;
 struct Scratch {
-  std::string refused;  // the identity and reason of a refused certificate
+  std::string refused;                     // the identity and reason of a refused certificate
+  std::shared_ptr<const Running> running;  // the policy current now (see Generation)
 };
+
+// What `g` says of the chain `leaf` + `untrusted` (what the peer sent), as a handshake under `g`
+// verifies it: the store's CA, CRL and flags, validity dates, purpose ssl_client. "" when valid,
+// else the reason ("certificate revoked (depth 0)"); `error` gets the X509_V_ERR code.
+std::string chain_problem(Generation& g, X509* leaf, STACK_OF(X509) * untrusted, int& error) {
+  std::string problem;
+  error = X509_V_OK;
+  X509_STORE_CTX* verify = X509_STORE_CTX_new();
+  if (verify == nullptr ||
+      X509_STORE_CTX_init(verify, SSL_CTX_get_cert_store(g.context.native_handle()), leaf,
+                          untrusted) != 1) {
+    error = X509_V_ERR_UNSPECIFIED;
+    problem = "cannot verify: " + openssl_error();
+  } else {
+    X509_STORE_CTX_set_default(verify, "ssl_client");
+    if (X509_verify_cert(verify) != 1) {
+      error = X509_STORE_CTX_get_error(verify);
+      if (error == X509_V_OK) error = X509_V_ERR_UNSPECIFIED;
+      problem = std::string(X509_verify_cert_error_string(error)) + " (depth " +
+                std::to_string(X509_STORE_CTX_get_error_depth(verify)) + ")";
+    }
+  }
+  X509_STORE_CTX_free(verify);
+  ERR_clear_error();
+  return problem;
+}
+
+// The whole decision under `g`: the chain (chain_problem), then deny list and identities.
+Admission admit_chain(Generation& g, X509* leaf, STACK_OF(X509) * untrusted,
+                      const CertificateIdentity& id, int& error) {
+  Admission a;
+  a.access.identity = id.text();
+  a.access.may_control = false;
+  a.access.may_stop = false;
+  if (leaf == nullptr) {
+    error = X509_V_ERR_UNSPECIFIED;
+    a.refusal = "no certificate";
+    return a;
+  }
+  a.refusal = chain_problem(g, leaf, untrusted, error);
+  if (!a.refusal.empty()) return a;
+  a = admit(g.config, id);
+  if (!a.admitted) error = X509_V_ERR_CERT_REJECTED;
+  return a;
+}
 
 // The file rule shared with ajar_client (ajar/security/tls_files.hpp), as a StartupError naming
 // `key`.
@@ -183,8 +237,8 @@ std::shared_ptr<Generation> load(const TlsConfig& config) {
     g->warnings = crl_warnings(config.crl);
   }
   g->context.set_verify_mode(ssl::verify_peer | ssl::verify_fail_if_no_peer_cert);
-  const TlsConfig* policy = &g->config;
-  g->context.set_verify_callback([policy](bool preverified, ssl::verify_context& v) {
+  Generation* self = g.get();  // the callback lives in g's context: never dangles
+  g->context.set_verify_callback([self](bool preverified, ssl::verify_context& v) {
     X509_STORE_CTX* store = v.native_handle();
     auto* ssl_handle =
         static_cast<SSL*>(X509_STORE_CTX_get_ex_data(store, SSL_get_ex_data_X509_STORE_CTX_idx()));
@@ -201,9 +255,24 @@ std::shared_ptr<Generation> load(const TlsConfig& config) {
     }
     if (X509_STORE_CTX_get_error_depth(store) != 0) return true;
     const CertificateIdentity id = identity_of(cert);
-    const Admission a = admit(*policy, id);
+    // The policy current now, not the one this handshake started under: a reload (SIGHUP) while
+    // the client withheld its certificate applies to it, and the client gets the alert a fresh
+    // handshake would (certificate revoked, unknown CA...). The leaf was verified under `self`.
+    Generation* now = self;
+    if (scratch != nullptr && scratch->running && scratch->running->generation)
+      now = scratch->running->generation.get();
+    int error = X509_V_OK;
+    Admission a;
+    if (now == self) {
+      a = admit(self->config, id);
+      if (!a.admitted) error = X509_V_ERR_CERT_REJECTED;
+    } else {
+      a = admit_chain(*now, X509_STORE_CTX_get0_cert(store), X509_STORE_CTX_get0_untrusted(store),
+                      id, error);
+      if (!a.admitted) a.refusal += " (under the policy reloaded during the handshake)";
+    }
     if (a.admitted) return true;
-    X509_STORE_CTX_set_error(store, X509_V_ERR_CERT_REJECTED);
+    X509_STORE_CTX_set_error(store, error);
     if (scratch != nullptr) scratch->refused = id.text() + ": " + a.refusal;
     return false;
   });
@@ -246,6 +315,8 @@ bool matches(const TlsIdentity& id, const CertificateIdentity& c) {
 Admission admit(const TlsConfig& policy, const CertificateIdentity& certificate) {
   Admission a;
   a.access.identity = certificate.text();
+  a.access.may_control = false;  // a refusal grants nothing
+  a.access.may_stop = false;
   for (const auto& denied : policy.deny) {
     if (matches(denied, certificate)) {
       a.refusal = "denied by network.tls.deny (" + denied.text() + ")";
@@ -282,7 +353,10 @@ struct TlsAcceptor::Impl {
     Done done;
   };
 
-  explicit Impl(const TlsConfig& config) : current(load(config)) {}
+  explicit Impl(const TlsConfig& config) : running(std::make_shared<Running>()) {
+    running->generation = load(config);
+  }
+  Generation& current() const { return *running->generation; }
 
   void finish(const std::shared_ptr<Pending>& p, const boost::system::error_code& ec) {
     pending.erase(p->seq);  // no-op when dropped
@@ -309,25 +383,31 @@ struct TlsAcceptor::Impl {
       p->stream->lowest_layer().close(ignored);
       return;
     }
-    // Admitted by the verify callback; the grants come from the same policy.
-    const Admission a =
-        admit(p->generation->config, identity_of(SSL_get0_peer_certificate(handle)));
-    if (!a.admitted) {  // cannot happen: the verify callback refused it
-      spdlog::warn("TLS handshake with {} refused: {}", p->peer, a.refusal);
-      p->stream->lowest_layer().close(ignored);
-      return;
-    }
-    spdlog::info("TLS: {} authenticated as {} ({}{})", p->peer, a.access.identity,
-                 a.access.may_control ? "controller" : "observer",
-                 a.access.may_stop ? "" : ", may not stop");
+    // Admitted by the verify callback. Admitted now, under the policy running at completion: a
+    // reload may have come after the verify callback (a client that withholds its Finished), and
+    // the grants are the running policy's, whatever the handshake started under.
     PeerCertificate certificate;
     auto chain = std::make_shared<PeerCertificate::Chain>();
     chain->leaf = SSL_get1_peer_certificate(handle);
     if (STACK_OF(X509)* sent = SSL_get_peer_cert_chain(handle))
       chain->untrusted = X509_chain_up_ref(sent);
     certificate.identity_ = identity_of(chain->leaf);
+    int error = X509_V_OK;
+    Admission a =
+        admit_chain(current(), chain->leaf, chain->untrusted, certificate.identity_, error);
     certificate.chain_ = std::move(chain);
-    p->done(TlsStream(std::move(p->stream)), a.access, std::move(certificate));
+    if (!a.admitted) {
+      const bool reloaded = p->generation != running->generation;
+      spdlog::warn("TLS handshake with {} refused at its completion: {}: {}{}", p->peer,
+                   a.access.identity, a.refusal,
+                   reloaded ? " (network.tls reloaded during the handshake)" : "");
+      p->done(TlsStream(std::move(p->stream)), std::move(a), std::move(certificate));
+      return;
+    }
+    spdlog::info("TLS: {} authenticated as {} ({}{})", p->peer, a.access.identity,
+                 a.access.may_control ? "controller" : "observer",
+                 a.access.may_stop ? "" : ", may not stop");
+    p->done(TlsStream(std::move(p->stream)), std::move(a), std::move(certificate));
   }
 
   // Closes an unfinished handshake; it completes with an error and finish() logs `reason`.
@@ -341,7 +421,7 @@ struct TlsAcceptor::Impl {
     p->stream->lowest_layer().close(ignored);
   }
 
-  std::shared_ptr<Generation> current;
+  std::shared_ptr<Running> running;  // never null; its generation never null
   std::map<std::uint64_t, std::shared_ptr<Pending>> pending;  // unfinished, oldest first
   std::uint64_t last_seq = 0;
 };
@@ -350,12 +430,12 @@ TlsAcceptor::TlsAcceptor(const TlsConfig& config) : impl_(std::make_shared<Impl>
   spdlog::info("TLS 1.3 with client certificates: CA {}, {} identities, {} denied{}", config.ca,
                config.identities.size(), config.deny.size(),
                config.crl.empty() ? "" : ", CRL " + config.crl);
-  for (const auto& w : impl_->current->warnings)
+  for (const auto& w : impl_->current().warnings)
     spdlog::warn("{}", w);
 }
 
 const std::vector<std::string>& TlsAcceptor::warnings() const noexcept {
-  return impl_->current->warnings;
+  return impl_->current().warnings;
 }
 
 TlsAcceptor::~TlsAcceptor() {
@@ -363,24 +443,26 @@ TlsAcceptor::~TlsAcceptor() {
 }
 
 void TlsAcceptor::reload(const TlsConfig& config) {
-  impl_->current = load(config);
+  // Pending handshakes hold the cell: from now on they are verified and admitted under this one.
+  impl_->running->generation = load(config);
   spdlog::warn("TLS policy reloaded: {} identities, {} denied{}", config.identities.size(),
                config.deny.size(), config.crl.empty() ? "" : ", CRL " + config.crl);
-  for (const auto& w : impl_->current->warnings)
+  for (const auto& w : impl_->current().warnings)
     spdlog::warn("{}", w);
 }
 
 void TlsAcceptor::handshake(tcp::socket socket, std::string peer, Done done) {
   auto& d = *impl_;
   const auto limit =
-      static_cast<std::size_t>(std::max(d.current->config.max_pending_handshakes, 1));
+      static_cast<std::size_t>(std::max(d.current().config.max_pending_handshakes, 1));
   while (d.pending.size() >= limit) {
     drop_oldest("dropped unfinished: " + std::to_string(limit) +
                 " handshakes pending (network.tls.max_pending_handshakes)");
   }
   auto p = std::make_shared<Impl::Pending>();
   p->seq = ++d.last_seq;
-  p->generation = d.current;
+  p->generation = d.running->generation;
+  p->scratch.running = d.running;
   p->peer = std::move(peer);
   p->done = std::move(done);
   const auto executor = socket.get_executor();
@@ -409,27 +491,12 @@ void TlsAcceptor::handshake(tcp::socket socket, std::string peer, Done done) {
 }
 
 std::string TlsAcceptor::recheck(const PeerCertificate& peer, const PeerAccess& granted) const {
-  Generation& g = *impl_->current;
-  if (!peer.chain_ || peer.chain_->leaf == nullptr) return "no certificate";
+  if (!peer.chain_) return "no certificate";
   // The chain, CRL and validity dates, as the handshake's verification does (same store, flags
   // and purpose); then the identities and the deny list.
-  std::string refused;
-  X509_STORE_CTX* verify = X509_STORE_CTX_new();
-  if (verify == nullptr ||
-      X509_STORE_CTX_init(verify, SSL_CTX_get_cert_store(g.context.native_handle()),
-                          peer.chain_->leaf, peer.chain_->untrusted) != 1) {
-    refused = "cannot verify: " + openssl_error();
-  } else {
-    X509_STORE_CTX_set_default(verify, "ssl_client");
-    if (X509_verify_cert(verify) != 1) {
-      refused = std::string(X509_verify_cert_error_string(X509_STORE_CTX_get_error(verify))) +
-                " (depth " + std::to_string(X509_STORE_CTX_get_error_depth(verify)) + ")";
-    }
-  }
-  X509_STORE_CTX_free(verify);
-  ERR_clear_error();
-  if (!refused.empty()) return refused;
-  const Admission a = admit(g.config, peer.identity());
+  int error = X509_V_OK;
+  const Admission a = admit_chain(impl_->current(), peer.chain_->leaf, peer.chain_->untrusted,
+                                  peer.identity(), error);
   if (!a.admitted) return a.refusal;
   if (granted.may_control && !a.access.may_control)
     return "no longer granted the controller role (network.tls.identities)";

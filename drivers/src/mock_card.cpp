@@ -74,17 +74,94 @@ void MockMotionCard::set_motion_model(MockMotionModel model, std::int64_t stop_d
   model_ = model;
   stop_delay_ns_ = std::max<std::int64_t>(0, stop_delay_ns);
 }
-void MockMotionCard::set_block_status(bool block) {
+void MockMotionCard::block_calls(CardCall kind, int count, int block_ms) {
+  const Lock lock(mutex_);
+  block_ = BlockRule{kind, count, block_ms};
+}
+
+void MockMotionCard::release_blocked_calls() {
   {
     const Lock lock(mutex_);
-    block_status_ = block;
+    block_ = BlockRule{};
+    ++release_generation_;
   }
   unblocked_.notify_all();
+}
+
+std::size_t MockMotionCard::blocked_calls() const noexcept {
+  const Lock lock(mutex_);
+  return blocked_now_;
+}
+
+void MockMotionCard::set_block_status(bool block) {
+  if (block) {
+    block_calls(CardCall::kAxisStatus, -1, -1);
+  } else {
+    release_blocked_calls();
+  }
+}
+
+void MockMotionCard::hang_if_blocked(Lock& lock, CardCall kind) noexcept {
+  if (block_.remaining == 0 || block_.kind != kind) return;
+  if (block_.remaining > 0) --block_.remaining;
+  const std::uint64_t generation = release_generation_;
+  const auto released = [&] { return release_generation_ != generation; };
+  ++blocked_now_;
+  if (block_.block_ms < 0) {
+    unblocked_.wait(lock, released);
+  } else {
+    unblocked_.wait_for(lock, std::chrono::milliseconds(block_.block_ms), released);
+  }
+  --blocked_now_;
+}
+
+void MockMotionCard::drop_next_calls(CardCall kind, int n) noexcept {
+  set_locked(drop_calls_[static_cast<std::size_t>(kind)], n < 0 ? 0 : n);
+}
+void MockMotionCard::fail_after_next_call(CardCall kind) noexcept {
+  set_locked(fail_after_calls_[static_cast<std::size_t>(kind)], 1);
+}
+void MockMotionCard::set_stale_status_reads(int n) noexcept {
+  const Lock lock(mutex_);
+  for (Axis& a : axes_)
+    a.stale_reads = n < 0 ? 0 : n;
+}
+void MockMotionCard::stop_answering_for_ns(std::int64_t ns) noexcept {
+  const Lock lock(mutex_);
+  silent_until_ns_ = ns > 0 ? now_ns() + ns : -1;
+}
+bool MockMotionCard::answering() const noexcept {
+  const Lock lock(mutex_);
+  return now_ns() >= silent_until_ns_;
+}
+
+bool MockMotionCard::take_drop(CardCall kind) noexcept {
+  int& n = drop_calls_[static_cast<std::size_t>(kind)];
+  if (n == 0) return false;
+  --n;
+  call_applied_ = false;
+  return true;
+}
+
+ErrorCode MockMotionCard::applied_result(CardCall kind, ErrorCode result,
+                                         const char* call) noexcept {
+  int& n = fail_after_calls_[static_cast<std::size_t>(kind)];
+  if (result != ErrorCode::kOk || n == 0) return result;
+  --n;
+  return fail(last_, ErrorCode::kCardCommunication, call, 0,
+              "mock card: no answer after taking the command (test)");
 }
 
 AxisStatus MockMotionCard::peek(int n) noexcept {
   const Lock lock(mutex_);
   return valid(n) ? status_of(axis(n)) : AxisStatus{};
+}
+
+double MockMotionCard::velocity(int n) noexcept {
+  const Lock lock(mutex_);
+  double v = 0;
+  if (valid(n)) (void)sample(axis(n), &v);
+  return v;
 }
 
 bool MockMotionCard::any_moving() noexcept {
@@ -214,8 +291,10 @@ ErrorCode MockMotionCard::enter(Lock& lock, CardCall kind, const char* call,
                                 bool realtime) noexcept {
   if (fault_ == MockFault::kSlow) std::this_thread::sleep_for(std::chrono::milliseconds(slow_ms_));
   lock = Lock(mutex_);
+  call_applied_ = true;
   ++calls_;
   ++calls_by_kind_[static_cast<std::size_t>(kind)];
+  hang_if_blocked(lock, kind);
   if (!realtime) return ErrorCode::kOk;
   if (fault_ == MockFault::kErrorCode) {
     return fail(last_, ErrorCode::kDriverError, call, 0, "mock card: injected error code");
@@ -223,6 +302,9 @@ ErrorCode MockMotionCard::enter(Lock& lock, CardCall kind, const char* call,
   if (fault_ == MockFault::kIntermittent && ++fault_calls_ % 3 == 0) {
     return fail(last_, ErrorCode::kCardCommunication, call, 0,
                 "mock card: intermittent failure (every third call)");
+  }
+  if (now_ns() < silent_until_ns_) {  // a card that does not answer at all (e-stop included)
+    return fail(last_, ErrorCode::kCardCommunication, call, 0, "mock card: not answering (test)");
   }
   if (fail_calls_ > 0 && kind != CardCall::kEmergencyStop) {
     --fail_calls_;
@@ -243,6 +325,8 @@ ErrorCode MockMotionCard::check_axes(std::span<const int> axes, const char* call
 
 ErrorCode MockMotionCard::logged(CardCallRecord&& record, ErrorCode result) noexcept {
   record.result = result;
+  record.applied = call_applied_;
+  call_applied_ = true;
   log_.push_back(std::move(record));  // tests only (record_calls): may allocate
   return result;
 }

@@ -120,6 +120,7 @@ ErrorCode MockMotionCard::move_relative(std::span<const AxisMove> moves,
       AJAR_MOCK_TRY(
           check_can_start(m.axis, static_cast<double>(m.distance_counts), false, "move_relative"));
     }
+    if (take_drop(CardCall::kMoveRelative)) return ErrorCode::kOk;  // accepted, not applied
     const std::int64_t t0 = now_ns();
     for (const AxisMove& m : moves) {
       Axis& a = axis(m.axis);
@@ -135,7 +136,7 @@ ErrorCode MockMotionCard::move_relative(std::span<const AxisMove> moves,
                                      profile.deceleration_counts_per_ms2));
     }
     stick_move_ = false;
-    return ErrorCode::kOk;
+    return applied_result(CardCall::kMoveRelative, ErrorCode::kOk, "move_relative");
   }();
   if (!recording_) return result;
   CardCallRecord r = record(CardCall::kMoveRelative);
@@ -154,6 +155,7 @@ ErrorCode MockMotionCard::jog(std::span<const AxisVelocity> axes,
     for (const AxisVelocity& v : axes) {
       AJAR_MOCK_TRY(check_can_start(v.axis, v.velocity_counts_per_ms, true, "jog"));
     }
+    if (take_drop(CardCall::kJog)) return ErrorCode::kOk;  // accepted, not applied
     const std::int64_t t0 = now_ns();
     for (const AxisVelocity& v : axes) {
       Axis& a = axis(v.axis);
@@ -169,7 +171,7 @@ ErrorCode MockMotionCard::jog(std::span<const AxisVelocity> axes,
                                     profile.acceleration_counts_per_ms2,
                                     profile.deceleration_counts_per_ms2));
     }
-    return ErrorCode::kOk;
+    return applied_result(CardCall::kJog, ErrorCode::kOk, "jog");
   }();
   if (!recording_) return result;
   CardCallRecord r = record(CardCall::kJog);
@@ -181,6 +183,7 @@ ErrorCode MockMotionCard::jog(std::span<const AxisVelocity> axes,
 ErrorCode MockMotionCard::smooth_stop(std::span<const int> axes) noexcept {
   return axes_call(CardCall::kSmoothStop, "smooth_stop", axes, [&]() noexcept {
     AJAR_MOCK_TRY(check_open("smooth_stop"));
+    if (take_drop(CardCall::kSmoothStop)) return check_axes(axes, "smooth_stop");
     const std::int64_t t0 = now_ns();
     for (const int n : axes) {
       if (!valid(n)) continue;
@@ -207,7 +210,7 @@ ErrorCode MockMotionCard::smooth_stop(std::span<const int> axes) noexcept {
         (void)sample(a, &velocity);
       }
     }
-    return check_axes(axes, "smooth_stop");
+    return applied_result(CardCall::kSmoothStop, check_axes(axes, "smooth_stop"), "smooth_stop");
   });
 }
 
@@ -224,13 +227,37 @@ ErrorCode MockMotionCard::emergency_stop(std::span<const int> axes) noexcept {
   });
 }
 
+ErrorCode MockMotionCard::emergency_stop_out_of_band(std::span<const int> axes) noexcept {
+  // Not through enter(): never hangs, no fault menu. A call hanging in hang_if_blocked() waits
+  // with the lock released, so this one gets it.
+  const Lock lock(mutex_);
+  ++calls_;
+  ++calls_by_kind_[static_cast<std::size_t>(CardCall::kEmergencyStopOutOfBand)];
+  ErrorCode result = ErrorCode::kDriverError;  // not open
+  if (open_) {
+    result = ErrorCode::kCardBadParameter;  // no valid axis
+    for (const int n : axes) {
+      if (!valid(n)) continue;
+      Axis& a = axis(n);
+      halt(a);
+      a.emergency_stopped = true;
+      result = ErrorCode::kOk;
+    }
+  }
+  return recording_ ? logged(record(CardCall::kEmergencyStopOutOfBand, axes), result) : result;
+}
+
 ErrorCode MockMotionCard::axis_status(int n, AxisStatus& out) noexcept {
   Lock lock;
   AJAR_MOCK_TRY(enter(lock, CardCall::kAxisStatus, "axis_status", true));
-  unblocked_.wait(lock, [this] { return !block_status_; });
   const int one[] = {n};
   AJAR_MOCK_TRY(check_axes(one, "axis_status"));
   Axis& a = axis(n);
+  if (a.stale_reads > 0 && a.has_last_status) {  // a stale answer: the last one again
+    --a.stale_reads;
+    out = a.last_status;
+    return ErrorCode::kOk;
+  }
   if (a.enable_pending > 0 && --a.enable_pending == 0) a.enabled = !a.alarm;
   AxisStatus st = status_of(a);
   if (fault_ == MockFault::kGarbage) {
@@ -243,6 +270,8 @@ ErrorCode MockMotionCard::axis_status(int n, AxisStatus& out) noexcept {
     st.profile_position_counts = static_cast<std::int64_t>(r % 2000000001ULL) - 1000000000;
     st.encoder_position_counts = -st.profile_position_counts;
   }
+  a.last_status = st;
+  a.has_last_status = true;
   out = st;
   return ErrorCode::kOk;
 }

@@ -160,5 +160,63 @@ TEST_F(MockCardConfig, TheServoShowsOnAfterTheDelayAndAPersistingAlarmSurvivesCl
   EXPECT_TRUE(st.enabled);
 }
 
+// Card faults (the control loop's supervision and the interleaving campaign): a command accepted
+// but not applied, applied but answered with an error, stale status, and a card that is silent for
+// a while (the emergency stop too) while its motion goes on.
+TEST_F(MockCardConfig, DroppedCallsAnswerOkChangeNothingAndAreLoggedAsNotApplied) {
+  card.drop_next_calls(CardCall::kJog, 1);
+  const AxisVelocity v[] = {{1, 3.0}};
+  ASSERT_EQ(card.jog(v, kJog), ErrorCode::kOk);
+  EXPECT_FALSE(card.jogging(1));
+  ASSERT_EQ(card.jog(v, kJog), ErrorCode::kOk);  // only the next one
+  EXPECT_TRUE(card.jogging(1));
+  EXPECT_EQ(card.velocity(1), 3.0);
+  card.drop_next_calls(CardCall::kSmoothStop, 1);
+  ASSERT_EQ(card.smooth_stop(kWheels), ErrorCode::kOk);
+  clock.advance_ms(10);
+  EXPECT_TRUE(card.jogging(1)) << "a dropped stop stopped the axis";
+  const auto log = card.log_from(0);
+  ASSERT_GE(log.size(), 3U);
+  EXPECT_FALSE(log[log.size() - 3].applied);
+  EXPECT_TRUE(log[log.size() - 2].applied);
+  EXPECT_FALSE(log.back().applied);
+}
+
+TEST_F(MockCardConfig, AFailAfterCallIsAppliedAndAnswersAnError) {
+  card.fail_after_next_call(CardCall::kMoveRelative);
+  EXPECT_EQ(card.move_relative(kMove, kProfile), ErrorCode::kCardCommunication);
+  EXPECT_TRUE(moving(1)) << "the card took the move before it failed";
+  EXPECT_EQ(card.log_from(0).back().result, ErrorCode::kCardCommunication);
+}
+
+TEST_F(MockCardConfig, StaleStatusRepeatsTheLastAnswerOfEachAxis) {
+  const AxisVelocity v[] = {{1, 3.0}};
+  ASSERT_EQ(card.jog(v, kJog), ErrorCode::kOk);
+  clock.advance_ms(10);
+  const std::int64_t before = position(1);
+  card.set_stale_status_reads(2);
+  clock.advance_ms(10);
+  EXPECT_EQ(position(1), before);
+  EXPECT_EQ(position(1), before);
+  EXPECT_EQ(position(1), before + 30);  // fresh again
+}
+
+TEST_F(MockCardConfig, ASilentCardFailsEveryCallTheEmergencyStopTooWhileItsMotionGoesOn) {
+  const AxisVelocity v[] = {{1, 3.0}};
+  ASSERT_EQ(card.jog(v, kJog), ErrorCode::kOk);
+  card.stop_answering_for_ns(20'000'000);
+  EXPECT_FALSE(card.answering());
+  AxisStatus st;
+  EXPECT_EQ(card.axis_status(1, st), ErrorCode::kCardCommunication);
+  EXPECT_EQ(card.emergency_stop(kWheels), ErrorCode::kCardCommunication);
+  clock.advance_ms(19);
+  EXPECT_EQ(card.smooth_stop(kWheels), ErrorCode::kCardCommunication);
+  EXPECT_TRUE(card.jogging(1));
+  clock.advance_ms(1);
+  EXPECT_TRUE(card.answering());
+  EXPECT_EQ(card.emergency_stop(kWheels), ErrorCode::kOk);
+  EXPECT_FALSE(card.any_moving());
+}
+
 }  // namespace
 }  // namespace ajar::drivers

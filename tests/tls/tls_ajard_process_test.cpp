@@ -1,6 +1,7 @@
 // The real ajard binary with network.tls (issue 13): the whole procedure by the real ajarctl with
 // --ca/--cert/--key; SIGHUP with a CRL that revokes a connected operator closes that session; an
-// expired CRL is warned about on SIGHUP and at the next start.
+// expired CRL is warned about on SIGHUP and at the next start; a handshake pending across a
+// revoking SIGHUP is refused (issue 22, item 3).
 #include <utility>  // before Asio (asio issue 944)
 
 #include <signal.h>
@@ -15,6 +16,7 @@
 
 #include "ajard_process.hpp"
 #include "test_client_e2e.hpp"
+#include "tls_stepped_client.hpp"
 #include "tls_support.hpp"
 
 namespace ajar::test {
@@ -121,6 +123,64 @@ TEST(TlsAjard, SighupClosesARevokedSessionAndAnExpiredCrlIsWarnedOnReloadAndAtSt
   const auto warned = log.find("EXPIRED at 2020-01-02");
   EXPECT_NE(warned, std::string::npos) << log;
   EXPECT_LT(warned, log.find("ajard ready")) << "not a start-up warning:\n" << log;
+  ajard.signal(SIGTERM);
+  EXPECT_EQ(ajard.wait_exit(), 0) << ajard.err();
+}
+
+// Issue 22, item 3: a client that withholds its second flight (or only its Finished) until the
+// operator has revoked its certificate and sent SIGHUP was verified under the CRL of its accept:
+// Welcome(controller), Drive acknowledged. Now both are refused, like a fresh handshake.
+TEST(TlsAjard, AHandshakeWithheldAcrossARevokingSighupIsRefused) {
+  Pki pki;
+  TempDir dir;
+  AjardProcess ajard(tls_ajard_args(pki, dir), dir.path(), "ajard");
+  const auto port = wait_for_port_file(dir.path() + "/port", ajard);
+  ASSERT_TRUE(port) << ajard.err();
+  auto alice = [&] {
+    auto c = std::make_unique<SteppedTlsClient>(*port, pki.path("ca.crt"), pki.path("alice.crt"),
+                                                pki.path("alice.key"));
+    EXPECT_TRUE(c->send_client_hello()) << c->failure();
+    EXPECT_TRUE(c->read_daemon_flight()) << c->failure();
+    EXPECT_EQ(c->records_left(), 4U);
+    return c;
+  };
+  auto whole_flight_withheld = alice();
+  auto finished_withheld = alice();
+  for (int i = 0; i < 3; ++i)
+    finished_withheld->send_next_record();  // ChangeCipherSpec, Certificate, CertificateVerify
+  ASSERT_TRUE(eventually([&] { return finished_withheld->unread_at_daemon() == 0L; }));
+
+  pki.run("revoke alice");
+  ajard.signal(SIGHUP);
+  ASSERT_TRUE(eventually([&] {
+    return ajard.err().find("TLS policy reloaded") != std::string::npos;
+  })) << ajard.err();
+
+  for (auto* c : {whole_flight_withheld.get(), finished_withheld.get()}) {
+    while (c->records_left() > 0)
+      c->send_next_record();
+    c->send(hello_as(Role::kController, 0, true), 1);
+    const auto welcome = c->reply_to(1);
+    if (welcome) {
+      const auto* error = std::get_if<protocol::ErrorReply>(&*welcome);
+      ASSERT_NE(error, nullptr) << "admitted with a revoked certificate: "
+                                << protocol::to_string(protocol::type_of(*welcome));
+      EXPECT_EQ(error->field.view(), "certificate");
+      EXPECT_NE(error->message.view().find("certificate revoked"), std::string_view::npos)
+          << error->message.view();
+    } else {
+      EXPECT_NE(c->failure().find("certificate revoked"), std::string::npos) << c->failure();
+    }
+    c->send(protocol::Drive{0.05, 0.0}, 2);
+    const auto drive = c->reply_to(2);
+    EXPECT_FALSE(drive && std::holds_alternative<protocol::Ack>(*drive)) << "Drive acknowledged";
+  }
+  EXPECT_EQ(ajard.err().find("authenticated as cn:alice"), std::string::npos) << ajard.err();
+  EXPECT_NE(ajard.err().find("certificate revoked"), std::string::npos) << ajard.err();
+  // The others are served as before.
+  Client bob(options_with(pki.client_tls("bob"), "bob"));
+  ASSERT_TRUE(bob.connect({"127.0.0.1", *port}).ok());
+  EXPECT_TRUE(bob.hello(Role::kObserver).ok());
   ajard.signal(SIGTERM);
   EXPECT_EQ(ajard.wait_exit(), 0) << ajard.err();
 }

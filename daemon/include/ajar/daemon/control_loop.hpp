@@ -17,10 +17,11 @@
 //     never overtaken by anything queued before it, even when the queue is full.
 //
 // Every cycle (cycle(), noexcept, no allocation, no locks, no waiting, no logging), in this order:
-//   1. axis status of both wheels (odometry; what supervision and a new move start from);
-//   2. stops: emergency stop (card emergency stop in this cycle), fault stops (smooth stop, latch
-//      the code: the first latched code is the one reported and kept), smooth stop (also of a
-//      jog);
+//   1. axis status of both wheels (odometry; the wheels' measured velocity from the encoder
+//      deltas; what supervision and a new move start from);
+//   2. stops: emergency stop (card emergency stop in this cycle), a stall the loop supervisor
+//      latched (card emergency stop, latch kLoopStalled), fault stops (smooth stop, latch the
+//      code: the first latched code is the one reported and kept), smooth stop (also of a jog);
 //   3. one step of a running recovery (Reset), a state machine advanced once per cycle: wait for
 //      the wheels to rest, clear faults, enable the axes, then poll their status every cycle until
 //      the servo is on without alarm, or fail at recovery_timeout_s. While it runs the command
@@ -29,18 +30,27 @@
 //      (kMoveRefused) while a fault is latched in the loop, a motion runs, or this cycle's axis
 //      status could not be read; cancelled (kMoveCancelled) when a stop was posted after it. A jog
 //      update sets the running jog's target velocity (dropped when that jog already ended or a
-//      stop was posted after it). A recover starts the recovery (step 3);
+//      stop was posted after it). A recover starts the recovery (step 3). A move or jog call the
+//      card answers with an error latches it and emergency-stops the wheels (the card may have
+//      taken the command before it failed);
 //   4b. a running jog: the target is the last Drive velocity while it is younger than
 //      drive.command_timeout_s, else zero; the speed limiter (core::limit_velocity) clamps speed
-//      and acceleration; the card gets the wheel velocities when they change. At zero target and
-//      zero command with both axes at rest the jog ends (kMotionFinished; command_timeout says
-//      whether the timeout ended it);
-//   5. supervision: card not answering, alarm, following error, limits, deadman, motion deadline
-//      (not for a jog: its command timeout ends it) -> smooth stop + latched fault; completion
-//      (both axes at rest and in position); end of a stop (both at rest; a stop overrunning its own
-//      deadline becomes an emergency stop);
+//      and acceleration; the card gets the wheel velocities when they change. Once the card has
+//      been told zero (target and command zero) the jog has a deadline to come to rest; at rest
+//      it ends (kMotionFinished; command_timeout says whether the timeout ended it);
+//   5. supervision: card not answering, alarm, following error, limits, deadman -> smooth stop +
+//      latched fault; every motion's deadline (a move: its planned duration; a jog: coming to rest
+//      once told zero; a stop: its deceleration) and a card that does not do what it was told (the
+//      measured wheel velocity outside what the card was told for longer than
+//      velocity_mismatch_s, or the wheels moving while no motion runs) -> emergency stop +
+//      latched fault; completion (both axes at rest and in position); end of a stop (both at
+//      rest). A stop the card refused is re-sent (as an emergency stop) every cycle;
 //   6. the published snapshot (seqlock). The thread then records the cycle's timing (deadline,
 //      wake-up, end) in statistics(): readable from any other thread.
+// Limits are computed from what the card is told: a move's trapezoid comes from its profile
+// (move_profile(): the wheel limits, and the body's drive limits for anything but an exact turn in
+// place); its deadline from that same trapezoid; a jog's velocities from the limiter and its ramp
+// from jog_profile(); a stop's deadline from the running motion's deceleration and speed.
 // Card errors on this path are ErrorCodes only; text is made on the I/O side.
 //
 // Odometry (read_axes, every cycle the card answers): the planar pose by dead reckoning from the
@@ -83,13 +93,21 @@ struct ControlLoopSettings {
   double deadman_timeout_s = 0.5;
   double motion_timeout_margin_s = 2.0;
   double recovery_timeout_s = 2.0;  // a recovery must see the servo on within this
+  // A card that does not do what it was told: a wheel's measured velocity (encoder deltas) outside
+  // what the card was told, by more than velocity_tolerance (a fraction of the wheel speed limit,
+  // plus velocity_lag_s of the motion's acceleration and two encoder counts per cycle), for longer
+  // than velocity_mismatch_s -> emergency stop, kVelocityMismatch.
+  double velocity_tolerance = 0.1;
+  double velocity_lag_s = 0.1;
+  double velocity_mismatch_s = 0.2;
   core::BaseGeometry base;
   core::DriveLimits drive;  // jog limits and command timeout; the straight move's speed
 };
 
 // A coordinated relative move of both wheels (counts include each axis' polarity, as from
 // core::wheel_command). kTurn uses the wheel limits (base.max_wheel_*); kStraight (Approach) also
-// keeps the body within drive.max_linear_speed_m_s / max_linear_accel_m_s2.
+// keeps the body within drive.max_linear_speed_m_s / max_linear_accel_m_s2. The command reaches
+// the loop whole (profile included): move_profile() makes the card's trapezoid from it.
 enum class MoveProfile : std::uint8_t { kTurn = 0, kStraight = 1 };
 struct MoveCommand {
   std::uint32_t motion_id = 0;
@@ -155,6 +173,17 @@ drivers::TrapezoidProfile wheel_profile(const core::BaseGeometry& base) noexcept
 // The straight (Approach) profile: the wheel profile, slower where the body limits ask for it.
 drivers::TrapezoidProfile straight_profile(const core::BaseGeometry& base,
                                            const core::DriveLimits& drive) noexcept;
+// The trapezoid the card gets for `move`: straight_profile() for kStraight and for any move whose
+// counts are not an exact turn in place (the wheels not exactly opposite, polarity removed), else
+// wheel_profile().
+drivers::TrapezoidProfile move_profile(const MoveCommand& move, const core::BaseGeometry& base,
+                                       const core::DriveLimits& drive) noexcept;
+// The jog's ramp at the card (acceleration = deceleration, counts/ms^2): the largest wheel
+// acceleration the drive limits allow, (max_linear_accel + max_angular_accel * R_B) / R_W, and
+// never above base.max_wheel_accel_rad_s2. The limiter's steps keep the body within the drive
+// limits over every period; the card ramps each step (and a smooth stop) at this rate.
+drivers::JogProfile jog_profile(const core::BaseGeometry& base,
+                                const core::DriveLimits& drive) noexcept;
 // Planned duration (s) of a trapezoidal (or triangular) move of `distance_counts`.
 double planned_duration_s(std::int64_t distance_counts,
                           const drivers::TrapezoidProfile& profile) noexcept;
@@ -196,6 +225,18 @@ class ControlLoop {
   const LoopStatisticsRecorder& statistics() const noexcept { return statistics_; }
   // True while the thread completes cycles: the last one ended within max(10 periods, 20 ms).
   bool healthy(std::int64_t now_ns) const noexcept;
+  // What the loop supervisor (loop_supervisor.hpp) watches: the thread runs (between
+  // start_thread() and stop_thread()), and when its last cycle ended (CLOCK_MONOTONIC ns).
+  bool thread_running() const noexcept { return thread_running_.load(std::memory_order_acquire); }
+  std::int64_t last_cycle_end_ns() const noexcept {
+    return last_cycle_end_ns_.load(std::memory_order_acquire);
+  }
+  // The loop supervisor found the loop stalled (and stopped the card out of band). Never
+  // refused, any thread: like a fault stop, it cancels what was posted before it and latches
+  // kLoopStalled; the loop acts on it as soon as its stalled call returns: an in-band emergency
+  // stop in the next handle_stops, and any fault the returning call reports before that is
+  // latched as kLoopStalled (the root cause).
+  void latch_stalled() noexcept;
 
   // ---- control thread (or a test driving the loop by hand, without start_thread()) ----
   void cycle(std::int64_t now_ns) noexcept;
@@ -204,15 +245,20 @@ class ControlLoop {
   enum class Motion : std::uint8_t { kIdle, kMoving, kJogging, kStopping };
   enum class Recovery : std::uint8_t { kNone, kWaitRest, kClear, kEnable, kPoll };
   enum class CommandKind : std::uint8_t { kMove, kRecover, kDriveStart, kDriveUpdate };
+  // A queued command: the posted MoveCommand or DriveCommand whole (nothing copied field by
+  // field), or a recover sequence.
   struct Command {
     CommandKind kind = CommandKind::kMove;
-    std::uint32_t id = 0;  // motion id (kMove, kDrive*) or recover sequence (kRecover)
-    std::int64_t left_counts = 0, right_counts = 0;
-    MoveProfile profile = MoveProfile::kTurn;
-    core::BodyVelocity velocity;    // kDrive*
-    std::int64_t stamp_ns = 0;      // kDrive*
+    MoveCommand move;               // kMove
+    DriveCommand drive;             // kDrive*
+    std::uint32_t sequence = 0;     // kRecover
     std::uint32_t stop_stamp = 0;   // stop generation when posted
     std::uint32_t latch_stamp = 0;  // emergency/fault stop generation when posted
+    std::uint32_t id() const noexcept {
+      return kind == CommandKind::kMove      ? move.motion_id
+             : kind == CommandKind::kRecover ? sequence
+                                             : drive.motion_id;
+    }
   };
 
   void thread_main(std::int64_t first_deadline_ns) noexcept;
@@ -225,25 +271,32 @@ class ControlLoop {
   void advance_recovery(std::int64_t now_ns) noexcept;
   void end_recovery(ErrorCode code) noexcept;
   void begin_stop(std::int64_t now_ns) noexcept;
+  // The card did not do what it was told (or answered an error to a command it may have taken):
+  // latch `code`, emergency stop, supervise the wheels to rest.
+  void emergency_fault(ErrorCode code, int axis, std::int64_t now_ns) noexcept;
+  void enter_stopping(std::int64_t now_ns) noexcept;
+  // kOk, or the axis whose measured velocity has been outside what the card was told for longer
+  // than velocity_mismatch_s (or that moves while no motion runs).
+  int check_velocity(std::int64_t now_ns) noexcept;
   void latch(ErrorCode code, int axis) noexcept;
   void finish(LoopReportKind kind, ErrorCode code, bool command_timeout = false) noexcept;
   bool moving() const noexcept { return motion_ == Motion::kMoving || motion_ == Motion::kJogging; }
   void report(const LoopReport& r) noexcept;
-  void read_axes() noexcept;
+  void read_axes(std::int64_t now_ns) noexcept;
   void supervise(std::int64_t now_ns) noexcept;
   drivers::LifecycleState card_state() const noexcept;
 
   drivers::MotionCard& card_;
   ControlLoopSettings settings_;
   int axes_[2];
-  drivers::TrapezoidProfile profile_;
-  drivers::TrapezoidProfile straight_profile_;
   drivers::JogProfile jog_profile_;
   double counts_per_wheel_rad_;
+  double max_wheel_counts_per_ms_;  // base.max_wheel_speed_rad_s at the card
   std::int64_t drive_timeout_ns_;
   std::int64_t period_ns_;
   std::int64_t deadman_ns_;
-  std::int64_t stop_timeout_ns_;
+  std::int64_t margin_ns_;  // control.motion_timeout_margin_s
+  std::int64_t mismatch_ns_;
   std::int64_t recovery_timeout_ns_;
 
   // I/O thread -> loop.
@@ -254,6 +307,7 @@ class ControlLoop {
   std::atomic<std::uint32_t> stop_generation_{0};      // every stop, emergency and fault stop
   std::atomic<std::uint32_t> latch_generation_{0};     // emergency and fault stops
   std::atomic<std::uint32_t> emergency_generation_{0};
+  std::atomic<bool> stall_pending_{false};  // latch_stalled() not yet handled by the loop
   std::atomic<bool> arm_moving_{false};
   std::atomic<std::int64_t> heartbeat_ns_{0};
   std::atomic<bool> exit_requested_{false};
@@ -268,7 +322,12 @@ class ControlLoop {
   std::uint32_t handled_stop_ = 0, handled_latch_ = 0, handled_emergency_ = 0;
   Motion motion_ = Motion::kIdle;
   std::uint32_t motion_id_ = 0;
-  std::int64_t motion_deadline_ns_ = 0;
+  std::int64_t motion_deadline_ns_ = 0;  // move, jog coming to rest, stop
+  // What the card was told for the running motion: the move's trapezoid (its speed and
+  // deceleration also bound a stop's deadline), or the jog's velocities.
+  drivers::TrapezoidProfile move_profile_;
+  double stop_time_s_ = 0;  // the running motion's time to rest from its top speed, at the card
+  bool stop_sent_ = false;  // kStopping: the card accepted the stop (else re-sent every cycle)
   std::int64_t target_counts_[2] = {0, 0};
   std::int64_t snapshot_profile_counts_[2] = {0, 0};  // last profile positions read
   bool seen_moving_ = false;
@@ -283,13 +342,22 @@ class ControlLoop {
   std::int64_t recovery_deadline_ns_ = 0;
   bool have_origin_ = false;
   std::int64_t origin_counts_[2] = {0, 0};
-  double last_wheel_rad_[2] = {0, 0};  // for the odometry deltas
+  // The wheels' measured velocity (counts/ms, encoder deltas between two answered cycles).
+  bool measured_valid_ = false;
+  double measured_counts_per_ms_[2] = {0, 0};
+  std::int64_t last_read_ns_ = 0;
+  std::int64_t last_encoder_counts_[2] = {0, 0};
+  std::int64_t mismatch_since_ns_[2] = {-1, -1};  // -1: the axis agrees
+  double last_wheel_rad_[2] = {0, 0};             // for the odometry deltas
   // The running jog.
   core::BodyVelocity jog_target_;
   std::int64_t jog_stamp_ns_ = 0;
-  core::BodyVelocity jog_command_;  // limited, last sent to the card
-  std::int64_t jog_last_ns_ = 0;    // the cycle that computed jog_command_
-  bool jog_sent_ = false;           // the card has been given jog_command_
+  core::BodyVelocity jog_command_;         // limited, last sent to the card
+  std::int64_t jog_last_ns_ = 0;           // the cycle that computed jog_command_
+  bool jog_sent_ = false;                  // the card has been given jog_command_
+  bool jog_resting_ = false;               // told zero: motion_deadline_ns_ is its deadline to rest
+  double told_counts_per_ms_[2] = {0, 0};  // the jog velocities the card accepted last
+  double expected_counts_per_ms_[2] = {0, 0};  // the card's ramp toward them (jog_profile_)
   std::uint64_t reports_dropped_ = 0;
   LoopStatisticsRecorder statistics_;
   LoopSnapshot snapshot_;

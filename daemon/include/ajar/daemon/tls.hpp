@@ -12,6 +12,11 @@
 // - reload() (SIGHUP) re-reads the CRL, deny list, identities and unlisted (and the files):
 //   new connections use them, and the Server re-checks every connected TLS session with
 //   recheck() (server.hpp); on error the running policy stays and reload() throws.
+// - A PENDING handshake is judged by the policy running when its certificate is verified and
+//   again when it completes, not by the one running when it was accepted: a client that withholds
+//   its certificate across a revoking reload is refused like a fresh connection (a TLS alert), and
+//   one whose Finished arrives after the reload is refused at completion (Done with
+//   admitted == false). Its grants are the running policy's.
 // - An expired CRL (nextUpdate passed) is a warning at start and on every reload (warnings()).
 // - Files: the rule of ajar/security/tls_files.hpp (shared with ajar_client): the private key is
 //   refused when group/world accessible; certificate, CA and CRL when group/world writable.
@@ -107,7 +112,7 @@ bool matches(const TlsIdentity& id, const CertificateIdentity& certificate);
 struct Admission {
   bool admitted = false;
   std::string refusal;  // when not admitted: why ("denied by network.tls.deny: cn:bob")
-  PeerAccess access;
+  PeerAccess access;    // the grants; none when not admitted (identity still named)
 };
 Admission admit(const TlsConfig& policy, const CertificateIdentity& certificate);
 
@@ -126,7 +131,10 @@ class PeerCertificate {
 
 class TlsAcceptor {
  public:
-  using Done = std::function<void(TlsStream stream, PeerAccess access, PeerCertificate peer)>;
+  // Called when the TLS handshake succeeded. `admission` is the running policy's decision at that
+  // moment: when not admitted (the policy was reloaded after the certificate was verified), the
+  // caller must tell the peer admission.refusal and close without handling anything it sends.
+  using Done = std::function<void(TlsStream stream, Admission admission, PeerCertificate peer)>;
 
   // Loads certificate, key, CA, CRL. Throws StartupError naming the config key and file.
   explicit TlsAcceptor(const TlsConfig& config);
@@ -146,7 +154,8 @@ class TlsAcceptor {
   // than the policy now grants it), or "" when it may stay.
   std::string recheck(const PeerCertificate& peer, const PeerAccess& granted) const;
 
-  // Runs the server handshake on `socket`; `done` is called (on the I/O thread) only on success.
+  // Runs the server handshake on `socket`; `done` is called (on the I/O thread) only when the TLS
+  // handshake succeeded (failures are logged and closed here).
   // First drops the oldest pending handshake when max_pending_handshakes are running.
   void handshake(boost::asio::ip::tcp::socket socket, std::string peer, Done done);
 
