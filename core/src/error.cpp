@@ -134,6 +134,8 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "CARD_OPEN_FAILED";
     case ErrorCode::kArmFault:
       return "ARM_FAULT";
+    case ErrorCode::kLoopStalled:
+      return "LOOP_STALLED";
     case ErrorCode::kVelocityMismatch:
       return "VELOCITY_MISMATCH";
     case ErrorCode::kInternal:

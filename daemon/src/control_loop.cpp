@@ -182,6 +182,11 @@ void ControlLoop::request_fault_stop(ErrorCode code) noexcept {
   stop_generation_.fetch_add(1);
   latch_generation_.fetch_add(1);
 }
+void ControlLoop::latch_stalled() noexcept {
+  stall_pending_.store(true);
+  stop_generation_.fetch_add(1);
+  latch_generation_.fetch_add(1);
+}
 void ControlLoop::set_arm_moving(bool moving) noexcept {
   arm_moving_.store(moving, std::memory_order_release);
 }
@@ -232,6 +237,7 @@ drivers::LifecycleState ControlLoop::card_state() const noexcept {
     case ErrorCode::kFollowingError:
     case ErrorCode::kDriverError:
     case ErrorCode::kDriverNotActive:
+    case ErrorCode::kLoopStalled:  // a card call hung
       return drivers::LifecycleState::kFault;
     default:
       break;

@@ -14,6 +14,10 @@ void ControlLoop::report(const LoopReport& r) noexcept {
 }
 
 void ControlLoop::latch(ErrorCode code, int axis) noexcept {
+  if (fault_ == ErrorCode::kOk && stall_pending_.load()) {
+    code = ErrorCode::kLoopStalled;  // what a call that hung reports once it returns
+    axis = 0;
+  }
   if (fault_ == ErrorCode::kOk) {  // the first fault is the root cause
     fault_ = code;
     report({LoopReportKind::kFault, code, motion_id_, axis, recover_sequence_});
@@ -66,6 +70,8 @@ void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
   }
   if (latches != handled_latch_) {
     handled_latch_ = latches;
+    // The supervisor stopped the card out of band; now in band too (it may not have taken that).
+    if (stall_pending_.exchange(false)) emergency_fault(ErrorCode::kLoopStalled, 0, now_ns);
     ErrorCode queued = ErrorCode::kOk;
     while (fault_codes_.pop(queued)) {
       if (moving()) {

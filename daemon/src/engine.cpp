@@ -21,6 +21,11 @@ EngineImpl::EngineImpl(const Config& config, drivers::DriverSet drivers, EngineO
   card_ = std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
                                                        config.drivers.card.poll_timeout_ms);
   loop_ = std::make_unique<ControlLoop>(*card_, loop_settings(config));
+  supervisor_ =
+      std::make_unique<LoopSupervisor>(SupervisedLoop{[this] { return loop_->thread_running(); },
+                                                      [this] { return loop_->last_cycle_end_ns(); },
+                                                      [this] { loop_->latch_stalled(); }},
+                                       *card_, axes, supervisor_settings(config));
   arm_ = std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm));
 }
 
@@ -47,6 +52,8 @@ void EngineImpl::start() {
   store_.start();
   if (!manual_loop_) {
     for (auto& w : loop_->start_thread())
+      startup_warnings_.push_back(std::move(w));
+    for (auto& w : supervisor_->start_thread())
       startup_warnings_.push_back(std::move(w));
   }
   last_state_ = procedure_.state();
@@ -86,6 +93,7 @@ void EngineImpl::shutdown() noexcept {
   } catch (...) {  // shutting down: nothing sensible to do but carry on
   }
   loop_->stop_thread();
+  supervisor_->stop_thread();  // before the card goes down: no out-of-band call into a closing card
   bring_down_card();
   if (arm_->state() == drivers::LifecycleState::kActive) (void)arm_->deactivate();
   if (arm_->state() == drivers::LifecycleState::kInactive) (void)arm_->cleanup();
@@ -149,7 +157,8 @@ protocol::Status EngineImpl::status() const {
   if (procedure_.contact()) s.has_contact = true, s.contact = *procedure_.contact();
   s.base_yaw_odometry_rad = snap.base_yaw_rad;
   fill_motion(snap, s);
-  s.card = to_wire(snap.card_state);
+  // A stalled loop publishes nothing: its last snapshot would still show the card active.
+  s.card = to_wire(supervisor_->stalled() ? drivers::LifecycleState::kFault : snap.card_state);
   s.arm = to_wire(arm_->state());
   s.arm_state = to_wire(arm_->status().phase);
   s.loop = loop_->statistics().summary();

@@ -283,6 +283,11 @@ protocol::Message EngineImpl::emergency_stop(MessageType type) {
 }
 
 protocol::Message EngineImpl::reset(MessageType type, const protocol::Reset& r) {
+  if (supervisor_->stalled()) {  // the card call that hung has not returned: nothing to recover yet
+    return refuse(type, make_error(ErrorCode::kLoopStalled, "",
+                                   "the control loop is still stalled (a motion-card call has "
+                                   "not returned): Reset once it runs again"));
+  }
   if (procedure_.phase() == Phase::kAligning || procedure_.phase() == Phase::kEngaging ||
       (wheel_motion_ != 0 && !wheel_stopping_) || held_move_ || held_drive_) {
     stop_motion();  // also a jog or an approach

@@ -19,6 +19,7 @@
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/control_loop.hpp"
 #include "ajar/daemon/engine.hpp"
+#include "ajar/daemon/loop_supervisor.hpp"
 #include "ajar/daemon/procedure.hpp"
 #include "ajar/daemon/realtime.hpp"
 #include "ajar/daemon/state_store.hpp"
@@ -37,6 +38,15 @@ inline core::CameraToBase camera_to_base_or_throw(const Config& config) {
     throw StartupError("camera_to_base_m: " + t.error().message + " (" + t.error().field + ")");
   }
   return *t;
+}
+
+inline LoopSupervisorSettings supervisor_settings(const Config& c) {
+  LoopSupervisorSettings s;
+  s.loop_rate_hz = c.control.rate_hz;
+  s.stall_timeout_s = c.control.stall_timeout_s;
+  s.realtime = c.control.realtime;
+  s.priority = c.control.priority;
+  return s;
 }
 
 inline ControlLoopSettings loop_settings(const Config& c) {
@@ -238,6 +248,11 @@ class EngineImpl final : public Engine {
   // Backstop when reports were dropped (report queue full): the snapshot is authoritative.
   void reconcile();
 
+  // A stall the loop supervisor latched since the last call: LOOP_STALLED (first in
+  // drain_reports(), so that it is the root cause of what the loop reports after it); what its
+  // out-of-band stop answered goes to the journal (take_warnings()).
+  void take_stall();
+
   // ---- faults, events, persistence -------------------------------------------------------------
 
   // A fault latches once (the first is the root cause): the procedure's motion phases end, the arm
@@ -270,6 +285,9 @@ class EngineImpl final : public Engine {
   std::shared_ptr<void> keepalive_;                   // first: outlives the drivers
   std::unique_ptr<drivers::ManagedMotionCard> card_;  // outlives the loop that drives it
   std::unique_ptr<ControlLoop> loop_;
+  std::unique_ptr<LoopSupervisor> supervisor_;  // runs while the loop's thread does
+  std::uint32_t stalls_seen_ = 0;  // the supervisor's stalls() and stops() already taken
+  std::uint32_t stall_stops_seen_ = 0;
   std::unique_ptr<drivers::ManagedManipulator> arm_;
   Procedure procedure_;
   StateStore store_;

@@ -5,6 +5,7 @@
 namespace ajar::daemon::detail {
 
 void EngineImpl::drain_reports() {
+  take_stall();
   const LoopSnapshot snap = loop_->snapshot();
   if (procedure_.observe_pose(snap.pose)) dirty_ = true;
   LoopReport r;
@@ -132,6 +133,27 @@ void EngineImpl::reconcile() {
     if (procedure_.phase() == Phase::kAligning) procedure_.alignment_interrupted();
     dirty_ = true;
     emit(EventKind::kMotionStopped, ErrorCode::kOk, "wheels at rest");
+  }
+}
+
+void EngineImpl::take_stall() {
+  const LoopSupervisor::Stall stall = supervisor_->last_stall();
+  if (stall.count != stalls_seen_) {
+    stalls_seen_ = stall.count;
+    latch(ErrorCode::kLoopStalled,
+          fmt::format("no control-loop cycle for {:.0f} ms (a card call hung): base "
+                      "emergency-stopped out of band",
+                      static_cast<double>(stall.silent_ns) / 1e6));
+  }
+  if (stall.stops != stall_stops_seen_) {
+    stall_stops_seen_ = stall.stops;
+    warnings_.push_back(
+        stall.stop_result == ErrorCode::kOk
+            ? std::string("loop supervisor: out-of-band emergency stop taken by the card")
+            : "loop supervisor: out-of-band emergency stop refused by the card: " +
+                  std::string(to_string(stall.stop_result)) +
+                  " (the base may move until the hung call returns or systemd's watchdog "
+                  "restarts ajard; docs/drivers.md, \"Stopping a stalled loop\")");
   }
 }
 

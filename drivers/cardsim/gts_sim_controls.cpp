@@ -21,6 +21,8 @@ constexpr double kFollowingErrorOffset = 500.0;
 
 // --- Control ----------------------------------------------------------------------------------
 
+AJAR_SIM_EXPORT void AjarSim_ReleaseBlockedCalls();
+
 AJAR_SIM_EXPORT void AjarSim_Reset() {
   control(0, [](Sim& s) {
     s.open = false;
@@ -39,6 +41,7 @@ AJAR_SIM_EXPORT void AjarSim_Reset() {
     s.delay_us.store(0, std::memory_order_relaxed);
     return 0;
   });
+  AjarSim_ReleaseBlockedCalls();
 }
 
 AJAR_SIM_EXPORT void AjarSim_SetTimeScale(double scale) {
@@ -124,6 +127,37 @@ AJAR_SIM_EXPORT void AjarSim_FailNextCalls(const char* function, short code, int
   });
 }
 
+AJAR_SIM_EXPORT void AjarSim_BlockNextCall(const char* function, int block_ms) {
+  const bool any = function == nullptr || *function == '\0' || std::strcmp(function, "*") == 0;
+  const int index = any ? -1 : function_index(function);
+  if (!any && index < 0) return;  // not a simulated call: nothing would ever match
+  try {
+    Hangs& h = hangs();
+    const std::lock_guard lock(h.mutex);
+    h.function = index;
+    h.block_ms = block_ms;
+    h.armed.store(true, std::memory_order_release);
+  } catch (...) {
+  }
+}
+
+AJAR_SIM_EXPORT void AjarSim_ReleaseBlockedCalls() {
+  try {
+    hangs().release();
+  } catch (...) {
+  }
+}
+
+AJAR_SIM_EXPORT int AjarSim_BlockedCalls() {
+  try {
+    Hangs& h = hangs();
+    const std::lock_guard lock(h.mutex);
+    return h.hanging;
+  } catch (...) {
+    return -1;
+  }
+}
+
 AJAR_SIM_EXPORT void AjarSim_SetCallDelayUs(int delay_us) {
   sim().delay_us.store(std::max(0, delay_us), std::memory_order_relaxed);
 }
@@ -182,3 +216,9 @@ static_assert(
     std::is_same_v<decltype(&AjarSim_LastUpdateMask), ajar::drivers::AjarSim_LastUpdateMask_t>);
 static_assert(std::is_same_v<decltype(&AjarSim_LastStop), ajar::drivers::AjarSim_LastStop_t>);
 static_assert(std::is_same_v<decltype(&AjarSim_NowMs), ajar::drivers::AjarSim_NowMs_t>);
+static_assert(
+    std::is_same_v<decltype(&AjarSim_BlockNextCall), ajar::drivers::AjarSim_BlockNextCall_t>);
+static_assert(std::is_same_v<decltype(&AjarSim_ReleaseBlockedCalls),
+                             ajar::drivers::AjarSim_ReleaseBlockedCalls_t>);
+static_assert(
+    std::is_same_v<decltype(&AjarSim_BlockedCalls), ajar::drivers::AjarSim_BlockedCalls_t>);

@@ -1,7 +1,10 @@
 #include "gts_sim_model.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 
 namespace ajar::drivers::cardsim {
@@ -72,6 +75,61 @@ void Sim::reset_axes() {
 Sim& sim() {
   static Sim s;
   return s;
+}
+
+Hangs::Hangs() {
+  if (const char* path = std::getenv("AJAR_SIM_BLOCK_FILE"); path != nullptr) file = path;
+}
+
+void Hangs::hang_if_blocked(int function_index) {
+  if (armed.load(std::memory_order_acquire)) {
+    std::unique_lock lock(mutex);
+    if (armed.load(std::memory_order_relaxed) && (function == -1 || function == function_index)) {
+      armed.store(false, std::memory_order_relaxed);  // one call
+      const std::uint64_t generation = release_generation;
+      const auto done = [&] { return release_generation != generation; };
+      ++hanging;
+      if (block_ms < 0) {
+        released.wait(lock, done);
+      } else {
+        released.wait_for(lock, std::chrono::milliseconds(block_ms), done);
+      }
+      --hanging;
+    }
+  }
+  if (file.empty()) return;
+  std::uint64_t generation = 0;
+  {
+    const std::lock_guard lock(mutex);
+    if (file_hanging || ::access(file.c_str(), F_OK) != 0) return;
+    file_hanging = true;
+    ++hanging;
+    generation = release_generation;
+  }
+  for (;;) {  // until the file is removed (or AjarSim_ReleaseBlockedCalls)
+    std::unique_lock lock(mutex);
+    if (released.wait_for(lock, std::chrono::milliseconds(1),
+                          [&] { return release_generation != generation; }) ||
+        ::access(file.c_str(), F_OK) != 0) {
+      file_hanging = false;
+      --hanging;
+      return;
+    }
+  }
+}
+
+void Hangs::release() {
+  {
+    const std::lock_guard lock(mutex);
+    armed.store(false, std::memory_order_relaxed);
+    ++release_generation;
+  }
+  released.notify_all();
+}
+
+Hangs& hangs() {
+  static Hangs h;
+  return h;
 }
 
 }  // namespace ajar::drivers::cardsim

@@ -23,13 +23,17 @@
 //   when moving into them). GT_ClrSts clears all latched bits.
 // No exported function lets an exception out: a GT_* call that fails inside returns 1 (execution
 // error), an AjarSim_* control does nothing (or returns -1 where it returns a number).
+// A hanging call (AjarSim_BlockNextCall, or the file named by AJAR_SIM_BLOCK_FILE) waits before it
+// takes the simulator's lock: the other calls, GT_Stop from another thread included, go on.
 #pragma once
 
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <mutex>
+#include <string>
 #include <thread>
 
 #include "ajar/drivers/gts_abi.hpp"
@@ -87,6 +91,26 @@ struct FailRule {
   int remaining = 0;  // < 0 = forever, 0 = unused slot
 };
 
+// Hanging calls: their own lock, never held while a call hangs or while `Sim::mutex` is taken.
+struct Hangs {
+  std::mutex mutex;
+  std::condition_variable released;
+  std::atomic<bool> armed{false};  // a rule is set (the fast path of every call reads only this)
+  int function = -1;               // the rule: index into kFunctions, -1 = any call
+  int block_ms = -1;               // < 0: until released
+  std::uint64_t release_generation = 0;
+  int hanging = 0;            // calls hanging now (the rule's and the file's)
+  std::string file;           // AJAR_SIM_BLOCK_FILE at the first call; empty = none
+  bool file_hanging = false;  // a call hangs on the file now (one at a time)
+
+  Hangs();
+  // Called by every GT_* call first: hangs when the rule (one call) or the file says so.
+  void hang_if_blocked(int function_index);
+  void release();  // ends every hanging call, clears the rule
+};
+
+Hangs& hangs();
+
 struct Sim {
   std::mutex mutex;
   bool open = false;
@@ -128,10 +152,11 @@ template <typename Body>
 short call(const char* name, bool needs_open, Body&& body) noexcept {
   try {
     Sim& s = sim();
+    const int index = function_index(name);
+    hangs().hang_if_blocked(index);
     const int delay = s.delay_us.load(std::memory_order_relaxed);
     if (delay > 0) std::this_thread::sleep_for(std::chrono::microseconds(delay));
     std::lock_guard lock(s.mutex);
-    const int index = function_index(name);
     if (index >= 0) ++s.calls[index];
     ++s.total_calls;
     for (FailRule& rule : s.rules) {

@@ -349,6 +349,14 @@ ErrorCode GtsMotionCard::emergency_stop(std::span<const int> axes) noexcept {
   return check_axes(axes, "emergency_stop");
 }
 
+ErrorCode GtsMotionCard::emergency_stop_out_of_band(std::span<const int> axes) noexcept {
+  // No last_, no jog_mode_: those belong to the owner thread, which may be inside a call now.
+  if (!open_.load(std::memory_order_acquire)) return ErrorCode::kDriverError;
+  const long mask = valid_mask(axes, settings_.axis_count);
+  if (mask == 0) return ErrorCode::kCardBadParameter;
+  return gts_error_code(api_->stop(mask, mask));
+}
+
 ErrorCode GtsMotionCard::axis_status(int axis, AxisStatus& out) noexcept {
   const int one[] = {axis};
   if (const auto e = check_axes(one, "axis_status"); e != ErrorCode::kOk) return e;

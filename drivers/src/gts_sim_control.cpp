@@ -41,6 +41,11 @@ GtsSimControl::GtsSimControl(const std::string& library_path) {
         resolve<AjarSim_FailNextCalls_t>(handle_, "AjarSim_FailNextCalls", library_path);
     set_call_delay_us =
         resolve<AjarSim_SetCallDelayUs_t>(handle_, "AjarSim_SetCallDelayUs", library_path);
+    block_next_call =
+        resolve<AjarSim_BlockNextCall_t>(handle_, "AjarSim_BlockNextCall", library_path);
+    release_blocked_calls = resolve<AjarSim_ReleaseBlockedCalls_t>(
+        handle_, "AjarSim_ReleaseBlockedCalls", library_path);
+    blocked_calls = resolve<AjarSim_BlockedCalls_t>(handle_, "AjarSim_BlockedCalls", library_path);
     set_encoder_lag_ms =
         resolve<AjarSim_SetEncoderLagMs_t>(handle_, "AjarSim_SetEncoderLagMs", library_path);
     call_count = resolve<AjarSim_CallCount_t>(handle_, "AjarSim_CallCount", library_path);

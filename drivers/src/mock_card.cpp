@@ -74,12 +74,45 @@ void MockMotionCard::set_motion_model(MockMotionModel model, std::int64_t stop_d
   model_ = model;
   stop_delay_ns_ = std::max<std::int64_t>(0, stop_delay_ns);
 }
-void MockMotionCard::set_block_status(bool block) {
+void MockMotionCard::block_calls(CardCall kind, int count, int block_ms) {
+  const Lock lock(mutex_);
+  block_ = BlockRule{kind, count, block_ms};
+}
+
+void MockMotionCard::release_blocked_calls() {
   {
     const Lock lock(mutex_);
-    block_status_ = block;
+    block_ = BlockRule{};
+    ++release_generation_;
   }
   unblocked_.notify_all();
+}
+
+std::size_t MockMotionCard::blocked_calls() const noexcept {
+  const Lock lock(mutex_);
+  return blocked_now_;
+}
+
+void MockMotionCard::set_block_status(bool block) {
+  if (block) {
+    block_calls(CardCall::kAxisStatus, -1, -1);
+  } else {
+    release_blocked_calls();
+  }
+}
+
+void MockMotionCard::hang_if_blocked(Lock& lock, CardCall kind) noexcept {
+  if (block_.remaining == 0 || block_.kind != kind) return;
+  if (block_.remaining > 0) --block_.remaining;
+  const std::uint64_t generation = release_generation_;
+  const auto released = [&] { return release_generation_ != generation; };
+  ++blocked_now_;
+  if (block_.block_ms < 0) {
+    unblocked_.wait(lock, released);
+  } else {
+    unblocked_.wait_for(lock, std::chrono::milliseconds(block_.block_ms), released);
+  }
+  --blocked_now_;
 }
 
 void MockMotionCard::drop_next_calls(CardCall kind, int n) noexcept {
@@ -261,6 +294,7 @@ ErrorCode MockMotionCard::enter(Lock& lock, CardCall kind, const char* call,
   call_applied_ = true;
   ++calls_;
   ++calls_by_kind_[static_cast<std::size_t>(kind)];
+  hang_if_blocked(lock, kind);
   if (!realtime) return ErrorCode::kOk;
   if (fault_ == MockFault::kErrorCode) {
     return fail(last_, ErrorCode::kDriverError, call, 0, "mock card: injected error code");

@@ -227,10 +227,29 @@ ErrorCode MockMotionCard::emergency_stop(std::span<const int> axes) noexcept {
   });
 }
 
+ErrorCode MockMotionCard::emergency_stop_out_of_band(std::span<const int> axes) noexcept {
+  // Not through enter(): never hangs, no fault menu. A call hanging in hang_if_blocked() waits
+  // with the lock released, so this one gets it.
+  const Lock lock(mutex_);
+  ++calls_;
+  ++calls_by_kind_[static_cast<std::size_t>(CardCall::kEmergencyStopOutOfBand)];
+  ErrorCode result = ErrorCode::kDriverError;  // not open
+  if (open_) {
+    result = ErrorCode::kCardBadParameter;  // no valid axis
+    for (const int n : axes) {
+      if (!valid(n)) continue;
+      Axis& a = axis(n);
+      halt(a);
+      a.emergency_stopped = true;
+      result = ErrorCode::kOk;
+    }
+  }
+  return recording_ ? logged(record(CardCall::kEmergencyStopOutOfBand, axes), result) : result;
+}
+
 ErrorCode MockMotionCard::axis_status(int n, AxisStatus& out) noexcept {
   Lock lock;
   AJAR_MOCK_TRY(enter(lock, CardCall::kAxisStatus, "axis_status", true));
-  unblocked_.wait(lock, [this] { return !block_status_; });
   const int one[] = {n};
   AJAR_MOCK_TRY(check_axes(one, "axis_status"));
   Axis& a = axis(n);

@@ -31,9 +31,10 @@ inline std::string read_text_file(const std::string& path) {
 
 class AjardProcess {
  public:
-  // Starts `AJARD_PATH args...`; output in `dir`/NAME.stdout and .stderr.
+  // Starts `AJARD_PATH args...`; output in `dir`/NAME.stdout and .stderr. `extra_env`
+  // ("NAME=value" each) is added to the environment.
   AjardProcess(const std::vector<std::string>& args, const std::string& dir,
-               const std::string& name = "ajard")
+               const std::string& name = "ajard", const std::vector<std::string>& extra_env = {})
       : stdout_path_(dir + "/" + name + ".stdout"), stderr_path_(dir + "/" + name + ".stderr") {
     std::vector<std::string> argv_text{AJARD_PATH};
     argv_text.insert(argv_text.end(), args.begin(), args.end());
@@ -50,6 +51,7 @@ class AjardProcess {
       }
       env_text.push_back(entry);
     }
+    env_text.insert(env_text.end(), extra_env.begin(), extra_env.end());
     std::vector<char*> envp;
     for (auto& e : env_text)
       envp.push_back(e.data());

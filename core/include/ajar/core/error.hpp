@@ -87,6 +87,7 @@ enum class ErrorCode : std::uint16_t {
   kEmergencyStopped = 513,  // an emergency stop was commanded: Reset to continue
   kCardOpenFailed = 514,    // GTS -6: the card could not be opened (missing, in use, driver)
   kArmFault = 515,          // the arm controller reported a fault (task aborted): clear_fault
+  kLoopStalled = 517,       // the control loop stopped cycling (a card call hung): base stopped
   kVelocityMismatch = 520,  // the wheels did not do what the card was told (a card that does not
                             // apply a command, or reports stale status): emergency stop
 

@@ -85,6 +85,7 @@ struct ControlConfig {
   bool lock_memory = false;              // try mlockall(MCL_CURRENT | MCL_FUTURE)
   double motion_timeout_margin_s = 2.0;  // deadline = planned duration * 1.5 + margin
   double aligned_tolerance_rad = 0.01;   // a re-measured plane within this counts as aligned
+  double stall_timeout_s = 0.1;  // no loop cycle for this long -> the supervisor stops the base
 };
 
 struct SafetyConfig {

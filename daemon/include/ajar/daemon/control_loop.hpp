@@ -19,9 +19,9 @@
 // Every cycle (cycle(), noexcept, no allocation, no locks, no waiting, no logging), in this order:
 //   1. axis status of both wheels (odometry; the wheels' measured velocity from the encoder
 //      deltas; what supervision and a new move start from);
-//   2. stops: emergency stop (card emergency stop in this cycle), fault stops (smooth stop, latch
-//      the code: the first latched code is the one reported and kept), smooth stop (also of a
-//      jog);
+//   2. stops: emergency stop (card emergency stop in this cycle), a stall the loop supervisor
+//      latched (card emergency stop, latch kLoopStalled), fault stops (smooth stop, latch the
+//      code: the first latched code is the one reported and kept), smooth stop (also of a jog);
 //   3. one step of a running recovery (Reset), a state machine advanced once per cycle: wait for
 //      the wheels to rest, clear faults, enable the axes, then poll their status every cycle until
 //      the servo is on without alarm, or fail at recovery_timeout_s. While it runs the command
@@ -225,6 +225,18 @@ class ControlLoop {
   const LoopStatisticsRecorder& statistics() const noexcept { return statistics_; }
   // True while the thread completes cycles: the last one ended within max(10 periods, 20 ms).
   bool healthy(std::int64_t now_ns) const noexcept;
+  // What the loop supervisor (loop_supervisor.hpp) watches: the thread runs (between
+  // start_thread() and stop_thread()), and when its last cycle ended (CLOCK_MONOTONIC ns).
+  bool thread_running() const noexcept { return thread_running_.load(std::memory_order_acquire); }
+  std::int64_t last_cycle_end_ns() const noexcept {
+    return last_cycle_end_ns_.load(std::memory_order_acquire);
+  }
+  // The loop supervisor found the loop stalled (and stopped the card out of band). Never
+  // refused, any thread: like a fault stop, it cancels what was posted before it and latches
+  // kLoopStalled; the loop acts on it as soon as its stalled call returns: an in-band emergency
+  // stop in the next handle_stops, and any fault the returning call reports before that is
+  // latched as kLoopStalled (the root cause).
+  void latch_stalled() noexcept;
 
   // ---- control thread (or a test driving the loop by hand, without start_thread()) ----
   void cycle(std::int64_t now_ns) noexcept;
@@ -295,6 +307,7 @@ class ControlLoop {
   std::atomic<std::uint32_t> stop_generation_{0};      // every stop, emergency and fault stop
   std::atomic<std::uint32_t> latch_generation_{0};     // emergency and fault stops
   std::atomic<std::uint32_t> emergency_generation_{0};
+  std::atomic<bool> stall_pending_{false};  // latch_stalled() not yet handled by the loop
   std::atomic<bool> arm_moving_{false};
   std::atomic<std::int64_t> heartbeat_ns_{0};
   std::atomic<bool> exit_requested_{false};

@@ -5,6 +5,10 @@
 // Threading: the vendor API is not thread-safe. One thread owns a GtsMotionCard (the control
 // thread); nothing here locks. Every call returns as soon as the vendor calls it makes return:
 // nothing sleeps or polls (enable_axes() issues servo-on; the caller watches axis_status()).
+// The exception is emergency_stop_out_of_band(): one GT_Stop(mask, mask) straight from the
+// calling thread, touching no driver state; whether the vendor library lets it through while the
+// owner thread is blocked inside another GT_* call is the vendor's (its gts.h documents return
+// code -8, "multi-thread lock error": then kCardBusy). docs/drivers.md, "Stopping a stalled loop".
 //
 // Errors: every vendor return code maps to a named ajar::ErrorCode (gts_error_code()); the
 // realtime calls return that code and keep the call, the axis and the raw vendor code in
@@ -13,6 +17,7 @@
 // kDriverError (servo off) before it commands anything. Limits and alarms are never disabled.
 #pragma once
 
+#include <atomic>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -65,6 +70,9 @@ class GtsMotionCard final : public MotionCard {
   // GT_GetSts, GT_GetPrfPos, GT_GetEncPos.
   ErrorCode axis_status(int axis, AxisStatus& out) noexcept override;
   CardFailure last_failure() const noexcept override { return last_; }
+  // GT_Stop(mask, mask) from the calling thread (any thread); the vendor code as an ErrorCode
+  // (gts_error_code), kCardBadParameter without a valid axis, kDriverError while not open.
+  ErrorCode emergency_stop_out_of_band(std::span<const int> axes) noexcept override;
 
   const GtsCardSettings& settings() const noexcept { return settings_; }
 
@@ -78,8 +86,8 @@ class GtsMotionCard final : public MotionCard {
   GtsCardSettings settings_;
   void* handle_ = nullptr;
   std::unique_ptr<Api> api_;
-  bool open_ = false;
-  bool jog_mode_[9] = {};  // per axis 1..8: the driver selected jog mode (GT_PrfJog) last
+  std::atomic<bool> open_{false};  // also read by emergency_stop_out_of_band() on another thread
+  bool jog_mode_[9] = {};          // per axis 1..8: the driver selected jog mode (GT_PrfJog) last
   CardFailure last_;
 };
 

@@ -7,8 +7,8 @@
 // Simulated time (integer nanoseconds) = the monotonic clock scaled by the time scale, or a manual
 // clock that only AjarSim_AdvanceClockNs moves; brought up to date on every call (no thread).
 // Motion is evaluated in closed form at that time, so the call rate does not change a trajectory.
-// All AjarSim_* and GT_* calls are serialised by one mutex inside the simulator; none lets an
-// exception out.
+// All AjarSim_* and GT_* calls are serialised by one mutex inside the simulator (a hanging call
+// waits before it takes it); none lets an exception out.
 #pragma once
 
 #include <string>
@@ -26,7 +26,7 @@ enum class SimFault : int {
 
 extern "C" {
 // Back to power-on: card closed, axes off at position 0, no faults, no failure rules, time scale
-// 1, no call delay, encoder lag 1 ms, call counters zeroed.
+// 1, no call delay, encoder lag 1 ms, call counters zeroed, no hanging call.
 using AjarSim_Reset_t = void (*)();
 // Simulated time runs `scale` times faster than the monotonic clock (> 0).
 using AjarSim_SetTimeScale_t = void (*)(double scale);
@@ -42,6 +42,19 @@ using AjarSim_InjectFault_t = void (*)(short axis, int fault);
 using AjarSim_FailNextCalls_t = void (*)(const char* function, short code, int count);
 // Every GT_* call sleeps this long (real time) before it runs: a slow card / bus.
 using AjarSim_SetCallDelayUs_t = void (*)(int delay_us);
+// A vendor call that hangs: the next call of `function` (nullptr or "*" = any GT_* call) waits,
+// before it runs and outside the simulator's lock, for `block_ms` of real time, or until
+// AjarSim_ReleaseBlockedCalls when block_ms < 0; then it runs as usual. Other calls (GT_Stop from
+// another thread) go on meanwhile. One call per arming; arming again replaces the rule.
+// The same from outside the process (an ajard running on the simulator): when the environment
+// variable AJAR_SIM_BLOCK_FILE names a file (read once, at the first GT_* call), the next GT_* call
+// made while that file exists hangs until it is removed (one call at a time; other threads' calls
+// go on meanwhile).
+using AjarSim_BlockNextCall_t = void (*)(const char* function, int block_ms);
+// Ends every hanging call (also the file's) and clears the rule.
+using AjarSim_ReleaseBlockedCalls_t = void (*)();
+// How many calls hang right now.
+using AjarSim_BlockedCalls_t = int (*)();
 // Encoder lags the profile by this much simulated time while moving (0 = none).
 using AjarSim_SetEncoderLagMs_t = void (*)(double lag_ms);
 // How often `function` was called since the last reset (nullptr or "*" = all GT_* calls).
@@ -69,6 +82,9 @@ class GtsSimControl {
   AjarSim_InjectFault_t inject_fault_raw = nullptr;
   AjarSim_FailNextCalls_t fail_next_calls = nullptr;
   AjarSim_SetCallDelayUs_t set_call_delay_us = nullptr;
+  AjarSim_BlockNextCall_t block_next_call = nullptr;
+  AjarSim_ReleaseBlockedCalls_t release_blocked_calls = nullptr;
+  AjarSim_BlockedCalls_t blocked_calls = nullptr;
   AjarSim_SetEncoderLagMs_t set_encoder_lag_ms = nullptr;
   AjarSim_CallCount_t call_count = nullptr;
   AjarSim_LastUpdateMask_t last_update_mask = nullptr;

@@ -29,7 +29,10 @@
 //     ms later, see motion_card.hpp: poll axis_status().enabled);
 //   disable_axes() is allowed in any configured state and makes an active wrapper inactive;
 //   clear_faults() in kFault = the implementation's clear_faults() + the checks of recover();
-//   axis_status() is always passed through.
+//   axis_status() is always passed through;
+//   emergency_stop_out_of_band() is passed through in every state and touches none of the
+//   wrapper's state (it is called from another thread while the owner thread may be inside a
+//   call of the wrapper).
 // The card's realtime calls stay realtime through the wrapper (noexcept, no allocation, no
 // waiting); last_failure() is the wrapper's own refusal or the implementation's failure. The
 // transitions (configure, activate, deactivate, cleanup, recover) are start-up calls: they may
@@ -37,7 +40,8 @@
 //   connect() = configure(); disconnect() = deactivate() (if active) + cleanup();
 //   clear_fault() in kFault = recover(); status() is always passed through.
 //
-// Threading: like the drivers they wrap, one owner thread (the card: the control thread).
+// Threading: like the drivers they wrap, one owner thread (the card: the control thread); the
+// card's emergency_stop_out_of_band() from any thread.
 #pragma once
 
 #include <cstdint>
@@ -93,6 +97,9 @@ class ManagedMotionCard final : public MotionCard {
   ErrorCode emergency_stop(std::span<const int> axes) noexcept override;
   ErrorCode axis_status(int axis, AxisStatus& out) noexcept override;
   CardFailure last_failure() const noexcept override { return last_; }
+  ErrorCode emergency_stop_out_of_band(std::span<const int> axes) noexcept override {
+    return impl_->emergency_stop_out_of_band(axes);
+  }
 
  private:
   std::unique_ptr<MotionCard> impl_;

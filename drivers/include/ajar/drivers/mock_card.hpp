@@ -28,8 +28,13 @@
 //                 progresses, stops still work)
 //   behaviour     set_stops_never_rest() (a smooth stop never comes to rest until cleared),
 //                 set_enable_delay_reads(n) (the servo shows on after n axis_status() reads of the
-//                 axis), set_alarm_persists() (clear_faults() leaves a drive alarm latched),
-//                 set_block_status() (axis_status() waits until cleared: stalls the loop)
+//                 axis), set_alarm_persists() (clear_faults() leaves a drive alarm latched)
+//   hanging call  block_calls(kind, count, block_ms): the next `count` calls of `kind` hang
+//                 inside the card (as a vendor call blocked in the driver: the lock is released
+//                 meanwhile) for block_ms of real time, or until release_blocked_calls();
+//                 blocked_calls() counts the calls hanging now. set_block_status(true/false) =
+//                 every axis_status() hangs until released (block_calls(kAxisStatus, -1)) /
+//                 release_blocked_calls(): a stalled control loop
 //   card faults   (a card that misbehaves, for the control loop's supervision; none touches
 //                 emergency_stop() except the silence) drop_next_calls(kind, n): the next n calls
 //                 of `kind` (move, jog, smooth stop) answer kOk and change nothing (accepted, not
@@ -42,6 +47,11 @@
 //                 velocity(axis): the simulated wheel's velocity now (counts/ms, signed);
 //                 jogging(axis): it moves in velocity mode; motion_call(axis): the log index of
 //                 the call that started its current motion
+//
+// emergency_stop_out_of_band(): halts the axes at once and latches their emergency-stop flag, like
+// emergency_stop(), from any thread, also while another call hangs in block_calls() (which waits
+// with the lock released); the fault menu and one-shot failures do not apply to it (counted as
+// CardCall::kEmergencyStopOutOfBand, logged when recording).
 //
 // Threading: every call takes one internal lock, so a test thread may configure and observe the
 // card while the control thread drives it (uncontended in the daemon's mock mode).
@@ -73,8 +83,9 @@ enum class CardCall : std::uint8_t {
   kSmoothStop,
   kEmergencyStop,
   kAxisStatus,
+  kEmergencyStopOutOfBand,
 };
-inline constexpr std::size_t kCardCallKinds = 10;
+inline constexpr std::size_t kCardCallKinds = 11;
 
 // One commanding call as the card got it (MockMotionCard::record_calls).
 struct CardCallRecord {
@@ -132,6 +143,11 @@ class MockMotionCard final : public MotionCard {
     set_locked(enable_delay_reads_, reads < 0 ? 0 : reads);
   }
   void set_alarm_persists(bool persists) noexcept { set_locked(alarm_persists_, persists); }
+  // A call that hangs (see the top of this file): count < 0 = every call of `kind` until
+  // released; block_ms < 0 = until release_blocked_calls(). Replaces the previous rule.
+  void block_calls(CardCall kind, int count = 1, int block_ms = -1);
+  void release_blocked_calls();  // ends every hanging call and clears the rule
+  std::size_t blocked_calls() const noexcept;
   void set_block_status(bool block);
   // Card faults (see the top of this file).
   void drop_next_calls(CardCall kind, int n = 1) noexcept;
@@ -161,6 +177,7 @@ class MockMotionCard final : public MotionCard {
   ErrorCode emergency_stop(std::span<const int> axes) noexcept override;
   ErrorCode axis_status(int axis, AxisStatus& out) noexcept override;
   CardFailure last_failure() const noexcept override;
+  ErrorCode emergency_stop_out_of_band(std::span<const int> axes) noexcept override;
 
  private:
   struct Axis {
@@ -195,9 +212,10 @@ class MockMotionCard final : public MotionCard {
   // Sets the axis moving on `motion` (planned from `here`), started by the call being logged.
   void start(Axis& a, bool jog, bool stuck, double direction, double here, double stop_dec,
              const profile::Motion& motion) noexcept;
-  // Takes the lock (after kSlow's sleep), counts the call, and (realtime calls) applies
-  // kErrorCode / kIntermittent / fail_next_calls.
+  // Takes the lock (after kSlow's sleep), counts the call, hangs it when block_calls() says so,
+  // and (realtime calls) applies kErrorCode / kIntermittent / fail_next_calls.
   ErrorCode enter(Lock& lock, CardCall kind, const char* call, bool realtime) noexcept;
+  void hang_if_blocked(Lock& lock, CardCall kind) noexcept;
   ErrorCode check_open(const char* call) noexcept;
   ErrorCode check_axes(std::span<const int> axes, const char* call) noexcept;
   // A realtime call on `axes`: enter(), `body` under the lock, logged.
@@ -250,7 +268,14 @@ class MockMotionCard final : public MotionCard {
   bool stops_never_rest_ = false;
   int enable_delay_reads_ = 0;
   bool alarm_persists_ = false;
-  bool block_status_ = false;
+  struct BlockRule {
+    CardCall kind = CardCall::kAxisStatus;
+    int remaining = 0;  // calls still to hang; < 0 = every call until released; 0 = no rule
+    int block_ms = -1;  // < 0 = until released
+  };
+  BlockRule block_;
+  std::uint64_t release_generation_ = 0;  // bumped by release_blocked_calls()
+  std::size_t blocked_now_ = 0;
   std::array<int, kCardCallKinds> drop_calls_{};
   std::array<int, kCardCallKinds> fail_after_calls_{};
   bool call_applied_ = true;  // the call being logged was applied

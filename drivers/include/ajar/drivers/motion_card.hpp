@@ -1,7 +1,8 @@
 // MotionCard: the narrow interface the control loop uses to drive the base's wheels. Implemented by
 // the real GTS4 driver (vendor library loaded at run time), the simulator (the same driver over the
 // card-simulator library), and the in-process mock. Not thread-safe: one thread (the control
-// thread) owns a card.
+// thread) owns a card; the one exception is emergency_stop_out_of_band() (below), the loop
+// supervisor's stop from another thread.
 //
 // Two kinds of call:
 // - start-up / shut-down (open(), close()): may take long, return an Outcome with a message.
@@ -118,6 +119,17 @@ class MotionCard {
   // The detail of the last realtime call that did not return kOk (code kOk if none failed yet).
   // Implementations that keep no detail return {code} of nothing: CardFailure{}.
   virtual CardFailure last_failure() const noexcept { return {}; }
+
+  // ---- any thread: the loop supervisor's stop (docs/drivers.md, "Stopping a stalled loop") ----
+  // Stops the axes at once by a path that does not go through the owner thread: safe to call from
+  // another thread while the owner thread is inside any other call of this card, also one that
+  // never returns. noexcept, no allocation, never waits for that other call; it changes nothing
+  // the owner thread's calls read or write in the implementation (last_failure() stays as it
+  // was). kOk: the card took the stop (the axes latch their emergency-stop state, as after
+  // emergency_stop(), so a command issued by the stalled call after it is refused by the card);
+  // otherwise why not, e.g. kCardBusy when the vendor library refuses a second thread while the
+  // blocked call holds it. Only while the card is open (else kDriverError).
+  virtual ErrorCode emergency_stop_out_of_band(std::span<const int> axes) noexcept = 0;
 };
 
 }  // namespace ajar::drivers

@@ -1,0 +1,128 @@
+// LoopSupervisor: watches the control loop from outside it, on its own thread, and acts when the
+// loop stops cycling (docs/control-loop.md, "Stalled loop"). The loop's cycle makes vendor calls;
+// one that does not return stalls the loop, and with it every stop, deadline and deadman the loop
+// enforces, while the card keeps running its last move or jog.
+//
+// Every check period the supervisor reads when the loop's last cycle ended. The loop is stalled
+// when no cycle ended for stall_timeout (control.stall_timeout_s, at least 2 loop periods) AND the
+// supervisor itself saw no cycle end in its last kQuietChecks checks (so a process that was not
+// scheduled at all, supervisor included, is not taken for a stalled loop: the supervisor counts
+// only what it watched). Then, once per stall, in this order:
+//   1. loop.latch_stalled(): the loop latches kLoopStalled the moment the hung call returns
+//      (nothing it posted before moves; what that call reports is latched as kLoopStalled);
+//   2. the stall is published (stalls()): the engine latches LOOP_STALLED on the I/O thread,
+//      tells every session (fault_latched) and persists it, whatever the card does next;
+//   3. card.emergency_stop_out_of_band(wheels): the base is stopped by a path that does not need
+//      the control thread (motion_card.hpp; what the real card offers: docs/drivers.md); its
+//      answer is published after it (stops(), last_stall().stop_result): the engine journals it.
+//      Should the vendor library make that call wait behind the hung one, the latch of 1 and 2
+//      is already out.
+// When the loop completes a cycle again the supervisor re-arms (a later stall is a new one); the
+// fault stays latched until an operator's Reset, which the engine refuses while stalled() holds.
+// The systemd watchdog stays the last resort: ajard stops petting it while the loop is unhealthy
+// (ControlLoop::healthy()), and systemd aborts it WatchdogSec later, after the supervisor acted.
+//
+// Threading: check() runs on the supervisor's thread (or on a test's, by hand: no thread then);
+// stalls(), last_stall(), stalled() on any thread. The supervisor never blocks the loop and never
+// calls the card but for its out-of-band stop.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ajar/core/error.hpp"
+#include "ajar/drivers/motion_card.hpp"
+
+namespace ajar::daemon {
+
+// What the supervisor reads from and tells the loop (the engine wires it to its ControlLoop; the
+// unit tests to a fake). Called on the supervisor's thread: must not block.
+struct SupervisedLoop {
+  std::function<bool()> running;                    // the control thread runs
+  std::function<std::int64_t()> last_cycle_end_ns;  // CLOCK_MONOTONIC ns of its last cycle's end
+  std::function<void()> latch_stalled;              // ControlLoop::latch_stalled()
+};
+
+struct LoopSupervisorSettings {
+  double loop_rate_hz = 500;     // control.rate_hz
+  double stall_timeout_s = 0.1;  // control.stall_timeout_s
+  bool realtime = false;         // control.realtime: SCHED_FIFO at `priority` for the supervisor
+  int priority = 80;             // control.priority (the loop's: within the unit's LimitRTPRIO)
+};
+
+class LoopSupervisor {
+ public:
+  // Checks per stall timeout, and how many of them in a row must see no cycle end.
+  static constexpr int kChecksPerTimeout = 4;
+  static constexpr int kQuietChecks = 3;
+
+  // `card` and the loop behind `loop` must outlive the supervisor; `axes` are the wheels (<= 8).
+  LoopSupervisor(SupervisedLoop loop, drivers::MotionCard& card, std::span<const int> axes,
+                 const LoopSupervisorSettings& settings);
+  ~LoopSupervisor();  // stop_thread()
+  LoopSupervisor(const LoopSupervisor&) = delete;
+  LoopSupervisor& operator=(const LoopSupervisor&) = delete;
+
+  // Starts the thread (checks every check_period_ns()); returns a warning when SCHED_FIFO was
+  // asked for and refused. Stops (joins) it. Both idempotent; I/O thread.
+  std::vector<std::string> start_thread();
+  void stop_thread() noexcept;
+
+  // One check at `now_ns` (CLOCK_MONOTONIC ns). True when this check latched a stall.
+  bool check(std::int64_t now_ns) noexcept;
+
+  struct Stall {
+    std::uint32_t count = 0;                 // stalls latched so far (this one included)
+    std::int64_t silent_ns = 0;              // how long the loop had made no cycle when it latched
+    std::uint32_t stops = 0;                 // out-of-band stops that have returned so far
+    ErrorCode stop_result = ErrorCode::kOk;  // what the last of them answered
+  };
+  // Any thread. stalls() is the number latched so far, stops() the number of out-of-band stops
+  // that have returned (one per stall, published after it); last_stall() the latest of each.
+  std::uint32_t stalls() const noexcept { return stalls_.load(std::memory_order_acquire); }
+  std::uint32_t stops() const noexcept { return stops_.load(std::memory_order_acquire); }
+  Stall last_stall() const noexcept;
+  // Any thread: a stall was latched and the loop has completed no cycle since (as seen by the
+  // last check).
+  bool stalled() const noexcept { return stalled_.load(std::memory_order_acquire); }
+
+  std::int64_t stall_timeout_ns() const noexcept { return stall_timeout_ns_; }
+  std::int64_t check_period_ns() const noexcept { return check_period_ns_; }
+
+ private:
+  void thread_main() noexcept;
+
+  SupervisedLoop loop_;
+  drivers::MotionCard& card_;
+  int axes_[8] = {};
+  std::size_t axis_count_ = 0;
+  LoopSupervisorSettings settings_;
+  std::int64_t stall_timeout_ns_;
+  std::int64_t check_period_ns_;
+
+  // The checking thread's own state.
+  std::int64_t seen_end_ns_ = 0;
+  bool seen_any_ = false;
+  int quiet_checks_ = 0;
+
+  // Published.
+  std::atomic<bool> stalled_{false};
+  std::atomic<std::uint32_t> stalls_{0};
+  std::atomic<std::uint32_t> stops_{0};
+  std::atomic<std::int64_t> last_silent_ns_{0};
+  std::atomic<ErrorCode> last_stop_result_{ErrorCode::kOk};
+
+  std::mutex mutex_;  // the thread's sleep and exit only
+  std::condition_variable wake_;
+  bool exit_ = false;
+  std::thread thread_;
+};
+
+}  // namespace ajar::daemon

@@ -1,0 +1,139 @@
+// The loop supervisor (loop_supervisor.hpp): a check of the loop's last cycle end, its thread.
+#include "ajar/daemon/loop_supervisor.hpp"
+
+#include <pthread.h>
+#include <sched.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <future>
+#include <stdexcept>
+
+#include "ajar/daemon/realtime.hpp"
+
+namespace ajar::daemon {
+namespace {
+
+std::int64_t seconds_to_ns(double s) {
+  return static_cast<std::int64_t>(std::llround(s * 1e9));
+}
+
+// SCHED_FIFO for the calling thread; empty when granted, else the warning.
+std::string make_realtime(int priority) {
+  const int lo = sched_get_priority_min(SCHED_FIFO);
+  const int hi = sched_get_priority_max(SCHED_FIFO);
+  sched_param param{};
+  param.sched_priority = std::clamp(priority, lo, hi);
+  const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);
+  if (rc == 0) return {};
+  return "control.realtime: the loop supervisor's SCHED_FIFO priority " +
+         std::to_string(param.sched_priority) + " refused (" + std::strerror(rc) +
+         "); it runs with normal scheduling";
+}
+
+}  // namespace
+
+LoopSupervisor::LoopSupervisor(SupervisedLoop loop, drivers::MotionCard& card,
+                               std::span<const int> axes, const LoopSupervisorSettings& settings)
+    : loop_(std::move(loop)),
+      card_(card),
+      settings_(settings),
+      stall_timeout_ns_(std::max(seconds_to_ns(settings.stall_timeout_s),
+                                 seconds_to_ns(2.0 / settings.loop_rate_hz))),
+      check_period_ns_(std::max<std::int64_t>(stall_timeout_ns_ / kChecksPerTimeout, 1)) {
+  if (!loop_.running || !loop_.last_cycle_end_ns || !loop_.latch_stalled) {
+    throw std::invalid_argument("LoopSupervisor: the loop's hooks are required");
+  }
+  if (axes.size() > std::size(axes_)) throw std::invalid_argument("LoopSupervisor: > 8 axes");
+  for (const int axis : axes)
+    axes_[axis_count_++] = axis;
+}
+
+LoopSupervisor::~LoopSupervisor() {
+  stop_thread();
+}
+
+bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
+  if (!loop_.running()) {  // not started, or stopping: nothing to watch
+    seen_any_ = false;
+    quiet_checks_ = 0;
+    return false;
+  }
+  const std::int64_t end = loop_.last_cycle_end_ns();
+  if (!seen_any_ || end != seen_end_ns_) {  // the loop made progress: (re-)armed
+    seen_any_ = true;
+    seen_end_ns_ = end;
+    quiet_checks_ = 0;
+    stalled_.store(false, std::memory_order_release);
+    return false;
+  }
+  if (quiet_checks_ < kQuietChecks) ++quiet_checks_;
+  if (stalled_.load(std::memory_order_relaxed)) return false;  // this stall was acted on
+  const std::int64_t silent = now_ns - end;
+  if (quiet_checks_ < kQuietChecks || silent < stall_timeout_ns_) return false;
+  // Stalled. The loop first (a call returning now must find the latch), the engine next (its
+  // latch must not wait for the card), then the card.
+  stalled_.store(true, std::memory_order_release);
+  loop_.latch_stalled();
+  last_silent_ns_.store(silent, std::memory_order_relaxed);
+  stalls_.fetch_add(1, std::memory_order_acq_rel);
+  const ErrorCode stop = card_.emergency_stop_out_of_band({axes_, axis_count_});
+  last_stop_result_.store(stop, std::memory_order_relaxed);
+  stops_.fetch_add(1, std::memory_order_acq_rel);
+  return true;
+}
+
+LoopSupervisor::Stall LoopSupervisor::last_stall() const noexcept {
+  Stall s;
+  s.count = stalls_.load(std::memory_order_acquire);
+  s.stops = stops_.load(std::memory_order_acquire);
+  s.silent_ns = last_silent_ns_.load(std::memory_order_relaxed);
+  s.stop_result = last_stop_result_.load(std::memory_order_relaxed);
+  return s;
+}
+
+std::vector<std::string> LoopSupervisor::start_thread() {
+  if (thread_.joinable()) return {};
+  {
+    const std::lock_guard lock(mutex_);
+    exit_ = false;
+  }
+  std::promise<std::string> refused;
+  auto warning = refused.get_future();
+  thread_ = std::thread([this, realtime = settings_.realtime, priority = settings_.priority,
+                         promise = std::move(refused)]() mutable {
+    promise.set_value(realtime ? make_realtime(priority) : std::string());
+    thread_main();
+  });
+  std::string w = warning.get();
+  if (w.empty()) return {};
+  return {std::move(w)};
+}
+
+void LoopSupervisor::stop_thread() noexcept {
+  {
+    const std::lock_guard lock(mutex_);
+    exit_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void LoopSupervisor::thread_main() noexcept {
+  using Clock = std::chrono::steady_clock;  // CLOCK_MONOTONIC, as the loop's cycle ends
+  const auto period = std::chrono::nanoseconds(check_period_ns_);
+  auto next = Clock::now();
+  std::unique_lock lock(mutex_);
+  while (!exit_) {
+    next += period;
+    if (wake_.wait_until(lock, next, [this] { return exit_; })) break;
+    lock.unlock();
+    (void)check(monotonic_now_ns());
+    lock.lock();
+    if (const auto now = Clock::now(); now > next + period) next = now;  // late: no burst
+  }
+}
+
+}  // namespace ajar::daemon

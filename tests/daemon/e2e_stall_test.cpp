@@ -1,0 +1,110 @@
+// A stalled control loop in the real ajard binary on the card simulator: a vendor call hangs
+// mid-jog (the simulator's AJAR_SIM_BLOCK_FILE: while the file exists, the next GT_* call of the
+// process hangs). The loop supervisor latches LOOP_STALLED while the call hangs and every session
+// is told; its out-of-band GT_Stop is taken by the card (the journal says so); a Reset is refused
+// while the loop is stalled; once the call returns the motion ends, nothing moves and a Drive is
+// refused until a Reset, after which the base drives again. docs/control-loop.md, "Stalled loop".
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "ajard_process.hpp"
+#include "e2e_fixture.hpp"
+
+namespace ajar::test {
+namespace {
+
+using protocol::EventKind;
+using protocol::Role;
+
+class AjardStall : public ::testing::Test {
+ protected:
+  std::string path(const std::string& name) const { return dir_.path() + "/" + name; }
+  // Re-sends the Drive (the client's key-repeat) until the telemetry shows the base moving.
+  static bool drive_until_moving(TestClient& controller) {
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (std::chrono::steady_clock::now() < give_up) {
+      if (error_code_of(controller.request(protocol::Drive{0.05, 0.0})) != ErrorCode::kOk) {
+        return false;
+      }
+      if (!controller.wait_telemetry(controller.telemetry_count() + 1)) return false;
+      if (controller.last_telemetry()->moving) return true;
+    }
+    return false;
+  }
+  TempDir dir_;
+};
+
+TEST_F(AjardStall, AVendorCallThatHangsMidJogIsCaughtTheBaseStoppedAndResetNeeded) {
+  const std::string config = path("ajard.yaml");
+  std::ofstream(config) << daemon::to_yaml(e2e_config(drivers::DriverKind::kSim, dir_.path(), 10));
+  const std::string hang = path("hang");
+  AjardProcess ajard({"--config", config, "--listen", "127.0.0.1:0", "--port-file", path("port"),
+                      "--state-dir", path("state")},
+                     dir_.path(), "stall", {"AJAR_SIM_BLOCK_FILE=" + hang});
+  const auto port = wait_for_port_file(path("port"), ajard);
+  ASSERT_TRUE(port) << ajard.err();
+  TestClient controller(*port);
+  ASSERT_EQ(controller.hello(Role::kController, 0x51).granted_role, Role::kController);
+  TestClient observer(*port);
+  ASSERT_EQ(observer.hello(Role::kObserver).granted_role, Role::kObserver);
+  controller.request_as<protocol::Ack>(protocol::Subscribe{50});
+  ASSERT_TRUE(drive_until_moving(controller)) << ajard.err();
+
+  std::ofstream(hang) << "hang\n";  // the control thread's next vendor call hangs
+  const auto fault = controller.wait_event(EventKind::kFaultLatched);
+  ASSERT_TRUE(fault) << "no fault latched while a vendor call hangs in the control loop\n"
+                     << ajard.err();
+  EXPECT_EQ(fault->fault, ErrorCode::kLoopStalled);
+  EXPECT_NE(std::string(fault->detail.view()).find("base emergency-stopped out of band"),
+            std::string::npos)
+      << fault->detail.view();
+  // The journal: the simulated card took the out-of-band GT_Stop while the other call hung.
+  EXPECT_TRUE(eventually([&] {
+    return ajard.err().find("out-of-band emergency stop taken by the card") != std::string::npos;
+  })) << ajard.err();
+  const auto told = observer.wait_event(EventKind::kFaultLatched);
+  ASSERT_TRUE(told);
+  EXPECT_EQ(told->fault, ErrorCode::kLoopStalled);
+  // Still hanging (the file is there): the I/O thread answers; nothing moves or resets.
+  EXPECT_EQ(controller.request_as<protocol::Status>(protocol::GetStatus{}).latched_fault,
+            ErrorCode::kLoopStalled);
+  EXPECT_EQ(error_code_of(controller.request(protocol::Reset{})), ErrorCode::kLoopStalled);
+  EXPECT_EQ(error_code_of(controller.request(protocol::Drive{0.05, 0.0})),
+            ErrorCode::kFaultLatched);
+
+  ASSERT_EQ(std::remove(hang.c_str()), 0);  // the call returns
+  ASSERT_TRUE(controller.wait_event(EventKind::kMotionStopped)) << ajard.err();
+  EXPECT_EQ(error_code_of(controller.request(protocol::Drive{0.05, 0.0})),
+            ErrorCode::kFaultLatched);
+  // The loop runs again and the wheels rest: the same counts in every frame.
+  ASSERT_TRUE(controller.wait_telemetry(controller.telemetry_count() + 2));
+  const auto rest = *controller.last_telemetry();
+  EXPECT_FALSE(rest.moving);
+  ASSERT_TRUE(controller.wait_telemetry(controller.telemetry_count() + 10));
+  EXPECT_FALSE(controller.last_telemetry()->moving);
+  EXPECT_EQ(controller.last_telemetry()->left_counts, rest.left_counts);
+  EXPECT_EQ(controller.last_telemetry()->right_counts, rest.right_counts);
+  EXPECT_EQ(controller.request_as<protocol::Status>(protocol::GetStatus{}).latched_fault,
+            ErrorCode::kLoopStalled);
+
+  // A Reset (accepted once the supervisor saw the loop cycle again) and the base drives again.
+  bool reset = false;
+  for (int i = 0; i < 200 && !reset; ++i) {
+    const ErrorCode e = error_code_of(controller.request(protocol::Reset{}));
+    ASSERT_TRUE(e == ErrorCode::kOk || e == ErrorCode::kLoopStalled) << to_string(e);
+    reset = e == ErrorCode::kOk;
+    if (!reset) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(reset);
+  EXPECT_TRUE(drive_until_moving(controller)) << ajard.err();
+  controller.request(protocol::Stop{});
+  ajard.signal(SIGTERM);
+  EXPECT_EQ(ajard.wait_exit(), 0) << ajard.err();
+}
+
+}  // namespace
+}  // namespace ajar::test
