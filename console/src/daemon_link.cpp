@@ -62,6 +62,9 @@ void ConsoleServer::Impl::connect_now() {
   }
   on_io([this, w] {
     welcome = w;
+    role_now = w.granted_role;
+    controller_text.clear();
+    motion.clear();
     daemon_connected = true;
     connection_message = "connected";
     heartbeat_on = false;  // re-evaluated on the next tick for this connection
@@ -97,23 +100,127 @@ void ConsoleServer::Impl::idle() {
 }
 
 void ConsoleServer::Impl::on_telemetry(const protocol::Telemetry& t) {
+  const auto now = Clock::now();
   {
     const std::lock_guard lock(pose_mutex);
     pose.x_m = t.odometry_x_m;
     pose.y_m = t.odometry_y_m;
     pose.yaw_rad = t.base_yaw_odometry_rad;
+    pose_at = now;
   }
   const std::string json = telemetry_json(t).str();
-  on_io([this, json] { broadcast_text(json); });
+  on_io([this, json, t, now] {
+    const bool stale_changed = !telemetry || telemetry->staleness.plane != t.staleness.plane ||
+                               telemetry->staleness.contact != t.staleness.contact ||
+                               telemetry->moving != t.moving;
+    telemetry = t;
+    telemetry_at = now;
+    broadcast_text(json);
+    // The picks' places (moved, stale) and the guidance follow the pose: a new snapshot when the
+    // base moved (at most 10 per second: the tick).
+    const core::PlanarPose p{t.odometry_x_m, t.odometry_y_m, t.base_yaw_odometry_rad};
+    if (stale_changed || core::travel_m(broadcast_pose, p) > kPickMovedTravel_m ||
+        std::abs(core::turn_rad(broadcast_pose, p)) > kPickMovedTurn_rad) {
+      mark_dirty();
+    }
+  });
 }
 
 void ConsoleServer::Impl::on_event(const protocol::Event& e) {
-  std::string text = "event " + std::string(protocol::to_string(e.kind)) + ": " +
-                     std::string(protocol::to_string(e.state));
-  if (e.fault != ErrorCode::kOk) text += " fault " + std::string(ajar::to_string(e.fault));
-  if (!e.detail.view().empty()) text += " (" + std::string(e.detail.view()) + ")";
-  on_io([this, text] { add_log(text); });
+  if (e.kind == protocol::EventKind::kControlChanged) {
+    // Compared with this session's id once the Hello that may have caused it has returned (the
+    // worker runs connect_now to its end first).
+    worker->post([this, e] {
+      const auto w = client.welcome();
+      on_io([this, e, id = w ? w->session_id : 0] { on_event_io(e, id); });
+      refresh_status();
+    });
+    return;
+  }
+  on_io([this, e] { on_event_io(e, 0); });
   worker->post([this] { refresh_status(); });
+}
+
+namespace {
+// "session 7 (ajarctl) took control from session 3 (ajar-console)", "session 3 (ajar-console) is
+// the controller" (docs/protocol.md, control_changed): the session that controls now, if named.
+std::optional<std::uint64_t> controller_session(std::string_view detail) {
+  constexpr std::string_view kSession = "session ";
+  if (detail.substr(0, kSession.size()) != kSession) return std::nullopt;
+  if (detail.find(" took control from ") == std::string_view::npos &&
+      detail.find(" is the controller") == std::string_view::npos) {
+    return std::nullopt;
+  }
+  std::uint64_t id = 0;
+  std::size_t i = kSession.size();
+  if (i >= detail.size() || detail[i] < '0' || detail[i] > '9') return std::nullopt;
+  for (; i < detail.size() && detail[i] >= '0' && detail[i] <= '9'; ++i)
+    id = id * 10 + static_cast<std::uint64_t>(detail[i] - '0');
+  return id;
+}
+}  // namespace
+
+// The event log in the operator's words ("fault latched: EMERGENCY_STOPPED (...)"), the motion the
+// header shows, and the role: a control_changed naming another session as controller demotes this
+// one (the daemon made it an observer, docs/protocol.md 6.2).
+void ConsoleServer::Impl::on_event_io(const protocol::Event& e, std::uint64_t session_id) {
+  using protocol::EventKind;
+  const std::string detail(e.detail.view());
+  const std::string state(protocol::to_string(e.state));
+  std::string text;
+  switch (e.kind) {
+    case EventKind::kStateChanged:
+      text = "state: " + state;
+      break;
+    case EventKind::kMotionStarted: {
+      text = "motion started: " + detail;
+      const auto word = detail.substr(0, detail.find(':'));
+      motion = word == "driving" ? "jogging" : word.empty() ? "moving" : word;
+      break;
+    }
+    case EventKind::kMotionFinished:
+      text = "motion finished: " + detail;
+      motion.clear();
+      break;
+    case EventKind::kMotionStopped:
+      text = "motion stopped: " + detail;
+      motion.clear();
+      break;
+    case EventKind::kFaultLatched:
+      text = "FAULT LATCHED: " + std::string(ajar::to_string(e.fault)) +
+             (detail.empty() ? "" : " (" + detail + ")");
+      motion.clear();
+      break;
+    case EventKind::kFaultCleared:
+      text = "fault cleared" + (detail.empty() ? "" : ": " + detail);
+      break;
+    case EventKind::kControlChanged: {
+      controller_text = detail;
+      text = "control: " + detail;
+      const auto controller = controller_session(detail);
+      if (controller && session_id != 0) {
+        const auto was = role_now;
+        role_now =
+            *controller == session_id ? protocol::Role::kController : protocol::Role::kObserver;
+        if (was == protocol::Role::kController && role_now == protocol::Role::kObserver) {
+          text += ": this console is now an OBSERVER (Take over to command again)";
+          worker->post([this] { role = protocol::Role::kObserver; });  // a reconnect stays so
+        }
+      }
+      break;
+    }
+  }
+  add_log(text);
+  mark_dirty();
+}
+
+void ConsoleServer::Impl::on_reply(const client::Response& r) {
+  if (r.outcome == client::CallOutcome::kRefused && r.error.code == ErrorCode::kNotController &&
+      role_now != protocol::Role::kObserver) {
+    role_now = protocol::Role::kObserver;
+    add_log("ajard says this console is not the controller: it is an OBSERVER now");
+    mark_dirty();
+  }
 }
 
 }  // namespace ajar::console

@@ -54,14 +54,18 @@ void ConsoleServer::Impl::frame_loop() {
   std::string last_error;
   while (!stopping) {
     BasePose p;
+    Clock::time_point p_at;
     {
       const std::lock_guard lock(pose_mutex);
       p = pose;
+      p_at = pose_at;
     }
     auto entry = std::make_shared<FrameEntry>();
     std::string why;
     if (source->next(p, entry->frame, why)) {
       entry->pose = p;
+      entry->captured = Clock::now();
+      entry->pose_from = p_at;
       if (any_page) {
         const auto& k = entry->frame.intrinsics;
         entry->colour =
@@ -80,8 +84,14 @@ void ConsoleServer::Impl::frame_loop() {
           source_error.clear();
           mark_dirty();
         }
+        // Its age, pose and where each pick's marker is on it, just before the image itself.
+        const auto meta =
+            sessions.empty() ? nullptr : std::make_shared<const std::string>(frame_json(*entry));
         for (const auto& s : sessions) {
-          if (entry->colour) enqueue(s, true, entry->colour);
+          if (entry->colour) {
+            enqueue(s, false, meta);
+            enqueue(s, true, entry->colour);
+          }
           if (s->overlay && entry->depth) enqueue(s, true, entry->depth);
         }
       });

@@ -5,6 +5,8 @@
 #include "server_impl.hpp"
 
 #include <algorithm>
+#include <array>
+#include <cstdio>
 
 #include "ajar/client/json.hpp"
 #include "daemon_json.hpp"
@@ -109,21 +111,49 @@ void ConsoleServer::Impl::hover(const std::shared_ptr<WsSession>& s, const PageM
   reply(s, o.str());
 }
 
+namespace {
+std::string seconds_text(Clock::duration d) {
+  std::array<char, 32> buf{};
+  std::snprintf(buf.data(), buf.size(), "%.1f s", std::chrono::duration<double>(d).count());
+  return buf.data();
+}
+core::PlanarPose planar(const BasePose& p) {
+  return {p.x_m, p.y_m, p.yaw_rad};
+}
+}  // namespace
+
+// Why a pick on frame `f` cannot be trusted (empty when it can): a frozen camera, or no pose.
+std::string ConsoleServer::Impl::frame_problem(const FrameEntry& f, bool pose_too) const {
+  const auto now = Clock::now();
+  if (frames.empty() || now - frames.back()->captured > kFrozenAfter) {
+    return "the image is FROZEN: no frame from the camera for " +
+           seconds_text(now - (frames.empty() ? f.captured : frames.back()->captured)) +
+           ": nothing picked";
+  }
+  if (!pose_too) return "";
+  if (f.pose_from == Clock::time_point{} || f.captured - f.pose_from > kFrozenAfter) {
+    return "no telemetry from ajard when this frame was taken: where the base was is unknown: "
+           "nothing picked";
+  }
+  return "";
+}
+
+void ConsoleServer::Impl::refuse_pick(const std::shared_ptr<WsSession>& s, const std::string& field,
+                                      const std::string& message) {
+  add_log("pick refused: " + message);
+  reply(s,
+        JsonObject().add("type", "pick_refused").add("field", field).add("message", message).str());
+}
+
 void ConsoleServer::Impl::pick(const std::shared_ptr<WsSession>& s, const PageMessage& m) {
   const auto u = m.number("u");
   const auto v = m.number("v");
   const auto f = frame_for(m);
   if (!u || !v || !f) return notice(s, f ? "pick: u and v needed" : "pick: no frame yet");
+  if (const auto why = frame_problem(*f, false); !why.empty()) return refuse_pick(s, "frame", why);
   const auto p = core::pick_point(f->frame.intrinsics, f->frame.depth(), *u, *v);
-  if (!p) {
-    add_log("pick refused: " + p.error().message);
-    reply(s, JsonObject()
-                 .add("type", "pick_refused")
-                 .add("field", p.error().field)
-                 .add("message", p.error().message)
-                 .str());
-    return;
-  }
+  if (!p) return refuse_pick(s, p.error().field, p.error().message);
+  if (const auto why = frame_problem(*f, true); !why.empty()) return refuse_pick(s, "frame", why);
   auto& list = picks[active];
   if (list.size() >= kStepCapacity[active]) {
     if (active == kPlane) {
@@ -131,7 +161,7 @@ void ConsoleServer::Impl::pick(const std::shared_ptr<WsSession>& s, const PageMe
     }
     list.clear();  // width, handle, contact: a new pick starts over
   }
-  list.push_back({*u, *v, p->camera_m, p->from_window});
+  list.push_back({*u, *v, p->camera_m, p->from_window, f->frame.sequence, planar(f->pose)});
   results[active] = {};
   mark_dirty();
 }
@@ -145,6 +175,7 @@ void ConsoleServer::Impl::rect(const std::shared_ptr<WsSession>& s, const PageMe
   const auto v1 = m.number("v1");
   const auto f = frame_for(m);
   if (!u0 || !v0 || !u1 || !v1 || !f) return notice(s, "rect: u0, v0, u1, v1 needed");
+  if (const auto why = frame_problem(*f, true); !why.empty()) return refuse_pick(s, "frame", why);
   const double ul = std::min(*u0, *u1);
   const double ur = std::max(*u0, *u1);
   const double vt = std::min(*v0, *v1);
@@ -156,7 +187,9 @@ void ConsoleServer::Impl::rect(const std::shared_ptr<WsSession>& s, const PageMe
       const double u = ul + (ur - ul) * (i + 0.5) / kGrid;
       const double v = vt + (vb - vt) * (j + 0.5) / kGrid;
       const auto p = core::pick_point(f->frame.intrinsics, f->frame.depth(), u, v);
-      if (p) found.push_back({u, v, p->camera_m, p->from_window});
+      if (p) {
+        found.push_back({u, v, p->camera_m, p->from_window, f->frame.sequence, planar(f->pose)});
+      }
     }
   }
   if (found.size() < protocol::kMinPlanePoints) {
@@ -170,46 +203,151 @@ void ConsoleServer::Impl::rect(const std::shared_ptr<WsSession>& s, const PageMe
   mark_dirty();
 }
 
+std::optional<core::PlanarPose> ConsoleServer::Impl::pose_now(std::string& why) const {
+  const auto age = Clock::now() - telemetry_at;
+  if (!telemetry || age > kFrozenAfter) {
+    why = telemetry ? "no telemetry from ajard for " + seconds_text(age) +
+                          ": whether the base moved since the picks is unknown"
+                    : "no telemetry from ajard yet: where the base is is unknown";
+    return std::nullopt;
+  }
+  return core::PlanarPose{telemetry->odometry_x_m, telemetry->odometry_y_m,
+                          telemetry->base_yaw_odometry_rad};
+}
+
+StaleRule ConsoleServer::Impl::stale_rule() const {
+  return model ? StaleRule{model->stale_travel_m, model->stale_yaw_rad} : StaleRule{};
+}
+
+namespace {
+// The protocol's name of the field a step's i-th point is sent as.
+std::string point_field(Step step, std::size_t i) {
+  switch (step) {
+    case kWidth:
+    case kHandle:
+      return i == 0 ? "p1" : "p2";
+    case kPlane:
+      return "points[" + std::to_string(i) + "]";
+    default:
+      return "contact";
+  }
+}
+}  // namespace
+
+// A step's picks go to ajard in the camera frame of the base's pose NOW: picks taken before the
+// base moved are seen from here through odometry when the motion is within the daemon's staleness
+// rule (the page says so), and refused beyond it ("pick again: the base moved 0.070 m / 1.3°
+// since").
 void ConsoleServer::Impl::send_step(const std::shared_ptr<WsSession>& s) {
   const Step step = active;
   const auto& list = picks[step];
-  const auto framed = [](const Pick& p) {
-    return client::framed(core::Frame::kCamera, p.camera_m.x(), p.camera_m.y(), p.camera_m.z());
+  const auto refuse = [&](const std::string& field, const std::string& message,
+                          const char* code = "PICK_AGAIN") {
+    results[step] = JsonObject()
+                        .add("ok", false)
+                        .add("code", code)
+                        .add("field", field)
+                        .add("message", message)
+                        .add("sent", false);
+    add_log(std::string(kStepNames[step]) + ": not sent: " + message);
+    mark_dirty();
+  };
+  const std::size_t need_min = step == kPlane     ? protocol::kMinPlanePoints
+                               : step == kContact ? 1
+                                                  : 2;
+  if (list.size() < need_min || (step != kPlane && list.size() != need_min)) {
+    switch (step) {
+      case kWidth:
+        return notice(s, "width: pick P1 (hinge side) and P2 (moving edge)");
+      case kHandle:
+        return notice(s, "handle: pick the axis, then the free end");
+      case kPlane:
+        return notice(s, "plane: pick at least three points on the door, or drag a rectangle");
+      default:
+        return notice(s, "contact: pick the contact point on the handle");
+    }
+  }
+  std::string why;
+  const auto now = pose_now(why);
+  if (!now) return refuse("", why, "NO_POSE");
+  if (!camera_to_base) return refuse("", "the daemon's calibration is not known yet", "NO_POSE");
+  // The daemon's rule, pick by pick: the worst motion since any of them.
+  PickMotion worst;
+  std::size_t worst_i = 0;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const auto mo = pick_motion(list[i].pose, *now, stale_rule());
+    if (static_cast<int>(mo.place) > static_cast<int>(worst.place) ||
+        (mo.place == worst.place &&
+         mo.travel_m + std::abs(mo.turn_rad) > worst.travel_m + std::abs(worst.turn_rad))) {
+      worst = mo;
+      worst_i = i;
+    }
+  }
+  if (worst.place == PickPlace::kStale) {
+    return refuse(point_field(step, worst_i), "pick again: " + moved_text(worst) + " " +
+                                                  (list.size() > 1 ? "the picks" : "the pick") +
+                                                  " were taken (beyond the daemon's staleness "
+                                                  "rule: drive.stale_travel_m / stale_yaw_rad)");
+  }
+  std::vector<core::Vec3> points;
+  for (const auto& p : list)
+    points.push_back(camera_point_now(p.camera_m, p.pose, *now, *camera_to_base));
+  // The handle sits next to the moving edge: cross-check it against the width's P1 (hinge side).
+  if (step == kHandle || step == kWidth) {
+    const Step other = step == kHandle ? kWidth : kHandle;
+    if (sent[other]) {
+      std::vector<core::Vec3> base;  // this step's points and the other's, in the base frame now
+      for (const auto& c : sent[other]->camera_m)
+        base.push_back(core::rebase(camera_to_base->to_base(c), sent[other]->pose, *now));
+      const core::Vec3 axis = step == kHandle ? camera_to_base->to_base(points[0]) : base[0];
+      const core::Vec3 p1 = step == kWidth ? camera_to_base->to_base(points[0]) : base[0];
+      const core::Vec3 p2 = step == kWidth ? camera_to_base->to_base(points[1]) : base[1];
+      if (const auto problem = hinge_side_problem(p1, p2, axis); !problem.empty()) {
+        return refuse(step == kHandle ? "width.p1" : "p1", problem, "HINGE_SIDE");
+      }
+    }
+  }
+  std::string note;
+  if (worst.place == PickPlace::kMoved) {
+    note = "transformed by odometry: " + moved_text(worst) + " the picks (within the daemon's " +
+           "staleness rule): sent as seen from here";
+  }
+  const auto framed = [](const core::Vec3& p) {
+    return client::framed(core::Frame::kCamera, p.x(), p.y(), p.z());
   };
   protocol::Message msg;
   switch (step) {
     case kWidth:
-      if (list.size() != 2) return notice(s, "width: pick P1 (hinge side) and P2 (moving edge)");
-      msg = protocol::MeasureDoorWidth{framed(list[0]), framed(list[1])};
+      msg = protocol::MeasureDoorWidth{framed(points[0]), framed(points[1])};
       break;
     case kHandle:
-      if (list.size() != 2) return notice(s, "handle: pick the axis, then the free end");
-      msg = protocol::MeasureHandle{framed(list[0]), framed(list[1])};
+      msg = protocol::MeasureHandle{framed(points[0]), framed(points[1])};
       break;
     case kPlane: {
-      if (list.size() < protocol::kMinPlanePoints) {
-        return notice(s, "plane: pick at least three points on the door, or drag a rectangle");
-      }
       protocol::MeasureDoorPlane plane;
-      plane.count = static_cast<std::uint8_t>(list.size());
-      for (std::size_t i = 0; i < list.size(); ++i)
-        plane.points[i] = framed(list[i]);
+      plane.count = static_cast<std::uint8_t>(points.size());
+      for (std::size_t i = 0; i < points.size(); ++i)
+        plane.points[i] = framed(points[i]);
       msg = plane;
       break;
     }
     case kContact:
-      if (list.size() != 1) return notice(s, "contact: pick the contact point on the handle");
-      msg = protocol::SetContactPoint{framed(list[0])};
+      msg = protocol::SetContactPoint{framed(points[0])};
       break;
     case kStepCount:
       return;
   }
-  add_log(std::string("sending ") + std::string(protocol::to_string(protocol::type_of(msg))));
-  worker->post([this, step, msg] {
+  add_log(std::string("sending ") + std::string(protocol::to_string(protocol::type_of(msg))) +
+          (note.empty() ? "" : " (" + note + ")"));
+  const SentStep what{points, *now};
+  worker->post([this, step, msg, note, what] {
     const auto r = client.request(msg);
-    const auto json = response_json(r);
-    on_io([this, step, json, r] {
+    auto json = response_json(r);
+    if (!note.empty()) json.add("note", note);
+    on_io([this, step, json, r, what] {
       results[step] = json;
+      if (r.ok()) sent[step] = what;
+      on_reply(r);
       log_response(std::string(kStepNames[step]), r);
       mark_dirty();
     });
@@ -233,6 +371,8 @@ void ConsoleServer::Impl::command(const std::string& op, bool clear) {
       l.clear();
     for (auto& r : results)
       r = {};
+    for (auto& w : sent)
+      w.reset();
     active = kWidth;
     mark_dirty();
   }
@@ -240,7 +380,8 @@ void ConsoleServer::Impl::command(const std::string& op, bool clear) {
     const auto r = client.request(msg, std::chrono::milliseconds(1000), 2);
     const auto json = response_json(r);
     on_io([this, op, json, r] {
-      last_command = JsonObject().add("op", op).add("reply", json);
+      last_command = JsonObject().add("op", op).add("reply", json).add("at", now_hms());
+      on_reply(r);
       log_response(op, r);
       mark_dirty();
     });
@@ -271,7 +412,10 @@ void ConsoleServer::Impl::drive(const std::shared_ptr<WsSession>& s, const PageM
     }
     const auto r = client.request(d, std::chrono::milliseconds(300), 0);
     if (!r.ok()) {
-      on_io([this, r] { log_response("drive", r); });
+      on_io([this, r] {
+        on_reply(r);
+        log_response("drive", r);
+      });
     }
   });
 }
@@ -285,7 +429,8 @@ void ConsoleServer::Impl::approach(const std::shared_ptr<WsSession>& s, const Pa
     const auto r = client.request(msg);
     const auto json = response_json(r);
     on_io([this, json, r] {
-      last_command = JsonObject().add("op", "approach").add("reply", json);
+      last_command = JsonObject().add("op", "approach").add("reply", json).add("at", now_hms());
+      on_reply(r);
       log_response("approach", r);
       mark_dirty();
     });

@@ -72,7 +72,10 @@ asio::awaitable<void> ConsoleServer::Impl::run_session(std::shared_ptr<WsSession
   enqueue(s, false,
           std::make_shared<const std::string>(
               client::JsonObject().add("type", "log").add("entries", entries).str()));
-  if (!frames.empty()) enqueue(s, true, frames.back()->colour);
+  if (!frames.empty() && frames.back()->colour) {
+    enqueue(s, false, std::make_shared<const std::string>(frame_json(*frames.back())));
+    enqueue(s, true, frames.back()->colour);
+  }
   asio::co_spawn(ioc, write_loop(s), asio::detached);
   beast::flat_buffer buffer;
   for (;;) {

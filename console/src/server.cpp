@@ -18,9 +18,7 @@
 #include "daemon_json.hpp"
 
 namespace ajar::console {
-namespace {
-
-std::string now_hms() {
+std::string ConsoleServer::Impl::now_hms() {
   const std::time_t t = std::time(nullptr);
   std::tm tm{};
   localtime_r(&t, &tm);
@@ -28,8 +26,6 @@ std::string now_hms() {
   std::strftime(buf.data(), buf.size(), "%H:%M:%S", &tm);
   return buf.data();
 }
-
-}  // namespace
 
 void ConsoleServer::Impl::add_log(const std::string& text) {
   const std::string entry = now_hms() + "  " + text;
@@ -43,13 +39,29 @@ void ConsoleServer::Impl::add_log(const std::string& text) {
 asio::awaitable<void> ConsoleServer::Impl::tick_loop() {
   asio::steady_timer timer(ioc);
   error_code ec;
+  unsigned ticks = 0;
   while (!stopping) {
     timer.expires_after(std::chrono::milliseconds(100));
     co_await timer.async_wait(asio::redirect_error(asio::use_awaitable, ec));
     update_heartbeat();
     if (state_dirty) {
       state_dirty = false;
+      if (telemetry) {
+        broadcast_pose = {telemetry->odometry_x_m, telemetry->odometry_y_m,
+                          telemetry->base_yaw_odometry_rad};
+      }
       broadcast_text(snapshot());
+    }
+    // The page's link watchdog: a word from the console at least every 250 ms, with the age of
+    // ajard's telemetry as the console sees it.
+    if (++ticks % 2 == 0) {
+      client::JsonObject t;
+      t.add("type", "tick").add("daemon", daemon_connected);
+      if (telemetry) {
+        t.add("telemetry_age_ms",
+              std::chrono::duration<double, std::milli>(Clock::now() - telemetry_at).count());
+      }
+      broadcast_text(t.str());
     }
   }
 }

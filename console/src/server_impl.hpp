@@ -39,6 +39,7 @@
 #include "ajar/console/door_scene.hpp"
 #include "ajar/console/frame.hpp"
 #include "ajar/console/page_message.hpp"
+#include "ajar/console/pick_pose.hpp"
 #include "ajar/console/server.hpp"
 #include "ajar/core/geometry.hpp"
 #include "worker.hpp"
@@ -60,18 +61,29 @@ inline constexpr std::array<const char*, kStepCount> kStepNames{"width", "handle
 inline constexpr std::array<std::size_t, kStepCount> kStepCapacity{2, 2, protocol::kMaxPlanePoints,
                                                                    1};
 
-// One point the operator picked on a frame (camera frame, metres).
+// One point the operator picked on a frame (camera frame, metres), with the base pose of that
+// frame: the daemon's odometry when the frame was captured (ajar/console/pick_pose.hpp).
 struct Pick {
   double u_px = 0;
   double v_px = 0;
   core::Vec3 camera_m = core::Vec3::Zero();
   bool from_window = false;  // depth from the pick rule's window median (a hole at the pixel)
+  std::uint64_t frame_sequence = 0;
+  core::PlanarPose pose;  // odometry of the frame it was picked on
+};
+
+// What a step's accepted measurement was taken from: the points as sent (camera frame at `pose`).
+struct SentStep {
+  std::vector<core::Vec3> camera_m;
+  core::PlanarPose pose;
 };
 
 // A frame with the base pose it was taken at and its WebSocket messages (frames.cpp).
 struct FrameEntry {
   Frame frame;
-  BasePose pose;
+  BasePose pose;                // the newest odometry when the frame was captured
+  Clock::time_point captured;   // when the source delivered it
+  Clock::time_point pose_from;  // when that odometry arrived (telemetry); epoch: none yet
   std::shared_ptr<const std::string> colour;  // null when no page was connected
   std::shared_ptr<const std::string> depth;   // null when no page asked for the overlay
 };
@@ -123,9 +135,17 @@ struct ConsoleServer::Impl {
   std::optional<core::CameraToBase> camera_to_base;  // from the daemon (RobotModel)
   std::optional<protocol::RobotModel> model;         // protocol 1.1: GetRobotModel
   std::array<std::vector<Pick>, kStepCount> picks;
-  std::array<client::JsonObject, kStepCount> results;  // the replies; empty when nothing sent yet
-  client::JsonObject last_command;  // {"op", "reply"} of the last command; empty before one
+  std::array<client::JsonObject, kStepCount> results;    // the replies; empty when nothing sent yet
+  std::array<std::optional<SentStep>, kStepCount> sent;  // what each accepted measurement was
+  client::JsonObject last_command;  // {"op", "reply", "at"} of the last command; empty before one
   Step active = kWidth;
+  // Honest state (issue 23): who controls, what moves, how old the daemon's word is.
+  std::optional<protocol::Role> role_now;  // the role the daemon gives this console's session now
+  std::string controller_text;             // the daemon's last control_changed detail
+  std::string motion;                      // "aligning", "jogging", ... from motion events
+  std::optional<protocol::Telemetry> telemetry;  // the newest sample
+  Clock::time_point telemetry_at{};              // when it arrived
+  core::PlanarPose broadcast_pose;               // the pose the last state snapshot was made at
   std::deque<std::string> log;
   bool heartbeat_on = false;
   bool state_dirty = true;
@@ -133,6 +153,7 @@ struct ConsoleServer::Impl {
   // ---- Shared with the frame thread ----
   std::mutex pose_mutex;
   BasePose pose;
+  Clock::time_point pose_at{};  // when `pose` arrived (telemetry); epoch: never
   std::atomic<bool> overlay_wanted{false};
   std::atomic<bool> any_page{false};
   std::atomic<bool> stopping{false};
@@ -156,7 +177,8 @@ struct ConsoleServer::Impl {
   }
 
   // ---- server.cpp (Asio thread) ----
-  void add_log(const std::string& text);     // time-stamped, kept (last 200) and sent to the pages
+  void add_log(const std::string& text);  // time-stamped, kept (last 200) and sent to the pages
+  static std::string now_hms();
   void mark_dirty() { state_dirty = true; }  // the next tick broadcasts the state
   asio::awaitable<void> tick_loop();
 
@@ -182,16 +204,27 @@ struct ConsoleServer::Impl {
   void hover(const std::shared_ptr<WsSession>& s, const PageMessage& m);
   void pick(const std::shared_ptr<WsSession>& s, const PageMessage& m);
   void rect(const std::shared_ptr<WsSession>& s, const PageMessage& m);
+  // Why a pick on `f` is refused: a frozen camera; with pose_too also an unknown base pose.
+  std::string frame_problem(const FrameEntry& f, bool pose_too) const;
+  void refuse_pick(const std::shared_ptr<WsSession>& s, const std::string& field,
+                   const std::string& message);
   void send_step(const std::shared_ptr<WsSession>& s);
   void command(const std::string& op, bool clear);
   void drive(const std::shared_ptr<WsSession>& s, const PageMessage& m);
   void approach(const std::shared_ptr<WsSession>& s, const PageMessage& m);
   void log_response(const std::string& what, const client::Response& r);
+  void on_reply(const client::Response& r);  // NOT_CONTROLLER: the daemon demoted this session
+  // The pose now and how old it is; nullopt when no telemetry came within kTelemetryStaleAfter.
+  std::optional<core::PlanarPose> pose_now(std::string& why) const;
+  StaleRule stale_rule() const;
+  std::string frame_json(const FrameEntry& f) const;  // {"type":"frame"}: age, pose, markers
 
   // ---- state_json.cpp (Asio thread) ----
   std::string snapshot() const;  // {"type":"state",...}: everything the page draws
   client::JsonObject picks_json() const;
   client::JsonObject results_json() const;
+  client::JsonObject guidance_json() const;  // door distance, view limits, default standoff, hinge
+  std::vector<Landmark> landmarks_now(const core::PlanarPose& now) const;
   std::string landmarks_json() const;  // /api/sim/landmarks; "null" without a simulated source
 
   // ---- daemon_link.cpp (worker threads; client callbacks) ----
@@ -201,6 +234,7 @@ struct ConsoleServer::Impl {
   void set_model(const protocol::RobotModel& m);  // Asio thread
   void on_telemetry(const protocol::Telemetry& t);
   void on_event(const protocol::Event& e);
+  void on_event_io(const protocol::Event& e, std::uint64_t session_id);  // Asio thread
 
   // ---- frames.cpp (frame thread) ----
   void frame_loop();

@@ -3,6 +3,10 @@
 // broadcasts and /api/state serves, and /api/sim/landmarks (the simulated door's ground truth).
 #include "server_impl.hpp"
 
+#include <array>
+#include <cmath>
+#include <cstdio>
+
 #include "ajar/client/json.hpp"
 #include "daemon_json.hpp"
 
@@ -10,8 +14,29 @@ namespace ajar::console {
 
 using client::JsonObject;
 
+namespace {
+const char* place_name(PickPlace p) {
+  switch (p) {
+    case PickPlace::kHere:
+      return "here";
+    case PickPlace::kMoved:
+      return "moved";
+    case PickPlace::kStale:
+      return "stale";
+  }
+  return "stale";
+}
+}  // namespace
+
+// Each pick with the pose it was taken at and how far the base moved since (to the newest
+// telemetry): "here", "moved" (within the daemon's staleness rule: sent transformed) or "stale".
 JsonObject ConsoleServer::Impl::picks_json() const {
   JsonObject o;
+  std::optional<core::PlanarPose> now;
+  if (telemetry) {
+    now = core::PlanarPose{telemetry->odometry_x_m, telemetry->odometry_y_m,
+                           telemetry->base_yaw_odometry_rad};
+  }
   for (std::size_t s = 0; s < kStepCount; ++s) {
     client::JsonArray items;
     for (const auto& p : picks[s]) {
@@ -19,13 +44,58 @@ JsonObject ConsoleServer::Impl::picks_json() const {
       j.add("u", p.u_px)
           .add("v", p.v_px)
           .add("camera_m", p.camera_m)
-          .add("from_window", p.from_window);
+          .add("from_window", p.from_window)
+          .add("frame", static_cast<std::uint64_t>(p.frame_sequence))
+          .add("pose", client::JsonArray().add(p.pose.x_m).add(p.pose.y_m).add(p.pose.yaw_rad));
       if (camera_to_base) j.add("base_m", camera_to_base->to_base(p.camera_m));
+      if (now) {
+        const auto m = pick_motion(p.pose, *now, stale_rule());
+        j.add("place", place_name(m.place));
+        if (m.place != PickPlace::kHere) j.add("moved", moved_text(m));
+      }
       items.add(j);
     }
     o.add(kStepNames[s], items);
   }
   return o;
+}
+
+// One frame's age, pose and the picks' markers on it: each pick seen from the frame's pose (its
+// pixel), and its place by the daemon's staleness rule; "out" when it is not in this image.
+std::string ConsoleServer::Impl::frame_json(const FrameEntry& f) const {
+  JsonObject o;
+  o.add("type", "frame")
+      .add("seq", static_cast<std::uint64_t>(static_cast<std::uint32_t>(f.frame.sequence)))
+      .add("age_ms", std::chrono::duration<double, std::milli>(Clock::now() - f.captured).count())
+      .add("pose_known",
+           f.pose_from != Clock::time_point{} && f.captured - f.pose_from <= kFrozenAfter)
+      .add("pose", client::JsonArray().add(f.pose.x_m).add(f.pose.y_m).add(f.pose.yaw_rad));
+  const core::PlanarPose at_frame{f.pose.x_m, f.pose.y_m, f.pose.yaw_rad};
+  const auto& k = f.frame.intrinsics;
+  JsonObject markers;
+  for (std::size_t s = 0; s < kStepCount; ++s) {
+    client::JsonArray items;
+    for (const auto& p : picks[s]) {
+      const auto m = pick_motion(p.pose, at_frame, stale_rule());
+      JsonObject j;
+      if (m.place == PickPlace::kHere || !camera_to_base) {
+        j.add("u", p.u_px)
+            .add("v", p.v_px)
+            .add("place", m.place == PickPlace::kHere ? "here" : "stale");
+      } else {
+        const auto px =
+            core::project(k, camera_point_now(p.camera_m, p.pose, at_frame, *camera_to_base));
+        const bool in = px && px->u_px >= -0.5 && px->v_px >= -0.5 &&
+                        px->u_px <= k.width_px - 0.5 && px->v_px <= k.height_px - 0.5;
+        if (px) j.add("u", px->u_px).add("v", px->v_px);
+        j.add("place", in ? place_name(m.place) : "out");
+      }
+      items.add(j);
+    }
+    markers.add(kStepNames[s], items);
+  }
+  o.add("markers", markers);
+  return o.str();
 }
 
 JsonObject ConsoleServer::Impl::results_json() const {
@@ -108,6 +178,23 @@ std::string ConsoleServer::Impl::snapshot() const {
   } else {
     o.add_null("model");
   }
+  // Honest state: the role the daemon gives this session now, who controls, what moves, how old
+  // the daemon's telemetry is, the watchdog's threshold (the page's FROZEN).
+  o.add("role", role_now ? std::string(protocol::to_string(*role_now)) : std::string());
+  o.add("controller", controller_text);
+  o.add("motion", motion);
+  o.add("frozen_after_ms", static_cast<double>(kFrozenAfter.count()));
+  if (!frames.empty()) {
+    const auto& k = frames.back()->frame.intrinsics;
+    o.add("intrinsics", JsonObject()
+                            .add("fx_px", k.fx_px)
+                            .add("fy_px", k.fy_px)
+                            .add("cx_px", k.cx_px)
+                            .add("cy_px", k.cy_px)
+                            .add("width_px", k.width_px)
+                            .add("height_px", k.height_px));
+  }
+  o.add("guidance", guidance_json());
   o.add("active_step", kStepNames[active]);
   o.add("picks", picks_json());
   o.add("results", results_json());
@@ -161,6 +248,133 @@ std::string ConsoleServer::Impl::landmarks_json() const {
       .add("points", pts)
       .add("truth", truth)
       .str();
+}
+
+}  // namespace ajar::console
+
+namespace ajar::console {
+
+// The door points this console measured and the daemon accepted, seen from the base now.
+std::vector<Landmark> ConsoleServer::Impl::landmarks_now(const core::PlanarPose& now) const {
+  std::vector<Landmark> out;
+  if (!camera_to_base) return out;
+  const auto add = [&](Step step, std::size_t i, const char* name) {
+    if (!sent[step] || sent[step]->camera_m.size() <= i) return;
+    out.push_back({name, core::rebase(camera_to_base->to_base(sent[step]->camera_m[i]),
+                                      sent[step]->pose, now)});
+  };
+  add(kWidth, 0, "hinge edge (P1)");
+  add(kWidth, 1, "moving edge (P2)");
+  add(kHandle, 0, "handle axis");
+  add(kHandle, 1, "handle free end");
+  return out;
+}
+
+// Geometry guidance (issue 23): the door distance, where each measured landmark leaves the view on
+// a straight Approach, the standoff that keeps them all in view, the hinge cross-check, and picks
+// far off the fitted door plane or outside the measured edges.
+JsonObject ConsoleServer::Impl::guidance_json() const {
+  JsonObject g;
+  if (!telemetry || !camera_to_base || !model || frames.empty()) return g;
+  const core::PlanarPose now{telemetry->odometry_x_m, telemetry->odometry_y_m,
+                             telemetry->base_yaw_odometry_rad};
+  const auto landmarks = landmarks_now(now);
+  const double lowest = model->approach_min_standoff_m;
+  constexpr double kPreferredStandoff_m = 0.75;  // the paper's standoff for the handle
+  if (telemetry->door.has_distance) {
+    const double distance = telemetry->door.distance_m;
+    g.add("door_distance_m", distance);
+    const Camera cam{frames.back()->frame.intrinsics, *camera_to_base, model->min_depth_m,
+                     model->max_depth_m};
+    const auto limits = view_limits(cam, landmarks, distance, lowest);
+    client::JsonArray items;
+    for (const auto& l : limits) {
+      JsonObject j;
+      j.add("name", l.name).add("why", l.why);
+      if (std::isfinite(l.min_standoff_m)) {
+        j.add("min_standoff_m", l.min_standoff_m);
+      } else {
+        j.add_null("min_standoff_m");  // out of view already
+      }
+      items.add(j);
+    }
+    g.add("view", items);
+    if (!landmarks.empty()) {
+      g.add("default_standoff_m", default_standoff(limits, lowest, kPreferredStandoff_m, distance));
+    }
+  }
+  // Hinge side: the handle's axis (accepted, or picked and not sent yet) must lie nearer P2 (the
+  // moving edge) than P1.
+  if (landmarks.size() >= 2 && sent[kWidth]) {
+    std::optional<core::Vec3> axis;
+    if (sent[kHandle] && landmarks.size() >= 3) axis = landmarks[2].base_m;
+    if (!picks[kHandle].empty()) {
+      const auto& p = picks[kHandle][0];
+      axis = core::rebase(camera_to_base->to_base(p.camera_m), p.pose, now);
+    }
+    if (axis) {
+      g.add("hinge_problem", hinge_side_problem(landmarks[0].base_m, landmarks[1].base_m, *axis));
+    }
+  }
+  // Picks to look at again: plane points far off the plane of the others or outside the door's
+  // measured edges; width points off the accepted door plane.
+  client::JsonArray flags;
+  const auto flag = [&](Step step, std::size_t i, const std::string& text) {
+    flags.add(JsonObject().add("step", kStepNames[step]).add("index", i).add("text", text));
+  };
+  const auto base_now = [&](const Pick& p) {
+    return core::rebase(camera_to_base->to_base(p.camera_m), p.pose, now);
+  };
+  constexpr double kOffPlane_m = 0.02;
+  std::array<char, 200> buf{};
+  if (picks[kPlane].size() >= 4) {
+    std::vector<core::Vec3> pts;
+    for (const auto& p : picks[kPlane])
+      pts.push_back(base_now(p));
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      std::vector<core::Vec3> others = pts;
+      others.erase(others.begin() + static_cast<std::ptrdiff_t>(i));
+      const auto plane = fit_points(others);
+      if (!plane) continue;
+      const double d = distance_to_plane(*plane, pts[i]);
+      if (d > std::max(kOffPlane_m, 4 * plane->rms_residual_m)) {
+        std::snprintf(buf.data(), buf.size(),
+                      "point %zu is %.3f m off the plane of the others (handle, frame, wall?)",
+                      i + 1, d);
+        flag(kPlane, i, buf.data());
+      }
+    }
+  }
+  if (landmarks.size() >= 2 && sent[kWidth]) {
+    for (std::size_t i = 0; i < picks[kPlane].size(); ++i) {
+      const double t =
+          along_edges(landmarks[0].base_m, landmarks[1].base_m, base_now(picks[kPlane][i]));
+      if (t < -0.02 || t > 1.02) {
+        std::snprintf(buf.data(), buf.size(),
+                      "point %zu is outside the door's measured edges (P1..P2): on the wall?",
+                      i + 1);
+        flag(kPlane, i, buf.data());
+      }
+    }
+  }
+  if (sent[kPlane] && sent[kPlane]->camera_m.size() >= 3) {
+    std::vector<core::Vec3> pts;
+    for (const auto& c : sent[kPlane]->camera_m)
+      pts.push_back(core::rebase(camera_to_base->to_base(c), sent[kPlane]->pose, now));
+    if (const auto plane = fit_points(pts)) {
+      for (std::size_t i = 0; i < picks[kWidth].size(); ++i) {
+        const double d = distance_to_plane(*plane, base_now(picks[kWidth][i]));
+        if (d > kOffPlane_m) {
+          std::snprintf(buf.data(), buf.size(),
+                        "P%zu is %.3f m off the door plane: not on the door leaf's edge?", i + 1,
+                        d);
+          flag(kWidth, i, buf.data());
+        }
+      }
+    }
+  }
+  g.add("flags", flags);
+  return g;
 }
 
 }  // namespace ajar::console

@@ -1,202 +1,100 @@
 // The operator console in a real browser (Debian's headless Chromium, driven by playwright-core;
 // no browser is downloaded): ajard on simulated hardware + ajar-console on the simulated camera.
-// The test clicks the picks on the camera image and runs the whole procedure, checks the values
-// the page shows against the scenario's truth within the noise, presses EMERGENCY STOP mid-
-// alignment and sees the fault latch, and checks that closing the page stops feeding the deadman.
+//
+// First the whole procedure by pointing at the image (values against the scenario's truth, an
+// EMERGENCY STOP mid-alignment, the deadman), then one test per item of issue 23 ("never show the
+// operator something that is no longer true"), each checked and screenshotted at 1280x720,
+// 1920x1080 and 800x600. Item 5 (liveness) stops and kills processes: liveness.test.mjs.
 //
 // Run: scripts/test (stage "browser"), or: node --test tests/browser/
 // Env: AJAR_BUILD_DIR (default build), AJAR_CHROMIUM (default /usr/bin/chromium).
 // Screenshots: $AJAR_BUILD_DIR/browser-artifacts/*.png
-import { test } from 'node:test';
+import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { spawn } from 'node:child_process';
-import { mkdtempSync, mkdirSync, readFileSync, existsSync, rmSync } from 'node:fs';
-import { tmpdir } from 'node:os';
-import path from 'node:path';
-import { fileURLToPath } from 'node:url';
-import { chromium } from 'playwright-core';
+import { startStack, openPage, closeBrowser, until, scenarioNumber, axeViolations, dumpPages, VIEWPORTS } from './fixture.mjs';
 
-const root = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
-const build = path.resolve(root, process.env.AJAR_BUILD_DIR || 'build');
-const artifacts = path.join(build, 'browser-artifacts');
-const executablePath = process.env.AJAR_CHROMIUM || '/usr/bin/chromium';
-const scenarioPath = path.join(root, 'config/scenarios/console-door.yaml');
-
-// The scenario's truth, read from the same YAML the console renders.
-function scenarioNumber(key) {
-  const m = new RegExp(`^\\s*${key}:\\s*([-0-9.]+)`, 'm').exec(readFileSync(scenarioPath, 'utf8'));
-  assert.ok(m, `${key} in ${scenarioPath}`);
-  return Number(m[1]);
-}
-
-function start(cmd, args, name) {
-  const child = spawn(cmd, args, { stdio: ['ignore', 'pipe', 'pipe'] });
-  child.output = '';
-  child.stdout.on('data', (d) => { child.output += d; });
-  child.stderr.on('data', (d) => { child.output += d; });
-  child.name = name;
-  return child;
-}
-async function until(what, fn, timeoutMs = 15000) {
-  const end = Date.now() + timeoutMs;
-  for (;;) {
-    const v = await fn();
-    if (v) return v;
-    if (Date.now() > end) throw new Error(`timed out waiting for ${what}`);
-    await new Promise((r) => setTimeout(r, 100));
-  }
-}
-function stopped(child, timeoutMs) {
-  return new Promise((resolve) => {
-    if (child.exitCode !== null) return resolve(true);
-    const t = setTimeout(() => resolve(false), timeoutMs);
-    child.on('exit', () => { clearTimeout(t); resolve(true); });
+let stack = null;
+let failed = false;
+before(async () => { stack = await startStack('console'); });
+after(async () => { await closeBrowser(); if (stack) await stack.stop(failed); });
+// Each test on the shared stack; the processes' output is printed when one fails.
+// `body(P)` gets a fresh page at 1280x720; a failure leaves a screenshot and the page's log.
+function item(name, body, timeout = 60000) {
+  test(name, { timeout }, async () => {
+    const P = await openPage(stack);
+    try { await body(P); } catch (e) { failed = true; await dumpPages(name.replace(/\W+/g, '-').slice(0, 40)); throw e; } finally { await P.close(); }
   });
 }
 
-test('operator console: the whole procedure by pointing at the simulated camera', { timeout: 240000 }, async () => {
-  assert.ok(existsSync(executablePath), `${executablePath} (apt install chromium)`);
-  mkdirSync(artifacts, { recursive: true });
-  const work = mkdtempSync(path.join(tmpdir(), 'ajar-browser-'));
-  const portFile = path.join(work, 'port');
-  const ajard = start(path.join(build, 'daemon/ajard'), ['--config', path.join(root, 'config/ajard.yaml'),
-    '--listen', '127.0.0.1:0', '--port-file', portFile, '--state-dir', path.join(work, 'state')], 'ajard');
-  let consoleProc = null;
-  let context = null;
-  let consoleStopped = true;
-  let page = null;
-  let stage = 'start';
-  const say = (what) => { stage = what; console.log(`# ${new Date().toISOString().slice(11, 23)} ${what}`); };
-  try {
-    const port = await until('ajard port file', () => existsSync(portFile) && readFileSync(portFile, 'utf8').trim());
-    consoleProc = start(path.join(build, 'console/ajar-console'), ['--connect', `127.0.0.1:${port}`,
-      '--listen', '127.0.0.1:0', '--scenario', scenarioPath], 'ajar-console');
-    const url = await until('the console URL', () => (/open (http:\/\/\S+)/.exec(consoleProc.output) || [])[1]);
+// Where the console drew each pick of `step` on the frame the page shows now.
+const markers = (P, step) => P.page.evaluate((s) => (frameMeta && frameMeta.markers ? frameMeta.markers[s] : null), step);
+// Hold a jog button for `ms` with a pointer of `pointerType` (mouse, touch, pen).
+async function jog(P, dir, ms, pointerType = 'mouse') {
+  const b = P.page.locator(`[data-jog=${dir}]`);
+  await b.dispatchEvent('pointerdown', { pointerType, button: 0, isPrimary: true, bubbles: true });
+  await P.page.waitForTimeout(ms);
+  await b.dispatchEvent('pointerup', { pointerType, button: 0, isPrimary: true, bubbles: true });
+}
+const stillAgain = (P) => P.page.waitForFunction(() => lastTelemetry && !lastTelemetry.moving && document.getElementById('motion').textContent === '', null, { timeout: 15000 });
+// With width and handle stored: a fresh plane and AlignBase, so the next test starts square to the door.
+async function reSquare(P) {
+  await P.planePicks(await stack.landmarks());
+  const r = await P.send();
+  assert.ok(r.ok, r.text);
+  await P.page.click('#btn-align');
+  await P.waitState('aligned', 30000);
+  await stillAgain(P);
+}
+async function resetClear(P) {
+  await P.page.click('#btn-reset-clear');
+  await P.page.click('#confirm-ok');
+  await P.waitState('awaiting_width');
+}
 
-    context = await chromium.launchPersistentContext(path.join(work, 'chromium-profile'), {
-      executablePath,
-      headless: true,
-      viewport: { width: 1500, height: 1150 },
-      args: ['--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update',
-        '--disable-sync', '--no-first-run'],
-    });
-    page = context.pages()[0] || await context.newPage();
-    page.on('pageerror', (e) => { throw e; });
-    await page.goto(url);
-    await page.waitForSelector('#conn.ok', { timeout: 15000 });
-    await page.waitForFunction(() => /frame \d+/.test(document.getElementById('frame-info').textContent));
-    await page.waitForFunction(() => document.getElementById('deadman-text').textContent === 'fed by this page');
+item('the whole procedure by pointing at the simulated camera', async (P) => {
+  const { page } = P;
+  {
     assert.equal(await page.textContent('#role'), 'controller');
     assert.equal(await page.textContent('#state'), 'awaiting_width');
-    assert.ok(await page.isVisible('#estop'));
-    await page.screenshot({ path: path.join(artifacts, '01-start.png') });
-
-    const canvas = await page.$('#image');
-    const box = await canvas.boundingBox();
-    const landmarks = async () => (await (await fetch(url + 'api/sim/landmarks')).json());
-    const clickAt = async (p) => {
-      assert.ok(p.u > 2 && p.u < 637 && p.v > 2 && p.v < 477, `landmark in view: ${JSON.stringify(p)}`);
-      await page.mouse.click(box.x + p.u + 0.5, box.y + p.v + 0.5);
-    };
-    const picks = async (n) => page.waitForFunction((k) => document.querySelectorAll('#pick-list li').length === k, n);
-    // Picks on the specular handle can land where too few pixels have depth: the page refuses them
-    // ("pick a measurable area") and the operator clicks again (a new frame has other holes).
-    const pickOn = async (p, n) => {
-      for (let attempt = 0; ; ++attempt) {
-        await clickAt(p);
-        const got = await page.waitForFunction((k) => document.querySelectorAll('#pick-list li').length === k ||
-          /PICK/.test(document.getElementById('result').textContent), n).then(() => page.$$eval('#pick-list li', (l) => l.length));
-        if (got === n) return;
-        assert.ok(attempt < 3, `pick ${n} refused 4 times: ${await page.textContent('#result')}`);
-        await page.evaluate(() => { document.getElementById('result').textContent = ''; });
-        await page.waitForTimeout(150);
-      }
-    };
-    const step = async (name) => {
-      await page.click(`#steps button[data-step=${name}]`);
-      await page.waitForFunction((s) => document.querySelector(`#steps button[data-step=${s}]`).classList.contains('active'), name);
-      await page.click('#btn-clear');
-      await picks(0);
-    };
-    const sendAndWait = async () => {
-      await page.evaluate(() => { document.getElementById('result').dataset.ok = ''; });
-      await page.click('#btn-send');
-      await page.waitForFunction(() => ['true', 'false'].includes(document.getElementById('result').dataset.ok));
-      return { ok: await page.getAttribute('#result', 'data-ok') === 'true', text: await page.textContent('#result') };
-    };
-    const waitState = (s, timeout = 20000) => page.waitForFunction((x) => document.getElementById('state').textContent === x, s, { timeout });
-    const dragRect = async (a, b) => {
-      await page.mouse.move(box.x + a.u, box.y + a.v);
-      await page.mouse.down();
-      await page.mouse.move(box.x + (a.u + b.u) / 2, box.y + (a.v + b.v) / 2, { steps: 4 });
-      await page.mouse.move(box.x + b.u, box.y + b.v, { steps: 4 });
-      await page.mouse.up();
-    };
+    await page.waitForFunction(() => document.getElementById('deadman-text').textContent === 'fed by this page');
+    await P.shot('01-start');
     const truth = { width: scenarioNumber('width_m'), handle: scenarioNumber('length_m'), yawDeg: scenarioNumber('yaw_deg') };
-
-    say('hover');
-    // Live data follows the cursor: hovering the door shows its camera-frame coordinates.
-    let L = await landmarks();
-    await page.mouse.move(box.x + L.points.leaf_low_left.u, box.y + L.points.leaf_low_left.v);
-    await page.waitForFunction(() => document.getElementById('live-cz').textContent !== '—');
+    let L = await stack.landmarks();
+    // Live data follows the cursor: camera frame and base frame (with the daemon's calibration).
+    const q = await P.at(L.points.leaf_low_left);
+    await page.mouse.move(q.x, q.y);
+    await page.waitForFunction(() => /^[-+][0-9.]+$/.test(document.getElementById('live-bx').textContent));
     const cz = Number(await page.textContent('#live-cz'));
     assert.ok(Math.abs(cz - L.points.leaf_low_left.camera_m[2]) < 0.02, `hover depth ${cz}`);
-    // Base frame (eq. 1) with the calibration the daemon reports (RobotModel, protocol 1.1).
-    await page.waitForFunction(() => /^[-+][0-9.]+$/.test(document.getElementById('live-bx').textContent));
     const bx = Number(await page.textContent('#live-bx'));
     const by = Number(await page.textContent('#live-by'));
-    assert.ok(Math.hypot(bx - L.points.leaf_low_left.base_m[0], by - L.points.leaf_low_left.base_m[1]) < 0.03,
-      `hover base (${bx}, ${by}) vs truth ${L.points.leaf_low_left.base_m}`);
+    assert.ok(Math.hypot(bx - L.points.leaf_low_left.base_m[0], by - L.points.leaf_low_left.base_m[1]) < 0.03);
 
-    say('width refused');
-    // 1. Width. First a mistake: P1 and P2 on the same spot -> refused, the field named and the
-    // offending pick highlighted; then P1 on the hinge side and P2 at the moving edge.
-    await step('width');
-    await clickAt(L.points.hinge_edge);
-    await picks(1);
-    await clickAt(L.points.hinge_edge);
-    await picks(2);
-    let r = await sendAndWait();
+    // A refusal names its field and marks the pick: P1 and P2 on the same spot.
+    await P.step('width');
+    await P.clickAt(L.points.hinge_edge);
+    await P.picks(1);
+    await P.clickAt(L.points.hinge_edge);
+    await P.picks(2);
+    let r = await P.send();
     assert.equal(r.ok, false, r.text);
-    assert.match(r.text, /REFUSED/);
-    const field = await page.getAttribute('#result', 'data-field');
-    assert.match(field, /^p2/, r.text);
+    assert.match(r.field, /^p2/, r.text);
     assert.ok(await page.isVisible('#result .field.bad'));
     assert.equal(await page.getAttribute('#pick-list li:nth-child(2)', 'class'), 'bad');
-    await page.screenshot({ path: path.join(artifacts, '02-width-refused.png') });
-    say('width');
-    await step('width');
-    await clickAt(L.points.hinge_edge);
-    await picks(1);
-    await clickAt(L.points.moving_edge);
-    await picks(2);
-    r = await sendAndWait();
+    await P.shot('02-width-refused');
+    r = await P.width(L);
     assert.ok(r.ok, r.text);
     const width = Number(/width ([0-9.]+) m/.exec(r.text)[1]);
     assert.ok(Math.abs(width - truth.width) < 0.02, `width ${width} vs ${truth.width}`);
     assert.match(r.text, /opens CCW/);  // left hinge
-    await waitState('awaiting_handle');
-
-    say('handle');
-    // 2. Handle: axis, then free end.
-    await step('handle');
-    await pickOn(L.points.handle_axis, 1);
-    await pickOn(L.points.handle_free_end, 2);
-    r = await sendAndWait();
+    r = await P.handle(L);
     assert.ok(r.ok, r.text);
     const handle = Number(/handle length ([0-9.]+) m/.exec(r.text)[1]);
     assert.ok(Math.abs(handle - truth.handle) < 0.02, `handle ${handle} vs ${truth.handle}`);
-    await waitState('awaiting_plane');
-
-    say('plane');
-    // 3. Plane: drag a rectangle on the door leaf (16 spread points).
     const plane = async () => {
-      L = await landmarks();
-      await step('plane');
-      await dragRect({ u: L.points.leaf_low_left.u, v: L.points.leaf_high_middle.v },
-        { u: L.points.leaf_low_right.u, v: L.points.leaf_low_left.v });
-      await page.waitForFunction(() => document.querySelectorAll('#pick-list li').length >= 12);
-      const res = await sendAndWait();
+      L = await stack.landmarks();
+      await P.planePicks(L);
+      const res = await P.send();
       assert.ok(res.ok, res.text);
       const yaw = Number(/yaw to square up ([-+0-9.]+) rad/.exec(res.text)[1]);
       assert.ok(Math.abs(yaw - L.truth.yaw_to_square_rad) < 0.02, `yaw ${yaw} vs truth ${L.truth.yaw_to_square_rad}`);
@@ -204,18 +102,15 @@ test('operator console: the whole procedure by pointing at the simulated camera'
     };
     const yaw0 = await plane();
     assert.ok(Math.abs(yaw0 - truth.yawDeg * Math.PI / 180) < 0.02);
-    await waitState('ready_to_align');
-    await page.screenshot({ path: path.join(artifacts, '03-plane.png') });
+    await P.waitState('ready_to_align');
+    await P.shot('03-plane');
 
-    say('estop mid-alignment');
-    // 4a. EMERGENCY STOP mid-alignment (the Escape key): the fault latches.
-    // The turn lasts under a second: the operator's Escape is pressed inside the page the moment the
-    // daemon's motion_started event is shown (a round trip to the test process can be too slow on
-    // a loaded machine). The key's binding itself is what is exercised.
+    // EMERGENCY STOP mid-alignment (Escape, pressed inside the page the moment the daemon says the
+    // motion started: a round trip to the test process can be too slow on a loaded machine).
     await page.evaluate(() => {
       const log = document.getElementById('log');
       const watch = new MutationObserver(() => {
-        if (/motion_started/.test(log.textContent)) {
+        if (/motion started/.test(log.textContent)) {
           watch.disconnect();
           window.dispatchEvent(new KeyboardEvent('keydown', { key: 'Escape', bubbles: true }));
         }
@@ -225,69 +120,370 @@ test('operator console: the whole procedure by pointing at the simulated camera'
     await page.click('#btn-align');
     await page.waitForFunction(() => document.getElementById('fault').textContent === 'EMERGENCY_STOPPED');
     assert.ok(await page.$eval('#fault-box', (e) => e.classList.contains('latched')));
-    // It stopped the turn: the motion was stopped, not finished.
-    await page.waitForFunction(() => /motion_stopped/.test(document.getElementById('log').textContent));
-    assert.ok(!/motion_finished/.test(await page.textContent('#log')), 'the alignment was interrupted');
-    await page.screenshot({ path: path.join(artifacts, '04-estop-latched.png') });
-    say('refused while latched');
-    // Commands are refused while the fault is latched.
+    await page.waitForFunction(() => /motion stopped/.test(document.getElementById('log').textContent));
+    assert.ok(!/motion finished/.test(await page.textContent('#log')), 'the alignment was interrupted');
+    await P.shot('04-estop-latched');
     await page.click('#btn-align');
-    await page.waitForFunction(() => /refused/i.test(document.getElementById('log').textContent.split('\n').slice(-3).join(' ')) ||
-      document.getElementById('command-result').dataset.ok === 'false');
+    await page.waitForFunction(() => document.getElementById('command-result').dataset.ok === 'false');
     await page.click('#btn-reset');
     await page.waitForFunction(() => document.getElementById('fault').textContent === 'none');
 
-    say('re-measure and align');
-    // 4b. Re-measure the plane from where the base stopped, align, and see the door square.
     await until('a state that takes a plane', async () => ['awaiting_plane', 'ready_to_align'].includes(await page.textContent('#state')));
     await plane();
     await page.click('#btn-align');
-    await waitState('aligned', 30000);
-    L = await landmarks();
-    const zl = L.points.hinge_edge.camera_m[2];
-    const zr = L.points.moving_edge.camera_m[2];
-    assert.ok(Math.abs(zl - zr) < 0.03, `after alignment the door edges are ${zl} and ${zr} m away`);
-    assert.ok(Math.abs(L.truth.yaw_to_square_rad) < 0.03, `residual yaw ${L.truth.yaw_to_square_rad}`);
-    await page.screenshot({ path: path.join(artifacts, '05-aligned.png') });
-
-    say('contact and engage');
-    // 5. Contact point on the handle, then Engage.
-    await step('contact');
-    await pickOn(L.points.contact, 1);
-    r = await sendAndWait();
+    await P.waitState('aligned', 30000);
+    L = await stack.landmarks();
+    assert.ok(Math.abs(L.points.hinge_edge.camera_m[2] - L.points.moving_edge.camera_m[2]) < 0.03, 'door square after alignment');
+    await P.shot('05-aligned');
+    await P.step('contact');
+    await P.pickOn(L.points.contact, 1);
+    r = await P.send();
     assert.ok(r.ok, r.text);
     const c = /contact base \(([-0-9.]+), ([-0-9.]+), ([-0-9.]+)\)/.exec(r.text).slice(1).map(Number);
     const ct = L.points.contact.base_m;
-    const err = Math.hypot(c[0] - ct[0], c[1] - ct[1], c[2] - ct[2]);
-    assert.ok(err < 0.03, `contact ${c} vs truth ${ct}: ${err} m`);
-    await waitState('ready_to_engage');
+    assert.ok(Math.hypot(c[0] - ct[0], c[1] - ct[1], c[2] - ct[2]) < 0.03, `contact ${c} vs truth ${ct}`);
+    await P.waitState('ready_to_engage');
     await page.click('#btn-engage');
-    await waitState('engaged', 60000);
-    await page.screenshot({ path: path.join(artifacts, '06-engaged.png'), fullPage: true });
-
-    say('close the page');
-    // Closing the page stops feeding the deadman.
-    await page.close();
-    await until('the console to stop the heartbeat', async () => {
-      const s = await (await fetch(url + 'api/state')).json();
-      return s.connection.heartbeat === false;
-    }, 5000);
-  } catch (e) {
-    console.error(`failed during: ${stage}`);
-    if (page && !page.isClosed()) await page.screenshot({ path: path.join(artifacts, 'failure.png') }).catch(() => {});
-    console.error('--- ajard ---\n' + ajard.output.slice(-3000));
-    if (consoleProc) console.error('--- ajar-console ---\n' + consoleProc.output.slice(-3000));
-    throw e;
-  } finally {
-    if (context) await context.close().catch(() => {});
-    if (consoleProc) {
-      consoleProc.kill('SIGINT');
-      consoleStopped = await stopped(consoleProc, 5000);
-      if (!consoleStopped) consoleProc.kill('SIGKILL');
-    }
-    ajard.kill('SIGTERM');
-    await stopped(ajard, 5000);
-    rmSync(work, { recursive: true, force: true });
+    await P.waitState('engaged', 60000);
+    await P.shot('06-engaged');
+    await resetClear(P);
   }
-  assert.ok(consoleStopped, 'ajar-console stops on SIGINT (Ctrl-C)');
+  // Closing the page stops feeding the deadman.
+  await P.close();
+  await until('the console to stop the heartbeat', async () => (await stack.apiState()).connection.heartbeat === false, 5000);
+}, 150000);
+
+item('issue 23 item 10: layout for gloves and small screens, a clean log, axe-core', async (P) => {
+  const { page } = P;
+  {
+    const L = await stack.landmarks();
+    const rects = async () => (await page.evaluate(() => window.scrollTo(0, 0))) || page.$$eval('button, input, #image, #result, #pick-list, #command-result', (els) =>
+      els.filter((e) => e.offsetParent !== null).map((e) => { const r = e.getBoundingClientRect(); return `${e.id || e.dataset.step || e.dataset.jog}:${Math.round(r.x)},${Math.round(r.y)},${Math.round(r.width)},${Math.round(r.height)}`; }));
+    await P.step('plane');
+    const empty = {};
+    for (const vp of VIEWPORTS) { await page.setViewportSize(vp); await page.waitForTimeout(100); empty[vp.name] = await rects(); }
+    await page.setViewportSize(VIEWPORTS[0]);
+    // Picks pile up, a refusal and a long result come in: nothing moves under the operator's finger.
+    await P.planePicks(L);
+    await P.step('width');
+    await P.clickAt(L.points.hinge_edge);
+    await P.clickAt(L.points.hinge_edge);
+    await P.picks(2);
+    const r = await P.send();
+    assert.equal(r.ok, false);
+    await page.click('#steps button[data-step=plane]');
+    await page.waitForFunction(() => document.querySelectorAll('#pick-list li').length >= 12);
+    await P.atEachViewport('item10-layout', async (vp) => {
+      assert.deepEqual(await rects(), empty[vp.name], `no layout shift at ${vp.name}`);
+      // No horizontal scrolling; the image keeps its aspect and grows with the window.
+      assert.ok(await page.evaluate(() => document.documentElement.scrollWidth <= window.innerWidth), `no horizontal scroll at ${vp.name}`);
+      const box = await P.box();
+      assert.ok(Math.abs(box.width / box.height - 4 / 3) < 0.01, `aspect ${box.width}x${box.height}`);
+      if (vp.width === 1920) assert.ok(box.width > 900, `the image scales: ${box.width} px wide at 1920`);
+      // The key state above the fold: state, fault, door distance, E-STOP, STOP, the image's messages.
+      for (const sel of ['#state-box', '#fault-box', '#estop', '#btn-stop-top', '#hud-door', '#live-badge', '#canvas-wrap']) {
+        assert.ok(await P.inViewport(sel), `${sel} above the fold at ${vp.name}`);
+      }
+      // The daemon's refusal, on the image.
+      assert.match(await page.textContent('#image-msg'), /REFUSED/);
+      assert.ok(await P.inViewport('#image-msg'), `the refusal above the fold at ${vp.name}`);
+      if (vp.width >= 1280) {
+        for (const sel of ['#btn-stop', '#btn-send', '#btn-align']) assert.ok(await P.inViewport(sel), `${sel} above the fold at ${vp.name}`);
+      }
+      // Targets for gloves: at least 48 x 48 px.
+      const small = await page.$$eval('button, input, [tabindex]', (els) => els.filter((e) => e.offsetParent !== null)
+        .map((e) => { const r = e.getBoundingClientRect(); return { id: e.id || e.textContent.trim().slice(0, 12), w: r.width, h: r.height }; })
+        .filter((t) => t.w < 47.5 || t.h < 47.5));
+      assert.deepEqual(small, [], `targets under 48 px at ${vp.name}`);
+      assert.deepEqual(await axeViolations(page), [], `axe-core at ${vp.name}`);
+    });
+    // "Reset & clear" asks first, and Cancel changes nothing.
+    const mark = await P.logMark();
+    await page.click('#btn-reset-clear');
+    assert.ok(await page.isVisible('#confirm-clear'));
+    await P.shot('item10-confirm-clear');
+    await page.click('#confirm-cancel');
+    await page.waitForTimeout(300);
+    assert.ok(!(await P.logSince(mark)).some((l) => /Reset/.test(l)), 'no Reset sent before the confirmation');
+    assert.ok((await page.$$eval('#pick-list li', (l) => l.length)) >= 12, 'picks kept');
+    // Jog buttons answer touch: held -> the base drives; released -> it stops.
+    const m2 = await P.logMark();
+    await jog(P, 'back', 400, 'touch');
+    await until('a jog from touch', async () => (await P.logSince(m2)).some((l) => /motion started: driving/.test(l)));
+    await until('the jog to end', async () => (await P.logSince(m2)).some((l) => /motion finished: driving ended/.test(l)));
+    await stillAgain(P);
+    // A clean event log: an emergency stop reads "FAULT LATCHED: EMERGENCY_STOPPED", never "fault fault".
+    await page.click('#estop');
+    await page.waitForFunction(() => document.getElementById('fault').textContent === 'EMERGENCY_STOPPED');
+    const log = await page.textContent('#log');
+    assert.match(log, /FAULT LATCHED: EMERGENCY_STOPPED/);
+    assert.doesNotMatch(log, /fault fault|event \w+:/);
+    await page.click('#btn-reset');
+    await page.waitForFunction(() => document.getElementById('fault').textContent === 'none');
+    await resetClear(P);
+  }
+});
+
+item('issue 23 item 8: P1/P2 reversed is caught by the handle\'s side', async (P) => {
+  const { page } = P;
+  {
+    const L = await stack.landmarks();
+    let r = await P.width(L, { reversed: true });
+    assert.ok(r.ok, r.text);  // the daemon cannot know: it answers "opens CW"
+    assert.match(r.text, /opens CW/);
+    r = await P.handle(L);
+    assert.equal(r.ok, false, r.text);
+    assert.match(r.text, /NOT SENT/);
+    assert.match(r.text, /P1 and P2 look reversed/);
+    assert.equal(await page.textContent('#state'), 'awaiting_handle');
+    await P.atEachViewport('item8-reversed', async () => {
+      assert.ok(await page.isVisible('#result.refused'));
+    });
+    // The width step says it too.
+    await page.click('#steps button[data-step=width]');
+    await page.waitForFunction(() => document.getElementById('result').dataset.warning === 'hinge');
+    // Measured the right way round, the handle is accepted.
+    r = await P.width(L);
+    assert.ok(r.ok && /opens CCW/.test(r.text), r.text);
+    r = await P.handle(L);
+    assert.ok(r.ok, r.text);
+    await resetClear(P);
+  }
+});
+
+item('issue 23 item 9: status that is no longer true is not shown', async (P) => {
+  const { page } = P;
+  {
+    const L = await stack.landmarks();
+    assert.ok((await P.width(L)).ok);
+    // The command box says what was done and when, never a state that has passed.
+    await page.click('#btn-reset');
+    await page.waitForFunction(() => document.getElementById('command-result').dataset.op === 'reset');
+    assert.doesNotMatch(await page.textContent('#command-result'), /awaiting_|ready_to|→/);
+    assert.ok((await P.handle(L)).ok);
+    await P.planePicks(L);
+    assert.ok((await P.send()).ok);
+    await page.waitForFunction(() => document.querySelector('#steps button[data-step=plane]').classList.contains('stored'));
+    // Live data: gone once the cursor leaves the image.
+    const q = await P.at(L.points.leaf_low_left);
+    await page.mouse.move(q.x, q.y);
+    await page.waitForFunction(() => document.getElementById('live-cz').textContent !== '—');
+    await page.mouse.move(5, 400);
+    await page.waitForFunction(() => document.getElementById('live-cz').textContent === '—');
+    // While the base jogs the header says so; once it has moved beyond the staleness rule the plane
+    // step says STALE, not ✓.
+    const m = await P.logMark();
+    const b = page.locator('[data-jog=back]');
+    await b.dispatchEvent('pointerdown', { pointerType: 'mouse', button: 0, isPrimary: true });
+    await page.waitForFunction(() => /JOGGING/.test(document.getElementById('motion').textContent));
+    await P.atEachViewport('item9-jogging', async () => {
+      assert.match(await page.textContent('#state-box'), /JOGGING/);
+      assert.ok(await P.inViewport('#hud-motion'));
+    });
+    await page.waitForFunction(() => lastTelemetry && lastTelemetry.plane_stale, null, { timeout: 10000 });
+    await b.dispatchEvent('pointerup', { pointerType: 'mouse', button: 0, isPrimary: true });
+    await stillAgain(P);
+    assert.ok((await P.logSince(m)).some((l) => /motion finished/.test(l)));
+    await page.click('#steps button[data-step=plane]');
+    await page.waitForFunction(() => document.querySelector('#steps button[data-step=plane]').classList.contains('stale'));
+    await P.atEachViewport('item9-plane-stale', async () => {
+      assert.match(await page.textContent('#steps button[data-step=plane]'), /STALE/);
+      assert.doesNotMatch(await page.textContent('#steps button[data-step=plane]'), /✓/);
+      assert.match(await page.textContent('#hud-warn'), /PLANE STALE/);
+      assert.ok(await P.inViewport('#hud-warn'));
+    });
+    await resetClear(P);
+  }
+});
+
+item('issue 23 items 1 and 2: picks know their pose: markers follow the base; old picks are transformed or refused', async (P) => {
+  const { page } = P;
+  {
+    let L = await stack.landmarks();
+    assert.ok((await P.width(L)).ok);
+    assert.ok((await P.handle(L)).ok);
+    // Handle picks on the image, then a short jog: the markers move with the handle (item 2).
+    await P.step('handle');
+    await P.pickOn(L.points.handle_axis, 1);
+    await P.pickOn(L.points.handle_free_end, 2);
+    await P.planePicks(L);
+    const m = await P.logMark();
+    await jog(P, 'left', 150);
+    await until('the jog', async () => (await P.logSince(m)).some((l) => /motion started/.test(l)));
+    await stillAgain(P);
+    await page.waitForTimeout(300);  // a frame rendered at the pose where the base stopped
+    L = await stack.landmarks();
+    await page.click('#steps button[data-step=handle]');
+    const mk = await until('markers for the frame', async () => {
+      const k = await markers(P, 'handle');
+      return k && k.length === 2 && k;
+    });
+    const travel = await page.evaluate(() => state.picks.handle[0].moved || '');
+    assert.notEqual(mk[0].place, 'here', `the base moved: ${travel}`);
+    if (mk[0].place === 'moved') {
+      const err = Math.hypot(mk[0].u - L.points.handle_axis.u, mk[0].v - L.points.handle_axis.v);
+      assert.ok(err < 6, `handle axis marker at (${mk[0].u}, ${mk[0].v}), the handle is at (${L.points.handle_axis.u}, ${L.points.handle_axis.v})`);
+    }
+    await P.atEachViewport('item2-markers-moved', async () => {
+      assert.match(await page.textContent('#pick-list'), /moved: the base moved|STALE/);
+    });
+    // The plane picks from before the jog: sent transformed (and the page says so) within the
+    // daemon's staleness rule, refused beyond it: the page and the daemon agree (item 1).
+    await page.click('#steps button[data-step=plane]');
+    const moved = await page.evaluate(() => state.picks.plane[0]);
+    const r = await P.send();
+    if (moved.place === 'moved') {
+      assert.ok(r.ok, r.text);
+      assert.match(r.text, /transformed by odometry: the base moved [0-9.]+ m \/ [0-9.]+° since/);
+      const yaw = Number(/yaw to square up ([-+0-9.]+) rad/.exec(r.text)[1]);
+      assert.ok(Math.abs(yaw - L.truth.yaw_to_square_rad) < 0.02, `yaw ${yaw} vs truth now ${L.truth.yaw_to_square_rad}`);
+    } else {
+      assert.equal(moved.place, 'stale');
+      assert.equal(r.ok, false);
+      assert.match(r.text, /pick again: the base moved [0-9.]+ m \/ [0-9.]+° since/);
+    }
+    await P.shot('item1-sent-after-jog');
+    // New picks, then a turn beyond the daemon's staleness rule (drive.stale_yaw_rad = 0.05 rad):
+    // the picks are stale — greyed on the image — and Send refuses them instead of re-sending them;
+    // the daemon says the same of its plane (item 1).
+    await P.planePicks(L);
+    const m2 = await P.logMark();
+    await jog(P, 'left', 700);
+    await until('the turn', async () => (await P.logSince(m2)).some((l) => /motion started/.test(l)));
+    await stillAgain(P);
+    const turned = await page.evaluate(() => state.picks.plane[0]);
+    const grey = await until('stale markers', async () => { const k = await markers(P, 'plane'); return k && k.length && k.every((x) => x.place === 'stale' || x.place === 'out') && k; });
+    assert.ok(grey.length >= 12, `${grey.length} markers; ${turned.moved}`);
+    const m3 = await P.logMark();
+    const r2 = await P.send();
+    assert.equal(r2.ok, false, r2.text);
+    assert.match(r2.text, /pick again: the base moved [0-9.]+ m \/ [0-9.]+° since/);
+    assert.ok(!(await P.logSince(m3)).some((l) => /sending MeasureDoorPlane/.test(l)), 'nothing sent');
+    assert.ok(await page.evaluate(() => lastTelemetry.plane_stale), 'the daemon calls its plane (sent from the same pose) stale too');
+    await P.atEachViewport('item1-stale-refused', async () => {
+      assert.ok(await page.isVisible('#result.refused'));
+      assert.match(await page.textContent('#pick-list'), /STALE/);
+    });
+    await reSquare(P);
+    await resetClear(P);
+  }
+}, 90000);
+
+item('issue 23 item 4: the role follows the daemon: take-over by ajarctl shows within 1 s', async (P) => {
+  const { page } = P;
+  {
+    assert.equal(await page.textContent('#role'), 'controller');
+    const r = await stack.ajarctl(['--take-over', 'reset']);
+    assert.equal(r.code, 0, r.output);
+    const t0 = Date.now();
+    await page.waitForFunction(() => document.getElementById('role').textContent === 'observer', null, { timeout: 1000 });
+    assert.ok(Date.now() - t0 <= 1000);
+    await P.atEachViewport('item4-observer', async () => {
+      assert.ok(await P.inViewport('#btn-take-over'), 'Take over in view');
+      assert.ok(!(await page.isVisible('#deadman')), 'Take over where the deadman was');
+      assert.ok(await page.isDisabled('#btn-align'));
+    });
+    // A reload shows the same (the console keeps the role the daemon gave it).
+    await page.reload();
+    await page.waitForFunction(() => document.getElementById('role').textContent === 'observer');
+    await page.click('#btn-take-over');
+    await page.waitForFunction(() => document.getElementById('role').textContent === 'controller', null, { timeout: 10000 });
+    await page.waitForFunction(() => document.getElementById('deadman-text').textContent === 'fed by this page');
+    assert.ok(!(await page.isDisabled('#btn-align')));
+  }
+});
+
+item('issue 23 item 3: Space stops and Escape e-stops whatever has focus; arrows jog only on the image or pad', async (P) => {
+  const { page } = P;
+  {
+    const L = await stack.landmarks();
+    assert.ok((await P.width(L)).ok);
+    assert.ok((await P.handle(L)).ok);
+    // Turned off square first (the earlier tests may have left the base square to the door).
+    await jog(P, 'left', 700);
+    await page.waitForFunction(() => lastTelemetry && lastTelemetry.moving);
+    await stillAgain(P);
+    await P.planePicks(await stack.landmarks());
+    assert.ok((await P.send()).ok);
+    // Click "Align base" (it keeps the focus) and press Space: the turn stops, no second AlignBase.
+    const m = await P.logMark();
+    await page.click('#btn-align');
+    await page.keyboard.press(' ');
+    await until('the stop', async () => (await P.logSince(m)).some((l) => /motion stopped/.test(l)));
+    const lines = await P.logSince(m);
+    assert.equal(lines.filter((l) => /sending AlignBase/.test(l)).length, 1, lines.join('\n'));
+    assert.ok(lines.some((l) => /sending Stop/.test(l)) && lines.some((l) => /stop: accepted/.test(l)), lines.join('\n'));
+    assert.ok(!lines.some((l) => /motion finished/.test(l)), 'the turn did not finish');
+    await stillAgain(P);
+    await P.atEachViewport('item3-keys', async (vp) => {
+      // In the text field: Space is Stop (not a character), arrows change nothing and do not jog.
+      await page.fill('#standoff', '0.90');
+      await page.focus('#standoff');
+      const k = await P.logMark();
+      await page.keyboard.press(' ');
+      await page.keyboard.down('ArrowUp'); await page.waitForTimeout(250); await page.keyboard.up('ArrowUp');
+      await until('Stop from the field', async () => (await P.logSince(k)).some((l) => /stop: accepted/.test(l)));
+      assert.equal(await page.inputValue('#standoff'), '0.90', `the field is unchanged at ${vp.name}`);
+      // A focused button: arrows neither jog nor press it.
+      await page.focus('#btn-undo');
+      await page.keyboard.down('ArrowUp'); await page.waitForTimeout(250); await page.keyboard.up('ArrowUp');
+      await page.waitForTimeout(200);
+      assert.ok(!(await P.logSince(k)).some((l) => /driving|sending Drive/.test(l)), (await P.logSince(k)).join('\n'));
+    });
+    // On the image, a held arrow jogs and its release stops.
+    const j = await P.logMark();
+    await page.focus('#image');
+    await page.keyboard.down('ArrowDown'); await page.waitForTimeout(300); await page.keyboard.up('ArrowDown');
+    await until('a jog from the arrow key', async () => (await P.logSince(j)).some((l) => /motion started: driving/.test(l)));
+    await until('the jog to end', async () => (await P.logSince(j)).some((l) => /motion finished/.test(l)));
+    await stillAgain(P);
+    // Escape in the text field: EMERGENCY STOP.
+    await page.focus('#standoff');
+    await page.keyboard.press('Escape');
+    await page.waitForFunction(() => document.getElementById('fault').textContent === 'EMERGENCY_STOPPED');
+    await page.click('#btn-reset');
+    await page.waitForFunction(() => document.getElementById('fault').textContent === 'none');
+    await reSquare(P);
+    await resetClear(P);
+  }
+});
+
+item('issue 23 item 7: the default standoff keeps the handle and both edges in view', async (P) => {
+  const { page } = P;
+  {
+    const L = await stack.landmarks();
+    assert.ok((await P.width(L)).ok);
+    assert.ok((await P.handle(L)).ok);
+    await P.planePicks(L);
+    assert.ok((await P.send()).ok);
+    // Square to the door first (Approach drives straight).
+    await page.click('#btn-align');
+    await P.waitState('aligned', 30000);
+    await stillAgain(P);
+    await page.waitForFunction(() => state.guidance && state.guidance.default_standoff_m !== undefined);
+    const def = await page.evaluate(() => state.guidance.default_standoff_m);
+    assert.equal(Number(await page.inputValue('#standoff')), Number(def.toFixed(2)), 'the field shows the default');
+    // The paper's 0.75 m: the page warns which landmark leaves the view.
+    await page.fill('#standoff', '0.60');
+    await page.waitForFunction(() => Number(document.getElementById('guidance').dataset.warnings) > 0);
+    await P.atEachViewport('item7-warn', async () => {
+      assert.match(await page.textContent('#guidance'), /at 0\.60 m the .* (leaves the image|closer than)/);
+    });
+    await page.fill('#standoff', def.toFixed(2));
+    await page.click('#btn-approach');
+    await page.waitForFunction(() => /APPROACHING/.test(document.getElementById('motion').textContent), null, { timeout: 5000 });
+    await P.shot('item7-approaching');
+    await until('the approach to end', async () => /motion finished|motion stopped/.test(await page.textContent('#log')), 20000);
+    await stillAgain(P);
+    await page.waitForTimeout(300);
+    const after = await stack.landmarks();
+    for (const name of ['hinge_edge', 'moving_edge', 'handle_axis', 'handle_free_end']) {
+      const p = after.points[name];
+      assert.ok(p.u > 0 && p.u < 639 && p.v > 0 && p.v < 479, `${name} in view at the default standoff ${def}: ${JSON.stringify(p)}`);
+    }
+    await P.atEachViewport('item7-at-default', async () => {
+      assert.match(await page.textContent('#hud-door'), /door [0-9.]+ m/);
+    });
+    await resetClear(P);
+  }
 });

@@ -25,6 +25,11 @@ namespace ajar::console {
 class SimulatedSource;
 
 inline constexpr std::chrono::milliseconds kPageAliveTimeout{1500};
+// The watchdog (issue 23): a camera frame or a telemetry sample older than this is FROZEN. The page
+// greys the image and refuses picks; the console refuses a pick on a frame when the camera has
+// sent nothing newer for this long, or when the base's pose at that frame is older than this (no
+// telemetry: where the base was is unknown), and refuses to send picks without a fresh pose.
+inline constexpr std::chrono::milliseconds kFrozenAfter{600};
 
 struct ConsoleOptions {
   client::Endpoint daemon;                // ajard to connect to
