@@ -3,6 +3,8 @@
 // status, supervision and stops are in control_loop_supervision.cpp.
 #include "ajar/daemon/control_loop.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <future>
@@ -86,6 +88,9 @@ ControlLoop::ControlLoop(drivers::MotionCard& card, const ControlLoopSettings& s
       jog_profile_(jog_profile(settings.base, settings.drive)),
       counts_per_wheel_rad_(counts_per_wheel_rad(settings.base)),
       max_wheel_counts_per_ms_(settings.base.max_wheel_speed_rad_s * counts_per_wheel_rad_ / 1e3),
+      card_scale_(settings.card_time_scale > 0 && std::isfinite(settings.card_time_scale)
+                      ? settings.card_time_scale
+                      : 1.0),
       drive_timeout_ns_(seconds_to_ns(settings.drive.command_timeout_s)),
       period_ns_(std::max<std::int64_t>(1, std::llround(kNsPerS / settings.rate_hz))),
       deadman_ns_(seconds_to_ns(settings.deadman_timeout_s)),
@@ -106,6 +111,7 @@ std::vector<std::string> ControlLoop::start_thread() {
   const RealtimeRequest request{settings_.realtime, settings_.priority, settings_.lock_memory};
   last_cycle_end_ns_.store(monotonic_now_ns());
   thread_ = std::thread([this, request, promise = std::move(warnings)]() mutable {
+    thread_tid_.store(static_cast<int>(::gettid()), std::memory_order_release);
     auto refused = apply_realtime(request);
     const std::int64_t first = monotonic_now_ns() + period_ns_;
     promise.set_value(std::move(refused));

@@ -142,7 +142,7 @@ void ControlLoop::start_move(const Command& c, std::int64_t now_ns) noexcept {
   mismatch_since_ns_[0] = mismatch_since_ns_[1] = -1;
   const double planned = std::max(planned_duration_s(move.left_counts, profile),
                                   planned_duration_s(move.right_counts, profile));
-  motion_deadline_ns_ = now_ns + seconds_to_ns(planned * 1.5) + margin_ns_;
+  motion_deadline_ns_ = now_ns + seconds_to_ns(planned * 1.5 / card_scale_) + margin_ns_;
   // A stop posted while the card took the move (vendor calls take time) acts in this cycle.
   if (stop_generation_.load() != handled_stop_ ||
       emergency_generation_.load() != handled_emergency_)
@@ -185,8 +185,8 @@ void ControlLoop::advance_jog(std::int64_t now_ns) noexcept {
   const double dt_s = static_cast<double>(elapsed_ns) / kNsPerS;
   jog_last_ns_ = now_ns;
   // The card's ramp toward what it was told (jog_profile_), for the velocity check.
-  const double ramp =
-      jog_profile_.acceleration_counts_per_ms2 * static_cast<double>(elapsed_ns) / 1e6;
+  const double ramp = jog_profile_.acceleration_counts_per_ms2 * static_cast<double>(elapsed_ns) /
+                      1e6 * card_scale_;
   for (int i = 0; i < 2; ++i) {
     expected_counts_per_ms_[i] +=
         std::clamp(told_counts_per_ms_[i] - expected_counts_per_ms_[i], -ramp, ramp);
@@ -227,7 +227,7 @@ void ControlLoop::advance_jog(std::int64_t now_ns) noexcept {
           std::max(rest_s, std::abs(expected_counts_per_ms_[i]) /
                                std::max(jog_profile_.deceleration_counts_per_ms2, 1e-12) / 1e3);
     }
-    motion_deadline_ns_ = now_ns + seconds_to_ns(rest_s * 1.5) + margin_ns_;
+    motion_deadline_ns_ = now_ns + seconds_to_ns(rest_s * 1.5 / card_scale_) + margin_ns_;
   }
   const bool at_rest = answered_ && !status_[0].moving && !status_[1].moving;
   if (told_zero && at_rest && !changed) {

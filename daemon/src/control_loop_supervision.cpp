@@ -37,7 +37,7 @@ void ControlLoop::enter_stopping(std::int64_t now_ns) noexcept {
   jog_resting_ = false;
   motion_ = Motion::kStopping;
   // From the running motion's top speed at its deceleration, as the card was told.
-  motion_deadline_ns_ = now_ns + seconds_to_ns(stop_time_s_ * 1.5) + margin_ns_;
+  motion_deadline_ns_ = now_ns + seconds_to_ns(stop_time_s_ * 1.5 / card_scale_) + margin_ns_;
 }
 
 void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
@@ -55,11 +55,14 @@ void ControlLoop::emergency_fault(ErrorCode code, int axis, std::int64_t now_ns)
 }
 
 void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
+  // An emergency stop the card did not take (it did not answer) is sent again every cycle.
+  if (estop_pending_) estop_pending_ = card_.emergency_stop(axes_) != ErrorCode::kOk;
   // Latch generation first: every emergency or fault stop it counts is visible below.
   const std::uint32_t latches = latch_generation_.load();
   if (const std::uint32_t e = emergency_generation_.load(); e != handled_emergency_) {
     handled_emergency_ = e;
     const bool sent = card_.emergency_stop(axes_) == ErrorCode::kOk;
+    estop_pending_ = !sent;
     jog_command_ = {};
     if (motion_ != Motion::kIdle) {
       stop_reason_ = ErrorCode::kEmergencyStopped;
@@ -132,7 +135,7 @@ void ControlLoop::read_axes(std::int64_t now_ns) noexcept {
     snapshot_profile_counts_[0] = status_[0].profile_position_counts;
     snapshot_profile_counts_[1] = status_[1].profile_position_counts;
     // The measured velocity: encoder counts since the last answered cycle (the previous one).
-    const double dt_ms = static_cast<double>(now_ns - last_read_ns_) / 1e6;
+    const double dt_ms = static_cast<double>(now_ns - last_read_ns_) / 1e6 * card_scale_;
     const bool consecutive = measured_valid_ || last_read_ns_ != 0;
     measured_valid_ = consecutive && dt_ms > 0 && now_ns - last_read_ns_ <= 3 * period_ns_;
     for (int i = 0; i < 2; ++i) {
@@ -150,7 +153,7 @@ void ControlLoop::read_axes(std::int64_t now_ns) noexcept {
 
 int ControlLoop::check_velocity(std::int64_t now_ns) noexcept {
   if (!answered_) return 0;
-  const double dt_ms = static_cast<double>(period_ns_) / 1e6;
+  const double dt_ms = static_cast<double>(period_ns_) / 1e6 * card_scale_;
   for (int i = 0; i < 2; ++i) {
     // What the card was told for this wheel: a velocity band and the ramp toward it.
     double low = 0, high = 0, ramp = 0;

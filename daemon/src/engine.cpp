@@ -21,11 +21,12 @@ EngineImpl::EngineImpl(const Config& config, drivers::DriverSet drivers, EngineO
   card_ = std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
                                                        config.drivers.card.poll_timeout_ms);
   loop_ = std::make_unique<ControlLoop>(*card_, loop_settings(config));
-  supervisor_ =
-      std::make_unique<LoopSupervisor>(SupervisedLoop{[this] { return loop_->thread_running(); },
-                                                      [this] { return loop_->last_cycle_end_ns(); },
-                                                      [this] { loop_->latch_stalled(); }},
-                                       *card_, axes, supervisor_settings(config));
+  supervisor_ = std::make_unique<LoopSupervisor>(
+      SupervisedLoop{[this] { return loop_->thread_running(); },
+                     [this] { return loop_->last_cycle_end_ns(); },
+                     [this] { loop_->latch_stalled(); },
+                     [this] { return thread_run_delay_ns(loop_->thread_tid()); }},
+      *card_, axes, supervisor_settings(config));
   arm_ = std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm));
 }
 

@@ -58,6 +58,7 @@ inline ControlLoopSettings loop_settings(const Config& c) {
   s.deadman_timeout_s = c.safety.deadman_timeout_s;
   s.motion_timeout_margin_s = c.control.motion_timeout_margin_s;
   s.recovery_timeout_s = std::max(0.1, c.drivers.card.poll_timeout_ms / 1000.0);
+  s.card_time_scale = c.drivers.kind == drivers::DriverKind::kReal ? 1.0 : c.drivers.sim_speedup;
   s.base = c.base;
   s.drive = c.drive;
   return s;

@@ -135,6 +135,15 @@ bool MockMotionCard::answering() const noexcept {
   return now_ns() >= silent_until_ns_;
 }
 
+bool MockMotionCard::misbehaving() const noexcept {
+  const Lock lock(mutex_);
+  const auto pending = [](const auto& counts) {
+    return std::any_of(counts.begin(), counts.end(), [](int n) { return n > 0; });
+  };
+  return pending(drop_calls_) || pending(fail_after_calls_) || now_ns() < silent_until_ns_ ||
+         std::any_of(axes_.begin(), axes_.end(), [](const Axis& a) { return a.stale_reads > 0; });
+}
+
 bool MockMotionCard::take_drop(CardCall kind) noexcept {
   int& n = drop_calls_[static_cast<std::size_t>(kind)];
   if (n == 0) return false;

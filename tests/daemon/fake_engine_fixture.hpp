@@ -39,6 +39,7 @@ class EngineTest : public ::testing::Test {
     if (configure_card) configure_card(*card);
     set.card = std::move(mock_card);
     set.arm = make_mock_arm(arm);
+    config.drivers.sim_speedup = kCardTimeScale;  // the loop's view of the card's time
     engine = daemon::make_engine(config, std::move(set));
     engine->set_event_sink([this](const protocol::Event& e) { events.push_back(e); });
     engine->start();

@@ -6,11 +6,12 @@
 // duplicates (same client instance and request id: executed once, the same reply again, also
 // after a reconnect), observers that send commands (refused, never executed) and stops (executed),
 // controller loss (disconnect) and take-over by a second controller session, silence (deadman),
-// card faults at random cycles (the mock card's test menu), a slow state store (held durable Acks),
-// and arm outcomes (done, fault, disconnect, a controller that resets mid-task). The loop runs by
-// hand (EngineOptions::manual_loop), so a seed replays exactly. After every command and every cycle
-// the invariants are checked (docs/control-loop.md, "Proof"); a campaign also asserts that the
-// interesting situations were actually reached (coverage counters, printed).
+// card faults at random cycles (the mock card's test menu: also a card that drops a command,
+// answers an error after taking one, reports stale status or is silent), a slow state store (held
+// durable Acks), and arm outcomes (done, fault, disconnect, a controller that resets mid-task). The
+// loop runs by hand (EngineOptions::manual_loop), so a seed replays exactly. After every command
+// and every cycle the invariants are checked (docs/control-loop.md, "Proof"); a campaign also
+// asserts that the interesting situations were actually reached (coverage counters, printed).
 //
 //   AJAR_SEED=<n>     replay one seed (prints its trace)
 //   AJAR_SEEDS=<n>    number of seeds (default 2000, 400 under sanitizers; a campaign: 200000)
@@ -78,7 +79,11 @@ TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
         "jog ended by the command timeout", "jog ended by a zero Drive", "approach finished",
         "approach stopped", "move cancelled before it started", "recovery (Reset of a fault)",
         "card fault mid-motion", "deadman", "duplicate executed once", "take-over",
-        "durable ack held"}) {
+        "durable ack held",
+        // The card side (world_card.cpp): each misbehaviour mid-motion, and caught.
+        "approach at the card", "card drops a move", "card drops jog updates mid-jog",
+        "stale status mid-motion", "card silent mid-motion", "fault VELOCITY_MISMATCH",
+        "fault MOTION_TIMEOUT"}) {
     EXPECT_GE(total.get(what), 10) << "the campaign no longer reaches: " << what;
   }
 }

@@ -57,6 +57,7 @@ class World {
     auto card = make_det_card(now_);
     card_ = card.get();
     card_->set_enable_delay_reads(static_cast<int>(rng_() % 3));
+    init_card_limits(seed);
     calm_ = seed % 3 == 0;
     // The wheels at the configured speed (constant): an alignment lasts a hundred cycles or so.
     const auto profile = daemon::wheel_profile(config_.base);
@@ -178,6 +179,26 @@ class World {
 
   void check_now();
 
+  // ---- the card's faults and the limits at the card (world_card.cpp) ----
+
+  // The drive limits on some seeds below the wheels' (an Approach then has its own, slower
+  // profile), the card's motion model (the trapezoid model on some seeds: its accelerations are
+  // checked), and each motion kind's limits at the wheel from the config.
+  void init_card_limits(std::uint64_t seed);
+  // A card that misbehaves at a random cycle: it drops (accepts, does not apply) the next move,
+  // jog update(s) or smooth stop, takes one and answers an error, reports stale status, or does
+  // not answer at all (the emergency stop too) for a few cycles while its motion goes on.
+  void inject_card_misbehaviour();
+  void clear_card_misbehaviour();
+  // What the card is told, per call: a move's trapezoid within the limits of its kind (AlignBase:
+  // the wheel limits; Approach: also the body's), a jog's speed and ramp within the drive limits;
+  // and by when the wheels must be at rest after it (the motion's deadline).
+  void check_card_call(const drivers::CardCallRecord& c, bool straight);
+  // What the simulated wheels do after a cycle: speed (and on the trapezoid model's seeds,
+  // acceleration) within the running motion's limits; at rest by its deadline unless the card is
+  // silent; a jog update the card did not apply is caught.
+  void check_wheels(bool halted);
+
   void fail(const std::string& what);
   void note(const std::string& line);
   int pick(int n);
@@ -215,7 +236,11 @@ class World {
   int key_every_ = 10, key_count_ = 0;
   protocol::PlaneAck plane_;
   double plane_yaw_odometry_rad_ = 0;  // odometry when plane_ was measured
-  std::deque<std::pair<std::int64_t, std::int64_t>> allowed_moves_;
+  struct AllowedMove {
+    std::int64_t left = 0, right = 0;
+    bool straight = false;  // an Approach (else AlignBase's turn)
+  };
+  std::deque<AllowedMove> allowed_moves_;
   bool jog_permit_ = false;         // a Drive was accepted since the last acknowledged stop
   std::int64_t last_drive_ns_ = 0;  // when the last Drive was accepted
   std::int64_t jog_bound_ns_ = 0;   // timeout + deceleration (+ margin) after the last Drive
@@ -228,6 +253,24 @@ class World {
   int motion_open_ = 0;
   char open_kind_ = 0;  // the open motion: 'a'lign, a'p'proach, 'd'rive, 'e'ngage
   bool fault_event_open_ = false;
+  // The card's faults and the limits at the card (world_card.cpp): counts/ms and counts/ms^2 at a
+  // wheel for each motion kind.
+  struct KindLimits {
+    double speed = 0, accel = 0;
+  };
+  KindLimits turn_limits_, straight_limits_, jog_limits_;
+  bool profile_model_ = false;    // the card ramps (trapezoid model): accelerations are checked
+  char wheel_kind_ = 0;           // the motion the wheels run: 't'urn, 's'traight, 'j'og, 0 none
+  std::int64_t rest_by_ns_ = 0;   // the wheels rest by then (the running motion's deadline)
+  bool rest_by_drive_ = false;    // that deadline follows the last accepted Drive (a jog)
+  std::int64_t jog_rest_ns_ = 0;  // after the last accepted Drive, for a jog
+  std::int64_t silent_until_ns_ = 0;
+  double wheel_v_[2] = {0, 0};    // the simulated wheels after the last cycle (counts/ms)
+  double jog_told_[2] = {0, 0};   // the jog velocities the card was last told
+  bool jog_told_active_ = false;  // the last motion call was a jog
+  std::int64_t disagree_since_[2] = {-1, -1};
+  bool card_halted_ = false;  // an injected fault halted a wheel since the last check
+  bool stuck_move_pending_ = false;  // the next move sticks (stick_next_move)
   ErrorCode last_fault_ = ErrorCode::kOk;
   bool reset_seen_ = false;
   Coverage coverage_;

@@ -42,8 +42,8 @@ void World::on_executed(const protocol::Message& m, const protocol::Message& rep
     // The plane's yaw seen from where the base is now (a stop may have let it turn on since).
     const double turned = before.base_yaw_odometry_rad - plane_yaw_odometry_rad_;
     const auto wheels = core::wheel_command(plane_.yaw_deviation_rad - turned, config_.base);
-    allowed_moves_.push_back(turned == 0 ? std::pair{plane_.left_counts, plane_.right_counts}
-                                         : std::pair{wheels.left_counts, wheels.right_counts});
+    allowed_moves_.push_back(turned == 0 ? AllowedMove{plane_.left_counts, plane_.right_counts}
+                                         : AllowedMove{wheels.left_counts, wheels.right_counts});
   }
   if (std::holds_alternative<protocol::Engage>(m) && ack->state == ProcedureState::kEngaging) {
     coverage_.bump("engaging");
@@ -66,7 +66,7 @@ void World::on_executed(const protocol::Message& m, const protocol::Message& rep
     }
     const auto& body = std::get<protocol::ApproachAck>(ack->body);
     if (body.left_counts != 0 || body.right_counts != 0) {
-      allowed_moves_.push_back({body.left_counts, body.right_counts});
+      allowed_moves_.push_back({body.left_counts, body.right_counts, true});
     }
     coverage_.bump("approach accepted");
   }
@@ -85,13 +85,25 @@ void World::cycle(bool poll) {
   }
   const std::size_t calls_before = card_->log_size();
   engine_->run_loop_cycle();
-  bool stop_call = false;
+  bool stop_call = false, estop_call = false;
   for (const auto& c : card_->log_from(calls_before)) {
     stop_call = stop_call || c.kind == CardCall::kSmoothStop || c.kind == CardCall::kEmergencyStop;
+    estop_call = estop_call || c.kind == CardCall::kEmergencyStop;
     on_card_call(c);
   }
-  // One period after an acknowledged stop: the wheels are commanded to stop.
-  if (stop_due_) {
+  check_wheels(estop_call);
+  if (verbose_ && std::getenv("AJAR_DEBUG")) {
+    const auto l = card_->peek(left_axis_), r = card_->peek(right_axis_);
+    note("DEBUG fault " + std::string(to_string(engine_->status().latched_fault)) + " L mv " +
+         std::to_string(l.moving) + " lim " + std::to_string(l.positive_limit) + " v " +
+         std::to_string(card_->velocity(left_axis_)) + " R mv " + std::to_string(r.moving) +
+         " lim " + std::to_string(r.positive_limit) + " v " +
+         std::to_string(card_->velocity(right_axis_)) + " telemetry moving " +
+         std::to_string(engine_->telemetry().moving));
+  }
+  // One period after an acknowledged stop: the wheels are commanded to stop (a silent card: in
+  // the first cycle it answers again).
+  if (stop_due_ && card_->answering()) {
     stop_due_ = false;
     if (estop_due_) {
       estop_due_ = false;
@@ -100,12 +112,22 @@ void World::cycle(bool poll) {
     }
     for (const int axis : {left_axis_, right_axis_}) {
       const auto st = card_->peek(axis);
-      if (st.moving && !st.smooth_stopped && card_->motion_call(axis) < stop_call_) {
+      // A stop call the card took since this motion began (applied or not: a stop the card did
+      // not apply has its own deadline, check_wheels).
+      // A zero jog (coming to rest) counts too.
+      const std::size_t began = card_->motion_call(axis);
+      const auto since = card_->log_from(began);
+      const bool told = count_calls(*card_, CardCall::kSmoothStop, began) +
+                                count_calls(*card_, CardCall::kEmergencyStop, began) >
+                            0 ||
+                        (!since.empty() && since.front().kind == CardCall::kJog &&
+                         since.front().velocity_counts_per_ms(axis) == 0);
+      if (st.moving && !st.smooth_stopped && began < stop_call_ && !told) {
         return fail("the wheels were not commanded to stop within one period of a stop");
       }
     }
   }
-  check_jog(stop_call);
+  check_jog(stop_call || !card_->answering());  // a silent card: the loop stopped, untold
   if (poll) {
     engine_->poll();
     hub_->tick(daemon::SessionHub::Clock::now());
@@ -131,6 +153,8 @@ bool World::card_jogging() {
 }
 
 void World::on_card_call(const drivers::CardCallRecord& c) {
+  check_card_call(c, c.kind == CardCall::kMoveRelative && !allowed_moves_.empty() &&
+                         allowed_moves_.front().straight);
   const std::int64_t left = c.distance_counts(left_axis_), right = c.distance_counts(right_axis_);
   const double left_velocity = c.velocity_counts_per_ms(left_axis_);
   const double right_velocity = c.velocity_counts_per_ms(right_axis_);
@@ -143,9 +167,9 @@ void World::on_card_call(const drivers::CardCallRecord& c) {
             "the card was told to move without an accepted AlignBase or Approach since the last "
             "stop");
       }
-      const auto [allowed_left, allowed_right] = allowed_moves_.front();
+      const AllowedMove allowed = allowed_moves_.front();
       allowed_moves_.pop_front();
-      if (left != allowed_left || right != allowed_right)
+      if (left != allowed.left || right != allowed.right)
         return fail("the card moved other counts than accepted");
       return;
     }
@@ -218,10 +242,10 @@ void World::check_jog(bool stop_call) {
   }
   commanded_lin_ = lin;
   commanded_ang_ = ang;
-  if (card_jogging() && now_ - last_drive_ns_ > jog_bound_ns_) {
+  if (card_jogging() && now_ - last_drive_ns_ > jog_rest_ns_ && now_ > silent_until_ns_) {
     return fail(
-        "the wheels still jog longer than drive.command_timeout_s plus the deceleration "
-        "after the last accepted Drive");
+        "the wheels still jog longer than drive.command_timeout_s plus the deceleration (and the "
+        "jog's deadline to rest) after the last accepted Drive");
   }
 }
 
@@ -262,11 +286,13 @@ void World::on_event(const protocol::Event& e) {
         coverage_.bump("move cancelled before it started");
       if (open_kind_ == 'a' || open_kind_ == 'p') allowed_moves_.clear();  // its permit ends
       if (open_kind_ == 'd') jog_permit_ = false;
+      if (open_kind_ == 'd') card_->drop_next_calls(CardCall::kJog, 0);  // that jog's updates
       open_kind_ = 0;
       break;
     case EventKind::kFaultLatched:
       if (fault_event_open_) fail("a second fault_latched event for one latch");
       if (e.fault == ErrorCode::kDeadman) coverage_.bump("deadman");
+      coverage_.bump("fault " + std::string(to_string(e.fault)));
       fault_event_open_ = true;
       break;
     case EventKind::kFaultCleared:

@@ -34,7 +34,11 @@ void World::step() {
     alive_ = !alive_;
     note(alive_ ? "controller speaks again" : "controller goes silent");
   } else if (what < 70) {
-    inject_card_fault();
+    if (pick(2) == 0) {
+      inject_card_fault();
+    } else {
+      inject_card_misbehaviour();
+    }
   } else if (what < 78) {
     arm_event();
   } else if (what < 84) {
@@ -223,14 +227,17 @@ void World::inject_card_fault() {
     case 0:
       note("card: drive alarm on axis " + std::to_string(axis));
       card_->inject_alarm(axis);
+      card_halted_ = true;
       break;
     case 1:
       note("card: following error on axis " + std::to_string(axis));
       card_->inject_following_error(axis);
+      card_halted_ = true;
       break;
     case 2:
       note("card: limit on axis " + std::to_string(axis));
       card_->inject_limit(axis, true);
+      card_halted_ = true;
       break;
     case 3: {
       const int n = 1 + pick(8);
@@ -245,6 +252,7 @@ void World::inject_card_fault() {
     case 5:
       note("card: the next move never progresses");
       card_->stick_next_move();
+      stuck_move_pending_ = true;  // on a wheel still moving: the mock halts it (check_wheels)
       return;
     default:
       stops_never_rest_ = !stops_never_rest_;
@@ -283,6 +291,7 @@ void World::quiesce() {
   alive_ = true;
   key_.reset();
   card_->fail_next_calls(0);
+  clear_card_misbehaviour();
   stops_never_rest_ = false;
   card_->set_stops_never_rest(false);
   if (controller_ == nullptr) controller_ = connect(protocol::Role::kController, true, 0x55);

@@ -19,9 +19,10 @@
 // Every cycle (cycle(), noexcept, no allocation, no locks, no waiting, no logging), in this order:
 //   1. axis status of both wheels (odometry; the wheels' measured velocity from the encoder
 //      deltas; what supervision and a new move start from);
-//   2. stops: emergency stop (card emergency stop in this cycle), a stall the loop supervisor
-//      latched (card emergency stop, latch kLoopStalled), fault stops (smooth stop, latch the
-//      code: the first latched code is the one reported and kept), smooth stop (also of a jog);
+//   2. stops: emergency stop (card emergency stop in this cycle; re-sent every cycle until the
+//      card takes it), a stall the loop supervisor latched (card emergency stop, latch
+//      kLoopStalled), fault stops (smooth stop, latch the code: the first latched code is the one
+//      reported and kept), smooth stop (also of a jog);
 //   3. one step of a running recovery (Reset), a state machine advanced once per cycle: wait for
 //      the wheels to rest, clear faults, enable the axes, then poll their status every cycle until
 //      the servo is on without alarm, or fail at recovery_timeout_s. While it runs the command
@@ -100,6 +101,9 @@ struct ControlLoopSettings {
   double velocity_tolerance = 0.1;
   double velocity_lag_s = 0.1;
   double velocity_mismatch_s = 0.2;
+  // A simulated card (drivers.sim.speedup) runs this much faster than the loop's clock: the card's
+  // velocities and durations (a move's planned time, a ramp) are in its time, converted here.
+  double card_time_scale = 1.0;
   core::BaseGeometry base;
   core::DriveLimits drive;  // jog limits and command timeout; the straight move's speed
 };
@@ -231,6 +235,9 @@ class ControlLoop {
   std::int64_t last_cycle_end_ns() const noexcept {
     return last_cycle_end_ns_.load(std::memory_order_acquire);
   }
+  // The control thread's kernel thread id (0 before start_thread()): the supervisor reads the
+  // thread's scheduling statistics by it.
+  int thread_tid() const noexcept { return thread_tid_.load(std::memory_order_acquire); }
   // The loop supervisor found the loop stalled (and stopped the card out of band). Never
   // refused, any thread: like a fault stop, it cancels what was posted before it and latches
   // kLoopStalled; the loop acts on it as soon as its stalled call returns: an in-band emergency
@@ -292,6 +299,7 @@ class ControlLoop {
   drivers::JogProfile jog_profile_;
   double counts_per_wheel_rad_;
   double max_wheel_counts_per_ms_;  // base.max_wheel_speed_rad_s at the card
+  double card_scale_;               // card time per loop time (card_time_scale)
   std::int64_t drive_timeout_ns_;
   std::int64_t period_ns_;
   std::int64_t deadman_ns_;
@@ -316,10 +324,12 @@ class ControlLoop {
   boost::lockfree::spsc_queue<LoopReport, boost::lockfree::capacity<kReportQueueCapacity>> reports_;
   SeqLock<LoopSnapshot> published_;
   std::atomic<std::int64_t> last_cycle_end_ns_{0};
+  std::atomic<int> thread_tid_{0};
   std::atomic<bool> thread_running_{false};
 
   // Loop-private state.
   std::uint32_t handled_stop_ = 0, handled_latch_ = 0, handled_emergency_ = 0;
+  bool estop_pending_ = false;  // the card did not take the last emergency stop: sent again
   Motion motion_ = Motion::kIdle;
   std::uint32_t motion_id_ = 0;
   std::int64_t motion_deadline_ns_ = 0;  // move, jog coming to rest, stop

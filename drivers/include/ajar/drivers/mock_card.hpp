@@ -155,6 +155,8 @@ class MockMotionCard final : public MotionCard {
   void set_stale_status_reads(int n) noexcept;
   void stop_answering_for_ns(std::int64_t ns) noexcept;
   bool answering() const noexcept;  // false while stop_answering_for_ns() lasts
+  // Some card fault above is still pending (a drop, an error after a call, stale reads, silence).
+  bool misbehaving() const noexcept;
   // Observation (see the top of this file). log_size() is the index the next logged call gets.
   AxisStatus peek(int axis) noexcept;
   double velocity(int axis) noexcept;
