@@ -219,8 +219,10 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
       }
       // Deadlines (a move's planned duration; a jog told zero coming to rest) and a card that
       // does not do what it was told: it is not trusted with a smooth stop.
+      // (A jog held at the standoff, told zero and at rest, has nothing left to do by then.)
+      const bool still = !status[0].moving && !status[1].moving;
       const bool deadline =
-          (motion_ == Motion::kMoving || jog_resting_) && now_ns > motion_deadline_ns_;
+          (motion_ == Motion::kMoving || (jog_resting_ && !still)) && now_ns > motion_deadline_ns_;
       if (deadline) return emergency_fault(ErrorCode::kMotionTimeout, 0, now_ns);
       if (const int off = check_velocity(now_ns); off != 0)
         return emergency_fault(ErrorCode::kVelocityMismatch, off, now_ns);
