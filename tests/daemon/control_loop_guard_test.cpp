@@ -91,6 +91,25 @@ TEST_F(LoopDoorGuard, AnObliqueApproachStopsAtTheStandoffToo) {
   EXPECT_LE(distance(guard), 0.4 + 0.005);
 }
 
+// A hard bound as well: a card that stops applying the jog's updates (it keeps the speed it had)
+// is emergency-stopped before the base is 5 mm past the standoff.
+TEST_F(LoopDoorGuard, ACardThatDoesNotSlowDownIsEmergencyStoppedAtTheStandoff) {
+  const DoorGuard guard = door_ahead(0.6);  // 0.2 m of room
+  ASSERT_TRUE(loop->post_door_guard(guard));
+  hold(0.3, 0.0, 150);  // 0.3 s: at about 0.1 m/s, still well short of the standoff
+  ASSERT_GT(distance(guard), 0.45);
+  card.drop_next_calls(ajar::testing::CardCall::kJog, 1'000'000);
+  for (int i = 0; i < 1000 && loop->snapshot().fault == ErrorCode::kOk; ++i) {
+    if (i % 50 == 0) {
+      ASSERT_TRUE(loop->post_drive({1, false, {0.3, 0.0}, now}));
+    }
+    run(1);
+  }
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kVelocityMismatch);
+  EXPECT_FALSE(card.any_moving());
+  EXPECT_GE(distance(guard), 0.4 - 0.005) << "the base went on past the standoff";
+}
+
 TEST_F(LoopDoorGuard, AStaleDistanceCapsTheForwardSpeedOnly) {
   DoorGuard guard;
   guard.mode = DoorGuard::Mode::kStale;

@@ -35,10 +35,12 @@
 //      card answers with an error latches it and emergency-stops the wheels (the card may have
 //      taken the command before it failed);
 //   4b. a running jog: the target is the last Drive velocity while it is younger than
-//      drive.command_timeout_s, else zero; the speed limiter (core::limit_velocity) clamps speed
-//      and acceleration; the card gets the wheel velocities when they change. Once the card has
-//      been told zero (target and command zero) the jog has a deadline to come to rest; at rest
-//      it ends (kMotionFinished; command_timeout says whether the timeout ended it);
+//      drive.command_timeout_s, else zero; the door guard (DoorGuard) lowers a forward target so
+//      that the base stops at the door's standoff; the speed limiter (core::limit_velocity) clamps
+//      speed and acceleration; the card gets the wheel velocities when they change. Once the card
+//      has been told zero (the limited command zero) the jog has a deadline to come to rest; when
+//      the Drive asks for nothing (zero, or timed out) and the wheels rest it ends
+//      (kMotionFinished; command_timeout says whether the timeout ended it);
 //   5. supervision: card not answering, alarm, following error, limits, deadman -> smooth stop +
 //      latched fault; every motion's deadline (a move: its planned duration; a jog: coming to rest
 //      once told zero; a stop: its deceleration) and a card that does not do what it was told (the
@@ -135,7 +137,9 @@ struct DriveCommand {
 // limited every cycle, from the loop's own odometry, so that the base origin can stop at
 // `standoff_m` from the door (the card's jog ramp, a reaction time of three periods), and to zero
 // there. kStale (the distance is no longer trusted): forward jog speed at most stale_speed_m_s.
-// Backward and turning are never limited.
+// Backward and turning are never limited. A hard bound too: a base that goes on toward the door
+// more than 3 mm past the standoff (a card that did not apply the limit or a stop) is
+// emergency-stopped (kVelocityMismatch), in a jog, a move or a stop.
 struct DoorGuard {
   enum class Mode : std::uint8_t { kNone = 0, kStandoff = 1, kStale = 2 };
   Mode mode = Mode::kNone;
@@ -300,6 +304,10 @@ class ControlLoop {
   void advance_jog(std::int64_t now_ns) noexcept;
   // The forward speed the door guard allows now (infinity: no limit).
   double guard_forward_limit_m_s() const noexcept;
+  // The door guard's hard bound: the base origin more than kDoorStandoffToleranceM past the
+  // standoff and the wheels still driving it toward the door (whatever the motion).
+  bool past_door_standoff() const noexcept;
+  static constexpr double kDoorStandoffToleranceM = 0.003;
   void advance_recovery(std::int64_t now_ns) noexcept;
   void end_recovery(ErrorCode code) noexcept;
   void begin_stop(std::int64_t now_ns) noexcept;
