@@ -138,6 +138,10 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "ARM_FAULT";
     case ErrorCode::kLoopStalled:
       return "LOOP_STALLED";
+    case ErrorCode::kStateRejected:
+      return "STATE_REJECTED";
+    case ErrorCode::kUncleanShutdown:
+      return "UNCLEAN_SHUTDOWN";
     case ErrorCode::kVelocityMismatch:
       return "VELOCITY_MISMATCH";
     case ErrorCode::kInternal:

@@ -32,7 +32,12 @@ constexpr const char* kFooter =
     R"(Options take their value as the next argument or after '=' (--listen=127.0.0.1:0).
 
 Signals:
-  SIGTERM, SIGINT       stop any motion, persist the state, close the sessions, exit 0.
+  SIGTERM, SIGINT       stop any motion (Stop and EmergencyStop are still executed and
+                        acknowledged meanwhile, anything else gets SHUTTING_DOWN), persist the
+                        state with the clean-shutdown mark, close the sessions, exit 0.
+  (anything else)       an end without the clean-shutdown mark (kill -9, crash, watchdog
+                        abort, power loss): the next start latches UNCLEAN_SHUTDOWN, and
+                        nothing moves until an operator's Reset.
   SIGPIPE               ignored.
   SIGHUP                re-read the config file and apply logging.level; no other key is
                         reloaded: the log names the keys applied and the changed keys that need
@@ -45,8 +50,8 @@ it serves, WATCHDOG=1 while its control loop is healthy, and STOPPING=1 on shutd
 
 Exit status:
   0  clean shutdown; --check-config: the config is valid; --version, --help
-  1  start-up failed (drivers, card library, serial device, socket, state directory, port file);
-     the message names what failed
+  1  start-up failed (drivers, card library, serial device, socket, state directory or state
+     file not writable, port file); the message names what failed
   2  bad command line, or the config file is invalid (the message names file, key, value and
      what is allowed))";
 

@@ -221,7 +221,7 @@ void control_fields(Io& io, C& c) {
   io.boolean("lock_memory", c.lock_memory);
   io.number("motion_timeout_margin_s", c.motion_timeout_margin_s, 0.0, 600, "s");
   io.number("aligned_tolerance_rad", c.aligned_tolerance_rad, 0.0, 0.5, "rad");
-  io.number("stall_timeout_s", c.stall_timeout_s, 0.005, 1.0, "s");
+  io.number("stall_timeout_s", c.stall_timeout_s, 0.005, 0.5, "s");
 }
 
 // Every key of the file, in the order of config/ajard.yaml and docs/configuration.md.

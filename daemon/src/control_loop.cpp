@@ -3,6 +3,8 @@
 // status, supervision and stops are in control_loop_supervision.cpp.
 #include "ajar/daemon/control_loop.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <future>
@@ -126,6 +128,7 @@ std::vector<std::string> ControlLoop::start_thread() {
   const RealtimeRequest request{settings_.realtime, settings_.priority, settings_.lock_memory};
   last_cycle_end_ns_.store(monotonic_now_ns());
   thread_ = std::thread([this, request, promise = std::move(warnings)]() mutable {
+    thread_tid_.store(static_cast<int>(::gettid()), std::memory_order_release);
     auto refused = apply_realtime(request);
     const std::int64_t first = monotonic_now_ns() + period_ns_;
     promise.set_value(std::move(refused));

@@ -31,7 +31,11 @@ namespace asio = boost::asio;
 using Clock = std::chrono::steady_clock;
 
 constexpr auto kStatusEvery = std::chrono::seconds(5);
-constexpr auto kShutdownGrace = std::chrono::seconds(3);
+// Shutdown (docs/operations.md, "Signals"): every wait is on a timer of the I/O thread, bounded.
+constexpr auto kWheelsRestLimit = std::chrono::seconds(5);  // the smooth stop
+constexpr auto kStateFlushLimit = std::chrono::seconds(5);  // the last save
+constexpr auto kShutdownGrace = std::chrono::seconds(3);    // sessions flushing and closing
+constexpr auto kShutdownPollPeriod = std::chrono::milliseconds(2);
 
 std::string state_text(const protocol::Status& s, std::size_t sessions) {
   std::string text = "state " + std::string(protocol::to_string(s.state));
@@ -49,7 +53,7 @@ class Runner {
         signals_(io_, SIGTERM, SIGINT, SIGHUP),
         watchdog_timer_(io_),
         status_timer_(io_),
-        grace_timer_(io_) {}
+        shutdown_timer_(io_) {}
 
   int run() {
     try {
@@ -109,49 +113,88 @@ class Runner {
   void wait_signal() {
     signals_.async_wait([this](const boost::system::error_code& ec, int signal_number) {
       if (ec) return;
-      if (signal_number == SIGHUP) {
+      if (stopping_) {
+        spdlog::info("signal {} ignored: already shutting down", signal_number);
+      } else if (signal_number == SIGHUP) {
         reload();
-        wait_signal();
-        return;
+      } else {
+        shutdown(signal_number == SIGTERM ? "SIGTERM" : "SIGINT");
       }
-      shutdown(signal_number == SIGTERM ? "SIGTERM" : "SIGINT");
+      wait_signal();
     });
   }
 
+  // The shutdown never blocks the I/O thread until every session is gone: Stop and EmergencyStop
+  // are served (executed on the card, acknowledged, an EmergencyStop latched and persisted) while
+  // the wheels come to rest; then the state is sealed (clean-shutdown mark), the sessions are
+  // closed after their queued frames, and the last save and the closing sessions are awaited on
+  // timers, each bounded; only then does the engine join its threads and bring the drivers down.
   void shutdown(const char* why) {
-    spdlog::info("{}: shutting down (stopping motion, persisting state)", why);
+    spdlog::info(
+        "{}: shutting down: stopping the motion (Stop and EmergencyStop are still executed, "
+        "everything else gets SHUTTING_DOWN), then persisting the state",
+        why);
     notifier_.stopping(std::string("stopping (") + why + ")");
     stopping_ = true;
-    // Order: no new connections; the engine stops the motion (its motion_stopped event still
-    // reaches every session) and flushes the state; then held replies go out and every session is
-    // closed after its queued frames are written.
-    server_->stop_accepting();
-    engine_->shutdown();
-    for (const auto& w : engine_->take_warnings())
-      spdlog::warn("{}", w);
-    server_->stop();
+    status_timer_.cancel();
+    server_->begin_shutdown();
+    engine_->begin_shutdown();
+    log_engine_warnings();
+    deadline_ = Clock::now() + kWheelsRestLimit;
+    wait_for_wheels();
+  }
+
+  void wait_for_wheels() {
+    if (!engine_->wheels_at_rest() && Clock::now() < deadline_) {
+      after(kShutdownPollPeriod, [this] { wait_for_wheels(); });
+      return;
+    }
+    engine_->seal_state();  // its events still reach the sessions
+    log_engine_warnings();
+    server_->stop();  // held replies sent, sessions closed after their queued frames
+    deadline_ = Clock::now() + kStateFlushLimit;
+    grace_deadline_ = Clock::now() + kShutdownGrace;
+    wait_for_disk_and_sessions();
+  }
+
+  void wait_for_disk_and_sessions() {
+    const bool saved = engine_->settled_generation() >= engine_->accepted_generation();
+    const bool gone = server_->session_count() == 0;
+    const auto now = Clock::now();
+    if ((saved || now >= deadline_) && (gone || now >= grace_deadline_)) {
+      finish(saved);
+      return;
+    }
+    after(kShutdownPollPeriod, [this] { wait_for_disk_and_sessions(); });
+  }
+
+  void finish(bool saved) {
+    if (!saved) {
+      spdlog::error(
+          "state not persisted: the last save did not finish within {} s (a hung or failing "
+          "disk?); the next start treats this end as unclean (UNCLEAN_SHUTDOWN)",
+          kStateFlushLimit.count());
+    }
+    engine_->shutdown();  // joins the control thread, brings the drivers down
+    log_engine_warnings();
     boost::system::error_code ignored;
     signals_.cancel(ignored);
     watchdog_timer_.cancel();
-    status_timer_.cancel();
-    // Sessions close gracefully (flush, FIN); a peer that never closes must not hold the exit.
-    grace_timer_.expires_after(kShutdownGrace);
-    grace_timer_.async_wait([this](const boost::system::error_code& ec) {
-      if (!ec) io_.stop();
-    });
-    // When every session is gone, nothing else keeps the loop running but this timer.
-    check_sessions_gone();
+    shutdown_timer_.cancel();
+    io_.stop();
   }
 
-  void check_sessions_gone() {
-    if (server_->session_count() == 0) {
-      grace_timer_.cancel();
-      return;
-    }
-    status_timer_.expires_after(std::chrono::milliseconds(10));
-    status_timer_.async_wait([this](const boost::system::error_code& ec) {
-      if (!ec) check_sessions_gone();
+  template <typename F>
+  void after(std::chrono::milliseconds delay, F then) {
+    shutdown_timer_.expires_after(delay);
+    shutdown_timer_.async_wait([then](const boost::system::error_code& ec) {
+      if (!ec) then();
     });
+  }
+
+  void log_engine_warnings() {
+    for (const auto& w : engine_->take_warnings())
+      spdlog::warn("{}", w);
   }
 
   // SIGHUP: re-read the config; apply the reloadable keys (kReloadableKeys, and network.tls except
@@ -215,7 +258,7 @@ class Runner {
   }
 
   void pet_watchdog() {
-    if (stopping_) return;
+    if (stopping_) return;  // after STOPPING=1 systemd's stop timeout applies, not the watchdog
     const bool healthy = engine_->control_loop_healthy();
     if (healthy) {
       notifier_.watchdog();
@@ -249,14 +292,16 @@ class Runner {
   asio::signal_set signals_;
   asio::steady_timer watchdog_timer_;
   asio::steady_timer status_timer_;
-  asio::steady_timer grace_timer_;
+  asio::steady_timer shutdown_timer_;
   SystemdNotifier notifier_;
   std::unique_ptr<Engine> engine_;
   std::unique_ptr<Server> server_;
   std::uint16_t port_ = 0;
   std::chrono::microseconds watchdog_interval_{0};
   bool stalled_ = false;
-  bool stopping_ = false;
+  bool stopping_ = false;               // SIGTERM/SIGINT: the shutdown runs
+  Clock::time_point deadline_{};        // of the shutdown step that runs
+  Clock::time_point grace_deadline_{};  // for the sessions to close
 };
 
 }  // namespace

@@ -21,11 +21,12 @@ EngineImpl::EngineImpl(const Config& config, drivers::DriverSet drivers, EngineO
   card_ = std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
                                                        config.drivers.card.poll_timeout_ms);
   loop_ = std::make_unique<ControlLoop>(*card_, loop_settings(config));
-  supervisor_ =
-      std::make_unique<LoopSupervisor>(SupervisedLoop{[this] { return loop_->thread_running(); },
-                                                      [this] { return loop_->last_cycle_end_ns(); },
-                                                      [this] { loop_->latch_stalled(); }},
-                                       *card_, axes, supervisor_settings(config));
+  supervisor_ = std::make_unique<LoopSupervisor>(
+      SupervisedLoop{[this] { return loop_->thread_running(); },
+                     [this] { return loop_->last_cycle_end_ns(); },
+                     [this] { loop_->latch_stalled(); },
+                     [this] { return thread_run_delay_ns(loop_->thread_tid()); }},
+      *card_, axes, supervisor_settings(config));
   arm_ = std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm));
 }
 
@@ -49,6 +50,17 @@ void EngineImpl::start() {
     throw StartupError("manipulator: " + describe(s.error()));
   }
   restore();
+  // The run is on disk (with what restore() latched) before anything is served: an end other
+  // than a clean shutdown from now on is seen by the next start.
+  if (auto s = store_.save(StateRecord{procedure_.record(), false}); !s) {
+    if (arm_->state() == drivers::LifecycleState::kActive) (void)arm_->deactivate();
+    if (arm_->state() == drivers::LifecycleState::kInactive) (void)arm_->cleanup();
+    bring_down_card();
+    throw StartupError(
+        "state.directory: cannot record the start (an unclean end would go "
+        "unnoticed): " +
+        s.error().message);
+  }
   store_.start();
   if (!manual_loop_) {
     for (auto& w : loop_->start_thread())
@@ -60,37 +72,72 @@ void EngineImpl::start() {
   started_ = true;
 }
 
+namespace {
+constexpr std::int64_t kWheelsRestLimitNs = 5'000'000'000;  // shutdown(): the wheels' smooth stop
+constexpr auto kStateFlushLimit = std::chrono::seconds(5);  // shutdown(): the last save
+constexpr int kManualShutdownCycles = 100;                  // ... with EngineOptions::manual_loop
+}  // namespace
+
+void EngineImpl::begin_shutdown() {
+  if (!started_ || shutting_down_) return;
+  shutting_down_ = true;
+  drain_reports();
+  stop_reason_ = "the daemon is shutting down";
+  stop_motion();
+  if (manual_loop_) loop_->cycle(now_ns());  // a hand-driven loop: the stop reaches the card
+  flush();
+}
+
+bool EngineImpl::wheels_at_rest() {
+  drain_reports();
+  return wheel_motion_ == 0;
+}
+
+void EngineImpl::seal_state() {
+  if (!started_ || sealed_) return;
+  begin_shutdown();
+  drain_reports();
+  if (wheel_motion_ != 0) {
+    // The smooth stop did not end in time (the loop's own stop deadline should have caught it).
+    loop_->request_emergency_stop();
+    latch(ErrorCode::kMotionTimeout,
+          "the wheels were not at rest when the daemon stopped: emergency stop");
+    wheel_motion_ = 0;
+    emit(EventKind::kMotionStopped, ErrorCode::kShuttingDown,
+         "wheels emergency-stopped: the daemon is shutting down");
+  }
+  flush();
+  sealed_ = true;
+  persist();  // the clean-shutdown mark, with everything accepted until now
+}
+
 void EngineImpl::shutdown() noexcept {
   if (!started_ || stopped_) return;
-  stopped_ = true;
   try {
-    drain_reports();
-    stop_reason_ = "the daemon is shutting down";
-    cancel_held_move(ErrorCode::kOk);
-    loop_->request_stop();
-    (void)arm_->stop();
-    loop_->set_arm_moving(false);
-    if (procedure_.phase() == Phase::kAligning) procedure_.alignment_interrupted();
-    if (procedure_.phase() == Phase::kEngaging) procedure_.engaging_interrupted();
-    end_arm_motion(EventKind::kMotionStopped, "arm stopped: the daemon is shutting down");
-    if (manual_loop_) loop_->cycle(now_ns());  // a hand-driven loop: the stop reaches the card
-    // Let the wheels come to rest under the loop's supervision (bounded).
-    const std::int64_t give_up = monotonic_now_ns() + 5'000'000'000;
-    while (!manual_loop_ && wheel_motion_ != 0 && monotonic_now_ns() < give_up) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
-      drain_reports();
+    if (!sealed_) {  // nobody did the steps: do them here, waiting (bounded)
+      begin_shutdown();
+      const std::int64_t give_up = monotonic_now_ns() + kWheelsRestLimitNs;
+      for (int cycles = 0; !wheels_at_rest() && monotonic_now_ns() < give_up; ++cycles) {
+        if (!manual_loop_) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        } else if (cycles < kManualShutdownCycles) {
+          loop_->cycle(now_ns());  // a hand-driven loop: its clock may stand still
+        } else {
+          break;
+        }
+      }
+      seal_state();
+      if (!store_.flush(kStateFlushLimit)) {
+        warnings_.push_back(
+            "state not persisted: the state store did not finish within 5 s; the next start "
+            "treats this end as unclean");
+      }
     }
-    if (wheel_motion_ != 0) {
-      wheel_motion_ = 0;
-      emit(EventKind::kMotionStopped, ErrorCode::kShuttingDown,
-           "wheels stopped: the daemon is shutting down");
-    }
-    persist();
-    if (!store_.flush(std::chrono::seconds(5))) {
-      warnings_.push_back("state not persisted: the state store did not finish within 5 s");
-    }
-    store_.stop();
   } catch (...) {  // shutting down: nothing sensible to do but carry on
+  }
+  stopped_ = true;
+  if (!store_.stop(std::chrono::milliseconds(100))) {
+    warnings_.push_back("state writer abandoned: a save has not returned (a hung disk?)");
   }
   loop_->stop_thread();
   supervisor_->stop_thread();  // before the card goes down: no out-of-band call into a closing card
@@ -101,7 +148,15 @@ void EngineImpl::shutdown() noexcept {
 
 protocol::Message EngineImpl::handle_command(const protocol::Message& request) {
   drain_reports();
-  protocol::Message reply = dispatch(request);
+  const bool stop = std::holds_alternative<protocol::Stop>(request) ||
+                    std::holds_alternative<protocol::EmergencyStop>(request);
+  protocol::Message reply =
+      shutting_down_ && !stop
+          ? refuse(protocol::type_of(request),
+                   make_error(ErrorCode::kShuttingDown, "",
+                              "the daemon is shutting down: only Stop and EmergencyStop are "
+                              "executed; reconnect once it has restarted"))
+          : dispatch(request);
   flush();
   return reply;
 }

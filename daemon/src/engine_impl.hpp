@@ -118,8 +118,12 @@ class EngineImpl final : public Engine {
 
   void start() override;
 
-  // Stops the wheels and the arm, tells every session (motion_stopped with the reason) while the
-  // sink is still connected, persists, then joins the loop and brings the drivers down.
+  // The shutdown's steps (engine.hpp): begin_shutdown() stops the motion and refuses all but the
+  // stops from then on; seal_state() persists the clean-shutdown mark; shutdown() joins the loop
+  // and brings the drivers down (after doing the steps itself when nobody did, waiting bounded).
+  void begin_shutdown() override;
+  bool wheels_at_rest() override;
+  void seal_state() override;
   void shutdown() noexcept override;
 
   protocol::Message handle_command(const protocol::Message& request) override;
@@ -277,10 +281,18 @@ class EngineImpl final : public Engine {
   void persist();
 
   // Before the writer thread starts. A file that cannot be read, decoded or validated is moved
-  // aside (ajard.state.rejected-<time>) and the procedure starts clean; both are startup warnings.
+  // aside (ajard.state.rejected-<time>) and the procedure starts without its measurements, but
+  // never without a fault: the file's own latched fault if it could be decoded, else
+  // STATE_REJECTED. A file without the clean-shutdown mark (the previous run crashed, or an older
+  // ajard wrote it) latches UNCLEAN_SHUTDOWN. The first latched stays (root cause); each is a
+  // startup warning. No file (a first start): nothing latches.
   void restore();
 
   void reject_state_file(std::string warning);
+
+  // A fault found at start (nothing runs yet, nobody listens): latched, and said in the startup
+  // warnings.
+  void latch_at_start(ErrorCode code, const std::string& why);
 
   std::int64_t now_ns() const noexcept { return clock_(); }
 
@@ -303,6 +315,8 @@ class EngineImpl final : public Engine {
   EventSink sink_;
 
   bool started_ = false;
+  bool shutting_down_ = false;  // begin_shutdown(): only stops are executed
+  bool sealed_ = false;         // seal_state(): records carry the clean-shutdown mark
   bool stopped_ = false;
   bool restored_ = false;
   bool dirty_ = false;

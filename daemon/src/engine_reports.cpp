@@ -199,29 +199,57 @@ void EngineImpl::flush() {
 
 void EngineImpl::persist() {
   if (!started_) return;
-  store_.submit(procedure_.record());
+  store_.submit(StateRecord{procedure_.record(), sealed_});
 }
 
 void EngineImpl::restore() {
   auto loaded = store_.load();
   if (!loaded) {
-    reject_state_file("state file rejected, starting with a clean procedure: " +
-                      loaded.error().message);
+    reject_state_file("state file rejected: " + loaded.error().message);
+    latch_at_start(ErrorCode::kStateRejected,
+                   "the state file could not be read or decoded: its measurements, a fault it "
+                   "held and how the last run ended are unknown; measure again");
     return;
   }
-  if (!loaded->found) return;
-  if (auto s = procedure_.restore(loaded->record); !s) {
+  if (!loaded->found) return;  // a first start (or the operator removed the file)
+  const StateRecord& file = loaded->record;
+  bool rejected = false;
+  if (auto s = procedure_.restore(file.procedure); !s) {
     reject_state_file("state file " + store_.path() +
-                      " rejected: it no longer validates with this config, starting with a "
-                      "clean procedure: " +
+                      " rejected: it no longer validates with this config, starting without its "
+                      "measurements: " +
                       describe(s.error()));
-    return;
+    rejected = true;
+    if (file.procedure.fault != ErrorCode::kOk) {
+      latch_at_start(file.procedure.fault,
+                     "latched before the restart, kept from the rejected file");
+    }
+  } else {
+    restored_ = true;
   }
-  restored_ = true;
-  // The normalised record (aligning -> ready to align, ...), written before anything is served.
-  if (auto s = store_.save(procedure_.record()); !s) {
-    startup_warnings_.push_back("state not persisted: " + s.error().message);
+  if (!file.clean_shutdown) {
+    latch_at_start(ErrorCode::kUncleanShutdown,
+                   file.format_version < 2
+                       ? "the state file was written by an older ajard, which recorded no clean "
+                         "shutdown: whether the last run ended cleanly is unknown"
+                       : "the previous run did not end with a clean shutdown (crash, kill, "
+                         "watchdog abort, power loss): a stop acknowledged just before it may "
+                         "not have been recorded");
   }
+  if (rejected) {
+    latch_at_start(ErrorCode::kStateRejected,
+                   "the stored measurements no longer validate with this config; measure again");
+  }
+}
+
+void EngineImpl::latch_at_start(ErrorCode code, const std::string& why) {
+  const ErrorCode before = procedure_.fault();
+  procedure_.latch_fault(code);
+  const std::string what = std::string(to_string(code)) + ": " + why;
+  startup_warnings_.push_back(
+      before == ErrorCode::kOk
+          ? "fault latched at start: " + what + "; check the robot, then Reset"
+          : what + " (" + std::string(to_string(before)) + " stays latched: Reset after checking)");
 }
 
 void EngineImpl::reject_state_file(std::string warning) {

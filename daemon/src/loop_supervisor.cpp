@@ -1,12 +1,16 @@
 // The loop supervisor (loop_supervisor.hpp): a check of the loop's last cycle end, its thread.
 #include "ajar/daemon/loop_supervisor.hpp"
 
+#include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <future>
 #include <stdexcept>
@@ -35,6 +39,27 @@ std::string make_realtime(int priority) {
 
 }  // namespace
 
+std::int64_t thread_run_delay_ns(int tid) noexcept {
+  if (tid <= 0) return -1;
+  char path[64];
+  std::snprintf(path, sizeof path, "/proc/self/task/%d/schedstat", tid);
+  const int fd = ::open(path, O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return -1;
+  char text[128];
+  const ssize_t n = ::read(fd, text, sizeof text - 1);
+  ::close(fd);
+  if (n <= 0) return -1;
+  text[n] = '\0';
+  // "<ns on a CPU> <ns waiting on a runqueue> <timeslices>"
+  char* end = nullptr;
+  (void)std::strtoll(text, &end, 10);
+  if (end == text) return -1;
+  const char* second = end;
+  const long long waited = std::strtoll(second, &end, 10);
+  if (end == second || waited < 0) return -1;
+  return waited;
+}
+
 LoopSupervisor::LoopSupervisor(SupervisedLoop loop, drivers::MotionCard& card,
                                std::span<const int> axes, const LoopSupervisorSettings& settings)
     : loop_(std::move(loop)),
@@ -62,22 +87,30 @@ bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
     return false;
   }
   const std::int64_t end = loop_.last_cycle_end_ns();
+  const std::int64_t run_delay = loop_.run_delay_ns ? loop_.run_delay_ns() : -1;
+  const std::int64_t waited = run_delay >= 0 && last_run_delay_ns_ >= 0
+                                  ? std::max<std::int64_t>(0, run_delay - last_run_delay_ns_)
+                                  : 0;
+  last_run_delay_ns_ = run_delay;
   if (!seen_any_ || end != seen_end_ns_) {  // the loop made progress: (re-)armed
     seen_any_ = true;
     seen_end_ns_ = end;
     quiet_checks_ = 0;
+    excused_ns_ = 0;
     stalled_.store(false, std::memory_order_release);
     return false;
   }
+  excused_ns_ += waited;  // the scheduler's, not the card's
   if (quiet_checks_ < kQuietChecks) ++quiet_checks_;
   if (stalled_.load(std::memory_order_relaxed)) return false;  // this stall was acted on
   const std::int64_t silent = now_ns - end;
-  if (quiet_checks_ < kQuietChecks || silent < stall_timeout_ns_) return false;
+  if (quiet_checks_ < kQuietChecks || silent - excused_ns_ < stall_timeout_ns_) return false;
   // Stalled. The loop first (a call returning now must find the latch), the engine next (its
   // latch must not wait for the card), then the card.
   stalled_.store(true, std::memory_order_release);
   loop_.latch_stalled();
   last_silent_ns_.store(silent, std::memory_order_relaxed);
+  last_excused_ns_.store(excused_ns_, std::memory_order_relaxed);
   stalls_.fetch_add(1, std::memory_order_acq_rel);
   const ErrorCode stop = card_.emergency_stop_out_of_band({axes_, axis_count_});
   last_stop_result_.store(stop, std::memory_order_relaxed);
@@ -90,6 +123,7 @@ LoopSupervisor::Stall LoopSupervisor::last_stall() const noexcept {
   s.count = stalls_.load(std::memory_order_acquire);
   s.stops = stops_.load(std::memory_order_acquire);
   s.silent_ns = last_silent_ns_.load(std::memory_order_relaxed);
+  s.excused_ns = last_excused_ns_.load(std::memory_order_relaxed);
   s.stop_result = last_stop_result_.load(std::memory_order_relaxed);
   return s;
 }

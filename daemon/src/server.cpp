@@ -203,7 +203,7 @@ struct Server::Impl {
     if (next_poll < now) next_poll = now + options.poll_period;  // fell behind: do not burst
     poll_timer.expires_at(next_poll);
     poll_timer.async_wait([this](const boost::system::error_code& ec) {
-      if (ec || !accepting) return;
+      if (ec || !polling) return;
       poll();
       schedule_poll();
     });
@@ -235,6 +235,7 @@ struct Server::Impl {
   std::string where;
   bool started = false;
   bool accepting = false;
+  bool polling = false;  // the poll timer runs: from start() to stop_accepting()
   bool stopped = false;
 };
 
@@ -290,18 +291,26 @@ void Server::start() {
   spdlog::info("listening on {} ({})", d.where, d.tls ? "mutual TLS 1.3" : "plaintext");
   d.accepting = true;
   d.accept();
+  d.polling = true;
   d.next_poll = Clock::now();
   d.schedule_poll();
 }
 
-void Server::stop_accepting() {
+void Server::begin_shutdown() {
   auto& d = *impl_;
   d.accepting = false;
   boost::system::error_code ignored;
   d.acceptor.close(ignored);
   if (d.tls) d.tls->close_all();
-  d.poll_timer.cancel();
   if (d.retry_timer) d.retry_timer->cancel();
+  d.hub.begin_shutdown();  // the poll timer goes on: engine reports, events, held replies
+}
+
+void Server::stop_accepting() {
+  auto& d = *impl_;
+  begin_shutdown();
+  d.polling = false;
+  d.poll_timer.cancel();
 }
 
 void Server::reload_tls(const TlsConfig& tls) {

@@ -168,6 +168,12 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
                std::to_string(s.minor));
     return;
   }
+  if (shutting_down_ && !is_stop(type)) {
+    refuse(s, envelope, ErrorCode::kShuttingDown, "",
+           "the daemon is shutting down: only Stop and EmergencyStop are executed; reconnect "
+           "once it has restarted");
+    return;
+  }
   if (type == MessageType::kHello) {
     handle_hello(s, envelope);
     return;

@@ -3,14 +3,18 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <condition_variable>
 #include <ctime>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <vector>
@@ -118,9 +122,11 @@ std::string errno_text() {
 
 }  // namespace
 
-std::string encode_state(const ProcedureRecord& r) {
+std::string encode_state(const StateRecord& state) {
+  const ProcedureRecord& r = state.procedure;
   std::string out;
   out += std::string(kMagic) + " " + std::to_string(kStateFormatVersion) + "\n";
+  out += std::string("clean_shutdown ") + (state.clean_shutdown ? "1" : "0") + "\n";
   out += std::string("phase ") + phase_name(r.phase) + "\n";
   out += std::string("aligned ") + (r.aligned ? "1" : "0") + "\n";
   out += std::string("plane_consumed ") + (r.plane_consumed ? "1" : "0") + "\n";
@@ -155,7 +161,7 @@ std::string encode_state(const ProcedureRecord& r) {
   return out;
 }
 
-Result<ProcedureRecord> decode_state(const std::string& text) {
+Result<StateRecord> decode_state(const std::string& text) {
   const auto crc_at = text.rfind("crc32 ");
   if (crc_at == std::string::npos || (crc_at > 0 && text[crc_at - 1] != '\n')) {
     return bad("no checksum line (truncated?)");
@@ -170,7 +176,8 @@ Result<ProcedureRecord> decode_state(const std::string& text) {
     return bad("checksum mismatch (corrupt file)");
   }
 
-  ProcedureRecord r;
+  StateRecord state;
+  ProcedureRecord& r = state.procedure;
   std::istringstream in(body);
   std::string line;
   int line_number = 0;
@@ -185,16 +192,20 @@ Result<ProcedureRecord> decode_state(const std::string& text) {
     };
     if (!have_header) {
       if (t.size() != 2 || t[0] != kMagic) return fail("not an ajar state file");
-      if (t[1] != std::to_string(kStateFormatVersion)) {
-        return fail("unsupported format version " + t[1] + " (this daemon reads " +
+      if (t[1] != "1" && t[1] != std::to_string(kStateFormatVersion)) {
+        return fail("unsupported format version " + t[1] + " (this daemon reads 1 and " +
                     std::to_string(kStateFormatVersion) + ")");
       }
+      state.format_version = t[1] == "1" ? 1 : kStateFormatVersion;
       have_header = true;
       continue;
     }
     const std::string& key = t[0];
     if (!seen.insert(key).second) return fail("'" + key + "' appears twice");
-    if (key == "phase" && t.size() == 2) {
+    if (key == "clean_shutdown" && state.format_version >= 2 && t.size() == 2 &&
+        (t[1] == "0" || t[1] == "1")) {
+      state.clean_shutdown = t[1] == "1";
+    } else if (key == "phase" && t.size() == 2) {
       if (t[1] == "idle")
         r.phase = Phase::kIdle;
       else if (t[1] == "aligning")
@@ -248,14 +259,110 @@ Result<ProcedureRecord> decode_state(const std::string& text) {
     }
   }
   if (!have_header) return bad("empty file");
-  for (const char* required : {"phase", "aligned", "plane_consumed", "fault"}) {
+  for (const char* required : {"clean_shutdown", "phase", "aligned", "plane_consumed", "fault"}) {
+    if (state.format_version < 2 && std::string_view(required) == "clean_shutdown") continue;
     if (seen.count(required) == 0) return bad(std::string("line '") + required + "' missing");
   }
-  return r;
+  return state;
+}
+
+// The writer thread's side, shared with it: a writer abandoned by stop() (a hung disk) keeps it.
+struct StateStore::Writer {
+  std::string directory;
+  std::string path;
+  Options options;
+
+  std::mutex mutex;
+  std::condition_variable wake;  // writer: work or stop
+  std::condition_variable settled_cv;
+  std::optional<StateRecord> pending;  // latest record not yet taken by the writer
+  std::uint64_t pending_generation = 0;
+  std::vector<std::string> errors;
+  std::string last_error;
+  bool stopping = false;
+  bool finished = false;  // the writer thread returned
+  std::atomic<std::uint64_t> submitted{0};
+  std::atomic<std::uint64_t> settled{0};
+};
+
+namespace {
+
+Outcome save_file(const std::string& directory, const std::string& path,
+                  const StateStore::Options& options, const StateRecord& record) {
+  const std::string text = encode_state(record);
+  const std::string tmp = path + ".tmp";
+  // Every failure after the open removes the temporary file: no stray .tmp is left behind.
+  const auto fail = [&](const std::string& what, int fd) {
+    const std::string why = errno_text();
+    if (fd >= 0) ::close(fd);
+    ::unlink(tmp.c_str());
+    return bad(what + " '" + tmp + "': " + why);
+  };
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
+  if (fd < 0) return bad("cannot create '" + tmp + "': " + errno_text());
+  std::size_t written = 0;
+  while (written < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return fail("cannot write", fd);
+    }
+    written += static_cast<std::size_t>(n);
+  }
+  if (options.debug_write_delay.count() > 0) std::this_thread::sleep_for(options.debug_write_delay);
+  if (::fsync(fd) != 0) return fail("cannot fsync", fd);
+  if (::close(fd) != 0) return fail("cannot close", -1);
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    const std::string why = errno_text();
+    ::unlink(tmp.c_str());
+    return bad("cannot rename '" + tmp + "' to '" + path + "': " + why);
+  }
+  const int dir = ::open(directory.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir < 0) return bad("cannot open directory '" + directory + "': " + errno_text());
+  const int rc = ::fsync(dir);
+  const std::string why = rc != 0 ? errno_text() : std::string();
+  const int closed = ::close(dir);
+  if (rc != 0) return bad("cannot fsync directory '" + directory + "': " + why);
+  if (closed != 0) return bad("cannot close directory '" + directory + "': " + errno_text());
+  return Ok{};
+}
+
+}  // namespace
+
+// The writer thread's loop: takes the latest record, saves it, settles its generation.
+void StateStore::run(const std::shared_ptr<Writer>& w) {
+  std::unique_lock lock(w->mutex);
+  for (;;) {
+    w->wake.wait(lock, [&] { return w->pending.has_value() || w->stopping; });
+    if (!w->pending) break;  // stopping with nothing left to write
+    StateRecord record = std::move(*w->pending);
+    w->pending.reset();
+    const std::uint64_t generation = w->pending_generation;
+    lock.unlock();
+    const Outcome saved = save_file(w->directory, w->path, w->options, record);
+    lock.lock();
+    if (!saved) {
+      if (saved.error().message != w->last_error) w->errors.push_back(saved.error().message);
+      w->last_error = saved.error().message;
+    } else {
+      w->last_error.clear();
+    }
+    w->settled.store(generation, std::memory_order_release);
+    w->settled_cv.notify_all();
+  }
+  w->finished = true;
+  w->settled_cv.notify_all();
 }
 
 StateStore::StateStore(std::string directory, Options options)
-    : directory_(std::move(directory)), path_(directory_ + "/ajard.state"), options_(options) {}
+    : directory_(std::move(directory)),
+      path_(directory_ + "/ajard.state"),
+      options_(options),
+      writer_state_(std::make_shared<Writer>()) {
+  writer_state_->directory = directory_;
+  writer_state_->path = path_;
+  writer_state_->options = options_;
+}
 
 StateStore::~StateStore() {
   stop();
@@ -306,108 +413,70 @@ Result<std::string> StateStore::reject_current_file() const {
   return target;
 }
 
-Outcome StateStore::save(const ProcedureRecord& record) const {
-  const std::string text = encode_state(record);
-  const std::string tmp = path_ + ".tmp";
-  // Every failure after the open removes the temporary file: no stray .tmp is left behind.
-  const auto fail = [&](const std::string& what, int fd) {
-    const std::string why = errno_text();
-    if (fd >= 0) ::close(fd);
-    ::unlink(tmp.c_str());
-    return bad(what + " '" + tmp + "': " + why);
-  };
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0640);
-  if (fd < 0) return bad("cannot create '" + tmp + "': " + errno_text());
-  std::size_t written = 0;
-  while (written < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return fail("cannot write", fd);
-    }
-    written += static_cast<std::size_t>(n);
-  }
-  if (options_.debug_write_delay.count() > 0)
-    std::this_thread::sleep_for(options_.debug_write_delay);
-  if (::fsync(fd) != 0) return fail("cannot fsync", fd);
-  if (::close(fd) != 0) return fail("cannot close", -1);
-  if (::rename(tmp.c_str(), path_.c_str()) != 0) {
-    const std::string why = errno_text();
-    ::unlink(tmp.c_str());
-    return bad("cannot rename '" + tmp + "' to '" + path_ + "': " + why);
-  }
-  const int dir = ::open(directory_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dir < 0) return bad("cannot open directory '" + directory_ + "': " + errno_text());
-  const int rc = ::fsync(dir);
-  const std::string why = rc != 0 ? errno_text() : std::string();
-  const int closed = ::close(dir);
-  if (rc != 0) return bad("cannot fsync directory '" + directory_ + "': " + why);
-  if (closed != 0) return bad("cannot close directory '" + directory_ + "': " + errno_text());
-  return Ok{};
+Outcome StateStore::save(const StateRecord& record) const {
+  return save_file(directory_, path_, options_, record);
 }
 
 void StateStore::start() {
-  std::lock_guard lock(mutex_);
-  if (writer_.joinable() || stopping_) return;
-  writer_ = std::thread([this] { run(); });
+  Writer& w = *writer_state_;
+  std::lock_guard lock(w.mutex);
+  if (writer_.joinable() || w.stopping) return;
+  writer_ = std::thread([shared = writer_state_] { run(shared); });
 }
 
-std::uint64_t StateStore::submit(ProcedureRecord record) {
+std::uint64_t StateStore::submit(StateRecord record) {
+  Writer& w = *writer_state_;
   std::uint64_t generation = 0;
   {
-    std::lock_guard lock(mutex_);
-    generation = submitted_.load(std::memory_order_relaxed) + 1;
-    pending_ = std::move(record);
-    pending_generation_ = generation;
-    submitted_.store(generation, std::memory_order_release);
+    std::lock_guard lock(w.mutex);
+    generation = w.submitted.load(std::memory_order_relaxed) + 1;
+    w.pending = std::move(record);
+    w.pending_generation = generation;
+    w.submitted.store(generation, std::memory_order_release);
   }
-  wake_.notify_one();
+  w.wake.notify_one();
   return generation;
 }
 
-void StateStore::run() {
-  std::unique_lock lock(mutex_);
-  for (;;) {
-    wake_.wait(lock, [&] { return pending_.has_value() || stopping_; });
-    if (!pending_) return;  // stopping with nothing left to write
-    ProcedureRecord record = std::move(*pending_);
-    pending_.reset();
-    const std::uint64_t generation = pending_generation_;
-    lock.unlock();
-    const Outcome saved = save(record);
-    lock.lock();
-    if (!saved) {
-      if (saved.error().message != last_error_) errors_.push_back(saved.error().message);
-      last_error_ = saved.error().message;
-    } else {
-      last_error_.clear();
-    }
-    settled_.store(generation, std::memory_order_release);
-    settled_cv_.notify_all();
-  }
+std::uint64_t StateStore::submitted() const noexcept {
+  return writer_state_->submitted.load(std::memory_order_acquire);
+}
+
+std::uint64_t StateStore::settled() const noexcept {
+  return writer_state_->settled.load(std::memory_order_acquire);
 }
 
 bool StateStore::flush(std::chrono::milliseconds timeout) {
-  std::unique_lock lock(mutex_);
+  Writer& w = *writer_state_;
+  std::unique_lock lock(w.mutex);
   if (!writer_.joinable()) return settled() >= submitted();
-  return settled_cv_.wait_for(lock, timeout, [&] { return settled() >= submitted(); });
+  return w.settled_cv.wait_for(lock, timeout, [&] { return settled() >= submitted(); });
 }
 
 std::vector<std::string> StateStore::take_errors() {
-  std::lock_guard lock(mutex_);
+  Writer& w = *writer_state_;
+  std::lock_guard lock(w.mutex);
   std::vector<std::string> out;
-  out.swap(errors_);
+  out.swap(w.errors);
   return out;
 }
 
-void StateStore::stop() {
+bool StateStore::stop(std::chrono::milliseconds limit) {
+  Writer& w = *writer_state_;
+  bool finished = false;
   {
-    std::lock_guard lock(mutex_);
-    if (!writer_.joinable()) return;
-    stopping_ = true;  // the writer finishes the pending record first, then returns
+    std::unique_lock lock(w.mutex);
+    if (!writer_.joinable()) return true;
+    w.stopping = true;  // the writer finishes the pending record first, then returns
+    w.wake.notify_one();
+    finished = w.settled_cv.wait_for(lock, limit, [&] { return w.finished; });
   }
-  wake_.notify_one();
-  writer_.join();
+  if (finished) {
+    writer_.join();
+  } else {
+    writer_.detach();  // inside a save that does not end: it keeps its Writer alive
+  }
+  return finished;
 }
 
 }  // namespace ajar::daemon

@@ -306,7 +306,7 @@ class AjardStopRaces : public EndToEndOnMock {
 };
 
 // A state file with a valid checksum but impossible content is not restored; it is kept beside the
-// new file and the log says so.
+// new file, the log says so, and STATE_REJECTED latches (issue 22).
 TEST_F(AjardStopRaces, AnImpossibleStateFileIsRejectedKeptAndReported) {
   std::filesystem::create_directories(dir_.path() + "/state");
   const std::string impossible =
@@ -320,7 +320,8 @@ TEST_F(AjardStopRaces, AnImpossibleStateFileIsRejectedKeptAndReported) {
   observer.hello(Role::kObserver);
   const auto status = status_of(observer);
   EXPECT_FALSE(status.restored_from_disk);
-  EXPECT_EQ(status.state, ProcedureState::kAwaitingWidth);
+  EXPECT_EQ(status.state, ProcedureState::kFault);
+  EXPECT_EQ(status.latched_fault, ErrorCode::kStateRejected);
   std::string kept;
   for (const auto& entry : std::filesystem::directory_iterator(dir_.path() + "/state")) {
     if (entry.path().filename().string().starts_with("ajard.state.rejected-")) kept = entry.path();

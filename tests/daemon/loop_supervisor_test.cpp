@@ -1,14 +1,21 @@
 // The loop supervisor on a fake clock, by hand (check(now), no thread): a fake loop whose last
 // cycle end the test sets, and the mock card, whose out-of-band stop it must reach. What latches a
 // stall, when it does not, once per stall, in which order, and re-arming.
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <array>
+#include <fstream>
 #include <memory>
+#include <sstream>
+#include <string>
 #include <vector>
 
+#include "ajar/daemon/config.hpp"
 #include "ajar/daemon/loop_supervisor.hpp"
 #include "ajar/drivers/mock_card.hpp"
+#include "fake_door.hpp"
 
 namespace ajar::daemon {
 namespace {
@@ -36,7 +43,8 @@ class LoopSupervisorTest : public ::testing::Test {
                        [this] {
                          // The order: the loop's latch comes before the card's stop.
                          latch_calls.push_back(card.calls(CardCall::kEmergencyStopOutOfBand));
-                       }},
+                       },
+                       [this] { return run_delay_ns; }},
         card, kWheels, settings);
   }
   // The loop completes a cycle at `t` and the supervisor checks right after.
@@ -60,6 +68,7 @@ class LoopSupervisorTest : public ::testing::Test {
   std::unique_ptr<LoopSupervisor> supervisor;
   bool running = true;
   std::int64_t last_end_ns = 1'000 * kMs;
+  std::int64_t run_delay_ns = -1;          // the loop thread's wait for a CPU; -1: unknown
   std::vector<std::uint64_t> latch_calls;  // out-of-band stops already made at each latch
 };
 
@@ -150,6 +159,41 @@ TEST_F(LoopSupervisorTest, ALateSupervisorIsNotEnoughItMustWatchTheSilence) {
   EXPECT_EQ(oob_stops(), 0U);
 }
 
+TEST_F(LoopSupervisorTest, ALoopThreadWaitingForACpuIsNotStalledAHungOneIs) {
+  // The loop thread is runnable but not scheduled for 2 s (its run_delay grows with the clock):
+  // the scheduler's doing, excused. Then it waits no more but still makes no cycle: a hung call.
+  run_delay_ns = 0;
+  const std::int64_t start = 1'000 * kMs;
+  ASSERT_FALSE(cycle_and_check(start));
+  const std::int64_t step = supervisor->check_period_ns();
+  std::int64_t t = start;
+  for (; t < start + 2'000 * kMs; t += step) {
+    run_delay_ns += step;
+    ASSERT_FALSE(supervisor->check(t + step)) << t;
+  }
+  EXPECT_EQ(supervisor->stalls(), 0U);
+  EXPECT_EQ(oob_stops(), 0U);
+  std::int64_t latched_at = -1;
+  for (int i = 1; i <= 20 && latched_at < 0; ++i) {  // run_delay_ns stands still now
+    if (supervisor->check(t + i * step)) latched_at = t + i * step;
+  }
+  ASSERT_GE(latched_at, 0);
+  EXPECT_GE(latched_at - t, supervisor->stall_timeout_ns());  // only the unexcused silence counts
+  const auto stall = supervisor->last_stall();
+  EXPECT_EQ(stall.silent_ns, latched_at - start);
+  EXPECT_EQ(stall.excused_ns, t - start);
+  EXPECT_EQ(oob_stops(), 1U);
+}
+
+TEST_F(LoopSupervisorTest, AHungCallThatSpinsOnACpuCounts) {
+  // A call that spins (busy-waits on the card) runs on a CPU: no wait for a CPU, the silence
+  // counts as for a call that sleeps.
+  run_delay_ns = 5'000 * kMs;  // whatever it waited before
+  ASSERT_FALSE(cycle_and_check(1'000 * kMs));
+  EXPECT_GE(quiet_checks(1'000 * kMs + 1, 1'000 * kMs), 0);
+  EXPECT_EQ(supervisor->last_stall().excused_ns, 0);
+}
+
 TEST_F(LoopSupervisorTest, QuietChecksAloneAreNotEnoughTheTimeoutMustPass) {
   // Many checks in quick succession (a supervisor woken often) but less than the timeout.
   std::int64_t t = 1'000 * kMs;
@@ -194,6 +238,49 @@ TEST_F(LoopSupervisorTest, TheTimeoutIsAtLeastTwoLoopPeriods) {
     ASSERT_EQ(quiet_checks(t + 1, 99 * kMs), -1);
   }
   EXPECT_EQ(supervisor->stalls(), 0U);
+}
+
+TEST(LoopSupervisorSchedstat, TheKernelsWaitForACpuIsReadForAThreadOfThisProcess) {
+  EXPECT_EQ(thread_run_delay_ns(0), -1);
+  EXPECT_EQ(thread_run_delay_ns(-5), -1);
+  const std::int64_t first = thread_run_delay_ns(static_cast<int>(::gettid()));
+  if (first < 0) GTEST_SKIP() << "no /proc/self/task/TID/schedstat here: the wall clock decides";
+  EXPECT_GE(thread_run_delay_ns(static_cast<int>(::gettid())), first);  // it only grows
+}
+
+// The systemd watchdog stays the last resort: systemd aborts ajard WatchdogSec after the last ping,
+// that is at least WatchdogSec / 2 (the ping interval) after the loop stalled; the supervisor acts
+// at worst one check after control.stall_timeout_s (a check lands just before the timeout) — for
+// the largest timeout the config accepts, before that.
+TEST(LoopSupervisorWatchdog, TheSupervisorActsBeforeSystemdsWatchdogForEveryAcceptedTimeout) {
+  std::ifstream unit(AJAR_SOURCE_DIR "/systemd/ajard.service");
+  ASSERT_TRUE(unit);
+  double watchdog_s = 0;
+  for (std::string line; std::getline(unit, line);) {
+    if (line.rfind("WatchdogSec=", 0) == 0) watchdog_s = std::stod(line.substr(12));
+  }
+  ASSERT_GT(watchdog_s, 0) << "no WatchdogSec in systemd/ajard.service";
+
+  ajar::testing::TempDir dir;
+  const auto config_with = [&](double timeout_s) {
+    const std::string path = dir.path() + "/stall.yaml";
+    std::ofstream(path) << "control:\n  stall_timeout_s: " << timeout_s << "\n";
+    return load_config(path);
+  };
+  constexpr double kLargest = 0.5;  // config_fields.hpp
+  EXPECT_THROW(config_with(kLargest + 0.01), ConfigError);
+  const Config c = config_with(kLargest);
+  ASSERT_EQ(c.control.stall_timeout_s, kLargest);
+
+  drivers::MockMotionCard card;
+  LoopSupervisorSettings settings;
+  settings.loop_rate_hz = 10;  // the slowest loop the config accepts: the longest floor
+  settings.stall_timeout_s = c.control.stall_timeout_s;
+  const LoopSupervisor supervisor(SupervisedLoop{[] { return true; }, [] { return 0; }, [] {}, {}},
+                                  card, kWheels, settings);
+  const double worst_s =
+      static_cast<double>(supervisor.stall_timeout_ns() + supervisor.check_period_ns()) / 1e9;
+  EXPECT_LT(worst_s, watchdog_s / 2);
 }
 
 }  // namespace

@@ -1,4 +1,7 @@
-// The state file: versioned text with a checksum, replaced atomically.
+// The state file: versioned text with a checksum and the clean-shutdown mark, replaced atomically;
+// the writer thread, whose stop is bounded when the disk hangs.
+#include <sys/stat.h>
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -15,8 +18,10 @@ namespace {
 
 using namespace ajar::testing;
 
-ProcedureRecord full_record() {
-  ProcedureRecord r;
+StateRecord full_record() {
+  StateRecord state;
+  state.clean_shutdown = true;
+  ProcedureRecord& r = state.procedure;
   auto width = good_width();
   width.p1_hinge.position_m.x() = 0.1 + 0.2;  // not exactly representable in short decimal
   width.p2_moving_edge.position_m.z() = 1e-300;
@@ -29,7 +34,11 @@ ProcedureRecord full_record() {
   r.plane_consumed = false;
   r.phase = Phase::kEngaged;
   r.fault = ErrorCode::kDeadman;
-  return r;
+  return state;
+}
+
+StateRecord with(const ProcedureRecord& procedure) {
+  return StateRecord{procedure, false};
 }
 
 void expect_same(const core::FramedPoint& a, const core::FramedPoint& b) {
@@ -47,9 +56,13 @@ std::string read_all(const std::string& path) {
 }
 
 TEST(StateFormat, RoundTripsBitIdentically) {
-  const ProcedureRecord r = full_record();
-  auto decoded = decode_state(encode_state(r));
-  ASSERT_TRUE(decoded.ok()) << decoded.error().message;
+  const StateRecord state = full_record();
+  const ProcedureRecord& r = state.procedure;
+  auto decoded_state = decode_state(encode_state(state));
+  ASSERT_TRUE(decoded_state.ok()) << decoded_state.error().message;
+  EXPECT_TRUE(decoded_state->clean_shutdown);
+  EXPECT_EQ(decoded_state->format_version, 2);
+  const ProcedureRecord* decoded = &decoded_state->procedure;
   expect_same(decoded->width->p1_hinge, r.width->p1_hinge);
   expect_same(decoded->width->p2_moving_edge, r.width->p2_moving_edge);
   expect_same(decoded->handle->p2_free_end, r.handle->p2_free_end);
@@ -63,11 +76,33 @@ TEST(StateFormat, RoundTripsBitIdentically) {
   EXPECT_EQ(decoded->fault, ErrorCode::kDeadman);
 }
 
-TEST(StateFormat, EmptyRecordRoundTrips) {
-  auto decoded = decode_state(encode_state(ProcedureRecord{}));
+TEST(StateFormat, EmptyRecordRoundTripsAndSaysRunning) {
+  auto decoded = decode_state(encode_state(StateRecord{}));
   ASSERT_TRUE(decoded.ok());
-  EXPECT_FALSE(decoded->width || decoded->handle || decoded->plane || decoded->contact);
-  EXPECT_EQ(decoded->phase, Phase::kIdle);
+  const ProcedureRecord& r = decoded->procedure;
+  EXPECT_FALSE(r.width || r.handle || r.plane || r.contact);
+  EXPECT_EQ(r.phase, Phase::kIdle);
+  EXPECT_FALSE(decoded->clean_shutdown);
+}
+
+// Files of format 1 (an older ajard) are read, with their fault and measurements; they have no
+// clean-shutdown mark, so they read as not clean (the engine latches UNCLEAN_SHUTDOWN).
+TEST(StateFormat, ReadsVersionOneFilesAsNotCleanAndRefusesTheMarkInThem) {
+  std::string body = encode_state(full_record());
+  body = body.substr(0, body.rfind("crc32 "));
+  body.replace(0, 12, "ajar-state 1");
+  const auto mark = body.find("clean_shutdown 1\n");
+  ASSERT_NE(mark, std::string::npos) << body;
+  auto with_mark = decode_state(with_checksum(body));
+  ASSERT_FALSE(with_mark.ok());  // version 1 never had the line
+  EXPECT_NE(with_mark.error().message.find("unexpected"), std::string::npos);
+  body.erase(mark, 17);
+  auto v1 = decode_state(with_checksum(body));
+  ASSERT_TRUE(v1.ok()) << v1.error().message;
+  EXPECT_EQ(v1->format_version, 1);
+  EXPECT_FALSE(v1->clean_shutdown);
+  EXPECT_EQ(v1->procedure.fault, ErrorCode::kDeadman);
+  EXPECT_TRUE(v1->procedure.width && v1->procedure.plane);
 }
 
 TEST(StateFormat, RefusesCorruptTruncatedAndForeignFiles) {
@@ -80,12 +115,12 @@ TEST(StateFormat, RefusesCorruptTruncatedAndForeignFiles) {
   EXPECT_FALSE(decode_state("\x00\xff garbage").ok());
 
   // A future version with a valid checksum is refused by version, not by checksum.
-  std::string v2 = encode_state(ProcedureRecord{});
-  v2 = v2.substr(0, v2.rfind("crc32")).replace(0, 12, "ajar-state 2");
-  auto refused = decode_state(with_checksum(v2));
+  std::string v3 = encode_state(StateRecord{});
+  v3 = v3.substr(0, v3.rfind("crc32")).replace(0, 12, "ajar-state 3");
+  auto refused = decode_state(with_checksum(v3));
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().field, "state_file");
-  EXPECT_NE(refused.error().message.find("version 2"), std::string::npos)
+  EXPECT_NE(refused.error().message.find("version 3"), std::string::npos)
       << refused.error().message;
 }
 
@@ -119,6 +154,8 @@ TEST(StateFormat, RefusesImpossibleContentWithAValidChecksum) {
       {"plane_consumed 0\n", "plane_consumed 0\nplane_consumed 1\n", "appears twice"},
       {"phase engaged\n", "", "'phase' missing"},
       {"fault 512\n", "", "'fault' missing"},
+      {"clean_shutdown 1\n", "", "'clean_shutdown' missing"},
+      {"clean_shutdown 1", "clean_shutdown yes", "unexpected"},
   };
   for (const auto& c : cases) {
     const auto r = decode_state(edited(c.from, c.to));
@@ -146,11 +183,12 @@ TEST(StateStore, TheWriterThreadCoalescesAndSettlesEveryGeneration) {
   StateStore store(tmp.path(), StateStore::Options{std::chrono::milliseconds(50)});
   store.prepare();
   store.start();
-  ProcedureRecord r;
+  StateRecord r;
   std::uint64_t last = 0;
   for (int i = 0; i < 20; ++i) {  // faster than the disk: most of these are never written
-    r.plane_consumed = i % 2 == 0;
-    r.fault = i == 19 ? ErrorCode::kDeadman : ErrorCode::kOk;
+    r.procedure.plane_consumed = i % 2 == 0;
+    r.procedure.fault = i == 19 ? ErrorCode::kDeadman : ErrorCode::kOk;
+    r.clean_shutdown = i == 19;
     last = store.submit(r);
   }
   EXPECT_EQ(last, 20U);
@@ -174,7 +212,7 @@ TEST(StateStore, WriterFailuresAreReportedOnce) {
   ASSERT_TRUE(store.flush(std::chrono::seconds(20)));
   EXPECT_EQ(store.take_errors().size(), 1U);  // the same failure twice: reported once
   std::filesystem::remove_all(store.path());
-  store.submit(ProcedureRecord{});
+  store.submit(StateRecord{});
   ASSERT_TRUE(store.flush(std::chrono::seconds(20)));
   EXPECT_TRUE(store.take_errors().empty());
   EXPECT_EQ(store.settled(), 3U);
@@ -189,15 +227,17 @@ TEST(StateStore, SavesAtomicallyAndLoads) {
   EXPECT_FALSE(missing->found);
 
   ASSERT_TRUE(store.save(full_record()).ok());
-  ProcedureRecord second;
-  second.width = good_width();
+  ProcedureRecord second_procedure;
+  second_procedure.width = good_width();
+  const StateRecord second = with(second_procedure);
   ASSERT_TRUE(store.save(second).ok());
   EXPECT_FALSE(std::filesystem::exists(store.path() + ".tmp"));
   auto loaded = store.load();
   ASSERT_TRUE(loaded.ok());
   ASSERT_TRUE(loaded->found);
-  EXPECT_TRUE(loaded->record.width.has_value());
-  EXPECT_FALSE(loaded->record.handle.has_value());
+  EXPECT_TRUE(loaded->record.procedure.width.has_value());
+  EXPECT_FALSE(loaded->record.procedure.handle.has_value());
+  EXPECT_FALSE(loaded->record.clean_shutdown);
   EXPECT_EQ(read_all(store.path()), encode_state(second));
 }
 
@@ -209,6 +249,30 @@ TEST(StateStore, CorruptFileIsReportedNotThrown) {
   auto loaded = store.load();
   ASSERT_FALSE(loaded.ok());
   EXPECT_NE(loaded.error().message.find(store.path()), std::string::npos);
+}
+
+// A save that never ends (the temporary file is a FIFO nobody reads: open() blocks, as on a hung
+// disk): flush() and stop() give up at their limits instead of waiting for ever, and the store can
+// be destroyed under its abandoned writer.
+TEST(StateStore, StopIsBoundedWhenTheDiskHangs) {
+  TempDir tmp;
+  const std::string tmp_file = tmp.path() + "/ajard.state.tmp";
+  {
+    StateStore store(tmp.path());
+    store.prepare();
+    store.start();
+    ASSERT_EQ(::mkfifo(tmp_file.c_str(), 0600), 0);
+    store.submit(full_record());
+    EXPECT_FALSE(store.flush(std::chrono::milliseconds(50)));
+    EXPECT_FALSE(store.stop(std::chrono::milliseconds(50)));
+    EXPECT_EQ(store.settled(), 0U);
+    EXPECT_TRUE(store.stop());  // idempotent: nothing left to stop
+  }
+  // Let the abandoned writer go: a reader on the FIFO ends its open(); it finishes its save.
+  std::ifstream reader(tmp_file);
+  std::string ignored;
+  std::getline(reader, ignored);
+  SUCCEED();
 }
 
 TEST(StateStore, UncreatableDirectoryIsAStartupError) {

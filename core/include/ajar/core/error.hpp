@@ -89,6 +89,8 @@ enum class ErrorCode : std::uint16_t {
   kCardOpenFailed = 514,    // GTS -6: the card could not be opened (missing, in use, driver)
   kArmFault = 515,          // the arm controller reported a fault (task aborted): clear_fault
   kLoopStalled = 517,       // the control loop stopped cycling (a card call hung): base stopped
+  kStateRejected = 518,     // the state file could not be restored (latched at start): Reset
+  kUncleanShutdown = 519,   // the previous run did not end cleanly (latched at start): Reset
   kVelocityMismatch = 520,  // the wheels did not do what the card was told (a card that does not
                             // apply a command, or reports stale status): emergency stop
 

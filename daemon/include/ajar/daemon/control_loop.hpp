@@ -264,6 +264,9 @@ class ControlLoop {
   std::int64_t last_cycle_end_ns() const noexcept {
     return last_cycle_end_ns_.load(std::memory_order_acquire);
   }
+  // The control thread's kernel thread id (0 before start_thread()): the supervisor reads the
+  // thread's scheduling statistics by it.
+  int thread_tid() const noexcept { return thread_tid_.load(std::memory_order_acquire); }
   // The loop supervisor found the loop stalled (and stopped the card out of band). Never
   // refused, any thread: like a fault stop, it cancels what was posted before it and latches
   // kLoopStalled; the loop acts on it as soon as its stalled call returns: an in-band emergency
@@ -359,6 +362,7 @@ class ControlLoop {
   boost::lockfree::spsc_queue<LoopReport, boost::lockfree::capacity<kReportQueueCapacity>> reports_;
   SeqLock<LoopSnapshot> published_;
   std::atomic<std::int64_t> last_cycle_end_ns_{0};
+  std::atomic<int> thread_tid_{0};
   std::atomic<bool> thread_running_{false};
 
   // Loop-private state.

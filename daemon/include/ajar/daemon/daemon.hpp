@@ -1,11 +1,15 @@
 // run_daemon: ajard's life after the command line. Start-up order: bind (fails fast on a busy port;
-// not listening yet, so a connect is refused), engine.start() (drivers active, state restored,
-// control loop running), listen and serve (a TCP connect now means the daemon serves), write the
-// port file, READY=1. Then the I/O thread runs the server, the engine's poll timer, signals and the
-// systemd watchdog until SIGTERM/SIGINT:
-//   SIGTERM/SIGINT  STOPPING=1, stop accepting, engine.shutdown() (stops motion — its
-//                   motion_stopped event reaches the still-open sessions — and persists), send held
-//                   replies, close sessions after their queued frames, exit code 0;
+// not listening yet, so a connect is refused), engine.start() (drivers active, state restored, the
+// run recorded on disk, control loop running), listen and serve (a TCP connect now means the daemon
+// serves), write the port file, READY=1. Then the I/O thread runs the server, the engine's poll
+// timer, signals and the systemd watchdog until SIGTERM/SIGINT:
+//   SIGTERM/SIGINT  STOPPING=1, stop accepting, Engine::begin_shutdown() (stops motion); sessions
+//                   are still served — Stop and EmergencyStop executed and acknowledged, the rest
+//                   SHUTTING_DOWN — until the wheels rest (timer, at most 5 s); seal_state()
+//                   (the clean-shutdown mark), send held replies, close sessions after their queued
+//                   frames; await the last save (at most 5 s) and the sessions (at most 3 s) on
+//                   timers; engine.shutdown() (threads joined, drivers down), exit code 0. The I/O
+//                   thread never blocks before the sessions are gone;
 //   SIGHUP          re-reads the config file; applies logging.level only; every other change is
 //                   logged as needing a restart; a broken file is logged and ignored.
 #pragma once

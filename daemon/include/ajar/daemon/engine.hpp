@@ -35,12 +35,32 @@ class Engine {
   // emitted while no sink is set are dropped.
   virtual void set_event_sink(EventSink sink) { (void)sink; }
 
-  // Brings the drivers up (init -> configured -> active), restores persisted parameters, and starts
-  // the control thread. Throws ajar::daemon::StartupError naming what failed.
+  // Brings the drivers up (init -> configured -> active), restores persisted parameters (a
+  // rejected state file or an unclean end of the previous run latches a fault:
+  // docs/procedure.md, "Persistence"), records durably that the daemon runs, and starts the
+  // control thread. Throws ajar::daemon::StartupError naming what failed (also when the state
+  // cannot be recorded).
   virtual void start() = 0;
-  // Stops the wheels (smooth) and the arm and closes every open motion with a motion_stopped event
-  // through the sink (call it before the sessions close), persists, joins the control thread,
-  // brings the drivers down. Idempotent.
+
+  // Shutdown in steps, for a caller that must not block (the daemon's I/O thread,
+  // docs/operations.md "Signals"); shutdown() alone does them all, waiting (bounded).
+  // begin_shutdown(): stops the wheels (smooth) and the arm, closing an open arm task with
+  //   motion_stopped; from now on every command but Stop and EmergencyStop is refused with
+  //   SHUTTING_DOWN. Stop and EmergencyStop are still executed on the card (the control thread runs
+  //   until shutdown()), an EmergencyStop latches and is persisted. Idempotent.
+  virtual void begin_shutdown() {}
+  // Whether the wheels are at rest (drains the control loop's reports; poll it until true or the
+  // caller's deadline).
+  virtual bool wheels_at_rest() { return true; }
+  // After the wheels rest, or the caller's deadline passed (then the card gets an emergency stop
+  // and MOTION_TIMEOUT latches): closes what is still open (motion_stopped) and persists the state
+  // with the clean-shutdown mark. Call it while the sessions still hear events, then stop reading
+  // requests; then wait, bounded, for settled_generation() >= accepted_generation() (a save that
+  // does not finish leaves the mark off the disk: the next start treats the end as unclean).
+  virtual void seal_state() {}
+  // The rest: does what the steps above did not (waiting at most 5 s for the wheels and 5 s for
+  // the disk), joins the control thread, abandons a state writer that hangs, brings the drivers
+  // down. Idempotent.
   virtual void shutdown() noexcept = 0;
 
   // A command from the controlling session (roles are enforced by the caller). Validates with core,

@@ -4,10 +4,15 @@
 // enforces, while the card keeps running its last move or jog.
 //
 // Every check period the supervisor reads when the loop's last cycle ended. The loop is stalled
-// when no cycle ended for stall_timeout (control.stall_timeout_s, at least 2 loop periods) AND the
-// supervisor itself saw no cycle end in its last kQuietChecks checks (so a process that was not
-// scheduled at all, supervisor included, is not taken for a stalled loop: the supervisor counts
-// only what it watched). Then, once per stall, in this order:
+// when it made no cycle for stall_timeout (control.stall_timeout_s, at least 2 loop periods), not
+// counting the time the control thread spent waiting for a CPU, AND the supervisor itself saw no
+// cycle end in its last kQuietChecks checks. A thread that is runnable but not scheduled (a loaded
+// machine, the thread's CPU time given to others) is the scheduler's doing, not a hung call: its
+// wait is read from the kernel (/proc/self/task/TID/schedstat, run_delay) and excused; a hung call
+// either sleeps in the kernel or spins on a CPU, and both count. Without those statistics the
+// wall clock decides. The quiet checks keep a process that was not scheduled at all (supervisor
+// included) from being taken for a stalled loop: the supervisor acts only on silence it watched.
+// Then, once per stall, in this order:
 //   1. loop.latch_stalled(): the loop latches kLoopStalled the moment the hung call returns
 //      (nothing it posted before moves; what that call reports is latched as kLoopStalled);
 //   2. the stall is published (stalls()): the engine latches LOOP_STALLED on the I/O thread,
@@ -48,7 +53,14 @@ struct SupervisedLoop {
   std::function<bool()> running;                    // the control thread runs
   std::function<std::int64_t()> last_cycle_end_ns;  // CLOCK_MONOTONIC ns of its last cycle's end
   std::function<void()> latch_stalled;              // ControlLoop::latch_stalled()
+  // Optional: how long the control thread has waited for a CPU so far (ns, growing), -1 when
+  // unknown (thread_run_delay_ns()). Empty or -1: the wall clock alone decides.
+  std::function<std::int64_t()> run_delay_ns;
 };
+
+// The time the thread `tid` of this process has spent runnable but waiting for a CPU (ns, the
+// kernel's schedstat run_delay), or -1 when unknown (tid <= 0, no schedstat). No allocation.
+std::int64_t thread_run_delay_ns(int tid) noexcept;
 
 struct LoopSupervisorSettings {
   double loop_rate_hz = 500;     // control.rate_hz
@@ -81,6 +93,7 @@ class LoopSupervisor {
   struct Stall {
     std::uint32_t count = 0;                 // stalls latched so far (this one included)
     std::int64_t silent_ns = 0;              // how long the loop had made no cycle when it latched
+    std::int64_t excused_ns = 0;             // of which the control thread waited for a CPU
     std::uint32_t stops = 0;                 // out-of-band stops that have returned so far
     ErrorCode stop_result = ErrorCode::kOk;  // what the last of them answered
   };
@@ -111,12 +124,15 @@ class LoopSupervisor {
   std::int64_t seen_end_ns_ = 0;
   bool seen_any_ = false;
   int quiet_checks_ = 0;
+  std::int64_t last_run_delay_ns_ = -1;  // at the last check
+  std::int64_t excused_ns_ = 0;          // waited for a CPU since the check that saw the last end
 
   // Published.
   std::atomic<bool> stalled_{false};
   std::atomic<std::uint32_t> stalls_{0};
   std::atomic<std::uint32_t> stops_{0};
   std::atomic<std::int64_t> last_silent_ns_{0};
+  std::atomic<std::int64_t> last_excused_ns_{0};
   std::atomic<ErrorCode> last_stop_result_{ErrorCode::kOk};
 
   std::mutex mutex_;  // the thread's sleep and exit only

@@ -16,10 +16,16 @@
 //                    the engine starts); not listening yet, so a connect is refused;
 //   start()          listens, accepts and polls (call once the engine serves: a TCP connect then
 //                    means the daemon serves);
-//   stop_accepting() stops accepting and polling; sessions stay open and still get engine events
-//                    (call before Engine::shutdown(), so that its motion_stopped reaches them);
+//   begin_shutdown() stops accepting (pending TLS handshakes dropped); sessions stay open and are
+//                    still served by the poll timer (engine reports and events, held replies,
+//                    telemetry), but every request except Stop and EmergencyStop — which are
+//                    executed and acknowledged — gets SHUTTING_DOWN (SessionHub::begin_shutdown);
+//                    the daemon's SIGTERM path, while the engine's stop runs (Engine steps);
+//   stop_accepting() begin_shutdown() and stops polling (a caller that runs Engine::shutdown()
+//                    in one blocking call: its motion_stopped still reaches the sessions);
 //   stop()           stop_accepting(), sends every held reply, closes every session gracefully
-//                    (queued frames flushed first), detaches the event sink. Idempotent.
+//                    (queued frames flushed first, no further request read), detaches the event
+//                    sink. Idempotent.
 // TLS (options.tls.enabled, tls.hpp): every accepted socket first completes the mutual TLS
 // handshake; only then is it a session (or a refused connection, as above, over TLS). Handshakes
 // in progress count against max_clients: at sessions + handshakes >= max_clients the oldest
@@ -71,6 +77,7 @@ class Server {
   std::uint16_t bind();
   // Listens, starts accepting and the poll timer. Throws StartupError when listen() fails.
   void start();
+  void begin_shutdown();
   void stop_accepting();
   void stop();
   // Re-reads network.tls (SIGHUP): files, CRL, deny list, identities; new connections use it, and

@@ -43,6 +43,9 @@
 //   (hung, failing) costs the durability of that Ack, never the session's later replies (a
 //   Stop's Ack behind it). The journal says so, once per stall. tick() releases
 //   what has settled; release_all() sends everything (shutdown).
+// - Shutdown (begin_shutdown(), SIGTERM): Stop and EmergencyStop are still executed and
+//   acknowledged from any session; every other request (Hello and GetStatus included) gets ERROR
+//   SHUTTING_DOWN; events, telemetry and held replies still go out until close_all().
 // - Hello deadline: a session that has not been greeted `hello_timeout` after it opened gets
 //   ERROR HELLO_REQUIRED ("no Hello within ...") and is closed (0 = no deadline).
 // - Room for a newcomer (make_room()): when the table is full, the un-greeted session idle the
@@ -92,6 +95,8 @@ class SessionHub final : public SessionHandler {
   // Sends due telemetry and settled held replies; closes sessions past the Hello deadline. Call
   // every poll period.
   void tick(Clock::time_point now);
+  // From now on only Stop and EmergencyStop are executed; the rest gets SHUTTING_DOWN.
+  void begin_shutdown() noexcept { shutting_down_ = true; }
   // Sends every held reply, settled or not (shutdown, after the engine flushed its state).
   void release_all();
   // Closes every session gracefully (daemon shutdown): queued frames are flushed first.
@@ -172,6 +177,7 @@ class SessionHub final : public SessionHandler {
   RefusalHandler refusal_{*this};
   std::map<std::uint64_t, SessionState> sessions_;
   std::optional<std::uint64_t> controller_;
+  bool shutting_down_ = false;
 };
 
 }  // namespace ajar::daemon
