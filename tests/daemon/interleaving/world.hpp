@@ -231,6 +231,8 @@ class World {
   // acceleration) within the running motion's limits; at rest by its deadline unless the card is
   // silent; a jog update the card did not apply is caught.
   void check_wheels(bool halted);
+  // With a fresh door distance, a jog stops at drive.approach_min_standoff_m (issue 23).
+  void check_door_guard();
 
   void fail(const std::string& what);
   void note(const std::string& line);
@@ -304,6 +306,7 @@ class World {
   std::int64_t disagree_since_[2] = {-1, -1};
   bool card_halted_ = false;         // an injected fault halted a wheel since the last check
   bool stuck_move_pending_ = false;  // the next move sticks (stick_next_move)
+  double guard_distance_m_ = 0;      // the fresh door distance after the last cycle (else inf)
   ErrorCode last_fault_ = ErrorCode::kOk;
   bool reset_seen_ = false;
   bool arm_at_door_ = true;  // unknown until the arm's first idle report
