@@ -409,9 +409,19 @@ void ConsoleServer::Impl::drive(const std::shared_ptr<WsSession>& s, const PageM
     }
     const auto r = client.request(d, std::chrono::milliseconds(300), 0);
     if (!r.ok()) {
-      on_io([this, r] {
+      // A held jog re-sends every 100 ms: the refusal is shown (last command) and logged once
+      // per code and at most every 2 s, not ten times a second.
+      on_io([this, r, json = response_json(r)] {
         on_reply(r);
-        log_response("drive", r);
+        last_command = JsonObject().add("op", "drive").add("reply", json).add("at", now_hms());
+        const std::string code = json.str();
+        if (code != last_drive_refusal ||
+            Clock::now() - last_drive_refusal_at > std::chrono::seconds(2)) {
+          log_response("drive", r);
+          last_drive_refusal = code;
+          last_drive_refusal_at = Clock::now();
+        }
+        mark_dirty();
       });
     }
   });

@@ -146,6 +146,8 @@ struct ConsoleServer::Impl {
   std::optional<protocol::Telemetry> telemetry;  // the newest sample
   Clock::time_point telemetry_at{};              // when it arrived
   core::PlanarPose broadcast_pose;               // the pose the last state snapshot was made at
+  std::string last_drive_refusal;                // the last refused Drive's reply (log throttle)
+  Clock::time_point last_drive_refusal_at{};
   std::deque<std::string> log;
   bool heartbeat_on = false;
   bool state_dirty = true;

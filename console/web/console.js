@@ -626,6 +626,20 @@ function updateHud() {
   const picks = (state && state.picks[state.active_step]) || [];
   const stalePicks = picks.filter((p) => p.place === 'stale').length;
   if (stalePicks) warn += (warn ? '\n' : '') + `${stalePicks} ${state.active_step} pick${stalePicks > 1 ? 's' : ''} STALE (grey): the base moved: pick again`;
+  // The daemon's door guard (docs/protocol.md, Drive): a forward jog near the door is slowed so the
+  // base stops at approach_min_standoff_m, and refused there; with a stale plane it is slow.
+  const m = (state && state.model) || {};
+  const lc = state && state.last_command;
+  if (jogHeld === 'fwd' && t) {
+    const asked = 0.5 * (m.max_linear_speed_m_s || 0);
+    const limited = t.commanded_linear_m_s < asked - 1e-3;
+    const atStandoff = lc && lc.op === 'drive' && !lc.reply.ok && lc.reply.code === 'AT_MINIMUM_STANDOFF';
+    if (atStandoff || (limited && t.door_has_distance)) {
+      warn += (warn ? '\n' : '') + (t.plane_stale ? `DOOR GUARD: forward at most ${t.commanded_linear_m_s.toFixed(2)} m/s: the door plane is stale`
+        : `DOOR GUARD: forward stops at the minimum standoff ${(m.approach_min_standoff_m || 0).toFixed(2)} m (door ${t.door_distance_m.toFixed(2)} m)`);
+    }
+    if (atStandoff) warn += '\nAT MINIMUM STANDOFF: back off, turn, or measure the door again';
+  }
   if (!live.answering) { door = 'door: unknown (ajard not answering)'; warn = ''; }
   $('hud-door').textContent = door;
   $('hud-warn').textContent = [fault, warn].filter(Boolean).join('\n');

@@ -4,7 +4,8 @@
 // landmarks, steps, sending), the three screen sizes, screenshots and axe-core.
 //
 // Env: AJAR_BUILD_DIR (default build), AJAR_CHROMIUM (default /usr/bin/chromium), AJAR_CONSOLE_WEB
-// (another web folder for the console: how the tests were run against the page before issue 23).
+// (another web folder for the console: how the tests were run against the page before issue 23),
+// AJAR_AJARD (another ajard binary).
 // Screenshots: $AJAR_BUILD_DIR/browser-artifacts/*.png
 import assert from 'node:assert/strict';
 import { spawn } from 'node:child_process';
@@ -94,7 +95,7 @@ export async function startStack(name, { consoleArgs = [] } = {}) {
   const config = path.join(work, 'ajard.yaml');
   writeFileSync(config, readFileSync(path.join(root, 'config/ajard.yaml'), 'utf8')
     .replace(/^(\s*stall_timeout_s:\s*)[0-9.]+/m, (_, key) => `${key}0.5`));
-  stack.ajard = start(path.join(build, 'daemon/ajard'), ['--config', config,
+  stack.ajard = start(process.env.AJAR_AJARD || path.join(build, 'daemon/ajard'), ['--config', config,
     '--listen', '127.0.0.1:0', '--port-file', portFile, '--state-dir', path.join(work, 'state')], 'ajard');
   stack.daemonPort = await until('ajard port file', () => existsSync(portFile) && readFileSync(portFile, 'utf8').trim());
   stack.console = start(path.join(build, 'console/ajar-console'), ['--connect', `127.0.0.1:${stack.daemonPort}`,
