@@ -273,62 +273,6 @@ TEST_F(ArmInterlock, AnArmThatIsNotIdleRefusesEveryWheelMotion) {
   expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
 }
 
-// The config's fault words run the same faults by time (drivers.mock.arm_fault).
-TEST(ArmInterlockMock, TheMockArmFaultsRunByTime) {
-  std::int64_t now = 0;
-  const auto clock = [&now] { return now; };
-  const auto ms = [&now](int n) { now += std::int64_t{n} * 1'000'000; };
-  const int half = drivers::MockManipulator::kTaskDurationMs / 2;
-  {
-    drivers::MockManipulator a(drivers::MockArmFault::kSilentMidTask, 10, clock);
-    ASSERT_TRUE(a.connect().ok());
-    ASSERT_TRUE(a.hand_off(drivers::DoorTask{}).ok());
-    ms(half);
-    EXPECT_TRUE(a.silent());
-    EXPECT_EQ(a.status().phase, drivers::ArmPhase::kBusy);  // the driver still retries
-    ms(10);
-    EXPECT_EQ(a.status().phase, drivers::ArmPhase::kDisconnected);
-    EXPECT_EQ(a.status().last_error, ErrorCode::kArmTimeout);
-    EXPECT_TRUE(a.stop().ok());  // queued, owed
-    ms(3600'000);
-    EXPECT_EQ(a.status().phase, drivers::ArmPhase::kDisconnected);
-    a.answer_again();
-    EXPECT_EQ(a.status().phase, drivers::ArmPhase::kIdle);
-  }
-  {
-    drivers::MockManipulator a(drivers::MockArmFault::kSilentMidStop, 10, clock);
-    ASSERT_TRUE(a.connect().ok());
-    ASSERT_TRUE(a.hand_off(drivers::DoorTask{}).ok());
-    ms(3600'000);
-    EXPECT_EQ(a.status().phase, drivers::ArmPhase::kBusy);
-    EXPECT_TRUE(a.stop().ok());
-    EXPECT_TRUE(a.silent());
-    ms(10);
-    EXPECT_EQ(a.status().phase, drivers::ArmPhase::kDisconnected);
-    a.set_fault(drivers::MockArmFault::kNone);  // answers again: the stop acts
-    EXPECT_EQ(a.status().phase, drivers::ArmPhase::kIdle);
-  }
-  {
-    drivers::MockManipulator a(drivers::MockArmFault::kResetMidTask, 10, clock);
-    ASSERT_TRUE(a.connect().ok());
-    ASSERT_TRUE(a.hand_off(drivers::DoorTask{}).ok());
-    ms(half - 1);
-    EXPECT_EQ(a.status().phase, drivers::ArmPhase::kBusy);
-    ms(1);
-    EXPECT_EQ(a.status().phase, drivers::ArmPhase::kIdle);
-    EXPECT_EQ(a.status().task_id, 0U);
-  }
-  {
-    drivers::MockManipulator a(drivers::MockArmFault::kStopIgnored, 10, clock);
-    ASSERT_TRUE(a.connect().ok());
-    ASSERT_TRUE(a.hand_off(drivers::DoorTask{}).ok());
-    EXPECT_TRUE(a.stop().ok());
-    ms(3600'000);
-    EXPECT_EQ(a.status().phase, drivers::ArmPhase::kBusy);
-    EXPECT_EQ(a.stops(), 1U);
-  }
-}
-
 // The loop's own refusal: while the engine says the arm may be at the door, no move or jog starts.
 class ArmAtDoorLoop : public DetLoopTest {};
 
