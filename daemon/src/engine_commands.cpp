@@ -421,8 +421,10 @@ Outcome EngineImpl::check_arm_clear() {
 
 void EngineImpl::stop_arm() {
   (void)arm_->stop();  // a refusal (link down) is no confirmation either: the deadline decides
-  observe_arm();
-  if (arm_at_door_ && !arm_stop_pending_ && procedure_.fault() == ErrorCode::kOk) {
+  const drivers::ArmStatus st = observe_arm();
+  const bool idle =
+      st.phase == drivers::ArmPhase::kIdle && arm_->state() == drivers::LifecycleState::kActive;
+  if (arm_at_door_ && !idle && !arm_stop_pending_ && procedure_.fault() == ErrorCode::kOk) {
     arm_stop_pending_ = true;
     arm_stop_deadline_ns_ =
         now_ns() + static_cast<std::int64_t>(config_.safety.arm_stop_timeout_s * 1e9);
