@@ -31,6 +31,7 @@ class ArmInterlock : public ::testing::Test {
     config.safety.arm_task_timeout_s = 5.0;
     config.safety.arm_stop_timeout_s = 0.5;
     config.control.motion_timeout_margin_s = 0.2;
+    config.drive.stale_yaw_rad = 1.0;  // a jog before Engage keeps the contact point
     drivers::DriverSet set;
     auto mock_card = make_det_card(now);
     card = mock_card.get();
@@ -271,6 +272,36 @@ TEST_F(ArmInterlock, AnArmThatIsNotIdleRefusesEveryWheelMotion) {
   EXPECT_EQ(wheel_calls(), 0);
   arm->set_phase(drivers::ArmPhase::kIdle);
   expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
+}
+
+// Found by the interleaving campaign (seed 9798 with the card side's stale status): a card whose
+// status lags says "not moving" the moment a jog is told to stop; the stop must not end (and the
+// arm get a task) before the card can have brought the wheels to rest.
+TEST_F(ArmInterlock, AStopEndedByAStaleStatusDoesNotLetTheArmGoWhileTheWheelsRoll) {
+  card->set_motion_model(drivers::MockMotionModel::kProfile);  // decelerates as it was told
+  cycles(3);
+  expect_ack(send(good_width()), ProcedureState::kAwaitingHandle);
+  expect_ack(send(good_handle()), ProcedureState::kAwaitingPlane);
+  expect_ack(send(plane_at_yaw(0.1)), ProcedureState::kReadyToAlign);
+  expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
+  cycles(1000);
+  ASSERT_EQ(engine->status().state, ProcedureState::kAligned);
+  expect_ack(send(good_contact()), ProcedureState::kReadyToEngage);
+  card->set_stale_status_reads(400);          // the status freezes at rest
+  accepted(send(protocol::Drive{0.0, 0.6}));  // turning in place (the contact point stays fresh)
+  cycles(4);
+  ASSERT_TRUE(card->any_moving());
+  expect_ack(send(protocol::Stop{}), ProcedureState::kReadyToEngage);
+  bool engaged = false;
+  for (int i = 0; i < 400 && !engaged; ++i) {
+    cycles(1);
+    const auto reply = send(protocol::Engage{});
+    engaged = std::holds_alternative<protocol::Ack>(reply);
+    if (engaged) {
+      EXPECT_FALSE(card->any_moving()) << "the arm got its task while the wheels still roll";
+    }
+  }
+  EXPECT_TRUE(engaged);
 }
 
 // The loop's own refusal: while the engine says the arm may be at the door, no move or jog starts.

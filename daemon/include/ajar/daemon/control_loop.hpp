@@ -380,6 +380,10 @@ class ControlLoop {
   // deceleration also bound a stop's deadline), or the jog's velocities.
   drivers::TrapezoidProfile move_profile_;
   double stop_time_s_ = 0;  // the running motion's time to rest from its top speed, at the card
+  // A stop is not over before the card can have brought the wheels to rest (stop_time_s_): a card
+  // whose status lags ("not moving" while they still roll) would end it early, and the engine
+  // would hand the arm a task (the arm interlock) on a base that still moves.
+  std::int64_t rest_not_before_ns_ = 0;
   bool stop_sent_ = false;  // kStopping: the card accepted the stop (else re-sent every cycle)
   std::int64_t target_counts_[2] = {0, 0};
   std::int64_t snapshot_profile_counts_[2] = {0, 0};  // last profile positions read
