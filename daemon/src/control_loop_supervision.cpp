@@ -38,7 +38,7 @@ void ControlLoop::enter_stopping(std::int64_t now_ns) noexcept {
   motion_ = Motion::kStopping;
   // From the running motion's top speed at its deceleration, as the card was told.
   motion_deadline_ns_ = now_ns + seconds_to_ns(stop_time_s_ * 1.5 / card_scale_) + margin_ns_;
-  rest_not_before_ns_ = now_ns + seconds_to_ns(stop_time_s_ / card_scale_);
+  snapshot_.rest_not_before_ns = now_ns + seconds_to_ns(stop_time_s_ / card_scale_);
 }
 
 void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
@@ -257,7 +257,7 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
         stop_sent_ = card_.emergency_stop(axes_) == ErrorCode::kOk;
         latch(ErrorCode::kVelocityMismatch, 0);
       }
-      if (answered && !status[0].moving && !status[1].moving && now_ns >= rest_not_before_ns_) {
+      if (answered && !status[0].moving && !status[1].moving) {
         finish(LoopReportKind::kMotionStopped, stop_reason_);
       } else if (now_ns > motion_deadline_ns_) {
         // The stop overran its deadline: emergency stop. Ended once the card took it (a card

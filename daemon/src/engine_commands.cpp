@@ -288,6 +288,11 @@ protocol::Message EngineImpl::engage(MessageType type) {
   auto task = procedure_.check_engage();
   if (!task) return refuse(type, task.error());
   if (auto s = check_wheels_stopped(); !s) return refuse(type, s.error());
+  if (now_ns() < loop_->snapshot().rest_not_before_ns) {  // a card's status can lag a stop
+    return refuse(type, make_error(ErrorCode::kMotionInProgress, "",
+                                   "the wheels may still be coming to rest after the stop (the "
+                                   "card's stop time): Engage again in a moment"));
+  }
   auto id = arm_->hand_off(*task);
   if (!id) {
     Error e = id.error();

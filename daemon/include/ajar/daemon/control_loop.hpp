@@ -185,7 +185,11 @@ struct LoopSnapshot {
   // The door guard lowered a running jog's forward speed this cycle (to guard_limit_m_s).
   bool guard_limiting = false;
   double guard_limit_m_s = 0;
-  bool moving = false;                 // an axis reports profile motion
+  bool moving = false;  // an axis reports profile motion
+  // After a stop: until then the card may still be bringing the wheels to rest (its stop time from
+  // the top speed it was told), whatever its status says (a status can lag). The engine hands the
+  // arm no task before it (docs/procedure.md, "The arm interlock").
+  std::int64_t rest_not_before_ns = 0;
   bool motion_active = false;          // a motion (or its stop) is being supervised
   bool jogging = false;                // that motion is a jog
   std::uint32_t last_motion_id = 0;    // the last motion that ended (any terminal report)
@@ -380,10 +384,6 @@ class ControlLoop {
   // deceleration also bound a stop's deadline), or the jog's velocities.
   drivers::TrapezoidProfile move_profile_;
   double stop_time_s_ = 0;  // the running motion's time to rest from its top speed, at the card
-  // A stop is not over before the card can have brought the wheels to rest (stop_time_s_): a card
-  // whose status lags ("not moving" while they still roll) would end it early, and the engine
-  // would hand the arm a task (the arm interlock) on a base that still moves.
-  std::int64_t rest_not_before_ns_ = 0;
   bool stop_sent_ = false;  // kStopping: the card accepted the stop (else re-sent every cycle)
   std::int64_t target_counts_[2] = {0, 0};
   std::int64_t snapshot_profile_counts_[2] = {0, 0};  // last profile positions read
