@@ -264,7 +264,7 @@ void World::inject_card_fault() {
 }
 
 void World::arm_event() {
-  if (pick(2) == 0 || arm_->status().phase != drivers::ArmPhase::kBusy) {
+  if (pick(calm_ ? 4 : 2) == 0 || arm_->status().phase != drivers::ArmPhase::kBusy) {
     return inject_arm_fault();  // world_arm.cpp (when idle: for the next task)
   }
   const auto st = arm_->status();
