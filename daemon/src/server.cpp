@@ -54,7 +54,7 @@ struct Server::Impl {
         options(std::move(opts)),
         acceptor(io),
         poll_timer(io),
-        hub(eng, SessionHub::Options{options.ledger, options.hello_timeout}) {}
+        hub(eng, SessionHub::Options{options.ledger, options.hello_timeout, options.recordings}) {}
 
   void accept() {
     acceptor.async_accept([this](const boost::system::error_code& ec, tcp::socket socket) {
