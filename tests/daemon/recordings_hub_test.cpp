@@ -4,12 +4,16 @@
 // the checks that need no disk (recordings.hpp).
 #include <condition_variable>
 #include <deque>
+#include <filesystem>
 #include <mutex>
+#include <optional>
 
 #include <boost/asio/post.hpp>
 #include <gtest/gtest.h>
 
 #include "ajar/daemon/recordings.hpp"
+#include "ajar/recorder/channels.hpp"
+#include "ajar/recorder/recorder.hpp"
 #include "test_client.hpp"
 #include "test_client_harness.hpp"
 
@@ -227,3 +231,101 @@ TEST(RecordingsChecks, RecordingListPagesNewestFirst) {
 
 }  // namespace
 }  // namespace ajar::test
+
+// ajard's Recordings over a real recorder on a temporary directory (recorder_recordings.cpp): the
+// list is newest first with the writing file marked, a chunk is the file's bytes at the offset, a
+// fetch past the end or of a name that is no recording is refused naming the field, and a save
+// answers with the recordings it kept.
+namespace adapter {
+
+namespace fs = std::filesystem;
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    char tmpl[] = "/tmp/ajar-recordings-XXXXXX";
+    path = ::mkdtemp(tmpl);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+// Asks `recordings` and runs `io` until the answer came (generous bound).
+protocol::Message ask(daemon::Recordings& recordings, boost::asio::io_context& io,
+                      const protocol::Message& request) {
+  std::optional<protocol::Message> answer;
+  recordings.handle(request, [&](protocol::Message m) { answer = std::move(m); });
+  io.restart();
+  const auto until = std::chrono::steady_clock::now() + 20s;
+  while (!answer && std::chrono::steady_clock::now() < until) {
+    io.run_for(10ms);
+    io.restart();
+  }
+  EXPECT_TRUE(answer.has_value()) << "no answer";
+  return answer.value_or(protocol::ErrorReply{});
+}
+
+TEST(RecorderRecordings, ListFetchAndSaveARealRecording) {
+  TempDir dir;
+  recorder::RecorderSettings settings;
+  settings.directory = dir.path.string();
+  recorder::Recorder rec(settings, [](std::string_view) {});
+  rec.start();
+  const std::vector<std::uint8_t> frame(100, 0x42);
+  for (std::uint64_t i = 0; i < 50; ++i)
+    rec.frame(recorder::kWireIn, 1, i * 1000, frame);
+  boost::asio::io_context io;
+  const auto recordings = daemon::make_recorder_recordings(rec, io);
+
+  // The writing file, listed; its bytes grow once the recorder thread wrote the frames.
+  protocol::RecordingInfo info;
+  const auto until = std::chrono::steady_clock::now() + 20s;
+  while (std::chrono::steady_clock::now() < until) {
+    const auto list =
+        std::get<protocol::RecordingList>(ask(*recordings, io, protocol::ListRecordings{}));
+    ASSERT_EQ(list.total, 1U);
+    info = list.entries[0];
+    if (info.size_bytes > 50 * frame.size()) break;
+    std::this_thread::sleep_for(10ms);
+  }
+  EXPECT_TRUE(info.writing);
+  EXPECT_FALSE(info.saved);
+  ASSERT_GT(info.size_bytes, 50 * frame.size());
+
+  protocol::FetchRecording fetch;
+  fetch.name = info.name;
+  fetch.offset = 0;
+  fetch.max_length = 8;
+  const auto chunk = std::get<protocol::RecordingChunk>(ask(*recordings, io, fetch));
+  ASSERT_EQ(chunk.data.size(), 8U);
+  EXPECT_EQ(chunk.data.data()[0], 0x89);
+  EXPECT_EQ(chunk.data.data()[1], 'M');
+  EXPECT_GE(chunk.size_bytes, info.size_bytes);
+  fetch.offset = chunk.size_bytes + 1000000;
+  const auto past = ask(*recordings, io, fetch);
+  ASSERT_EQ(error_code_of(past), ErrorCode::kRequestOutOfRange);
+  EXPECT_EQ(std::get<protocol::ErrorReply>(past).field.view(), "offset");
+  fetch.offset = 0;
+  fetch.name = "ajard-19700101T000000000Z.mcap";
+  const auto missing = ask(*recordings, io, fetch);
+  ASSERT_EQ(error_code_of(missing), ErrorCode::kNoSuchRecording);
+  EXPECT_EQ(std::get<protocol::ErrorReply>(missing).field.view(), "name");
+  fetch.name = "../x.mcap";
+  EXPECT_EQ(std::get<protocol::ErrorReply>(ask(*recordings, io, fetch)).field.view(), "name");
+
+  const auto saved = ask(*recordings, io, protocol::SaveRecording{60});
+  ASSERT_TRUE(std::holds_alternative<protocol::RecordingList>(saved))
+      << std::get<protocol::ErrorReply>(saved).message.view();
+  const auto& kept = std::get<protocol::RecordingList>(saved);
+  ASSERT_GE(kept.count, 1U);
+  EXPECT_TRUE(kept.entries[0].saved);
+  EXPECT_TRUE(kept.entries[0].name.view().starts_with("saved/"));
+  fetch.name = kept.entries[0].name;
+  fetch.max_length = 8;
+  EXPECT_EQ(std::get<protocol::RecordingChunk>(ask(*recordings, io, fetch)).data.size(), 8U);
+  rec.stop();
+}
+
+}  // namespace adapter

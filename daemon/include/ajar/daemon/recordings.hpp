@@ -8,19 +8,27 @@
 // black box is stopped first; then it is never called. The hub keeps the session's replies in
 // request order around it (session_hub.hpp).
 //
-// check_recordings_request() is the part of the validation that needs no disk (max_length, last_s, the shape
-// of a name): the same answer on every implementation.
+// check_recordings_request() is the part of the validation that needs no disk (max_length, last_s,
+// the shape of a name): the same answer on every implementation.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "ajar/protocol/messages.hpp"
+
+namespace boost::asio {
+class io_context;
+}
+namespace ajar::recorder {
+class Recorder;
+}
 
 namespace ajar::daemon {
 
@@ -45,6 +53,13 @@ bool is_recording_name(std::string_view name) noexcept;
 // The RecordingList reply for entries [first, first + 8) of `newest_first`.
 protocol::RecordingList recording_list(const std::vector<protocol::RecordingInfo>& newest_first,
                                        std::uint32_t first);
+
+// ajard's Recordings over its recorder (recorder_recordings.cpp): a reader thread of its own lists
+// and reads (at most 256 requests waiting; more are answered QUEUE_FULL), SaveRecording goes to
+// the recorder thread; answers are posted to `io`. NOT_SUPPORTED while the recorder is disabled.
+// Destroy it before `recorder`; answers not posted by then are never given.
+std::unique_ptr<Recordings> make_recorder_recordings(recorder::Recorder& recorder,
+                                                     boost::asio::io_context& io);
 
 protocol::ErrorReply recordings_error(protocol::MessageType type, ErrorCode code,
                                       std::string_view field, std::string_view message);
