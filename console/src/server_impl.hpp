@@ -42,6 +42,7 @@
 #include "ajar/console/pick_pose.hpp"
 #include "ajar/console/server.hpp"
 #include "ajar/core/geometry.hpp"
+#include "foxglove_live.hpp"
 #include "worker.hpp"
 
 namespace ajar::console {
@@ -160,6 +161,9 @@ struct ConsoleServer::Impl {
   std::atomic<bool> any_page{false};
   std::atomic<bool> stopping{false};
   std::thread frame_thread;
+  // Foxglove live (foxglove_live.hpp): null when off; its methods never block the caller.
+  std::unique_ptr<FoxgloveLive> foxglove;
+  std::uint16_t foxglove_port = 0;
 
   // ---- Daemon side (worker threads) ----
   protocol::Role role;  // worker thread only
@@ -188,6 +192,7 @@ struct ConsoleServer::Impl {
   asio::awaitable<void> accept_loop();
   asio::awaitable<void> serve(tcp::socket socket);
   bool host_allowed(const http::request<http::string_body>& req) const;
+  std::string foxglove_json() const;  // /api/foxglove
 
   // ---- page_sessions.cpp (Asio thread) ----
   asio::awaitable<void> run_session(std::shared_ptr<WsSession> s);
