@@ -7,6 +7,7 @@
 //   state_json.cpp    the console's state as the page's JSON (and the simulated landmarks)
 //   daemon_link.cpp   the worker threads' side: connect, Hello, status, events, telemetry
 //   frames.cpp        the frame thread: paces the source, encodes PNGs for the pages
+//   foxglove_live.cpp Foxglove live: the channels and messages (its server: foxglove_server.cpp)
 // Members are touched only by the thread named at their group; the rest is posted (on_io).
 #pragma once
 
