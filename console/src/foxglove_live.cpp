@@ -7,8 +7,10 @@
 
 #include <cmath>
 
+#include "ajar/client/json.hpp"
+#include "ajar/client/output.hpp"
 #include "ajar/core/error.hpp"
-#include "daemon_json.hpp"
+#include "ajar/recorder/channels.hpp"
 
 namespace ajar::console {
 
@@ -148,45 +150,6 @@ Json compressed_image_schema() {
   return s;
 }
 
-// The page's telemetry sample (daemon_json.cpp, telemetry_json): every key present.
-Json telemetry_schema() {
-  Json loop{{"type", "object"}};
-  Json s = object("ajar.Telemetry", {{"type", {{"const", "telemetry"}}},
-                                     {"t_s", number()},
-                                     {"state", string()},
-                                     {"moving", boolean()},
-                                     {"left_wheel_rad", number()},
-                                     {"right_wheel_rad", number()},
-                                     {"left_counts", integer()},
-                                     {"right_counts", integer()},
-                                     {"base_yaw_odometry_rad", number()},
-                                     {"odometry_x_m", number()},
-                                     {"odometry_y_m", number()},
-                                     {"door_has_distance", boolean()},
-                                     {"door_distance_m", number()},
-                                     {"door_has_yaw", boolean()},
-                                     {"door_yaw_rad", number()},
-                                     {"plane_stale", boolean()},
-                                     {"contact_stale", boolean()},
-                                     {"commanded_linear_m_s", number()},
-                                     {"commanded_angular_rad_s", number()},
-                                     {"arm_state", string()},
-                                     {"loop", loop}});
-  s["description"] =
-      "One Telemetry sample of ajard (docs/protocol.md): t_s is the daemon's monotonic time";
-  return s;
-}
-
-Json event_schema() {
-  Json s =
-      object("ajar.Event",
-             {{"kind", string()}, {"state", string()}, {"fault", string()}, {"detail", string()}});
-  s["description"] =
-      "One Event of ajard (docs/protocol.md): kind, the state after it, the "
-      "latched fault (OK: none) and the daemon's detail";
-  return s;
-}
-
 // ---- message pieces ----
 Json stamp(std::uint64_t unix_ns) {
   return {{"sec", unix_ns / 1000000000U}, {"nsec", unix_ns % 1000000000U}};
@@ -292,6 +255,19 @@ std::string base64(const std::vector<std::uint8_t>& bytes) {
 }  // namespace
 
 std::vector<foxglove::Channel> foxglove_channels() {
+  // Telemetry and events: the recorder's rows (topic, schema), so a recording and the live view
+  // look the same in Foxglove.
+  const auto recorded = [](FoxgloveChannel id, std::uint16_t recorder_channel) {
+    const auto* row = recorder::channel_by_id(recorder_channel);
+    foxglove::Channel c;
+    c.id = id;
+    c.topic = std::string(row->topic);
+    c.encoding = std::string(row->message_encoding);
+    c.schema_name = std::string(row->schema_name);
+    c.schema_encoding = std::string(row->schema_encoding);
+    c.schema = std::string(row->schema);
+    return c;
+  };
   const auto channel = [](FoxgloveChannel id, const char* topic, const Json& schema, bool latched) {
     foxglove::Channel c;
     c.id = id;
@@ -301,20 +277,44 @@ std::vector<foxglove::Channel> foxglove_channels() {
     c.latched = latched;
     return c;
   };
-  return {channel(kFoxgloveTelemetry, "/ajar/telemetry", telemetry_schema(), false),
-          channel(kFoxgloveEvents, "/ajar/events", event_schema(), false),
+  return {recorded(kFoxgloveTelemetry, recorder::kTelemetryChannel),
+          recorded(kFoxgloveEvents, recorder::kEventsChannel),
           channel(kFoxgloveOdometry, "/tf", frame_transform_schema(), false),
           channel(kFoxgloveCameraMount, "/tf_static", frame_transform_schema(), true),
           channel(kFoxgloveDoor, "/ajar/door", scene_update_schema(), true),
           channel(kFoxgloveImage, "/ajar/camera/image", compressed_image_schema(), false)};
 }
 
+// The recorder's ajar.Telemetry (recorder/include/ajar/recorder/channels.hpp) with the rest of
+// the sample's fields (the door, staleness, counts and the loop's statistics) after them.
 std::string foxglove_telemetry_json(const protocol::Telemetry& t) {
-  return telemetry_json(t).str();
+  return Json{{"daemon_time_ns", t.daemon_time_ns},
+              {"state", std::string(protocol::to_string(t.state))},
+              {"moving", t.moving},
+              {"left_wheel_rad", t.left_wheel_rad},
+              {"right_wheel_rad", t.right_wheel_rad},
+              {"base_yaw_odometry_rad", t.base_yaw_odometry_rad},
+              {"odometry_x_m", t.odometry_x_m},
+              {"odometry_y_m", t.odometry_y_m},
+              {"arm_state", std::string(protocol::to_string(t.arm_state))},
+              {"commanded_linear_m_s", t.commanded_linear_m_s},
+              {"commanded_angular_rad_s", t.commanded_angular_rad_s},
+              {"left_counts", t.left_counts},
+              {"right_counts", t.right_counts},
+              {"door_has_distance", t.door.has_distance},
+              {"door_distance_m", t.door.distance_m},
+              {"door_has_yaw", t.door.has_yaw},
+              {"door_yaw_rad", t.door.yaw_rad},
+              {"plane_stale", t.staleness.plane},
+              {"contact_stale", t.staleness.contact},
+              {"loop", Json::parse(client::loop_object(t.loop).str())}}
+      .dump();
 }
 
+// The recorder's ajar.Event.
 std::string foxglove_event_json(const protocol::Event& e) {
-  return Json{{"kind", std::string(protocol::to_string(e.kind))},
+  return Json{{"daemon_time_ns", e.daemon_time_ns},
+              {"kind", std::string(protocol::to_string(e.kind))},
               {"state", std::string(protocol::to_string(e.state))},
               {"fault", std::string(ajar::to_string(e.fault))},
               {"detail", std::string(e.detail.view())}}

@@ -25,8 +25,8 @@ namespace ajar::console {
 
 // The channel ids (also the order of the advertise message).
 enum FoxgloveChannel : std::uint32_t {
-  kFoxgloveTelemetry = 1,    // /ajar/telemetry        ajar.Telemetry (JSON, the page's sample)
-  kFoxgloveEvents = 2,       // /ajar/events           ajar.Event
+  kFoxgloveTelemetry = 1,    // /ajar/telemetry        ajar.Telemetry (the recorder's rows,
+  kFoxgloveEvents = 2,       // /ajar/events           ajar.Event      recorder/channels.hpp)
   kFoxgloveOdometry = 3,     // /tf                    foxglove.FrameTransform odom -> base_link
   kFoxgloveCameraMount = 4,  // /tf_static             foxglove.FrameTransform base_link -> camera
   kFoxgloveDoor = 5,         // /ajar/door             foxglove.SceneUpdate (latched)

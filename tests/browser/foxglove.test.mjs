@@ -26,7 +26,7 @@ import { withStack, until, build, scenarioPath, stopped } from './fixture.mjs';
 
 const require = createRequire(import.meta.url);
 const { FoxgloveClient } = wsProtocol;
-const Ajv = require('ajv');
+const Ajv = require('ajv/dist/2020');  // the recorder's schemas are draft 2020-12
 const official = require('@foxglove/schemas/jsonschema');
 
 const foxgloveArgs = { consoleArgs: ['--observer', '--foxglove', '127.0.0.1:0'] };
