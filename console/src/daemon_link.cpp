@@ -75,6 +75,7 @@ void ConsoleServer::Impl::connect_now() {
     mark_dirty();
   });
   refresh_status();
+  refresh_recorder();
 }
 
 // The daemon's calibration: base-frame coordinates on the page and the simulated camera's mount.
@@ -99,6 +100,7 @@ void ConsoleServer::Impl::set_model(const protocol::RobotModel& m) {
 
 void ConsoleServer::Impl::idle() {
   if (!client.connected() && Clock::now() >= next_connect_attempt) connect_now();
+  if (Clock::now() >= next_recorder_poll) refresh_recorder();
 }
 
 void ConsoleServer::Impl::on_telemetry(const protocol::Telemetry& t) {

@@ -8,6 +8,7 @@
 //   daemon_link.cpp   the worker threads' side: connect, Hello, status, events, telemetry
 //   frames.cpp        the frame thread: paces the source, encodes PNGs for the pages
 //   foxglove_live.cpp Foxglove live: the channels and messages (its server: foxglove_server.cpp)
+//   recorder_panel.cpp the black box's state and "save the last 5 minutes"
 // Members are touched only by the thread named at their group; the rest is posted (on_io).
 #pragma once
 
@@ -246,6 +247,14 @@ struct ConsoleServer::Impl {
 
   // ---- frames.cpp (frame thread) ----
   void frame_loop();
+
+  // ---- recorder_panel.cpp: the black box (ajard's recorder, protocol 1.2) ----
+  static constexpr double kSaveLast_s = 300;  // "save the last 5 minutes"
+  client::JsonObject recorder_state;  // Asio thread: {"known":false,"why":...} until ajard says
+  client::JsonObject recorder_save;   // Asio thread: the last save's answer; empty before one
+  Clock::time_point next_recorder_poll{};  // worker thread
+  void refresh_recorder();  // worker thread: every 2 s while idle, after a connect and a save
+  void save_recording(double last_s);  // Asio thread: the page's "save_recording {last_s}"
 };
 
 }  // namespace ajar::console
