@@ -26,12 +26,12 @@ Written write_sample(bool close) {
   Written w;
   McapWriter writer(kMcapProfile, kMcapLibrary);
   writer.add_ajar_channels();
-  for (int i = 0; i < 40; ++i) {
+  for (std::size_t i = 0; i < 40; ++i) {
     const std::uint16_t channel = static_cast<std::uint16_t>(1 + i % kChannels.size());
     std::string payload = channel == kWireChannel
                               ? std::string(18 + i, static_cast<char>(i))
                               : "{\"daemon_time_ns\":" + std::to_string(i) + "}";
-    writer.add_message(channel, 1000000000ULL + static_cast<std::uint64_t>(i) * 1000, payload);
+    writer.add_message(channel, 1000000000ULL + i * 1000, payload);
     w.message_ends.push_back(writer.offset());
     w.payloads.push_back(std::move(payload));
   }
@@ -87,7 +87,9 @@ TEST(McapReader, AFileCutAtAnyByteYieldsEveryMessageBeforeTheCut) {
       for (std::size_t i = 0; i < expected; ++i)
         ASSERT_EQ(text(f, f.messages[i]), w.payloads[i]) << "cut at " << cut;
       EXPECT_EQ(f.complete, closed && cut == w.bytes.size()) << cut;
-      if (!f.complete) EXPECT_FALSE(f.problem.empty()) << cut;
+      if (!f.complete) {
+        EXPECT_FALSE(f.problem.empty()) << cut;
+      }
       EXPECT_LE(f.read_up_to, cut);
     }
   }
