@@ -18,17 +18,6 @@
 namespace ajar::daemon {
 namespace {
 
-// The body velocity the wheels are told for a jog's limited command: the command itself unless a
-// wheel is above base.max_wheel_speed_rad_s, which scales both wheels (core::wheel_velocity); then
-// the body velocity of the scaled wheels. Telemetry's commanded_* (docs/protocol.md 5.0).
-core::BodyVelocity told_velocity(core::BodyVelocity v, const core::BaseGeometry& base) noexcept {
-  const double fastest_rad_s =
-      (std::abs(v.linear_m_s) + std::abs(v.angular_rad_s) * base.turning_radius_m) /
-      base.wheel_radius_m;
-  if (!(fastest_rad_s > base.max_wheel_speed_rad_s)) return v;
-  return core::body_velocity(core::wheel_velocity(v, base), base);
-}
-
 // Motor counts per radian at the wheel.
 double counts_per_wheel_rad(const core::BaseGeometry& base) noexcept {
   return base.gear_ratio * base.encoder_counts_per_rev / (2.0 * std::numbers::pi);
@@ -262,7 +251,7 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   snapshot_.time_ns = now_ns;
   snapshot_.motion_active = motion_ != Motion::kIdle;
   snapshot_.jogging = motion_ == Motion::kJogging;
-  snapshot_.commanded = told_velocity(jog_command_, settings_.base);
+  snapshot_.commanded = within_wheel_cap(jog_command_, settings_.base);
   snapshot_.fault = fault_;
   snapshot_.recover_sequence = recover_sequence_;
   snapshot_.recovering = recovery_ != Recovery::kNone;
