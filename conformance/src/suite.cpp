@@ -36,6 +36,7 @@ Result Suite::run() {
   roles();
   telemetry();
   procedure();
+  ordering();
   driving();
   duplicates();
   faults();
