@@ -158,11 +158,13 @@ int fetch_command(const std::string& name, std::string path, const GlobalOptions
   if (const auto rc = connect(client, options, err)) return *rc;
   FetchOptions fetch;
   std::uint64_t last_report = 0;
+  bool first = true;
   fetch.progress = [&](const FetchProgress& p) {
-    if (p.offset != 0 && p.offset < p.size_bytes && p.offset - last_report < (1U << 20)) return;
-    if (last_report == 0 && p.resumed)
-      err << "resuming " << path << " at " << p.offset << " bytes\n";
-    last_report = std::max<std::uint64_t>(p.offset, 1);
+    if (first && p.resumed) err << "resuming " << path << " at " << p.offset << " bytes\n";
+    // A line at the start, one per MiB, and one at the end.
+    if (!first && p.offset < p.size_bytes && p.offset - last_report < (1U << 20)) return;
+    first = false;
+    last_report = p.offset;
     const double percent = p.size_bytes == 0 ? 100.0
                                              : 100.0 * static_cast<double>(p.offset) /
                                                    static_cast<double>(p.size_bytes);

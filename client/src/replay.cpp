@@ -397,7 +397,16 @@ int run_replay(const Command& command, const GlobalOptions& options, std::ostrea
     }
     if (step.exchange == nullptr) {  // the recorded session closed: so does the replayed one
       if (s.client) {
-        await_replies(s, SteadyClock::now() + settle);
+        const auto until = SteadyClock::now() + settle;
+        await_replies(s, until);
+        for (;;) {  // and the events the recorded session had got before it closed
+          {
+            std::lock_guard lock(s.mutex);
+            if (s.replayed_events.size() >= s.recorded_events.size()) break;
+          }
+          if (SteadyClock::now() >= until || interrupted()) break;
+          std::this_thread::sleep_for(Milliseconds{2});
+        }
         s.client->close();
       }
       continue;

@@ -229,9 +229,6 @@ TEST(RecordingsChecks, RecordingListPagesNewestFirst) {
   EXPECT_EQ(daemon::recording_list(all, 0).count, 8U);
 }
 
-}  // namespace
-}  // namespace ajar::test
-
 // ajard's Recordings over a real recorder on a temporary directory (recorder_recordings.cpp): the
 // list is newest first with the writing file marked, a chunk is the file's bytes at the offset, a
 // fetch past the end or of a name that is no recording is refused naming the field, and a save
@@ -329,3 +326,6 @@ TEST(RecorderRecordings, ListFetchAndSaveARealRecording) {
 }
 
 }  // namespace adapter
+
+}  // namespace
+}  // namespace ajar::test
