@@ -541,10 +541,7 @@ void Recorder::stop() {
 }
 
 void Recorder::loop_sample(const LoopSample& sample) noexcept {
-  if (!settings_.enabled) return;
-  if (++decimation_count_ < settings_.loop_decimation) return;
-  decimation_count_ = 0;
-  ring_.push(sample);
+  if (settings_.enabled) ring_.push(sample);
 }
 
 void Recorder::frame(std::uint8_t direction, std::uint64_t session_id, std::uint64_t daemon_time_ns,

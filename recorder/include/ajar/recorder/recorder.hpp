@@ -119,6 +119,14 @@ class Recorder {
   void stop();
 
   // ---- the control thread (single producer): noexcept, no allocation, lock or system call ----
+  // Called every cycle: true every loop_decimation-th call (then make the sample and hand it
+  // over with loop_sample()); false when disabled.
+  bool take_loop_sample() noexcept {
+    if (!settings_.enabled || ++decimation_count_ < settings_.loop_decimation) return false;
+    decimation_count_ = 0;
+    return true;
+  }
+  // Copies `sample` into the ring (dropped and counted when full).
   void loop_sample(const LoopSample& sample) noexcept;
 
   // ---- any other thread ----
