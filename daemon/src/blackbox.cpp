@@ -14,7 +14,7 @@ namespace {
 using recorder::json_string;
 
 std::string number(double v) {
-  if (!std::isfinite(v)) return "0";
+  if (!std::isfinite(v) || v == 0) return "0";
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.9g", v);
   return buf;
@@ -69,14 +69,21 @@ void record_fault(recorder::Recorder* r, std::uint64_t daemon_time_ns, bool latc
 void record_config(recorder::Recorder* r, std::uint64_t daemon_time_ns, std::string_view reason,
                    const Config& config, const std::vector<std::string>& changed_keys) {
   if (r == nullptr) return;
-  std::string keys = "[";
-  for (const auto& k : changed_keys)
-    keys += (keys.size() > 1 ? "," : "") + json_string(k);
-  keys += "]";
-  r->json(recorder::kConfigChannel, daemon_time_ns,
-          "{\"daemon_time_ns\":" + std::to_string(daemon_time_ns) + ",\"reason\":" +
-              json_string(reason) + ",\"file\":" + json_string(config.source_path) +
-              ",\"changed_keys\":" + keys + ",\"yaml\":" + json_string(to_yaml(config)) + "}");
+  std::string text = "{\"daemon_time_ns\":";
+  text += std::to_string(daemon_time_ns);
+  text += ",\"reason\":";
+  text += json_string(reason);
+  text += ",\"file\":";
+  text += json_string(config.source_path);
+  text += ",\"changed_keys\":[";
+  for (std::size_t i = 0; i < changed_keys.size(); ++i) {
+    if (i > 0) text += ',';
+    text += json_string(changed_keys[i]);
+  }
+  text += "],\"yaml\":";
+  text += json_string(to_yaml(config));
+  text += '}';
+  r->json(recorder::kConfigChannel, daemon_time_ns, std::move(text));
 }
 
 void record_session(recorder::Recorder* r, std::uint64_t daemon_time_ns, std::uint64_t session_id,

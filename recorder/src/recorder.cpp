@@ -79,7 +79,7 @@ std::string_view phase_word(std::uint8_t p) {
 }
 
 void append_number(std::string& out, double v) {
-  if (!std::isfinite(v)) v = 0;  // JSON has no NaN; never produced by the loop
+  if (!std::isfinite(v) || v == 0) v = 0;  // JSON has no NaN (the loop makes none); -0 -> 0
   char buf[32];
   const int n = std::snprintf(buf, sizeof buf, "%.9g", v);
   out.append(buf, static_cast<std::size_t>(n));
@@ -170,6 +170,7 @@ struct Recorder::Impl {
   // Counters (read by counters() under counters_mutex).
   mutable std::mutex counters_mutex;
   bool recording = false, disk_full = false, started = false;
+  std::string current_file;  // the open file's name (counters())
   std::uint64_t write_failures = 0, messages_written = 0, bytes_written = 0;
 
   Impl(Recorder& r, Log l) : self(r), log(std::move(l)), dir(r.settings_.directory) {}
@@ -213,6 +214,7 @@ struct Recorder::Impl {
     set_counters([&] {
       recording = true;
       disk_full = false;
+      current_file = name;
     });
     failure_logged = false;
     last_status_text.clear();
@@ -257,6 +259,7 @@ struct Recorder::Impl {
     set_counters([&] {
       recording = false;
       disk_full = error == ENOSPC || error == EDQUOT;
+      current_file.clear();
     });
     file.clear();
     retry_at = clock_ns(CLOCK_MONOTONIC) + kRetryNs;
@@ -279,7 +282,10 @@ struct Recorder::Impl {
     }
     writer.reset();
     file.clear();
-    set_counters([&] { recording = false; });
+    set_counters([&] {
+      recording = false;
+      current_file.clear();
+    });
   }
 
   // Closes the file (footer), removes the oldest recordings beyond the budget, starts the next.
@@ -602,6 +608,7 @@ RecorderCounters Recorder::counters() const {
   c.write_failures = impl_->write_failures;
   c.messages_written = impl_->messages_written;
   c.bytes_written = impl_->bytes_written;
+  c.file = impl_->current_file;
   return c;
 }
 

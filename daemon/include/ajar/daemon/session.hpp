@@ -209,7 +209,10 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
   void process(std::span<const std::uint8_t> in) {
     while (!in.empty() && state_ == State::kOpen) {
       const std::size_t used = decoder_.feed(in, outcome_);
-      if (options_.frame_tap) tap_bytes_.insert(tap_bytes_.end(), in.begin(), in.begin() + used);
+      if (options_.frame_tap) {
+        const auto part = in.first(used);
+        tap_bytes_.insert(tap_bytes_.end(), part.begin(), part.end());
+      }
       in = in.subspan(used);
       if (options_.frame_tap && outcome_.kind != protocol::StreamDecoder::Kind::kNeedMore) {
         options_.frame_tap(id_, 0, tap_bytes_);

@@ -138,8 +138,8 @@ class Recorder {
   RecorderCounters counters() const;
   const RecorderSettings& settings() const noexcept { return settings_; }
 
-  // ---- the black box over the protocol (protocol handlers, I/O thread) ----
-  // Every recording in the directory and in saved/, oldest first.
+  // ---- the black box over the protocol (protocol handlers: the thread that also calls stop())
+  // ---- Every recording in the directory and in saved/, oldest first.
   std::vector<RecordingInfo> list() const;
   // Up to `max_bytes` of recording `name` (as list() names it) from byte `offset`; a short (or
   // empty) result at the end of the file. nullopt (with `error`) when `name` is not a recording
