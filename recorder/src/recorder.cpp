@@ -139,7 +139,8 @@ struct Recorder::Impl {
   fs::path dir;
   std::int64_t wall_minus_mono_ns = 0;
 
-  // The queue (any thread -> recorder thread).
+  // The queue (any thread -> recorder thread), open while the thread runs.
+  std::atomic<bool> accepting{false};
   mutable std::mutex queue_mutex;
   std::vector<IoRecord> queue;
   std::size_t queue_bytes = 0;
@@ -529,10 +530,12 @@ void Recorder::start() {
   impl_->enforce_budget(false);
   impl_->open_file();
   impl_->thread = std::thread([this] { impl_->run(); });
+  impl_->accepting.store(true, std::memory_order_release);
 }
 
 void Recorder::stop() {
   if (!impl_->thread.joinable()) return;
+  impl_->accepting.store(false, std::memory_order_release);
   {
     std::lock_guard lock(impl_->wake_mutex);
     impl_->stopping = true;
@@ -552,7 +555,7 @@ void Recorder::loop_sample(const LoopSample& sample) noexcept {
 
 void Recorder::frame(std::uint8_t direction, std::uint64_t session_id, std::uint64_t daemon_time_ns,
                      std::span<const std::uint8_t> bytes) {
-  if (!settings_.enabled) return;
+  if (!impl_->accepting.load(std::memory_order_acquire)) return;  // off, or not running
   IoRecord r;
   r.channel = kWireChannel;
   r.daemon_time_ns = daemon_time_ns;
@@ -576,7 +579,7 @@ void Recorder::frame(std::uint8_t direction, std::uint64_t session_id, std::uint
 }
 
 void Recorder::json(std::uint16_t channel, std::uint64_t daemon_time_ns, std::string text) {
-  if (!settings_.enabled) return;
+  if (!impl_->accepting.load(std::memory_order_acquire)) return;  // off, or not running
   IoRecord r;
   r.channel = channel;
   r.daemon_time_ns = daemon_time_ns;

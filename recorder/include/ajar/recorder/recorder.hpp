@@ -129,8 +129,8 @@ class Recorder {
   // Copies `sample` into the ring (dropped and counted when full).
   void loop_sample(const LoopSample& sample) noexcept;
 
-  // ---- any other thread ----
-  // A protocol frame in or out (channels.hpp, /ajar/wire).
+  // ---- any other thread (ignored unless the recorder thread runs: between start() and stop())
+  // ---- A protocol frame in or out (channels.hpp, /ajar/wire).
   void frame(std::uint8_t direction, std::uint64_t session_id, std::uint64_t daemon_time_ns,
              std::span<const std::uint8_t> bytes);
   // A JSON message on a JSON channel of channels.hpp (the text must match its schema).
