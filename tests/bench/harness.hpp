@@ -258,8 +258,10 @@ inline void latency_rows(const std::string& what, const SampleBlocks& b,
   }
   compare_row(what + " min", b.min, "us", "", vs + "; the floor of each side", Over::kMin);
   std::string medians = what + ": per-block p50 (" + base_name + " / subject, us):";
-  for (std::size_t i = 0; i < b.blocks(); ++i)
-    medians += " " + format_number(b.p50.base[i]) + "/" + format_number(b.p50.subject[i]);
+  for (std::size_t i = 0; i < b.blocks(); ++i) {  // append(): GCC 12's -Wrestrict misfires on +
+    medians.append(" ").append(format_number(b.p50.base[i]));
+    medians.append("/").append(format_number(b.p50.subject[i]));
+  }
   std::printf("INFO|%s\n", medians.c_str());
 }
 
