@@ -5,7 +5,9 @@
 // test of docs/protocol.md's layout tables) all read these tables; nothing else lists a field.
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cstdint>
 #include <string_view>
 #include <utility>
 #include <variant>
@@ -397,24 +399,45 @@ constexpr bool types_are_unique() {
 }
 static_assert(types_are_unique(), "one message type per Message alternative");
 
+// Type -> row index in one load (the decoder looks a type up in every frame; a search through
+// the table was a sixth of its time): kRowOfType[t - kLowestType], kNoRow for a gap.
+inline constexpr std::uint8_t kNoRow = 0xFF;
+inline constexpr std::size_t kLowestType =
+    static_cast<std::size_t>(std::ranges::min(kMessageTable, {}, &MessageInfo::type).type);
+inline constexpr std::size_t kHighestType =
+    static_cast<std::size_t>(std::ranges::max(kMessageTable, {}, &MessageInfo::type).type);
+inline constexpr auto kRowOfType = [] {
+  std::array<std::uint8_t, kHighestType - kLowestType + 1> rows{};
+  rows.fill(kNoRow);
+  for (std::size_t i = 0; i < kMessageTable.size(); ++i)
+    rows[static_cast<std::size_t>(kMessageTable[i].type) - kLowestType] =
+        static_cast<std::uint8_t>(i);
+  return rows;
+}();
+static_assert(kMessageTable.size() < kNoRow);
+
 // The row of `t`, or nullptr for a type this version does not know.
 constexpr const MessageInfo* find_message(MessageType t) noexcept {
-  for (const MessageInfo& m : kMessageTable) {
-    if (m.type == t) return &m;
-  }
-  return nullptr;
+  const auto type = static_cast<std::size_t>(t);
+  if (type < kLowestType || type > kHighestType) return nullptr;
+  const std::uint8_t row = kRowOfType[type - kLowestType];
+  return row == kNoRow ? nullptr : &kMessageTable[row];
 }
 
-// Calls f(std::type_identity<T>{}) with the message struct T of type `t`; false when `t` is
-// unknown.
+// Calls f(std::type_identity<T>{}) with the message struct T of type `t` (one indirect call
+// through a table, not a comparison per type); false when `t` is unknown.
 template <typename F>
 bool with_message_type(MessageType t, F&& f) {
-  return [&]<std::size_t... I>(std::index_sequence<I...>) {
-    return ((kMessageTable[I].type == t &&
-             (f(Alternative<std::variant_alternative_t<I, Message>>{}), true)) ||
-            ...);
+  const MessageInfo* row = find_message(t);
+  if (row == nullptr) return false;
+  using G = std::remove_reference_t<F>;
+  [&]<std::size_t... I>(std::index_sequence<I...>) {
+    static constexpr void (*kCall[])(G&) = {
+        [](G& g) { g(Alternative<std::variant_alternative_t<I, Message>>{}); }...};
+    kCall[static_cast<std::size_t>(row - kMessageTable.data())](f);
   }
   (std::make_index_sequence<std::variant_size_v<Message>>{});
+  return true;
 }
 
 }  // namespace ajar::protocol::detail
