@@ -66,12 +66,12 @@ void ConsoleServer::Impl::frame_loop() {
       entry->pose = p;
       entry->captured = Clock::now();
       entry->pose_from = p_at;
-      if (any_page) {
+      if (pages.any_page()) {
         const auto& k = entry->frame.intrinsics;
         entry->colour =
             frame_message(1, entry->frame.sequence,
                           encode_png_rgb8(Rgb8Image{k.width_px, k.height_px, entry->frame.rgb}, 1));
-        if (overlay_wanted) {
+        if (pages.overlay_wanted()) {
           entry->depth = frame_message(2, entry->frame.sequence,
                                        encode_png_rgb8(colourise_depth(entry->frame), 1));
         }
@@ -85,15 +85,7 @@ void ConsoleServer::Impl::frame_loop() {
           mark_dirty();
         }
         // Its age, pose and where each pick's marker is on it, just before the image itself.
-        const auto meta =
-            sessions.empty() ? nullptr : std::make_shared<const std::string>(frame_json(*entry));
-        for (const auto& s : sessions) {
-          if (entry->colour) {
-            enqueue(s, false, meta);
-            enqueue(s, true, entry->colour);
-          }
-          if (s->overlay && entry->depth) enqueue(s, true, entry->depth);
-        }
+        pages.broadcast_frame([&] { return frame_json(*entry); }, entry->colour, entry->depth);
       });
       last_error.clear();
     } else if (why != last_error) {
