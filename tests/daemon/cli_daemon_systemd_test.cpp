@@ -69,7 +69,7 @@ TEST(DaemonUnderSystemd, ReadyAfterServingWatchdogOnlyWhileHealthyStoppingOnSigt
   FakeEngine* fake = &fake_engine;
   // In front of the fake: counts the daemon's watchdog checks (control_loop_healthy(), asked once
   // per watchdog tick and nowhere else in run_daemon).
-  auto engine = std::make_unique<FakeEngine>(fake_engine);
+  auto engine = FakeEngine::in_front_of(fake_engine);
   FakeEngine* counter = engine.get();
   daemon::Config config;
   config.network.bind_address = "127.0.0.1";

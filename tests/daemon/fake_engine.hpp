@@ -13,6 +13,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -26,6 +27,12 @@ class FakeEngine final : public daemon::Engine {
  public:
   FakeEngine() = default;
   explicit FakeEngine(daemon::Engine& inner) : inner_(&inner) {}
+  // In front of another FakeEngine too (the copy constructor would win over the one above).
+  static std::unique_ptr<FakeEngine> in_front_of(daemon::Engine& inner) {
+    return std::make_unique<FakeEngine>(inner);
+  }
+  FakeEngine(const FakeEngine&) = delete;
+  FakeEngine& operator=(const FakeEngine&) = delete;
 
   // ---- hooks ----
   std::function<void()> before_lost;  // runs before the engine hears of a controller loss
