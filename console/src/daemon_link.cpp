@@ -119,10 +119,12 @@ void DaemonLink::connect_now() {
   if (w.version_minor >= 1) listener_.robot_model(client_.request(protocol::GetRobotModel{}));
   listener_.connected(w);
   refresh_status();
+  listener_.worker_idle(true);
 }
 
 void DaemonLink::idle() {
   if (!client_.connected() && Clock::now() >= next_connect_attempt_) connect_now();
+  listener_.worker_idle(false);
 }
 
 // ---- the console's side: what the link learns, on the Asio thread ----
@@ -168,9 +170,14 @@ void ConsoleServer::Impl::connected(const protocol::Welcome& w) {
   });
 }
 
+void ConsoleServer::Impl::worker_idle(bool connected_now) {
+  if (connected_now || Clock::now() >= next_recorder_poll) refresh_recorder();
+}
+
 void ConsoleServer::Impl::status_received(const protocol::Status& s) {
   on_io([this, s] {
     status = s;
+    if (foxglove) foxglove->on_status(s);
     mark_dirty();
   });
 }
@@ -190,6 +197,7 @@ void ConsoleServer::Impl::set_model(const protocol::RobotModel& m) {
   camera_to_base = *checked;
   model = m;
   if (sim != nullptr) sim->set_camera_to_base(t);
+  if (foxglove) foxglove->on_model(m);
   add_log("calibration from ajard: camera -> base (eq. 1)");
   mark_dirty();
 }
@@ -203,6 +211,7 @@ void ConsoleServer::Impl::on_telemetry(const protocol::Telemetry& t) {
     pose.yaw_rad = t.base_yaw_odometry_rad;
     pose_at = now;
   }
+  if (foxglove) foxglove->on_telemetry(t);
   const std::string json = telemetry_json(t).str();
   on_io([this, json, t, now] {
     const bool stale_changed = !telemetry || telemetry->staleness.plane != t.staleness.plane ||
@@ -262,6 +271,7 @@ void ConsoleServer::Impl::on_event_io(const protocol::Event& e, std::uint64_t se
   using protocol::EventKind;
   const std::string detail(e.detail.view());
   const std::string state(protocol::to_string(e.state));
+  if (foxglove) foxglove->on_event(e);
   std::string text;
   switch (e.kind) {
     case EventKind::kStateChanged:

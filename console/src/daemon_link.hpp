@@ -30,6 +30,9 @@ class DaemonLink {
     virtual void connected(const protocol::Welcome& welcome) = 0;
     virtual void robot_model(const client::Response& reply) = 0;  // GetRobotModel (protocol 1.1)
     virtual void status_received(const protocol::Status& status) = 0;  // after requests, events
+    // The request worker's turn for the console's own polling (the black box): right after a
+    // connect (`connected_now`), and when no job came for a while.
+    virtual void worker_idle(bool connected_now) = 0;
 
    protected:
     ~Listener() = default;

@@ -8,6 +8,8 @@
 //   daemon_link.cpp   DaemonLink (daemon_link.hpp: the client, its workers: connect, Hello, status)
 //                     and the console's side of it: status, events, telemetry
 //   frames.cpp        the frame thread: paces the source, encodes PNGs for the pages
+//   foxglove_live.cpp Foxglove live: the channels and messages (its server: foxglove_server.cpp)
+//   recorder_panel.cpp the black box's state and "save the last 5 minutes"
 // Members are touched only by the thread named at their group; the rest is posted (on_io).
 #pragma once
 
@@ -45,6 +47,7 @@
 #include "ajar/console/server.hpp"
 #include "ajar/core/geometry.hpp"
 #include "daemon_link.hpp"
+#include "foxglove_live.hpp"
 #include "page_hub.hpp"
 #include "worker.hpp"
 
@@ -111,6 +114,9 @@ struct ConsoleServer::Impl final : DaemonLink::Listener {
   Clock::time_point pose_at{};  // when `pose` arrived (telemetry); epoch: never
   std::atomic<bool> stopping{false};
   std::thread frame_thread;
+  // Foxglove live (foxglove_live.hpp): null when off; its methods never block the caller.
+  std::unique_ptr<FoxgloveLive> foxglove;
+  std::uint16_t foxglove_port = 0;
 
   // Posting to the Asio thread (from any thread).
   template <typename F>
@@ -128,6 +134,7 @@ struct ConsoleServer::Impl final : DaemonLink::Listener {
   asio::awaitable<void> accept_loop();
   asio::awaitable<void> serve(tcp::socket socket);
   bool host_allowed(const http::request<http::string_body>& req) const;
+  std::string foxglove_json() const;  // /api/foxglove
 
   // ---- page_sessions.cpp (Asio thread) ----
   asio::awaitable<void> run_session(std::shared_ptr<WsSession> s);
@@ -167,6 +174,7 @@ struct ConsoleServer::Impl final : DaemonLink::Listener {
   void connected(const protocol::Welcome& welcome) override;
   void robot_model(const client::Response& reply) override;
   void status_received(const protocol::Status& status) override;
+  void worker_idle(bool connected_now) override;  // the black box's poll
   void set_model(const protocol::RobotModel& m);  // Asio thread
   void on_telemetry(const protocol::Telemetry& t);
   void on_event(const protocol::Event& e);
@@ -174,6 +182,14 @@ struct ConsoleServer::Impl final : DaemonLink::Listener {
 
   // ---- frames.cpp (frame thread) ----
   void frame_loop();
+
+  // ---- recorder_panel.cpp: the black box (ajard's recorder, protocol 1.2) ----
+  static constexpr double kSaveLast_s = 300;  // "save the last 5 minutes"
+  client::JsonObject recorder_state;  // Asio thread: {"known":false,"why":...} until ajard says
+  client::JsonObject recorder_save;   // Asio thread: the last save's answer; empty before one
+  Clock::time_point next_recorder_poll{};  // worker thread
+  void refresh_recorder();  // worker thread: every 2 s while idle, after a connect and a save
+  void save_recording(double last_s);  // Asio thread: the page's "save_recording {last_s}"
 };
 
 }  // namespace ajar::console

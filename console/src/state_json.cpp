@@ -128,6 +128,12 @@ std::string ConsoleServer::Impl::snapshot() const {
   }
   o.add("picks", board.picks_json(view));
   o.add("results", board.results_json());
+  o.add("recorder", recorder_state);
+  if (recorder_save.empty()) {
+    o.add_null("recorder_save");
+  } else {
+    o.add("recorder_save", recorder_save);
+  }
   if (last_command.empty()) {
     o.add_null("last_command");
   } else {

@@ -245,7 +245,7 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   snapshot_.time_ns = now_ns;
   snapshot_.motion_active = motion_ != Motion::kIdle;
   snapshot_.jogging = motion_ == Motion::kJogging;
-  snapshot_.commanded = jog_.command();
+  snapshot_.commanded = within_wheel_cap(jog_.command(), settings_.base);
   snapshot_.fault = fault_;
   snapshot_.recover_sequence = recovery_.sequence();
   snapshot_.recovering = recovery_.running();

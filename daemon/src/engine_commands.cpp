@@ -82,6 +82,10 @@ protocol::Message EngineImpl::align(MessageType type) {
     procedure_.alignment_started();
     procedure_.alignment_finished();
     dirty_ = true;
+    // An accepted motion of zero counts is still opened and closed by events (protocol.md 5.7).
+    emit(EventKind::kMotionStarted, ErrorCode::kOk,
+         "aligning: left 0 counts, right 0 counts (already square to the door)");
+    emit(EventKind::kMotionFinished, ErrorCode::kOk, "base aligned (nothing to turn)");
     return ack(type, protocol::EmptyAck{});
   }
   if (auto s = arm_.check_clear(); !s) return refuse(type, s.error());
@@ -200,7 +204,16 @@ protocol::Message EngineImpl::approach(MessageType type, const protocol::Approac
   const core::StraightCommand wheels = core::straight_command(body.travel_m, config_.base);
   body.left_counts = wheels.left_counts;
   body.right_counts = wheels.right_counts;
-  if (wheels.left_counts == 0 && wheels.right_counts == 0) return ack(type, body);  // there
+  if (wheels.left_counts == 0 && wheels.right_counts == 0) {  // there already: nothing moves
+    emit(EventKind::kMotionStarted, ErrorCode::kOk,
+         fmt::format("approaching: {:.3f} m to {:.3f} m from the door (left 0 counts, right 0 "
+                     "counts)",
+                     body.travel_m, m.standoff_m));
+    emit(EventKind::kMotionFinished, ErrorCode::kOk,
+         fmt::format("approach finished: the door is {:.3f} m away (nothing to drive)",
+                     door.distance_m));
+    return ack(type, body);
+  }
   loop_->heartbeat(now_ns());
   if (!wheels_.start_move(wheels.left_counts, wheels.right_counts, MoveProfile::kStraight,
                           WheelKind::kApproach)) {

@@ -69,8 +69,8 @@ Outcome WheelMotions::check_stopped() const {
 
 Outcome WheelMotions::check_may_drive(bool jog) const {
   if (current_ == 0) return Ok{};
-  if (stopping_) {
-    return make_error(ErrorCode::kDriveNotAllowed, "",
+  if (stopping_) {  // a motion in progress, as for every other command (protocol.md 6.6)
+    return make_error(ErrorCode::kMotionInProgress, "",
                       "the wheels are still stopping: wait for motion_stopped");
   }
   if (kind_ == WheelKind::kApproach) {

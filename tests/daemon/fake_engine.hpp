@@ -128,6 +128,9 @@ class FakeEngine final : public daemon::Engine {
       if (sink_) sink_(e);
     }
   }
+  void catch_up() override {
+    if (inner_) inner_->catch_up();
+  }
   std::uint64_t accepted_generation() const noexcept override {
     return inner_ ? inner_->accepted_generation() : accepted_.load();
   }
