@@ -87,6 +87,12 @@ class SessionHandler {
   // Around the frames decoded from one read (several frames can arrive in one TCP segment).
   virtual void on_read_begin(SessionLink& link) { (void)link; }
   virtual void on_read_end(SessionLink& link) { (void)link; }
+  // The protocol minor of the frames the session writes itself (the read deadline's Error): the
+  // minor its Hello settled (docs/protocol.md 7.1), ours before.
+  virtual std::uint8_t frame_minor(const SessionLink& link) const {
+    (void)link;
+    return protocol::kVersionMinor;
+  }
 
  protected:
   ~SessionHandler() = default;
@@ -301,7 +307,9 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
       error.code = ErrorCode::kBadPayloadLength;
       error.field = "read_deadline_s";
       error.message.assign(what);
-      if (auto frame = encode_frame(protocol::Envelope{0, 0, error})) send(std::move(frame));
+      const std::uint8_t minor =
+          handler_ != nullptr ? handler_->frame_minor(*this) : protocol::kVersionMinor;
+      if (auto frame = encode_frame(protocol::Envelope{0, 0, error}, minor)) send(std::move(frame));
       close_after_flush(what);
     } else {
       close_now("idle timeout");
