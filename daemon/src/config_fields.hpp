@@ -257,6 +257,14 @@ void fields(Io& io, C& c) {
   });
   io.section("state",
              [&] { io.text("directory", c.state.directory, "directory path", Text::kNonEmpty); });
+  io.section("recorder", [&] {
+    io.boolean("enabled", c.recorder.enabled);
+    io.text("directory", c.recorder.directory, "directory path", Text::kNonEmpty);
+    io.integer("max_bytes", c.recorder.max_bytes, 1LL << 20, 1LL << 50);
+    io.integer("max_file_bytes", c.recorder.max_file_bytes, 64LL << 10, 1LL << 40);
+    io.number("max_file_s", c.recorder.max_file_s, 1, 86400, "s");
+    io.integer("loop_decimation", c.recorder.loop_decimation, 1, 10000);
+  });
 }
 
 // "a, b, c" of text(item) for every item.

@@ -167,6 +167,7 @@ class FakeEngine final : public daemon::Engine {
   std::uint64_t daemon_time_ns() const noexcept override {
     return inner_ ? inner_->daemon_time_ns() : 42;
   }
+  recorder::Recorder* recorder() noexcept override { return inner_ ? inner_->recorder() : nullptr; }
   void run_loop_cycle() noexcept override {
     if (inner_) inner_->run_loop_cycle();
   }
