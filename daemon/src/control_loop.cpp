@@ -200,10 +200,10 @@ void ControlLoop::record_sample(std::int64_t deadline_ns, std::int64_t wake_ns,
   s.commanded_linear_m_s = snapshot_.commanded.linear_m_s;
   s.commanded_angular_rad_s = snapshot_.commanded.angular_rad_s;
   s.motion = static_cast<std::uint8_t>(motion_);
-  s.phase = recovery_ != Recovery::kNone                                 ? 3
-            : motion_ == Motion::kStopping || (jog_resting_ && moving()) ? 2
-            : moving()                                                   ? 1
-                                                                         : 0;
+  s.phase = recovery_.running()                                            ? 3
+            : motion_ == Motion::kStopping || (jog_.resting() && moving()) ? 2
+            : moving()                                                     ? 1
+                                                                           : 0;
   s.fault = static_cast<std::uint16_t>(fault_);
   s.motion_id = motion_id_;
   s.stop_generation = handled_stop_;
