@@ -100,7 +100,8 @@ Result<StateRecord> decode_binary_state(const std::string& in) {
   if (in.size() < kStateHeaderSize) return bad("shorter than its header (truncated?)");
   if (u32_at(in, kHeaderCrcAt) != header_crc(in))
     return bad("header checksum mismatch (corrupt file)");
-  const unsigned version = byte_at(in, kVersionAt) | (byte_at(in, kVersionAt + 1) << 8);
+  const unsigned version = static_cast<unsigned>(byte_at(in, kVersionAt)) |
+                           static_cast<unsigned>(byte_at(in, kVersionAt + 1)) << 8;
   if (version != static_cast<unsigned>(kStateFormatVersion)) {
     return bad("unsupported format version " + std::to_string(version) +
                " (this daemon reads 1, 2 and " + std::to_string(kStateFormatVersion) + ")");
@@ -120,7 +121,8 @@ Result<StateRecord> decode_binary_state(const std::string& in) {
   const std::uint8_t phase = byte_at(in, kPhaseAt);
   if (phase >= std::size(kPhases)) return bad("unknown phase " + std::to_string(phase));
   r.phase = kPhases[phase];
-  const unsigned fault = byte_at(in, kFaultAt) | (byte_at(in, kFaultAt + 1) << 8);
+  const unsigned fault = static_cast<unsigned>(byte_at(in, kFaultAt)) |
+                         static_cast<unsigned>(byte_at(in, kFaultAt + 1)) << 8;
   if (!is_restorable_fault(fault)) {
     return bad("fault code '" + std::to_string(fault) + "' is not a fault the daemon latches");
   }
