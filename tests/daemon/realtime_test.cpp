@@ -118,6 +118,11 @@ Mapped mapped(const std::string& part) {
 // full (mlockall(MCL_FUTURE) without MCL_ONFAULT made every mapping resident: 36 MiB with 257
 // sessions). In a child process: locking is process-wide. Skipped where mlockall is refused.
 TEST(Realtime, LockingMemoryLocksTheLoopsCodeNotEveryMapping) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  // The sanitizers' runtimes own the mappings (shadow memory, interposed mlock): the executable is
+  // not locked in full there (seen under ASan). The policy is checked in the Release run.
+  GTEST_SKIP() << "not meaningful under a sanitizer";
+#endif
   if (mapped("libcrypto").size_kb == 0) GTEST_SKIP() << "libcrypto not mapped in this binary";
   const pid_t child = ::fork();
   ASSERT_GE(child, 0);
