@@ -26,7 +26,11 @@ namespace {
 
 constexpr std::int64_t kWakeNs = 20'000'000;
 constexpr std::int64_t kWriteEveryNs = 100'000'000;
-constexpr std::size_t kWriteAtBytes = 256U << 10;
+// The writer's buffer is written out once it holds kWriteAtBytes (and at least every
+// kWriteEveryNs); its capacity, reserved once per file, covers that plus a large record, and stays
+// below glibc's mmap threshold (128 KiB) so that it is neither mapped nor unmapped per file.
+constexpr std::size_t kWriteAtBytes = 64U << 10;
+constexpr std::size_t kWriteBufferBytes = kWriteAtBytes + (32U << 10);
 constexpr std::int64_t kSyncEveryNs = 1'000'000'000;
 constexpr std::int64_t kStatusEveryNs = 1'000'000'000;
 constexpr std::int64_t kRetryNs = 5'000'000'000;
@@ -210,6 +214,7 @@ struct Recorder::Impl {
     on_disk = 0;
     unwritten_messages = 0;
     writer = std::make_unique<McapWriter>(kMcapProfile, kMcapLibrary);
+    writer->reserve(kWriteBufferBytes);
     writer->add_ajar_channels();
     file_start_mono = clock_ns(CLOCK_MONOTONIC);
     set_counters([&] {
@@ -225,9 +230,11 @@ struct Recorder::Impl {
 
   // Moves the writer's bytes to the file. A refused write cuts the file back to its last whole
   // record and closes it.
+  // The writer's buffer is written from where it is and then cleared, keeping its capacity: one
+  // buffer of about kWriteAtBytes per file, never a new one per write.
   bool write_out() {
     if (fd < 0 || writer == nullptr) return false;
-    const auto bytes = writer->take_bytes();
+    const std::vector<std::uint8_t>& bytes = writer->pending();
     const std::uint64_t messages = unwritten_messages;
     unwritten_messages = 0;
     std::size_t done = 0;
@@ -247,10 +254,12 @@ struct Recorder::Impl {
       }
       done += static_cast<std::size_t>(n);
     }
-    on_disk += bytes.size();
+    const std::size_t written = bytes.size();
+    writer->clear_pending();
+    on_disk += written;
     last_write = clock_ns(CLOCK_MONOTONIC);
     set_counters([&] {
-      bytes_written += bytes.size();
+      bytes_written += written;
       messages_written += messages;
     });
     return true;
@@ -275,6 +284,7 @@ struct Recorder::Impl {
   void close_file() {
     if (fd < 0) return;
     status_message(true);
+    if (fd < 0 || writer == nullptr) return;  // that last write failed: closed by failed()
     writer->close();
     if (write_out()) {
       ::fdatasync(fd);
@@ -337,6 +347,9 @@ struct Recorder::Impl {
     }
     writer->add_message(channel, wall_of_daemon(daemon_time_ns), data);
     ++unwritten_messages;
+    // Written as soon as there is a buffer's worth (a burst of frames between two wake-ups), so
+    // that the buffer never grows beyond about kWriteBufferBytes.
+    if (writer->pending().size() >= kWriteAtBytes) write_out();
   }
   void add_text(std::uint16_t channel, std::uint64_t daemon_time_ns, const std::string& text) {
     add(channel, daemon_time_ns,

@@ -68,8 +68,12 @@ class McapWriter {
 
   // The bytes made since the last call (whole records); they count as written from now on.
   std::vector<std::uint8_t> take_bytes();
+  // The bytes made since the last take_bytes()/clear_pending() (whole records), for a caller that
+  // writes them from here and then clears them: the buffer keeps its capacity (no allocation per
+  // write once it has grown, or reserve()d, to the size the caller writes at).
   const std::vector<std::uint8_t>& pending() const noexcept { return buffer_; }
   void clear_pending() noexcept { buffer_.clear(); }
+  void reserve(std::size_t bytes) { buffer_.reserve(bytes); }
   std::uint64_t offset() const noexcept { return offset_; }  // total bytes made so far
   std::uint64_t message_count() const noexcept { return message_count_; }
   std::uint64_t message_count(std::uint16_t channel) const;

@@ -102,7 +102,9 @@ struct SaveResult {
 
 class Recorder {
  public:
-  static constexpr std::size_t kLoopRingCapacity = 4096;  // samples (41 s at 100 Hz)
+  // Samples: 10 s at the default decimation (100 Hz), 2 s at every cycle (500 Hz); the recorder
+  // thread drains it every 20 ms. 176 KiB, all of it resident once the ring has gone round.
+  static constexpr std::size_t kLoopRingCapacity = 1024;
   static constexpr std::size_t kIoQueueMaxRecords = 16384;
   static constexpr std::size_t kIoQueueMaxBytes = 16U << 20;
 
