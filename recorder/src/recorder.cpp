@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -98,8 +99,22 @@ void append_unsigned(std::string& out, std::uint64_t v) {
 struct IoRecord {
   std::uint16_t channel = 0;
   std::uint64_t daemon_time_ns = 0;
-  std::vector<std::uint8_t> data;
+  std::vector<std::uint8_t> data;  // the message (not for a shared frame)
+  // A shared frame (frame() with shared bytes): its /ajar/wire header, then the shared bytes.
+  std::array<std::uint8_t, kWireHeaderBytes> wire_header{};
+  std::shared_ptr<const std::vector<std::uint8_t>> shared;
 };
+
+// The /ajar/wire header (channels.hpp) of a frame, into out[0, kWireHeaderBytes).
+void put_wire_header(std::uint8_t* out, std::uint8_t direction, std::uint64_t session_id,
+                     std::uint64_t daemon_time_ns) {
+  out[0] = kWireLayoutVersion;
+  out[1] = direction;
+  for (std::size_t i = 0; i < 8; ++i) {
+    out[2 + i] = static_cast<std::uint8_t>(session_id >> (8 * i));
+    out[10 + i] = static_cast<std::uint8_t>(daemon_time_ns >> (8 * i));
+  }
+}
 
 }  // namespace
 
@@ -332,7 +347,7 @@ struct Recorder::Impl {
   }
 
   // ---- messages ----
-  void add(std::uint16_t channel, std::uint64_t daemon_time_ns,
+  void add(std::uint16_t channel, std::uint64_t daemon_time_ns, std::span<const std::uint8_t> head,
            std::span<const std::uint8_t> data) {
     if (writer == nullptr) {
       set_counters([&] { ++write_failures; });
@@ -345,14 +360,14 @@ struct Recorder::Impl {
         return;
       }
     }
-    writer->add_message(channel, wall_of_daemon(daemon_time_ns), data);
+    writer->add_message(channel, wall_of_daemon(daemon_time_ns), head, data);
     ++unwritten_messages;
     // Written as soon as there is a buffer's worth (a burst of frames between two wake-ups), so
     // that the buffer never grows beyond about kWriteBufferBytes.
     if (writer->pending().size() >= kWriteAtBytes) write_out();
   }
   void add_text(std::uint16_t channel, std::uint64_t daemon_time_ns, const std::string& text) {
-    add(channel, daemon_time_ns,
+    add(channel, daemon_time_ns, {},
         std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
   }
 
@@ -460,8 +475,13 @@ struct Recorder::Impl {
         batch.swap(queue);
         queue_bytes = 0;
       }
-      for (const auto& r : batch)
-        add(r.channel, r.daemon_time_ns, r.data);
+      for (const auto& r : batch) {
+        if (r.shared) {
+          add(r.channel, r.daemon_time_ns, r.wire_header, *r.shared);
+        } else {
+          add(r.channel, r.daemon_time_ns, {}, r.data);
+        }
+      }
       batch.clear();
       if (writer != nullptr && now - last_status >= kStatusEveryNs) {
         last_status = now;
@@ -572,14 +592,9 @@ void Recorder::frame(std::uint8_t direction, std::uint64_t session_id, std::uint
   IoRecord r;
   r.channel = kWireChannel;
   r.daemon_time_ns = daemon_time_ns;
-  r.data.reserve(kWireHeaderBytes + bytes.size());
-  r.data.push_back(kWireLayoutVersion);
-  r.data.push_back(direction);
-  for (int i = 0; i < 8; ++i)
-    r.data.push_back(static_cast<std::uint8_t>(session_id >> (8 * i)));
-  for (int i = 0; i < 8; ++i)
-    r.data.push_back(static_cast<std::uint8_t>(daemon_time_ns >> (8 * i)));
-  r.data.insert(r.data.end(), bytes.begin(), bytes.end());
+  r.data.resize(kWireHeaderBytes + bytes.size());
+  put_wire_header(r.data.data(), direction, session_id, daemon_time_ns);
+  std::copy(bytes.begin(), bytes.end(), r.data.begin() + kWireHeaderBytes);
   std::lock_guard lock(impl_->queue_mutex);
   if (impl_->queue.size() >= kIoQueueMaxRecords ||
       impl_->queue_bytes + r.data.size() > kIoQueueMaxBytes) {
@@ -587,6 +602,25 @@ void Recorder::frame(std::uint8_t direction, std::uint64_t session_id, std::uint
     return;
   }
   impl_->queue_bytes += r.data.size();
+  impl_->queue.push_back(std::move(r));
+  ++impl_->io_records;
+}
+
+void Recorder::frame(std::uint8_t direction, std::uint64_t session_id, std::uint64_t daemon_time_ns,
+                     std::shared_ptr<const std::vector<std::uint8_t>> bytes) {
+  if (!impl_->accepting.load(std::memory_order_acquire) || !bytes) return;  // off, not running
+  IoRecord r;
+  r.channel = kWireChannel;
+  r.daemon_time_ns = daemon_time_ns;
+  put_wire_header(r.wire_header.data(), direction, session_id, daemon_time_ns);
+  const std::size_t size = kWireHeaderBytes + bytes->size();  // counted as a copy would be
+  r.shared = std::move(bytes);
+  std::lock_guard lock(impl_->queue_mutex);
+  if (impl_->queue.size() >= kIoQueueMaxRecords || impl_->queue_bytes + size > kIoQueueMaxBytes) {
+    ++impl_->io_dropped;
+    return;
+  }
+  impl_->queue_bytes += size;
   impl_->queue.push_back(std::move(r));
   ++impl_->io_records;
 }

@@ -105,9 +105,11 @@ struct SessionOptions {
   std::chrono::steady_clock::duration idle_timeout{0};  // 0 = none
   std::chrono::steady_clock::duration linger = std::chrono::seconds(2);
   // The black box (docs/blackbox.md): every frame as on the wire, with the session's id and its
-  // direction (0 received, once its last byte is in; 1 sent, when queued). Empty: none.
+  // direction (0 received, once its last byte is in; 1 sent, when queued). `sent` is the frame
+  // itself when it was sent (shared: the tap may keep a reference, e.g. one Telemetry frame sent
+  // to 256 observers, rather than copy it), null when received. Empty: none.
   std::function<void(std::uint64_t session_id, std::uint8_t direction,
-                     std::span<const std::uint8_t> frame)>
+                     std::span<const std::uint8_t> frame, const SharedFrame& sent)>
       frame_tap;
 };
 
@@ -157,7 +159,7 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
                 " frames): client not reading");
       return false;
     }
-    if (options_.frame_tap) options_.frame_tap(id_, 1, *frame);
+    if (options_.frame_tap) options_.frame_tap(id_, 1, *frame, frame);
     queue_.push_back(std::move(frame));
     if (!writing_) write_more();
     return true;
@@ -224,7 +226,7 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
       }
       in = in.subspan(used);
       if (options_.frame_tap && outcome().kind != protocol::StreamDecoder::Kind::kNeedMore) {
-        options_.frame_tap(id_, 0, tap_bytes_);
+        options_.frame_tap(id_, 0, tap_bytes_, nullptr);
         tap_bytes_.clear();
       }
       switch (outcome().kind) {

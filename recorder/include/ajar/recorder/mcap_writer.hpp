@@ -60,6 +60,10 @@ class McapWriter {
   // counts per channel from 1.
   void add_message(std::uint16_t channel, std::uint64_t time_ns,
                    std::span<const std::uint8_t> data);
+  // The same with the message's data in two parts, `head` then `data` (a wire record's header and
+  // the frame, kept apart by the caller).
+  void add_message(std::uint16_t channel, std::uint64_t time_ns, std::span<const std::uint8_t> head,
+                   std::span<const std::uint8_t> data);
   void add_message(std::uint16_t channel, std::uint64_t time_ns, std::string_view data);
 
   // Ends the file: Data End, summary, summary offsets, Footer, magic. Nothing may follow.

@@ -135,6 +135,11 @@ class Recorder {
   // ---- A protocol frame in or out (channels.hpp, /ajar/wire).
   void frame(std::uint8_t direction, std::uint64_t session_id, std::uint64_t daemon_time_ns,
              std::span<const std::uint8_t> bytes);
+  // The same for a frame whose bytes are shared (a frame sent to many sessions, a Telemetry tick
+  // to 256 observers): the queue keeps a reference to them, not a copy per session. They must not
+  // change afterwards.
+  void frame(std::uint8_t direction, std::uint64_t session_id, std::uint64_t daemon_time_ns,
+             std::shared_ptr<const std::vector<std::uint8_t>> bytes);
   // A JSON message on a JSON channel of channels.hpp (the text must match its schema).
   void json(std::uint16_t channel, std::uint64_t daemon_time_ns, std::string text);
   RecorderCounters counters() const;
