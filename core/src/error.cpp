@@ -44,6 +44,10 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "SHUTTING_DOWN";
     case ErrorCode::kNotSupported:
       return "NOT_SUPPORTED";
+    case ErrorCode::kNoSuchRecording:
+      return "NO_SUCH_RECORDING";
+    case ErrorCode::kRequestOutOfRange:
+      return "REQUEST_OUT_OF_RANGE";
     case ErrorCode::kNonFinite:
       return "NON_FINITE";
     case ErrorCode::kPointOutOfDepthRange:

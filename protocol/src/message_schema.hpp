@@ -62,6 +62,14 @@ struct Schema<ApproachAck> {  // ApproachBody (1.1)
                         Field<"right_counts", &ApproachAck::right_counts>>;
 };
 template <>
+struct Schema<RecordingInfo> {  // RecordingBody (1.2)
+  using fields =
+      Fields<Field<"name", &RecordingInfo::name>, Field<"size_bytes", &RecordingInfo::size_bytes>,
+             Field<"start_unix_ns", &RecordingInfo::start_unix_ns>,
+             Field<"end_unix_ns", &RecordingInfo::end_unix_ns>,
+             Field<"writing", &RecordingInfo::writing>, Field<"saved", &RecordingInfo::saved>>;
+};
+template <>
 struct Schema<EmptyAck> {
   using fields = Fields<>;
 };
@@ -217,6 +225,24 @@ struct Schema<ResetLoopStatistics>
   using fields = Fields<>;
 };
 
+template <>
+struct Schema<ListRecordings>
+    : MessageRow<MessageType::kListRecordings, "ListRecordings", kHostToDaemon, 2> {
+  using fields = Fields<Field<"first", &ListRecordings::first>>;
+};
+template <>
+struct Schema<FetchRecording>
+    : MessageRow<MessageType::kFetchRecording, "FetchRecording", kHostToDaemon, 2> {
+  using fields =
+      Fields<Field<"name", &FetchRecording::name>, Field<"offset", &FetchRecording::offset>,
+             Field<"max_length", &FetchRecording::max_length>>;
+};
+template <>
+struct Schema<SaveRecording>
+    : MessageRow<MessageType::kSaveRecording, "SaveRecording", kHostToDaemon, 2> {
+  using fields = Fields<Field<"last_s", &SaveRecording::last_s>>;
+};
+
 // ---- daemon -> host -------------------------------------------------------------------------
 
 template <>
@@ -320,6 +346,22 @@ struct Schema<RobotModel> : MessageRow<MessageType::kRobotModel, "RobotModel", k
       Field<"min_lateral_fraction", &R::min_lateral_fraction>,
       Field<"collinearity", &R::collinearity>, Field<"max_plane_rms_m", &R::max_plane_rms_m>,
       Field<"max_door_tilt_rad", &R::max_door_tilt_rad>>;
+};
+
+template <>
+struct Schema<RecordingList>
+    : MessageRow<MessageType::kRecordingList, "RecordingList", kDaemonToHost, 2> {
+  using fields =
+      Fields<Field<"total", &RecordingList::total>, Field<"first", &RecordingList::first>,
+             Field<"count", &RecordingList::count, 0, ListCount>,
+             Field<"entries", &RecordingList::entries>>;
+};
+template <>
+struct Schema<RecordingChunk>
+    : MessageRow<MessageType::kRecordingChunk, "RecordingChunk", kDaemonToHost, 2> {
+  using fields = Fields<Field<"offset", &RecordingChunk::offset>,
+                        Field<"size_bytes", &RecordingChunk::size_bytes>,
+                        Field<"data", &RecordingChunk::data>>;
 };
 
 // ---- the message table, in the order of the Message variant ---------------------------------

@@ -49,6 +49,7 @@ class ServerThread {
   }
 
   std::uint16_t port() const { return port_; }
+  boost::asio::io_context& io() { return io_; }
 
   // Runs `f` on the I/O thread and returns its result (to inspect server state without races).
   template <typename F>

@@ -27,14 +27,16 @@ enum class ErrorCode : std::uint16_t {
   kBadCount = 110,      // element count outside the allowed range (e.g. plane points 3..16)
 
   // 2xx: session rules (daemon/).
-  kHelloRequired = 200,   // first message of a session must be Hello
-  kAlreadyGreeted = 201,  // second Hello on one session
-  kNotController = 202,   // command needs the controller role
-  kControllerBusy = 203,  // another session holds control and take-over was not requested
-  kTooManyClients = 204,  // max clients reached; connection will be closed
-  kRateLimited = 205,     // telemetry rate outside 0..loop rate (or similar)
-  kShuttingDown = 206,    // daemon is stopping
-  kNotSupported = 207,    // 1.1: this daemon or its drivers cannot do the request (yet)
+  kHelloRequired = 200,      // first message of a session must be Hello
+  kAlreadyGreeted = 201,     // second Hello on one session
+  kNotController = 202,      // command needs the controller role
+  kControllerBusy = 203,     // another session holds control and take-over was not requested
+  kTooManyClients = 204,     // max clients reached; connection will be closed
+  kRateLimited = 205,        // telemetry rate outside 0..loop rate (or similar)
+  kShuttingDown = 206,       // daemon is stopping
+  kNotSupported = 207,       // 1.1: this daemon or its drivers cannot do the request (yet)
+  kNoSuchRecording = 208,    // 1.2: no recording of that name (field "name")
+  kRequestOutOfRange = 209,  // 1.2: a request parameter outside its range (the field names it)
 
   // 3xx: geometry and validation (core/).
   kNonFinite = 300,             // a value is NaN or infinite
