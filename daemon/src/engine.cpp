@@ -229,9 +229,9 @@ protocol::Status EngineImpl::status() const {
 }
 
 protocol::BaseMotion EngineImpl::base_motion() const {
-  if (wheel_motion_ == 0) return protocol::BaseMotion::kNone;
-  if (wheel_stopping_) return protocol::BaseMotion::kStopping;
-  switch (wheel_kind_) {
+  if (wheels_.current() == 0) return protocol::BaseMotion::kNone;
+  if (wheels_.stopping()) return protocol::BaseMotion::kStopping;
+  switch (wheels_.kind()) {
     case WheelKind::kAlign:
       return protocol::BaseMotion::kAligning;
     case WheelKind::kApproach:
