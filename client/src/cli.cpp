@@ -357,6 +357,54 @@ CommandParse parse_measure(Command c, const std::vector<std::string>& args, core
   return fail("measure wants width, handle or plane, got '" + what + "'");
 }
 
+// The commands whose words are read after CLI11 (contact, drive, approach, reset, sleep).
+CommandParse parse_arguments(Command c, const detail::CommandArgs& a, core::Frame frame) {
+  const std::string& name = c.name;
+  const std::vector<std::string>& args = a.words;
+  if (name == "contact") {
+    std::vector<protocol::FramedPoint> points;
+    if (auto e = parse_points(args, frame, points); !e.empty()) return fail("contact: " + e);
+    if (points.size() != 1) return fail("contact wants one point: X Y Z");
+    c.kind = Command::Kind::kRequest;
+    c.needs_controller = true;
+    c.request = protocol::SetContactPoint{points[0]};
+    return {c, {}};
+  }
+  if (name == "drive") {
+    c.kind = Command::Kind::kDrive;
+    c.needs_controller = true;
+    if (a.velocity && c.duration_s <= 0) return fail("drive --linear/--angular needs --for S");
+    if (!a.velocity && c.duration_s > 0) return fail("drive --for needs --linear and/or --angular");
+    return {c, {}};
+  }
+  if (name == "approach") {
+    double standoff_m = 0;
+    if (args.size() != 1 || !parse_double(args[0], standoff_m)) {
+      return fail("approach wants STANDOFF_M: the distance to the door plane in metres");
+    }
+    c.kind = Command::Kind::kApproach;
+    c.needs_controller = true;
+    c.request = protocol::Approach{standoff_m};
+    return {c, {}};
+  }
+  if (name == "reset") {
+    protocol::Reset reset;
+    reset.clear_parameters = a.clear;
+    c.request = reset;
+    c.kind = Command::Kind::kRequest;
+    c.needs_controller = true;
+    return {c, {}};
+  }
+  if (name == "sleep") {
+    if (args.size() != 1 || !parse_seconds(args[0], c.duration_s)) {
+      return fail("sleep wants SECONDS (0..1000000)");
+    }
+    c.kind = Command::Kind::kSleep;
+    return {c, {}};
+  }
+  return fail(unknown_command_message(name) + " (try --help)");
+}
+
 }  // namespace
 
 CommandParse parse_command(std::span<const std::string> words, core::Frame frame) {
@@ -428,48 +476,7 @@ CommandParse parse_command(std::span<const std::string> words, core::Frame frame
     return {c, {}};
   }
   if (name == "measure") return parse_measure(c, args, frame);
-  if (name == "contact") {
-    std::vector<protocol::FramedPoint> points;
-    if (auto e = parse_points(args, frame, points); !e.empty()) return fail("contact: " + e);
-    if (points.size() != 1) return fail("contact wants one point: X Y Z");
-    c.kind = Command::Kind::kRequest;
-    c.needs_controller = true;
-    c.request = protocol::SetContactPoint{points[0]};
-    return {c, {}};
-  }
-  if (name == "drive") {
-    c.kind = Command::Kind::kDrive;
-    c.needs_controller = true;
-    if (a.velocity && c.duration_s <= 0) return fail("drive --linear/--angular needs --for S");
-    if (!a.velocity && c.duration_s > 0) return fail("drive --for needs --linear and/or --angular");
-    return {c, {}};
-  }
-  if (name == "approach") {
-    double standoff_m = 0;
-    if (args.size() != 1 || !parse_double(args[0], standoff_m)) {
-      return fail("approach wants STANDOFF_M: the distance to the door plane in metres");
-    }
-    c.kind = Command::Kind::kApproach;
-    c.needs_controller = true;
-    c.request = protocol::Approach{standoff_m};
-    return {c, {}};
-  }
-  if (name == "reset") {
-    protocol::Reset reset;
-    reset.clear_parameters = a.clear;
-    c.request = reset;
-    c.kind = Command::Kind::kRequest;
-    c.needs_controller = true;
-    return {c, {}};
-  }
-  if (name == "sleep") {
-    if (args.size() != 1 || !parse_seconds(args[0], c.duration_s)) {
-      return fail("sleep wants SECONDS (0..1000000)");
-    }
-    c.kind = Command::Kind::kSleep;
-    return {c, {}};
-  }
-  return fail(unknown_command_message(name) + " (try --help)");
+  return parse_arguments(c, a, frame);
 }
 
 }  // namespace ajar::client
