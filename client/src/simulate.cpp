@@ -168,7 +168,12 @@ std::string parse_simulate_args(const std::vector<std::string>& args, SimulateAr
   app.add_option("--seeds", a.seeds, "runs, seeds S, S+1, ...")->check(CLI::Range(1, 100000));
   app.add_option("--plane-points", a.plane_points)->check(CLI::Range(3, 16));
   app.add_option_function<std::uint64_t>(
-      "--seed", [&a](const std::uint64_t& seed) { a.seed = seed; }, "the first seed");
+         "--seed", [&a](const std::uint64_t& seed) { a.seed = seed; }, "the first seed")
+      ->check(CLI::Validator(  // CLI11 2.1 reads "-3" as 2^64 - 3
+          [](std::string& v) -> std::string {
+            return v.find('-') == std::string::npos ? "" : "wants a whole number, got '" + v + "'";
+          },
+          "S"));
   std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them reversed
   try {
     app.parse(reversed);

@@ -1,4 +1,5 @@
 // ajar-console: the operator console (docs/console.md).
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -26,15 +27,34 @@ constexpr const char* kDescription =
     R"(Serves the operator console (the paper's point-at-the-RGBD-image GUI) to a browser and speaks
 the Ajar protocol to ajard. Open the printed URL.)";
 
-// CLI11's help, laid out as ajar-console's usage has always been: the options, one per line.
+// CLI11's help in ajar-console's own layout (as before CLI11): the usage line, the description
+// indented, then one option a line, NAME TYPE in a column of 24 and its help after it (a "\n" in
+// the help continues under it); --help and --version last, on one line.
 class HelpFormatter : public CLI::Formatter {
  public:
-  HelpFormatter() { column_width(24); }
-  std::string make_usage(const CLI::App*, std::string) const override {
-    return "usage: ajar-console [options]\n";
+  std::string make_help(const CLI::App* app, std::string, CLI::AppFormatMode) const override {
+    constexpr std::size_t kColumn = 24;
+    std::string out = "usage: ajar-console [options]\n";
+    out += indented("  ", app->get_description()) + "\n";
+    for (const CLI::Option* o : app->get_options()) {
+      const std::string& name = o->get_lnames().front();
+      if (name == "help" || name == "version") continue;
+      std::string left = "  --" + name;
+      if (!o->get_type_name().empty()) left += " " + o->get_type_name();
+      left.resize(std::max(kColumn, left.size() + 2), ' ');
+      out += left + indented(std::string(kColumn, ' '), o->get_description()).substr(kColumn);
+    }
+    return out + "  --help, --version\n";
   }
-  std::string make_option_opts(const CLI::Option* option) const override {
-    return option->get_type_name().empty() ? "" : " " + option->get_type_name();
+
+ private:
+  // Each line of `text` after `indent`, each ended by a newline.
+  static std::string indented(const std::string& indent, const std::string& text) {
+    std::string out;
+    std::size_t from = 0;
+    for (std::size_t end; (end = text.find('\n', from)) != std::string::npos; from = end + 1)
+      out += indent + text.substr(from, end - from) + "\n";
+    return out + indent + text.substr(from) + "\n";
   }
 };
 
@@ -115,8 +135,8 @@ std::unique_ptr<CLI::App> make_parser(Args& a, bool& version) {
     if (!(a.fps >= 0.5 && a.fps <= 60)) usage_error("--fps: 0.5..60");
   });
   text("--foxglove", "HOST:PORT",
-       "also serve Foxglove live (foxglove.websocket.v1) on this loopback address, e.g.\n"
-       "127.0.0.1:8765 (port 0 = any free port; default off)",
+       "also serve Foxglove live (foxglove.websocket.v1) on this loopback\n"
+       "address, e.g. 127.0.0.1:8765 (port 0 = any free port; default off)",
        [&a](const std::string& v) {
          auto e = ajar::protocol::parse_host_port(v, ajar::protocol::PortZero::kAllowed);
          if (!e) usage_error("--foxglove: expected HOST:PORT (e.g. 127.0.0.1:8765)");
@@ -136,8 +156,8 @@ std::unique_ptr<CLI::App> make_parser(Args& a, bool& version) {
        "with --ca: the name in ajard's certificate (default: the --connect host)",
        [&a](const std::string& v) { a.options.tls.server_name = v; });
   text("--client-config", "FILE",
-       "connect and tls from ajarctl's client config file (docs/ajarctl.md); options after it\n"
-       "override it",
+       "connect and tls from ajarctl's client config file (docs/ajarctl.md);\n"
+       "options after it override it",
        [&a](const std::string& v) {
          // ajarctl's loader: one file format for every host-side program.
          const std::vector<std::string> words{"--client-config", v};

@@ -41,14 +41,14 @@ constexpr const char* kHelp =
     "  --version             print the version and exit\n"
     "  --help, -h            print this help and exit\n";
 
-// Milliseconds 0..3600000, or exit 2 naming the flag.
-CLI::Validator milliseconds(const char* flag) {
+// Milliseconds 0..3600000 (CLI11 names the flag before the message; main exits 2).
+CLI::Validator milliseconds() {
   return CLI::Validator(
-      [flag](std::string& text) -> std::string {
+      [](std::string& text) -> std::string {
         char* end = nullptr;
         const long v = std::strtol(text.c_str(), &end, 10);
         if (end == text.c_str() || *end != '\0' || v < 0 || v > 3'600'000) {
-          return std::string(flag) + " wants milliseconds 0..3600000, not '" + text + "'";
+          return "wants milliseconds 0..3600000, not '" + text + "'";
         }
         return {};
       },
@@ -71,16 +71,15 @@ int main(int argc, char** argv) {
                                                   {"stop-ignored", ArmSimFault::kStopIgnored}};
   CLI::App app("", "ajar-armsim");
   app.set_help_flag();  // --help prints kHelp (the man page's source), not CLI11's
-  app.add_option("--task-ms", settings.task_duration_ms)->check(milliseconds("--task-ms"));
-  app.add_option("--reply-delay-ms", settings.reply_delay_ms)
-      ->check(milliseconds("--reply-delay-ms"));
-  app.add_option("--silent-ms", settings.silent_ms)->check(milliseconds("--silent-ms"));
+  app.add_option("--task-ms", settings.task_duration_ms)->check(milliseconds());
+  app.add_option("--reply-delay-ms", settings.reply_delay_ms)->check(milliseconds());
+  app.add_option("--silent-ms", settings.silent_ms)->check(milliseconds());
   app.add_option("--fault", fault)
       ->check(CLI::Validator(
           [&faults](std::string& word) -> std::string {
             if (faults.count(word) != 0) return {};
-            return "--fault wants none, silent-mid-task, silent-mid-stop, reset-mid-task or "
-                   "stop-ignored, not '" +
+            return "wants none, silent-mid-task, silent-mid-stop, reset-mid-task or stop-ignored, "
+                   "not '" +
                    word + "'";
           },
           "WORD"));
