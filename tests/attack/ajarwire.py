@@ -14,7 +14,7 @@ import time
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 BUILD = os.environ.get("AJAR_BUILD", os.path.join(ROOT, "build"))
-AJARD = os.path.join(BUILD, "daemon", "ajard")
+AJARD = os.environ.get("AJARD", os.path.join(BUILD, "daemon", "ajard"))
 
 _T = []
 for i in range(256):
