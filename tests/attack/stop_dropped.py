@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A card that accepts GT_Stop (smooth and emergency) and does not apply it, during a jog.
 
-Usage: stop_dropped.py [estop_first]
+Usage: stop_dropped.py [estop_first|stop_only]
 Prints the wheel speed timeline (telemetry, 100 Hz) against the daemon's events and replies:
 Stop, EmergencyStop, then Reset and a Drive. The safety rules want: the base stopped by another
 path (or at least: a fault latched that says the wheels are still moving, Reset refused while
@@ -17,6 +17,7 @@ import time
 from ajarwire import *
 
 estop_first = len(sys.argv) > 1 and sys.argv[1] == "estop_first"
+stop_only = len(sys.argv) > 1 and sys.argv[1] == "stop_only"
 SIMLIB = glob.glob(os.path.join(BUILD, "drivers", "**", "libajar_gts_sim.so"), recursive=True)[0]
 SHIM = "/tmp/simctl_preload.so"
 subprocess.run(["gcc", "-shared", "-fPIC", "-O1", "-o", SHIM,
@@ -53,7 +54,8 @@ try:
         for _ in range(15):
             c.call(PING, b"\0" * 8)
             obs.poll(0.1)
-    marks.append((time.monotonic() - T0, "EmergencyStop -> %r" % c.call(ESTOP)))
+    if not stop_only:
+        marks.append((time.monotonic() - T0, "EmergencyStop -> %r" % c.call(ESTOP)))
     for _ in range(40):
         c.call(PING, b"\0" * 8)
         obs.poll(0.1)
