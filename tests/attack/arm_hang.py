@@ -2,7 +2,7 @@
 """Item 2: Engage, then the arm controller hangs (SIGSTOP of ajar-armsim on its pty), Stop, then
 Drive / Approach / AlignBase / Reset. Does the base ever move while the arm is silent?
 
-Usage: arm_hang.py [trials] [delay_after_stop_s...]
+Usage: [STOPKIND=estop] [CLEAR=1] arm_hang.py [trials]
 Runs ajard with drivers.kind: real, the card simulator library as the "vendor" library and the
 arm at a separate ajar-armsim process (so it can be stopped).
 """
@@ -43,8 +43,12 @@ for trial in range(trials):
                                                                      st["arm"]))
         os.kill(arm.pid, signal.SIGSTOP)
         time.sleep(0.05 * (trial % 4))
-        s = c.call(STOP)
-        say("  Stop ->", s)
+        s = c.call(ESTOP if os.environ.get("STOPKIND") == "estop" else STOP)
+        say("  %s ->" % os.environ.get("STOPKIND", "stop"), s)
+        if os.environ.get("CLEAR"):
+            time.sleep(1.5)
+            say("  Reset(clear_parameters) while the arm is silent ->", c.call(RESET, b"\x01"))
+            say("  re-measure:", measure_all(c, plane=True))
         accepted = []
         obs.poll(0.1)
         n0 = len(obs.telems())
