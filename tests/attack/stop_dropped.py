@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A card that accepts GT_Stop (smooth and emergency) and does not apply it, during a jog.
 
-Usage: stop_dropped.py [estop_first|stop_only]
+Usage: stop_dropped.py [estop_first|stop_only|setvel]
 Prints the wheel speed timeline (telemetry, 100 Hz) against the daemon's events and replies:
 Stop, EmergencyStop, then Reset and a Drive. The safety rules want: the base stopped by another
 path (or at least: a fault latched that says the wheels are still moving, Reset refused while
@@ -18,6 +18,7 @@ from ajarwire import *
 
 estop_first = len(sys.argv) > 1 and sys.argv[1] == "estop_first"
 stop_only = len(sys.argv) > 1 and sys.argv[1] == "stop_only"
+setvel = len(sys.argv) > 1 and sys.argv[1] == "setvel"
 SIMLIB = glob.glob(os.path.join(BUILD, "drivers", "**", "libajar_gts_sim.so"), recursive=True)[0]
 SHIM = "/tmp/simctl_preload.so"
 subprocess.run(["gcc", "-shared", "-fPIC", "-O1", "-o", SHIM,
@@ -47,14 +48,19 @@ try:
     for _ in range(8):
         c.call(DRIVE, drive(0.2, 0.0))
         obs.poll(0.1)
-    simctl("FAIL GT_Stop 0 -1")
-    marks.append((time.monotonic() - T0, "GT_Stop now accepted-not-applied"))
-    if not estop_first:
+    simctl("FAIL GT_SetVel 0 -1" if setvel else "FAIL GT_Stop 0 -1")
+    marks.append((time.monotonic() - T0, "GT_SetVel/GT_Stop now accepted-not-applied"))
+    if setvel:
+        marks.append((time.monotonic() - T0, "Drive(0) -> %r" % c.call(DRIVE, drive(0.0, 0.0))))
+        for _ in range(40):
+            c.call(PING, b"\0" * 8)
+            obs.poll(0.1)
+    elif not estop_first:
         marks.append((time.monotonic() - T0, "Stop -> %r" % c.call(STOP)))
         for _ in range(15):
             c.call(PING, b"\0" * 8)
             obs.poll(0.1)
-    if not stop_only:
+    if not stop_only and not setvel:
         marks.append((time.monotonic() - T0, "EmergencyStop -> %r" % c.call(ESTOP)))
     for _ in range(40):
         c.call(PING, b"\0" * 8)
