@@ -48,7 +48,7 @@ try:
     for _ in range(8):
         c.call(DRIVE, drive(0.2, 0.0))
         obs.poll(0.1)
-    simctl("FAIL GT_SetVel 0 -1" if setvel else "FAIL GT_Stop 0 -1")
+    simctl("FAIL GT_SetVel 0 -1" if setvel else ("FAIL GT_Stop 0 1" if os.environ.get("ONCE") else "FAIL GT_Stop 0 -1"))
     marks.append((time.monotonic() - T0, "GT_SetVel/GT_Stop now accepted-not-applied"))
     if setvel:
         marks.append((time.monotonic() - T0, "Drive(0) -> %r" % c.call(DRIVE, drive(0.0, 0.0))))
