@@ -284,10 +284,7 @@ void ConsoleServer::Impl::send_step(const std::shared_ptr<WsSession>& s) {
     }
   }
   if (worst.place == PickPlace::kStale) {
-    return refuse(point_field(step, worst_i), "pick again: " + moved_text(worst) + " " +
-                                                  (list.size() > 1 ? "the picks" : "the pick") +
-                                                  " were taken (beyond the daemon's staleness "
-                                                  "rule: drive.stale_travel_m / stale_yaw_rad)");
+    return refuse(point_field(step, worst_i), "pick again: " + moved_text(worst));
   }
   std::vector<core::Vec3> points;
   for (const auto& p : list)

@@ -211,7 +211,7 @@ function render() {
         ctx.setLineDash([]);
         ctx.beginPath(); ctx.moveTo(c.x - 3 * scale, c.y); ctx.lineTo(c.x + 3 * scale, c.y); ctx.moveTo(c.x, c.y - 3 * scale); ctx.lineTo(c.x, c.y + 3 * scale); ctx.stroke();
         ctx.font = `bold ${13 * scale}px sans-serif`; ctx.fillStyle = col;
-        ctx.fillText(String(i + 1) + (stale ? ' stale' : ''), c.x + 10 * scale, c.y - 9 * scale);
+        ctx.fillText(String(i + 1), c.x + 10 * scale, c.y - 9 * scale);
         ctx.globalAlpha = 1;
       });
     }
@@ -560,13 +560,13 @@ function updateGuidance() {
   const lines = [];
   if (g.default_standoff_m !== undefined && !standoffEdited && document.activeElement !== $('standoff')) $('standoff').value = g.default_standoff_m.toFixed(2);
   const s = Number($('standoff').value.replace(',', '.'));
+  if (g.default_standoff_m !== undefined) lines.push(`${g.default_standoff_m.toFixed(2)} m keeps the measured door in view`);
   for (const v of g.view || []) {
-    if (v.min_standoff_m === null) lines.push(`${v.name}: not in view now (${v.why})`);
+    if (v.min_standoff_m === null) lines.push(`${v.name}: not in view now (${v.why.replace('leaves the image at', 'off')})`);
     else if (isFinite(s) && s < v.min_standoff_m - 1e-6) lines.push(`at ${s.toFixed(2)} m the ${v.name} ${v.why} (keep ≥ ${v.min_standoff_m.toFixed(2)} m)`);
   }
-  if (g.default_standoff_m !== undefined) lines.push(`standoff that keeps the measured door in view: ${g.default_standoff_m.toFixed(2)} m`);
   $('guidance').textContent = lines.join('\n');
-  $('guidance').dataset.warnings = String(lines.filter((l) => / at | not in view/.test(l)).length);
+  $('guidance').dataset.warnings = String(lines.filter((l) => /^at |not in view/.test(l)).length);
 }
 $('standoff').addEventListener('input', updateGuidance);
 
@@ -617,11 +617,15 @@ function updateHud() {
   const t = lastTelemetry;
   let door = 'door: —', warn = '';
   if (t && t.door_has_distance !== undefined) {
-    door = t.door_has_distance ? `door ${t.door_distance_m.toFixed(3)} m` + (t.door_has_yaw ? ` · yaw to square ${deg(t.door_yaw_rad)}` : '') : 'door: not measured yet';
+    door = t.door_has_distance ? `door ${t.door_distance_m.toFixed(3)} m` + (t.door_has_yaw ? ` · yaw to square ${deg(t.door_yaw_rad)}` : '') : 'door: no distance yet (measure the width)';
     if (t.plane_stale) warn = 'PLANE STALE: the base moved: measure the plane again';
     if (t.contact_stale) warn += (warn ? '\n' : '') + 'CONTACT STALE: set the contact point again';
   }
   const fault = state && state.status && state.status.latched_fault !== 'OK' ? `FAULT ${state.status.latched_fault}: Reset fault first` : '';
+  // The active step's picks from before a motion beyond the staleness rule (grey on the image).
+  const picks = (state && state.picks[state.active_step]) || [];
+  const stalePicks = picks.filter((p) => p.place === 'stale').length;
+  if (stalePicks) warn += (warn ? '\n' : '') + `${stalePicks} ${state.active_step} pick${stalePicks > 1 ? 's' : ''} STALE (grey): the base moved: pick again`;
   if (!live.answering) { door = 'door: unknown (ajard not answering)'; warn = ''; }
   $('hud-door').textContent = door;
   $('hud-warn').textContent = [fault, warn].filter(Boolean).join('\n');

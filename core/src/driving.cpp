@@ -112,6 +112,34 @@ DoorView door_from_width(const Vec3& p1_m, const Vec3& p2_m, const PlanarPose& a
   return {-n.dot(mid), std::atan2(-n.y(), -n.x())};
 }
 
+namespace {
+
+// A normal and a point of the door measured at `at` (base frame then), as a line in the odometry
+// frame: the pose {0, 0, 0} is the odometry origin.
+DoorLine door_line(const Vec3& normal_at, const Vec3& point_at, const PlanarPose& at) noexcept {
+  const Vec3 n = rotate_z(normal_at, at.yaw_rad);
+  const Vec3 c = rebase(point_at, at, PlanarPose{});
+  return {n.x(), n.y(), -n.dot(c)};
+}
+
+}  // namespace
+
+DoorLine door_line_from_plane(const Plane& plane, const PlanarPose& at) noexcept {
+  return door_line(plane.normal, plane.centroid_m, at);
+}
+
+DoorLine door_line_from_width(const Vec3& p1_m, const Vec3& p2_m, const PlanarPose& at) noexcept {
+  const Vec3 mid = (p1_m + p2_m) / 2.0;
+  Vec3 n(p2_m.y() - p1_m.y(), p1_m.x() - p2_m.x(), 0.0);
+  const double length = n.norm();
+  if (!(length > 0))
+    n = Vec3(-1.0, 0.0, 0.0);  // as door_from_width: straight ahead
+  else
+    n /= length;
+  if (n.dot(-mid) < 0) n = -n;  // toward the robot when it was measured
+  return door_line(n, mid, at);
+}
+
 StraightCommand straight_command(double travel_m, const BaseGeometry& base) noexcept {
   StraightCommand c;
   const double theta = travel_m / base.wheel_radius_m;

@@ -102,6 +102,8 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "APPROACH_TOO_FAR";
     case ErrorCode::kDriveNotAllowed:
       return "DRIVE_NOT_ALLOWED";
+    case ErrorCode::kAtMinimumStandoff:
+      return "AT_MINIMUM_STANDOFF";
     case ErrorCode::kDriverError:
       return "DRIVER_ERROR";
     case ErrorCode::kDriverNotActive:

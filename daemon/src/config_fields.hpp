@@ -179,6 +179,7 @@ void drive_fields(Io& io, C& d) {
   io.number("approach_max_travel_m", d.approach_max_travel_m, 0.01, 20, "m");
   io.number("approach_square_tolerance_rad", d.approach_square_tolerance_rad, 0.001, 1.0, "rad");
   io.number("approach_min_standoff_m", d.approach_min_standoff_m, 0.05, 10, "m");
+  io.number("stale_forward_speed_m_s", d.stale_forward_speed_m_s, 0.001, 5, "m/s");
   io.number("stale_travel_m", d.stale_travel_m, 0.001, 1.0, "m");
   io.number("stale_yaw_rad", d.stale_yaw_rad, 0.001, 1.0, "rad");
 }

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <future>
+#include <limits>
 #include <numbers>
 
 #include "ajar/core/geometry.hpp"
@@ -69,6 +70,16 @@ drivers::JogProfile jog_profile(const core::BaseGeometry& base,
   return drivers::JogProfile{counts_per_ms2, counts_per_ms2, 0};
 }
 
+double door_guard_room_m(const DoorGuard& guard, const core::PlanarPose& pose) noexcept {
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  if (guard.mode != DoorGuard::Mode::kStandoff) return kNone;
+  // The rate at which driving forward closes the distance (the normal points at the robot).
+  const double closing = -(guard.line.normal_x_m * std::cos(pose.yaw_rad) +
+                           guard.line.normal_y_m * std::sin(pose.yaw_rad));
+  if (!(closing > 1e-9)) return kNone;
+  return (core::door_distance_m(guard.line, pose.x_m, pose.y_m) - guard.standoff_m) / closing;
+}
+
 double planned_duration_s(std::int64_t distance_counts,
                           const drivers::TrapezoidProfile& profile) noexcept {
   const double d = std::abs(static_cast<double>(distance_counts));
@@ -91,6 +102,12 @@ ControlLoop::ControlLoop(drivers::MotionCard& card, const ControlLoopSettings& s
       card_scale_(settings.card_time_scale > 0 && std::isfinite(settings.card_time_scale)
                       ? settings.card_time_scale
                       : 1.0),
+      // A straight jog's wheels ramp at the jog profile: that, or the limiter's own deceleration
+      // (in the card's time), whichever is slower, brakes the base at the door's standoff.
+      guard_accel_m_s2_(std::min(settings.drive.max_linear_accel_m_s2 / card_scale_,
+                                 jog_profile_.deceleration_counts_per_ms2 * 1e6 /
+                                     counts_per_wheel_rad_ * settings.base.wheel_radius_m)),
+      guard_reaction_s_(3.0 / settings.rate_hz * card_scale_),
       drive_timeout_ns_(seconds_to_ns(settings.drive.command_timeout_s)),
       period_ns_(std::max<std::int64_t>(1, std::llround(kNsPerS / settings.rate_hz))),
       deadman_ns_(seconds_to_ns(settings.deadman_timeout_s)),
@@ -158,6 +175,14 @@ bool ControlLoop::post_drive(const DriveCommand& drive) noexcept {
   Command c;
   c.kind = drive.start ? CommandKind::kDriveStart : CommandKind::kDriveUpdate;
   c.drive = drive;
+  c.stop_stamp = stop_generation_.load();
+  c.latch_stamp = latch_generation_.load();
+  return commands_.push(c);
+}
+bool ControlLoop::post_door_guard(const DoorGuard& guard) noexcept {
+  Command c;
+  c.kind = CommandKind::kDoorGuard;
+  c.guard = guard;
   c.stop_stamp = stop_generation_.load();
   c.latch_stamp = latch_generation_.load();
   return commands_.push(c);

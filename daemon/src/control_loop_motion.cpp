@@ -34,6 +34,9 @@ void ControlLoop::execute(const Command& c, std::int64_t now_ns) noexcept {
       jog_target_ = c.drive.velocity;
       jog_stamp_ns_ = c.drive.stamp_ns;
       return;
+    case CommandKind::kDoorGuard:
+      guard_ = c.guard;
+      return;
     case CommandKind::kRecover:
       if (recovery_ != Recovery::kNone) end_recovery(ErrorCode::kOk);  // cannot happen: queue waits
       recover_sequence_ = c.sequence;
@@ -177,9 +180,25 @@ void ControlLoop::start_jog(const Command& c, std::int64_t now_ns) noexcept {
     handle_stops(now_ns);
 }
 
+double ControlLoop::guard_forward_limit_m_s() const noexcept {
+  if (guard_.mode == DoorGuard::Mode::kStale) return guard_.stale_speed_m_s;
+  const double room = door_guard_room_m(guard_, snapshot_.pose);
+  if (!std::isfinite(room)) return room;
+  if (room <= 0) return 0;
+  // Stop within `room` from speed v: v t + v^2 / (2 a) <= room, with the reaction time t.
+  const double a = guard_accel_m_s2_, t = guard_reaction_s_;
+  return -a * t + std::sqrt(a * a * t * t + 2 * a * room);
+}
+
 void ControlLoop::advance_jog(std::int64_t now_ns) noexcept {
   const bool timed_out = now_ns - jog_stamp_ns_ > drive_timeout_ns_;
-  const core::BodyVelocity target = timed_out ? core::BodyVelocity{} : jog_target_;
+  const core::BodyVelocity asked = timed_out ? core::BodyVelocity{} : jog_target_;
+  core::BodyVelocity target = asked;
+  // The door guard: the forward speed it allows from where the base is now.
+  const double forward_limit = guard_forward_limit_m_s();
+  snapshot_.guard_limiting = target.linear_m_s > forward_limit;
+  snapshot_.guard_limit_m_s = std::isfinite(forward_limit) ? forward_limit : 0.0;
+  if (snapshot_.guard_limiting) target.linear_m_s = forward_limit;
   const std::int64_t elapsed_ns =
       std::clamp<std::int64_t>(now_ns - jog_last_ns_, 0, 10 * period_ns_);
   const double dt_s = static_cast<double>(elapsed_ns) / kNsPerS;
@@ -214,12 +233,12 @@ void ControlLoop::advance_jog(std::int64_t now_ns) noexcept {
     }
     jog_sent_ = true;
   }
-  const bool told_zero = next.linear_m_s == 0 && next.angular_rad_s == 0 &&
-                         target.linear_m_s == 0 && target.angular_rad_s == 0;
+  // Told zero (released, timed out, or held at the door's standoff): the card ramps the wheels
+  // from where they are to rest; a deadline for it (supervise).
+  const bool told_zero = next.linear_m_s == 0 && next.angular_rad_s == 0;
   if (!told_zero) {
     jog_resting_ = false;
   } else if (!jog_resting_) {
-    // Told zero: the card ramps the wheels from where they are to rest; a deadline for it.
     jog_resting_ = true;
     double rest_s = 0;
     for (int i = 0; i < 2; ++i) {
@@ -229,8 +248,11 @@ void ControlLoop::advance_jog(std::int64_t now_ns) noexcept {
     }
     motion_deadline_ns_ = now_ns + seconds_to_ns(rest_s * 1.5 / card_scale_) + margin_ns_;
   }
+  // The jog ends once the operator asks for nothing (a zero Drive or the timeout) and the wheels
+  // rest; held at the standoff it stays open while the key is held.
+  const bool released = asked.linear_m_s == 0 && asked.angular_rad_s == 0;
   const bool at_rest = answered_ && !status_[0].moving && !status_[1].moving;
-  if (told_zero && at_rest && !changed) {
+  if (released && told_zero && at_rest && !changed) {
     // The timeout ended it only when the last Drive still asked for motion.
     finish(LoopReportKind::kMotionFinished, ErrorCode::kOk,
            timed_out && (jog_target_.linear_m_s != 0 || jog_target_.angular_rad_s != 0));

@@ -187,6 +187,17 @@ int ControlLoop::check_velocity(std::int64_t now_ns) noexcept {
   return 0;
 }
 
+bool ControlLoop::past_door_standoff() const noexcept {
+  if (guard_.mode != DoorGuard::Mode::kStandoff || !answered_ || !measured_valid_) return false;
+  if (!(door_guard_room_m(guard_, snapshot_.pose) < -kDoorStandoffToleranceM)) return false;
+  // Still driving forward (toward the door: room is finite only then), measured at the wheels.
+  const auto& b = settings_.base;
+  const double per_rad_ms = counts_per_wheel_rad_ / 1e3;  // counts/ms per rad/s
+  const double left = measured_counts_per_ms_[0] / per_rad_ms * (b.left.polarity < 0 ? -1 : 1);
+  const double right = measured_counts_per_ms_[1] / per_rad_ms * (b.right.polarity < 0 ? -1 : 1);
+  return b.wheel_radius_m * (left + right) / 2 > 1e-4;
+}
+
 void ControlLoop::supervise(std::int64_t now_ns) noexcept {
   const drivers::AxisStatus* status = status_;
   const bool answered = answered_;
@@ -219,11 +230,14 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
       }
       // Deadlines (a move's planned duration; a jog told zero coming to rest) and a card that
       // does not do what it was told: it is not trusted with a smooth stop.
+      // (A jog held at the standoff, told zero and at rest, has nothing left to do by then.)
+      const bool still = !status[0].moving && !status[1].moving;
       const bool deadline =
-          (motion_ == Motion::kMoving || jog_resting_) && now_ns > motion_deadline_ns_;
+          (motion_ == Motion::kMoving || (jog_resting_ && !still)) && now_ns > motion_deadline_ns_;
       if (deadline) return emergency_fault(ErrorCode::kMotionTimeout, 0, now_ns);
       if (const int off = check_velocity(now_ns); off != 0)
         return emergency_fault(ErrorCode::kVelocityMismatch, off, now_ns);
+      if (past_door_standoff()) return emergency_fault(ErrorCode::kVelocityMismatch, 0, now_ns);
       if (motion_ == Motion::kJogging) break;  // advance_jog ends a jog
       if (status[0].moving || status[1].moving) seen_moving_ = true;
       const bool at_rest =
@@ -236,6 +250,12 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
     }
     case Motion::kStopping:
       if (!stop_sent_) stop_sent_ = card_.emergency_stop(axes_) == ErrorCode::kOk;  // again
+      // A stop that does not stop the base before the door's standoff (a card that did not apply
+      // it): emergency stop now rather than at the stop's deadline.
+      if (past_door_standoff()) {
+        stop_sent_ = card_.emergency_stop(axes_) == ErrorCode::kOk;
+        latch(ErrorCode::kVelocityMismatch, 0);
+      }
       if (answered && !status[0].moving && !status[1].moving) {
         finish(LoopReportKind::kMotionStopped, stop_reason_);
       } else if (now_ns > motion_deadline_ns_) {

@@ -195,6 +195,7 @@ void EngineImpl::end_read_batch() {
 
 void EngineImpl::poll() {
   drain_reports();
+  (void)sync_door_guard();  // a stale plane, a new measurement: the loop's jog guard follows
   supervise_arm();
   reconcile();
   flush();

@@ -82,6 +82,8 @@ protocol::Message EngineImpl::align(MessageType type) {
 
 protocol::Message EngineImpl::drive(MessageType type, const protocol::Drive& m) {
   if (auto s = check_base_may_drive(true); !s) return refuse(type, s.error());
+  if (auto s = check_door_guard(m); !s) return refuse(type, s.error());
+  if (!sync_door_guard()) return refuse(type, queue_full());  // the loop guards this jog
   loop_->heartbeat(now_ns());
   const core::BodyVelocity velocity{m.linear_m_s, m.angular_rad_s};
   const std::int64_t stamp = now_ns();
@@ -104,10 +106,58 @@ protocol::Message EngineImpl::drive(MessageType type, const protocol::Drive& m) 
   ++motion_id_;
   begin_wheel_motion(start.motion_id, WheelKind::kJog);
   emit(EventKind::kMotionStarted, ErrorCode::kOk,
-       fmt::format("driving: {:.3f} m/s, {:.3f} rad/s asked (limits {:.3f} m/s, {:.3f} rad/s)",
+       fmt::format("driving: {:.3f} m/s, {:.3f} rad/s asked (limits {:.3f} m/s, {:.3f} rad/s){}",
                    m.linear_m_s, m.angular_rad_s, config_.drive.max_linear_speed_m_s,
-                   config_.drive.max_angular_speed_rad_s));
+                   config_.drive.max_angular_speed_rad_s, door_guard_clause()));
   return ack(type, protocol::EmptyAck{});
+}
+
+DoorGuard EngineImpl::door_guard() const {
+  DoorGuard g;
+  const auto line = procedure_.door_line();
+  if (!line) return g;  // no door known: nothing to guard against
+  if (procedure_.plane() && procedure_.staleness(loop_->snapshot().pose).plane) {
+    g.mode = DoorGuard::Mode::kStale;  // the base moved since: the distance is not trusted
+    g.stale_speed_m_s = config_.drive.stale_forward_speed_m_s;
+    return g;
+  }
+  g.mode = DoorGuard::Mode::kStandoff;
+  g.line = *line;
+  g.standoff_m = config_.drive.approach_min_standoff_m;
+  return g;
+}
+
+bool EngineImpl::sync_door_guard() {
+  const DoorGuard g = door_guard();
+  if (g == posted_guard_) return true;
+  if (!loop_->post_door_guard(g)) return false;
+  posted_guard_ = g;
+  return true;
+}
+
+Outcome EngineImpl::check_door_guard(const protocol::Drive& m) const {
+  if (!(m.linear_m_s > 0) || m.angular_rad_s != 0) return Ok{};  // backing off or turning
+  const DoorGuard g = door_guard();
+  const core::PlanarPose pose = loop_->snapshot().pose;
+  if (!(door_guard_room_m(g, pose) <= 0.001)) return Ok{};
+  return make_error(
+      ErrorCode::kAtMinimumStandoff, "linear_m_s",
+      fmt::format("the base is {:.3f} m from the door, at drive.approach_min_standoff_m "
+                  "({:.3f} m): it does not drive closer; back off, turn, or measure "
+                  "the door again",
+                  procedure_.door(pose).distance_m, g.standoff_m));
+}
+
+std::string EngineImpl::door_guard_clause() const {
+  const DoorGuard g = door_guard();
+  if (g.mode == DoorGuard::Mode::kStale) {
+    return fmt::format("; forward at most {:.3f} m/s: stale door plane", g.stale_speed_m_s);
+  }
+  if (g.mode == DoorGuard::Mode::kStandoff) {
+    return fmt::format("; forward stops at {:.3f} m (door {:.3f} m)", g.standoff_m,
+                       procedure_.door(loop_->snapshot().pose).distance_m);
+  }
+  return {};
 }
 
 protocol::Message EngineImpl::approach(MessageType type, const protocol::Approach& m) {

@@ -198,6 +198,13 @@ class EngineImpl final : public Engine {
 
   // Whether Drive (jog = true) or Approach may move the base now.
   Outcome check_base_may_drive(bool jog) const;
+  // The forward jog's door guard (docs/procedure.md, "Driving"): what the door the procedure
+  // knows asks of the loop now; posted to it when it changed (false: the queue is full); the
+  // refusal of a straight-forward Drive at the standoff; the sentence of motion_started.
+  DoorGuard door_guard() const;
+  bool sync_door_guard();
+  Outcome check_door_guard(const protocol::Drive& m) const;
+  std::string door_guard_clause() const;
 
   void begin_wheel_motion(std::uint32_t id, WheelKind kind);
 
@@ -316,7 +323,8 @@ class EngineImpl final : public Engine {
   std::uint32_t motion_id_ = 0;
   std::uint32_t wheel_motion_ = 0;  // the announced wheel motion the loop has not ended (0: none)
   bool in_read_batch_ = false;
-  std::optional<MoveCommand> held_move_;      // accepted in this read, not yet handed to the loop
+  std::optional<MoveCommand> held_move_;  // accepted in this read, not yet handed to the loop
+  DoorGuard posted_guard_;  // the door guard the loop has (or will have: posted in order)
   std::optional<DriveCommand> held_drive_;    // likewise (the last Drive of this read)
   WheelKind wheel_kind_ = WheelKind::kAlign;  // what wheel_motion_ is
   bool wheel_stopping_ = false;               // a stop was asked for wheel_motion_

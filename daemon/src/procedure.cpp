@@ -124,6 +124,12 @@ protocol::DoorRelation Procedure::door(const core::PlanarPose& now) const noexce
   return d;
 }
 
+std::optional<core::DoorLine> Procedure::door_line() const noexcept {
+  if (plane_fit_) return core::door_line_from_plane(*plane_fit_, plane_pose_);
+  if (width_) return core::door_line_from_width(width_->p1_base_m, width_->p2_base_m, width_pose_);
+  return std::nullopt;
+}
+
 protocol::Staleness Procedure::staleness(const core::PlanarPose& now) const noexcept {
   protocol::Staleness st;
   st.plane = plane_stale_;

@@ -149,6 +149,25 @@ TEST(DoorView, FromWidthPointsIsThePerpendicularToTheirLine) {
   EXPECT_NEAR(door_from_width(p2, p1, {}, {}).yaw_rad, v.yaw_rad, 1e-15);
 }
 
+// The door as a line in the odometry frame gives the distance DoorView gives from any pose.
+TEST(DoorLine, GivesTheDistanceDoorViewGivesFromAnyPose) {
+  Plane plane;
+  plane.normal = Vec3(-std::cos(0.1), -std::sin(0.1), 0.02).normalized();
+  plane.centroid_m = Vec3(1.8, 0.2, 0.9);
+  const Vec3 p1(1.5 + 0.045, 0.45, 0.3), p2(1.5 - 0.045, -0.45, 0.3);
+  const PlanarPose at{0.3, -0.2, 0.4};
+  const DoorLine from_plane = door_line_from_plane(plane, at);
+  const DoorLine from_width = door_line_from_width(p1, p2, at);
+  EXPECT_NEAR(std::hypot(from_plane.normal_x_m, from_plane.normal_y_m),
+              std::hypot(plane.normal.x(), plane.normal.y()), 1e-12);
+  for (const PlanarPose now : {at, PlanarPose{0.5, -0.1, 0.35}, PlanarPose{0.9, 0.3, -0.2}}) {
+    EXPECT_NEAR(door_distance_m(from_plane, now.x_m, now.y_m),
+                door_from_plane(plane, at, now).distance_m, 1e-12);
+    EXPECT_NEAR(door_distance_m(from_width, now.x_m, now.y_m),
+                door_from_width(p1, p2, at, now).distance_m, 1e-12);
+  }
+}
+
 TEST(StraightCommand, BothWheelsForwardWithPolarity) {
   BaseGeometry base;  // R_W 0.1, gear 50, 10000 counts/rev, right polarity -1
   const StraightCommand c = straight_command(2 * kPi * base.wheel_radius_m, base);  // one turn

@@ -198,6 +198,8 @@ class World {
   // acceleration) within the running motion's limits; at rest by its deadline unless the card is
   // silent; a jog update the card did not apply is caught.
   void check_wheels(bool halted);
+  // With a fresh door distance, a jog stops at drive.approach_min_standoff_m (issue 23).
+  void check_door_guard();
 
   void fail(const std::string& what);
   void note(const std::string& line);
@@ -269,8 +271,9 @@ class World {
   double jog_told_[2] = {0, 0};   // the jog velocities the card was last told
   bool jog_told_active_ = false;  // the last motion call was a jog
   std::int64_t disagree_since_[2] = {-1, -1};
-  bool card_halted_ = false;  // an injected fault halted a wheel since the last check
+  bool card_halted_ = false;         // an injected fault halted a wheel since the last check
   bool stuck_move_pending_ = false;  // the next move sticks (stick_next_move)
+  double guard_distance_m_ = 0;      // the fresh door distance after the last cycle (else inf)
   ErrorCode last_fault_ = ErrorCode::kOk;
   bool reset_seen_ = false;
   Coverage coverage_;

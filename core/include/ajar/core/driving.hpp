@@ -68,6 +68,22 @@ DoorView door_from_plane(const Plane& plane, const PlanarPose& at, const PlanarP
 DoorView door_from_width(const Vec3& p1_m, const Vec3& p2_m, const PlanarPose& at,
                          const PlanarPose& now) noexcept;
 
+// The door as a line in the odometry frame (for a bound the control loop checks every cycle from
+// its own odometry): the distance from a pose's origin to the door plane is
+// door_distance_m(line, x, y) = normal_x * x + normal_y * y + offset_m, the same as
+// DoorView::distance_m from that pose (the normal points toward where the robot was when the door
+// was measured).
+struct DoorLine {
+  double normal_x_m = 0, normal_y_m = 0;  // unit horizontal normal, odometry frame
+  double offset_m = 0;
+  friend bool operator==(const DoorLine&, const DoorLine&) = default;
+};
+DoorLine door_line_from_plane(const Plane& plane, const PlanarPose& at) noexcept;
+DoorLine door_line_from_width(const Vec3& p1_m, const Vec3& p2_m, const PlanarPose& at) noexcept;
+inline double door_distance_m(const DoorLine& line, double x_m, double y_m) noexcept {
+  return line.normal_x_m * x_m + line.normal_y_m * y_m + line.offset_m;
+}
+
 // Approach: both wheels the same way, theta = travel / R_W, in card counts with polarity (rounded
 // half away from zero, like wheel_command). A non-finite travel, or one whose counts would exceed
 // 2^53, gives zero counts.

@@ -64,11 +64,12 @@ enum class ErrorCode : std::uint16_t {
   kMotionInProgress = 407,     // wait for the motion to finish or Stop it
   kQueueFull = 408,            // control loop command queue full: retry later
   // 1.1: driving the base.
-  kMeasurementStale = 409,  // the base moved since a stored measurement: measure it again
-  kNoDoorDistance = 410,    // Approach: no width points and no plane give the distance
-  kNotSquareToDoor = 411,   // Approach: the base is not square to the door within tolerance
-  kApproachTooFar = 412,    // Approach: the move is longer than the configured maximum
-  kDriveNotAllowed = 413,   // Drive/Approach not allowed now (aligning, engaging, engaged, ...)
+  kMeasurementStale = 409,   // the base moved since a stored measurement: measure it again
+  kNoDoorDistance = 410,     // Approach: no width points and no plane give the distance
+  kNotSquareToDoor = 411,    // Approach: the base is not square to the door within tolerance
+  kApproachTooFar = 412,     // Approach: the move is longer than the configured maximum
+  kDriveNotAllowed = 413,    // Drive/Approach not allowed now (aligning, engaging, engaged, ...)
+  kAtMinimumStandoff = 414,  // Drive straight forward at the minimum standoff from the door
 
   // 5xx: drivers.
   kDriverError = 500,        // generic driver failure (see message)

@@ -58,7 +58,8 @@ struct DriveLimits {
   double command_timeout_s = 0.5;              // a Drive command is valid this long
   double approach_max_travel_m = 1.5;          // longest accepted Approach move
   double approach_square_tolerance_rad = 0.2;  // |yaw to the door| above this: not square
-  double approach_min_standoff_m = 0.4;        // smallest accepted standoff
+  double approach_min_standoff_m = 0.4;        // smallest accepted standoff; forward jogs stop here
+  double stale_forward_speed_m_s = 0.05;       // forward jog speed while the door distance is stale
   double stale_travel_m = 0.05;  // base origin displacement after which plane/contact are stale
   double stale_yaw_rad = 0.05;   // base turn (other than AlignBase's own) after which they are
 };

@@ -35,10 +35,12 @@
 //      card answers with an error latches it and emergency-stops the wheels (the card may have
 //      taken the command before it failed);
 //   4b. a running jog: the target is the last Drive velocity while it is younger than
-//      drive.command_timeout_s, else zero; the speed limiter (core::limit_velocity) clamps speed
-//      and acceleration; the card gets the wheel velocities when they change. Once the card has
-//      been told zero (target and command zero) the jog has a deadline to come to rest; at rest
-//      it ends (kMotionFinished; command_timeout says whether the timeout ended it);
+//      drive.command_timeout_s, else zero; the door guard (DoorGuard) lowers a forward target so
+//      that the base stops at the door's standoff; the speed limiter (core::limit_velocity) clamps
+//      speed and acceleration; the card gets the wheel velocities when they change. Once the card
+//      has been told zero (the limited command zero) the jog has a deadline to come to rest; when
+//      the Drive asks for nothing (zero, or timed out) and the wheels rest it ends
+//      (kMotionFinished; command_timeout says whether the timeout ended it);
 //   5. supervision: card not answering, alarm, following error, limits, deadman -> smooth stop +
 //      latched fault; every motion's deadline (a move: its planned duration; a jog: coming to rest
 //      once told zero; a stop: its deceleration) and a card that does not do what it was told (the
@@ -130,6 +132,28 @@ struct DriveCommand {
   std::int64_t stamp_ns = 0;
 };
 
+// The forward jog's door guard (issue 23; docs/control-loop.md "Jog"), posted by the engine
+// whenever the door it knows changes. kStandoff (a fresh door distance): a jog's forward speed is
+// limited every cycle, from the loop's own odometry, so that the base origin can stop at
+// `standoff_m` from the door (the card's jog ramp, a reaction time of three periods), and to zero
+// there. kStale (the distance is no longer trusted): forward jog speed at most stale_speed_m_s.
+// Backward and turning are never limited. A hard bound too: a base that goes on toward the door
+// more than 3 mm past the standoff (a card that did not apply the limit or a stop) is
+// emergency-stopped (kVelocityMismatch), in a jog, a move or a stop.
+struct DoorGuard {
+  enum class Mode : std::uint8_t { kNone = 0, kStandoff = 1, kStale = 2 };
+  Mode mode = Mode::kNone;
+  core::DoorLine line;  // kStandoff: the door in the odometry frame
+  double standoff_m = 0;
+  double stale_speed_m_s = 0;
+  friend bool operator==(const DoorGuard&, const DoorGuard&) = default;
+};
+
+// kStandoff: how far the base origin may still travel along its heading before it is standoff_m
+// from the door (<= 0: there or closer); +infinity when forward does not lead toward the door, or
+// for any other mode.
+double door_guard_room_m(const DoorGuard& guard, const core::PlanarPose& pose) noexcept;
+
 enum class LoopReportKind : std::uint8_t {
   kMotionFinished = 0,  // both axes in position
   kMotionStopped = 1,   // a motion ended early (stop, fault, emergency stop); wheels at rest
@@ -158,9 +182,12 @@ struct LoopSnapshot {
   double base_yaw_rad = 0;                         // since start, CCW positive
   core::PlanarPose pose;                           // odometry (yaw as base_yaw_rad)
   core::BodyVelocity commanded;                    // the jog's limited velocity; 0 otherwise
-  bool moving = false;                             // an axis reports profile motion
-  bool motion_active = false;                      // a motion (or its stop) is being supervised
-  bool jogging = false;                            // that motion is a jog
+  // The door guard lowered a running jog's forward speed this cycle (to guard_limit_m_s).
+  bool guard_limiting = false;
+  double guard_limit_m_s = 0;
+  bool moving = false;                 // an axis reports profile motion
+  bool motion_active = false;          // a motion (or its stop) is being supervised
+  bool jogging = false;                // that motion is a jog
   std::uint32_t last_motion_id = 0;    // the last motion that ended (any terminal report)
   ErrorCode fault = ErrorCode::kOk;    // latched in the loop
   std::uint32_t recover_sequence = 0;  // the last recover request taken from the queue
@@ -212,6 +239,8 @@ class ControlLoop {
   // ---- I/O thread (the single producer) ----
   bool post_move(const MoveCommand& move) noexcept;     // false: queue full (nothing queued)
   bool post_drive(const DriveCommand& drive) noexcept;  // false: queue full (nothing queued)
+  // The door guard for jogs from the next command on (in order with moves and jogs).
+  bool post_door_guard(const DoorGuard& guard) noexcept;  // false: queue full (nothing queued)
   // Starts a recovery (Reset): clears the loop's latch, recovers the card. Answered by exactly
   // one kRecovered report carrying `sequence`. false: queue full (nothing queued).
   bool request_recover(std::uint32_t sequence) noexcept;
@@ -251,13 +280,14 @@ class ControlLoop {
  private:
   enum class Motion : std::uint8_t { kIdle, kMoving, kJogging, kStopping };
   enum class Recovery : std::uint8_t { kNone, kWaitRest, kClear, kEnable, kPoll };
-  enum class CommandKind : std::uint8_t { kMove, kRecover, kDriveStart, kDriveUpdate };
+  enum class CommandKind : std::uint8_t { kMove, kRecover, kDriveStart, kDriveUpdate, kDoorGuard };
   // A queued command: the posted MoveCommand or DriveCommand whole (nothing copied field by
   // field), or a recover sequence.
   struct Command {
     CommandKind kind = CommandKind::kMove;
     MoveCommand move;               // kMove
     DriveCommand drive;             // kDrive*
+    DoorGuard guard;                // kDoorGuard
     std::uint32_t sequence = 0;     // kRecover
     std::uint32_t stop_stamp = 0;   // stop generation when posted
     std::uint32_t latch_stamp = 0;  // emergency/fault stop generation when posted
@@ -275,6 +305,12 @@ class ControlLoop {
   void start_jog(const Command& drive, std::int64_t now_ns) noexcept;
   ErrorCode check_can_start() noexcept;  // kOk, or why no motion may start in this cycle
   void advance_jog(std::int64_t now_ns) noexcept;
+  // The forward speed the door guard allows now (infinity: no limit).
+  double guard_forward_limit_m_s() const noexcept;
+  // The door guard's hard bound: the base origin more than kDoorStandoffToleranceM past the
+  // standoff and the wheels still driving it toward the door (whatever the motion).
+  bool past_door_standoff() const noexcept;
+  static constexpr double kDoorStandoffToleranceM = 0.003;
   void advance_recovery(std::int64_t now_ns) noexcept;
   void end_recovery(ErrorCode code) noexcept;
   void begin_stop(std::int64_t now_ns) noexcept;
@@ -300,6 +336,8 @@ class ControlLoop {
   double counts_per_wheel_rad_;
   double max_wheel_counts_per_ms_;  // base.max_wheel_speed_rad_s at the card
   double card_scale_;               // card time per loop time (card_time_scale)
+  double guard_accel_m_s2_;         // the door guard's braking: the limiter's and the card's ramp
+  double guard_reaction_s_;         // the door guard's reaction time (three periods)
   std::int64_t drive_timeout_ns_;
   std::int64_t period_ns_;
   std::int64_t deadman_ns_;
@@ -366,6 +404,7 @@ class ControlLoop {
   std::int64_t jog_last_ns_ = 0;           // the cycle that computed jog_command_
   bool jog_sent_ = false;                  // the card has been given jog_command_
   bool jog_resting_ = false;               // told zero: motion_deadline_ns_ is its deadline to rest
+  DoorGuard guard_;                        // the last posted door guard
   double told_counts_per_ms_[2] = {0, 0};  // the jog velocities the card accepted last
   double expected_counts_per_ms_[2] = {0, 0};  // the card's ramp toward them (jog_profile_)
   std::uint64_t reports_dropped_ = 0;

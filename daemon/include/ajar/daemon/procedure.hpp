@@ -116,6 +116,9 @@ class Procedure {
   bool observe_pose(const core::PlanarPose& now);
   // Where the door is seen from the base at pose `now`: from the plane, else from the width points.
   protocol::DoorRelation door(const core::PlanarPose& now) const noexcept;
+  // The same door as a line in the odometry frame (the forward jog's guard in the control loop);
+  // nullopt when no distance is known.
+  std::optional<core::DoorLine> door_line() const noexcept;
   // The stale flags as of the last observe_pose; the travel since the plane as of `now`.
   protocol::Staleness staleness(const core::PlanarPose& now) const noexcept;
   // kMeasurementStale (field "plane", saying how far the base moved) when the plane is stale.
