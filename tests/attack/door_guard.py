@@ -8,7 +8,7 @@ from ajarwire import *
 kind = sys.argv[1] if len(sys.argv) > 1 else "sim"
 d = Daemon({"drivers.kind": kind, "sim.speedup" if False else "speedup": 1.0}, name="guard")
 d.start()
-for variant in ("straight", "arc", "remeasure-nearer", "after-approach"):
+for variant in (sys.argv[2:] or ["straight", "arc", "remeasure-nearer", "after-approach"]):
     c = d.conn(0, take_over=True)
     c.call(STOP); time.sleep(0.5); c.call(RESET, b"\x01")
     # re-measure the door 1.0 m ahead of the base's *current* pose: points are in the base frame
