@@ -32,9 +32,11 @@ Result Suite::run() {
   decode_errors();
   session_rules();
   protocol_1_1();
+  recordings();
   roles();
   telemetry();
   procedure();
+  ordering();
   driving();
   duplicates();
   faults();

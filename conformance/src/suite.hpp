@@ -340,12 +340,15 @@ class Suite {
   void session_rules();
   void roles();
   void telemetry();
+  // ---- order on the wire: replies before their events, zero-count motions (ordering.cpp) ----
+  void ordering();
   // ---- the procedure, with every refusal on the way ----
   void procedure();
   // ---- protocol 1.1: versions, the robot model, loop statistics ----
   // Says Hello 1.0 (header and payload minor 0) on `c` as an observer; "" when welcomed.
   std::string hello_1_0(Client& c);
   void protocol_1_1();
+  void recordings();  // 1.2: the black box (recordings.cpp)
   // "" when the model is plausible, else what is not.
   static std::string robot_model_problems(const protocol::RobotModel& m,
                                           const protocol::Welcome& w);

@@ -575,7 +575,8 @@ let lastAnswers = {};
 function showRefusalsOnImage() {
   const answers = { step: state.results[state.active_step] || null, command: state.last_command ? state.last_command.reply : null };
   for (const [k, r] of Object.entries(answers)) {
-    const key = JSON.stringify(r) + (k === 'command' ? state.last_command.at : state.active_step);
+    // Before any command last_command is null: its key is the empty answer's.
+    const key = JSON.stringify(r) + (k === 'command' ? (state.last_command ? state.last_command.at : '') : state.active_step);
     if (key === lastAnswers[k]) continue;
     lastAnswers[k] = key;
     if (!r) continue;
@@ -603,6 +604,7 @@ function updateState() {
     cr.textContent = `${lc.op} at ${lc.at || ''}: ` + (r.ok ? 'accepted' : `REFUSED ${r.code}${r.field ? ' (' + r.field + ')' : ''}: ${r.message}`);
   } else { cr.className = 'result one'; cr.textContent = ''; cr.dataset.ok = ''; }
   cr.dataset.op = lc ? lc.op : '';
+  updateRecorder();
   for (const name of Object.keys(STEPS)) {
     const stale = st && st[name] && stepStale(name);
     $('stored-' + name).textContent = st && st[name] ? (stale ? 'STALE · ' : '') + describeValues(name, st[name]).split('\n')[0] : '—';
@@ -610,6 +612,45 @@ function updateState() {
   updateHud();
   render();
 }
+
+// ---- The black box: the recorder's state as ajard reports it, and "save the last 5 minutes" -------
+
+function bytes(n) {
+  if (n >= 1 << 30) return (n / (1 << 30)).toFixed(2) + ' GiB';
+  if (n >= 1 << 20) return (n / (1 << 20)).toFixed(1) + ' MiB';
+  if (n >= 1 << 10) return (n / (1 << 10)).toFixed(1) + ' KiB';
+  return n + ' B';
+}
+function updateRecorder() {
+  const r = state.recorder && 'known' in state.recorder ? state.recorder : { known: false, why: 'the console has not asked ajard yet' };
+  const on = $('rec-on');
+  // Never more than ajard said: without its word every field reads "unknown".
+  on.textContent = !r.known ? `unknown (${r.why})` : r.on ? 'ON' : `OFF${r.why ? ' (' + r.why + ')' : ''}`;
+  on.dataset.state = !r.known ? 'unknown' : r.on ? 'on' : 'off';
+  on.title = on.textContent;  // the cell is one line: the whole reason on hover
+  $('rec-file').textContent = r.known && r.file ? r.file : r.known ? '—' : 'unknown';
+  $('rec-size').textContent = r.known && r.size_bytes !== undefined && r.size_bytes !== null ? bytes(r.size_bytes) : r.known ? '—' : 'unknown';
+  $('rec-drops').textContent = r.known && r.drops !== undefined && r.drops !== null ? String(r.drops) : 'unknown';
+  const a = state.recorder_save;
+  const el = $('recorder-result');
+  if (!a) { el.className = 'result one'; el.textContent = ''; el.dataset.ok = ''; return; }
+  if (a.pending) { el.className = 'result one'; el.textContent = `saving the last 5 minutes… (asked at ${a.at})`; el.dataset.ok = 'pending'; return; }
+  if (a.reply.ok) {
+    const saved = a.saved || [];
+    el.className = 'result one ok';
+    el.dataset.ok = 'true';
+    el.dataset.code = '';
+    el.dataset.field = '';
+    el.textContent = `saved at ${a.at}: ${saved.length} recording${saved.length === 1 ? '' : 's'}` + (saved.length ? ' — ' + saved.join(', ') : '');
+  } else {
+    showResult(el, a.reply);
+    el.className = 'result one refused';
+    el.insertAdjacentText('afterbegin', `save at ${a.at}: `);
+  }
+}
+$('btn-save-recording').addEventListener('click', () => {
+  if (!send({ op: 'save_recording' })) { const el = $('recorder-result'); el.className = 'result one refused'; el.dataset.ok = 'false'; el.textContent = 'not sent: no link to the console'; }
+});
 
 // ---- Telemetry plots and the log --------------------------------------------------------------------
 
@@ -626,6 +667,20 @@ function updateHud() {
   const picks = (state && state.picks[state.active_step]) || [];
   const stalePicks = picks.filter((p) => p.place === 'stale').length;
   if (stalePicks) warn += (warn ? '\n' : '') + `${stalePicks} ${state.active_step} pick${stalePicks > 1 ? 's' : ''} STALE (grey): the base moved: pick again`;
+  // The daemon's door guard (docs/protocol.md, Drive): a forward jog near the door is slowed so the
+  // base stops at approach_min_standoff_m, and refused there; with a stale plane it is slow.
+  const m = (state && state.model) || {};
+  const lc = state && state.last_command;
+  if (jogHeld === 'fwd' && t) {
+    const asked = 0.5 * (m.max_linear_speed_m_s || 0);
+    const limited = t.commanded_linear_m_s < asked - 1e-3;
+    const atStandoff = lc && lc.op === 'drive' && !lc.reply.ok && lc.reply.code === 'AT_MINIMUM_STANDOFF';
+    if (atStandoff || (limited && t.door_has_distance)) {
+      warn += (warn ? '\n' : '') + (t.plane_stale ? `DOOR GUARD: forward at most ${t.commanded_linear_m_s.toFixed(2)} m/s: the door plane is stale`
+        : `DOOR GUARD: forward stops at the minimum standoff ${(m.approach_min_standoff_m || 0).toFixed(2)} m (door ${t.door_distance_m.toFixed(2)} m)`);
+    }
+    if (atStandoff) warn += '\nAT MINIMUM STANDOFF: back off, turn, or measure the door again';
+  }
   if (!live.answering) { door = 'door: unknown (ajard not answering)'; warn = ''; }
   $('hud-door').textContent = door;
   $('hud-warn').textContent = [fault, warn].filter(Boolean).join('\n');

@@ -44,6 +44,10 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "SHUTTING_DOWN";
     case ErrorCode::kNotSupported:
       return "NOT_SUPPORTED";
+    case ErrorCode::kNoSuchRecording:
+      return "NO_SUCH_RECORDING";
+    case ErrorCode::kRequestOutOfRange:
+      return "REQUEST_OUT_OF_RANGE";
     case ErrorCode::kNonFinite:
       return "NON_FINITE";
     case ErrorCode::kPointOutOfDepthRange:
@@ -136,6 +140,8 @@ std::string_view to_string(ErrorCode code) noexcept {
       return "CARD_OPEN_FAILED";
     case ErrorCode::kArmFault:
       return "ARM_FAULT";
+    case ErrorCode::kArmNotClear:
+      return "ARM_NOT_CLEAR";
     case ErrorCode::kLoopStalled:
       return "LOOP_STALLED";
     case ErrorCode::kStateRejected:

@@ -60,6 +60,18 @@ inline constexpr Word<drivers::MockFault> kMockFaults[] = {
     {"error", drivers::MockFault::kErrorCode},
     {"intermittent", drivers::MockFault::kIntermittent},
     {"garbage", drivers::MockFault::kGarbage}};
+// The mock arm's: the same words, and the arm's own (docs/drivers.md, "The mock arm").
+inline constexpr Word<drivers::MockArmFault> kMockArmFaults[] = {
+    {"none", drivers::MockArmFault::kNone},
+    {"stuck", drivers::MockArmFault::kStuck},
+    {"slow", drivers::MockArmFault::kSlow},
+    {"error", drivers::MockArmFault::kErrorCode},
+    {"intermittent", drivers::MockArmFault::kIntermittent},
+    {"garbage", drivers::MockArmFault::kGarbage},
+    {"silent_mid_task", drivers::MockArmFault::kSilentMidTask},
+    {"silent_mid_stop", drivers::MockArmFault::kSilentMidStop},
+    {"reset_mid_task", drivers::MockArmFault::kResetMidTask},
+    {"stop_ignored", drivers::MockArmFault::kStopIgnored}};
 
 inline constexpr Word<char> kParities[] = {{"none", 'N'}, {"even", 'E'}, {"odd", 'O'}};
 
@@ -207,7 +219,7 @@ void drivers_fields(Io& io, C& d) {
   });
   io.section("mock", [&] {
     io.choice("card_fault", d.mock.card_fault, kMockFaults);
-    io.choice("arm_fault", d.mock.arm_fault, kMockFaults);
+    io.choice("arm_fault", d.mock.arm_fault, kMockArmFaults);
     io.integer("slow_ms", d.mock.slow_ms, 0, 60000);
   });
   io.section("sim", [&] { io.number("speedup", d.sim_speedup, 0.1, 1000, ""); });
@@ -237,6 +249,7 @@ void fields(Io& io, C& c) {
   io.section("safety", [&] {
     io.number("deadman_timeout_s", c.safety.deadman_timeout_s, 0.02, 60, "s");
     io.number("arm_task_timeout_s", c.safety.arm_task_timeout_s, 0.1, 3600, "s");
+    io.number("arm_stop_timeout_s", c.safety.arm_stop_timeout_s, 0.1, 600, "s");
   });
   io.section("logging", [&] {
     io.choice("level", c.logging.level, kLogLevels);
@@ -244,6 +257,14 @@ void fields(Io& io, C& c) {
   });
   io.section("state",
              [&] { io.text("directory", c.state.directory, "directory path", Text::kNonEmpty); });
+  io.section("recorder", [&] {
+    io.boolean("enabled", c.recorder.enabled);
+    io.text("directory", c.recorder.directory, "directory path", Text::kNonEmpty);
+    io.integer("max_bytes", c.recorder.max_bytes, 1LL << 20, 1LL << 50);
+    io.integer("max_file_bytes", c.recorder.max_file_bytes, 64LL << 10, 1LL << 40);
+    io.number("max_file_s", c.recorder.max_file_s, 1, 86400, "s");
+    io.integer("loop_decimation", c.recorder.loop_decimation, 1, 10000);
+  });
 }
 
 // "a, b, c" of text(item) for every item.

@@ -13,6 +13,7 @@
 
 #include "ajar/core/geometry.hpp"
 #include "ajar/daemon/realtime.hpp"
+#include "ajar/recorder/recorder.hpp"
 #include "control_loop_units.hpp"
 
 namespace ajar::daemon {
@@ -96,24 +97,18 @@ ControlLoop::ControlLoop(drivers::MotionCard& card, const ControlLoopSettings& s
     : card_(card),
       settings_(settings),
       axes_{settings.base.left.card_axis, settings.base.right.card_axis},
-      jog_profile_(jog_profile(settings.base, settings.drive)),
       counts_per_wheel_rad_(counts_per_wheel_rad(settings.base)),
       max_wheel_counts_per_ms_(settings.base.max_wheel_speed_rad_s * counts_per_wheel_rad_ / 1e3),
       card_scale_(settings.card_time_scale > 0 && std::isfinite(settings.card_time_scale)
                       ? settings.card_time_scale
                       : 1.0),
-      // A straight jog's wheels ramp at the jog profile: that, or the limiter's own deceleration
-      // (in the card's time), whichever is slower, brakes the base at the door's standoff.
-      guard_accel_m_s2_(std::min(settings.drive.max_linear_accel_m_s2 / card_scale_,
-                                 jog_profile_.deceleration_counts_per_ms2 * 1e6 /
-                                     counts_per_wheel_rad_ * settings.base.wheel_radius_m)),
-      guard_reaction_s_(3.0 / settings.rate_hz * card_scale_),
-      drive_timeout_ns_(seconds_to_ns(settings.drive.command_timeout_s)),
       period_ns_(std::max<std::int64_t>(1, std::llround(kNsPerS / settings.rate_hz))),
       deadman_ns_(seconds_to_ns(settings.deadman_timeout_s)),
       margin_ns_(seconds_to_ns(settings.motion_timeout_margin_s)),
       mismatch_ns_(seconds_to_ns(settings.velocity_mismatch_s)),
-      recovery_timeout_ns_(seconds_to_ns(settings.recovery_timeout_s)),
+      recovery_(seconds_to_ns(settings.recovery_timeout_s)),
+      jog_(settings, jog_profile(settings.base, settings.drive), counts_per_wheel_rad_, card_scale_,
+           period_ns_),
       statistics_(settings.rate_hz) {}
 
 ControlLoop::~ControlLoop() {
@@ -154,6 +149,7 @@ void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
     const std::int64_t end = monotonic_now_ns();
     statistics_.record_cycle(deadline, wake, end);
     last_cycle_end_ns_.store(end, std::memory_order_release);
+    if (recorder_ != nullptr) record_sample(deadline, wake, end);
     deadline += period_ns_;
     if (end > deadline) {  // missed at least one deadline: count it, skip to the next free slot
       statistics_.record_overrun();
@@ -163,37 +159,83 @@ void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
   }
 }
 
+bool ControlLoop::post(Command c) noexcept {
+  c.stop_stamp = stop_generation_.load();
+  c.latch_stamp = latch_generation_.load();
+  return commands_.push(c);
+}
+void ControlLoop::record_sample(std::int64_t deadline_ns, std::int64_t wake_ns,
+                                std::int64_t end_ns) noexcept {
+  // Velocities from the counts since the previous cycle (every cycle, decimated or not).
+  const double dt_s = static_cast<double>(wake_ns - sample_last_wake_ns_) / 1e9;
+  const bool have_last = sample_last_wake_ns_ != 0 && dt_s > 0;
+  const std::int64_t previous_wake = sample_last_wake_ns_;
+  sample_last_wake_ns_ = wake_ns;
+  std::int64_t last[2][2];
+  std::copy(&sample_last_counts_[0][0], &sample_last_counts_[0][0] + 4, &last[0][0]);
+  for (int i = 0; i < 2; ++i) {
+    sample_last_counts_[i][0] = status_[i].profile_position_counts;
+    sample_last_counts_[i][1] = status_[i].encoder_position_counts;
+  }
+  if (!recorder_->take_loop_sample()) return;
+  recorder::LoopSample s;
+  s.cycle = snapshot_.cycles;
+  s.time_ns = wake_ns;
+  const core::WheelAxis* wheels[2] = {&settings_.base.left, &settings_.base.right};
+  for (int i = 0; i < 2; ++i) {
+    const auto rad = [&](std::int64_t counts) {
+      return core::counts_to_wheel_rad(counts, *wheels[i], settings_.base);
+    };
+    s.commanded_rad[i] = rad(status_[i].profile_position_counts - origin_counts_[i]);
+    s.measured_rad[i] = rad(status_[i].encoder_position_counts - origin_counts_[i]);
+    if (have_last) {
+      s.commanded_rad_s[i] = rad(status_[i].profile_position_counts - last[i][0]) / dt_s;
+      s.measured_rad_s[i] = rad(status_[i].encoder_position_counts - last[i][1]) / dt_s;
+    }
+    s.counts[i] = status_[i].encoder_position_counts;
+  }
+  s.x_m = snapshot_.pose.x_m;
+  s.y_m = snapshot_.pose.y_m;
+  s.yaw_rad = snapshot_.pose.yaw_rad;
+  s.commanded_linear_m_s = snapshot_.commanded.linear_m_s;
+  s.commanded_angular_rad_s = snapshot_.commanded.angular_rad_s;
+  s.motion = static_cast<std::uint8_t>(motion_);
+  s.phase = recovery_.running()                                            ? 3
+            : motion_ == Motion::kStopping || (jog_.resting() && moving()) ? 2
+            : moving()                                                     ? 1
+                                                                           : 0;
+  s.fault = static_cast<std::uint16_t>(fault_);
+  s.motion_id = motion_id_;
+  s.stop_generation = handled_stop_;
+  s.wakeup_latency_ns = wake_ns - deadline_ns;
+  s.execution_ns = end_ns - wake_ns;
+  s.period_ns = previous_wake != 0 ? wake_ns - previous_wake : 0;
+  recorder_->loop_sample(s);
+}
+
 bool ControlLoop::post_move(const MoveCommand& move) noexcept {
   Command c;
   c.kind = CommandKind::kMove;
   c.move = move;
-  c.stop_stamp = stop_generation_.load();
-  c.latch_stamp = latch_generation_.load();
-  return commands_.push(c);
+  return post(c);
 }
 bool ControlLoop::post_drive(const DriveCommand& drive) noexcept {
   Command c;
   c.kind = drive.start ? CommandKind::kDriveStart : CommandKind::kDriveUpdate;
   c.drive = drive;
-  c.stop_stamp = stop_generation_.load();
-  c.latch_stamp = latch_generation_.load();
-  return commands_.push(c);
+  return post(c);
 }
 bool ControlLoop::post_door_guard(const DoorGuard& guard) noexcept {
   Command c;
   c.kind = CommandKind::kDoorGuard;
   c.guard = guard;
-  c.stop_stamp = stop_generation_.load();
-  c.latch_stamp = latch_generation_.load();
-  return commands_.push(c);
+  return post(c);
 }
 bool ControlLoop::request_recover(std::uint32_t sequence) noexcept {
   Command c;
   c.kind = CommandKind::kRecover;
   c.sequence = sequence;
-  c.stop_stamp = stop_generation_.load();
-  c.latch_stamp = latch_generation_.load();
-  return commands_.push(c);
+  return post(c);
 }
 // The generations are bumped after the code is queued: a cycle that sees the new generation sees
 // the code too. The emergency generation is bumped before the latch generation for the same reason.
@@ -221,6 +263,9 @@ void ControlLoop::latch_stalled() noexcept {
 void ControlLoop::set_arm_moving(bool moving) noexcept {
   arm_moving_.store(moving, std::memory_order_release);
 }
+void ControlLoop::set_arm_at_door(bool at_door) noexcept {
+  arm_at_door_.store(at_door, std::memory_order_release);
+}
 bool ControlLoop::pop_report(LoopReport& r) noexcept {
   return reports_.pop(r);
 }
@@ -237,8 +282,8 @@ bool ControlLoop::healthy(std::int64_t now_ns) const noexcept {
 void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   read_axes(now_ns);  // first: odometry and a move's start position come from before any command
   handle_stops(now_ns);
-  if (recovery_ != Recovery::kNone) advance_recovery(now_ns);
-  while (recovery_ == Recovery::kNone) {  // the queue waits behind a running recovery
+  if (recovery_.running()) advance_recovery(now_ns);
+  while (!recovery_.running()) {  // the queue waits behind a running recovery
     Command c;
     if (!commands_.pop(c)) break;
     execute(c, now_ns);
@@ -251,10 +296,10 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   snapshot_.time_ns = now_ns;
   snapshot_.motion_active = motion_ != Motion::kIdle;
   snapshot_.jogging = motion_ == Motion::kJogging;
-  snapshot_.commanded = jog_command_;
+  snapshot_.commanded = within_wheel_cap(jog_.command(), settings_.base);
   snapshot_.fault = fault_;
-  snapshot_.recover_sequence = recover_sequence_;
-  snapshot_.recovering = recovery_ != Recovery::kNone;
+  snapshot_.recover_sequence = recovery_.sequence();
+  snapshot_.recovering = recovery_.running();
   snapshot_.card_state = card_state();
   snapshot_.reports_dropped = reports_dropped_;
   published_.store(snapshot_);
@@ -273,7 +318,7 @@ drivers::LifecycleState ControlLoop::card_state() const noexcept {
     default:
       break;
   }
-  if (recovery_ != Recovery::kNone) return drivers::LifecycleState::kInactive;
+  if (recovery_.running()) return drivers::LifecycleState::kInactive;
   return status_[0].enabled && status_[1].enabled ? drivers::LifecycleState::kActive
                                                   : drivers::LifecycleState::kInactive;
 }

@@ -12,6 +12,7 @@
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/session_hub.hpp"
 #include "ajar/daemon/tls.hpp"
+#include "ajar/recorder/recorder.hpp"
 
 namespace ajar::daemon {
 namespace {
@@ -54,7 +55,19 @@ struct Server::Impl {
         options(std::move(opts)),
         acceptor(io),
         poll_timer(io),
-        hub(eng, SessionHub::Options{options.ledger, options.hello_timeout}) {}
+        recordings(options.recordings == nullptr && eng.recorder() != nullptr
+                       ? make_recorder_recordings(*eng.recorder(), io_context)
+                       : nullptr),
+        hub(eng, SessionHub::Options{
+                     options.ledger, options.hello_timeout,
+                     options.recordings != nullptr ? options.recordings : recordings.get()}) {
+    if (engine.recorder() != nullptr) {
+      options.session.frame_tap = [&eng = engine](std::uint64_t id, std::uint8_t direction,
+                                                  std::span<const std::uint8_t> frame) {
+        eng.recorder()->frame(direction, id, eng.daemon_time_ns(), frame);
+      };
+    }
+  }
 
   void accept() {
     acceptor.async_accept([this](const boost::system::error_code& ec, tcp::socket socket) {
@@ -226,6 +239,9 @@ struct Server::Impl {
   tcp::acceptor acceptor;
   asio::steady_timer poll_timer;
   std::unique_ptr<asio::steady_timer> retry_timer;
+  // The engine's recorder over the protocol (ServerOptions::recordings unless given); declared
+  // before the hub, so destroyed after it.
+  std::unique_ptr<Recordings> recordings;
   SessionHub hub;
   std::unique_ptr<TlsAcceptor> tls;  // null: plaintext
   std::map<std::uint64_t, Tracked> tls_sessions;

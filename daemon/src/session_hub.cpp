@@ -8,6 +8,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include "ajar/daemon/blackbox.hpp"
+
 namespace ajar::daemon {
 namespace {
 
@@ -67,6 +69,8 @@ void SessionHub::on_open(SessionLink& link) {
   state.opened = Clock::now();
   state.last_activity = state.opened;
   sessions_[link.id()] = std::move(state);
+  record_session(engine_.recorder(), engine_.daemon_time_ns(), link.id(), "open", link.peer(),
+                 link.access().identity, "none", "");
   spdlog::info("session {} opened from {} as {} ({} sessions)", link.id(), link.peer(),
                link.access().identity, sessions_.size());
 }
@@ -86,8 +90,65 @@ void SessionHub::reply(SessionState& s, std::uint32_t request_id, protocol::Mess
   send_reply(s, request_id, std::move(message));
 }
 
+void SessionHub::handle_recordings(SessionState& s, const protocol::Envelope& envelope) {
+  const MessageType type = protocol::type_of(envelope.message);
+  if (options_.recordings == nullptr) {
+    refuse(s, envelope, ErrorCode::kNotSupported, "",
+           "the recorder is off on this daemon (recorder.enabled: false): no recordings");
+    return;
+  }
+  const auto pending = static_cast<std::size_t>(std::count_if(
+      s.held.begin(), s.held.end(), [](const HeldReply& h) { return h.ticket != 0; }));
+  if (pending >= kMaxRecordingsPending) {
+    refuse(s, envelope, ErrorCode::kQueueFull, "",
+           std::to_string(kMaxRecordingsPending) +
+               " black-box requests of this session are still being answered: retry once "
+               "their replies came");
+    return;
+  }
+  const std::uint64_t ticket = next_ticket_++;
+  protocol::ErrorReply placeholder;  // replaced by the answer; its type names the request
+  placeholder.offending_type = type;
+  s.held.push_back(HeldReply{envelope.request_id, placeholder, 0, Clock::now(), ticket});
+  spdlog::debug("{}: {} request {}", describe(s), protocol::to_string(type), envelope.request_id);
+  options_.recordings->handle(envelope.message,
+                              [this, alive = std::weak_ptr<int>(alive_), id = s.link->id(),
+                               ticket](protocol::Message answer) {
+                                if (alive.expired()) return;  // the hub is gone (shutdown)
+                                recordings_answered(id, ticket, std::move(answer));
+                              });
+}
+
+void SessionHub::recordings_answered(std::uint64_t session_id, std::uint64_t ticket,
+                                     protocol::Message answer) {
+  const auto it = sessions_.find(session_id);
+  if (it == sessions_.end()) return;  // the session closed meanwhile
+  SessionState& s = it->second;
+  const auto held = std::find_if(s.held.begin(), s.held.end(),
+                                 [ticket](const HeldReply& h) { return h.ticket == ticket; });
+  if (held == s.held.end()) return;  // answered DRIVER_ERROR already: too late
+  held->message = std::move(answer);
+  held->ticket = 0;
+  release_settled(s, engine_.settled_generation(), Clock::now());
+}
+
 void SessionHub::release_settled(SessionState& s, std::uint64_t settled, Clock::time_point now) {
   while (!s.held.empty()) {
+    if (s.held.front().ticket != 0) {  // a black-box reply still being made
+      if (now - s.held.front().since < kHeldReplyLimit) break;
+      HeldReply r = std::move(s.held.front());
+      s.held.pop_front();
+      const bool shutdown = now == Clock::time_point::max();
+      spdlog::warn("{}: the recorder did not answer request {} within {} s{}", describe(s),
+                   r.request_id, kHeldReplyLimit.count(),
+                   shutdown ? " (shutdown)" : ": refused, its later replies are not held");
+      auto error = std::get<protocol::ErrorReply>(std::move(r.message));
+      error.code = shutdown ? ErrorCode::kShuttingDown : ErrorCode::kDriverError;
+      error.message = shutdown ? "the daemon is shutting down: the recorder did not answer"
+                               : "the recorder did not answer within 2 s (a slow disk?): ask again";
+      send_reply(s, r.request_id, std::move(error));
+      continue;
+    }
     const bool saved = s.held.front().generation <= settled;
     if (!saved && now - s.held.front().since < kHeldReplyLimit) break;
     if (!saved) {
@@ -131,6 +192,10 @@ void SessionHub::broadcast(const protocol::Message& message) {
   std::array<SharedFrame, protocol::kVersionMinor + 1> frames;  // encoded once per minor in use
   for (auto& [id, s] : sessions_) {
     if (!s.greeted) continue;
+    if (!s.held.empty()) {  // never ahead of a held reply (a durable Ack) of this session
+      s.held.push_back(HeldReply{0, message, 0, Clock::now()});
+      continue;
+    }
     SharedFrame& frame = frames[s.minor];
     if (!frame) frame = encode_frame(protocol::Envelope{0, 0, message}, s.minor);
     if (frame) s.link->send(frame);
@@ -144,6 +209,7 @@ void SessionHub::announce_controller(std::string_view detail) {
   event.daemon_time_ns = engine_.daemon_time_ns();  // one clock: since the daemon started
   event.detail = detail;
   spdlog::info("control changed: {}", detail);
+  record_event(engine_.recorder(), event);
   broadcast(event);
 }
 
@@ -186,6 +252,8 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
       return;
     }
     spdlog::info("{}: {}", describe(s), protocol::to_string(type));
+    engine_.catch_up();
+    const EventDeferral after_reply(*this);
     reply(s, envelope.request_id, call_engine(envelope.message));
     return;
   }
@@ -213,6 +281,11 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
     case MessageType::kGetRobotModel:
       reply(s, envelope.request_id, engine_.robot_model());
       return;
+    case MessageType::kListRecordings:
+    case MessageType::kFetchRecording:
+    case MessageType::kSaveRecording:
+      handle_recordings(s, envelope);
+      return;
     default:
       break;
   }
@@ -236,6 +309,7 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
            "this daemon speaks protocol version " + std::to_string(protocol::kVersionMajor) + ".x");
     return;
   }
+  const EventDeferral after_welcome(*this);  // the old controller's stop: after the Welcome
   std::optional<std::uint64_t> demoted;
   if (hello.requested_role == protocol::Role::kController) {
     if (!s.link->access().may_control) {
@@ -268,6 +342,9 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
     if (old != sessions_.end()) {
       old->second.role = protocol::Role::kObserver;
       old_name = describe(old->second);
+      record_session(engine_.recorder(), engine_.daemon_time_ns(), *demoted, "role",
+                     old->second.link->peer(), old->second.link->access().identity, "observer",
+                     "control taken over by session " + std::to_string(s.link->id()));
     }
     engine_.controller_lost();
   }
@@ -276,6 +353,8 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
   welcome.granted_role = s.role;
   welcome.session_id = s.link->id();
   reply(s, envelope.request_id, welcome);
+  record_session(engine_.recorder(), engine_.daemon_time_ns(), s.link->id(), "role", s.link->peer(),
+                 s.link->access().identity, protocol::to_string(s.role), s.client_name);
   spdlog::info("{} greeted from {} as {} (client instance {:#x})", describe(s), s.link->peer(),
                protocol::to_string(s.role), s.client_instance_id);
 
@@ -343,6 +422,8 @@ void SessionHub::handle_command(SessionState& s, const protocol::Envelope& envel
     }
   }
   spdlog::debug("{}: {} request {}", describe(s), protocol::to_string(type), envelope.request_id);
+  engine_.catch_up();  // what happened before this command goes out before its reply
+  const EventDeferral after_reply(*this);
   const std::uint64_t before = engine_.accepted_generation();
   protocol::Message answer = call_engine(envelope.message);
   const std::uint64_t after = engine_.accepted_generation();
@@ -376,6 +457,9 @@ void SessionHub::on_closed(SessionLink& link, std::string_view reason) {
   auto it = sessions_.find(link.id());
   if (it == sessions_.end()) return;
   const std::string name = describe(it->second);
+  record_session(engine_.recorder(), engine_.daemon_time_ns(), link.id(), "close", link.peer(),
+                 link.access().identity,
+                 it->second.greeted ? protocol::to_string(it->second.role) : "none", reason);
   sessions_.erase(it);
   spdlog::info("{} closed: {} ({} sessions)", name, reason, sessions_.size());
   if (controller_ == link.id()) {
@@ -386,7 +470,20 @@ void SessionHub::on_closed(SessionLink& link, std::string_view reason) {
 }
 
 void SessionHub::on_event(const protocol::Event& event) {
+  record_event(engine_.recorder(), event);  // when it happened (its broadcast may be deferred)
+  if (deferring_ > 0) {
+    deferred_.push_back(event);
+    return;
+  }
   broadcast(event);
+}
+
+SessionHub::EventDeferral::~EventDeferral() {
+  if (--hub_.deferring_ > 0) return;
+  std::vector<protocol::Event> events = std::move(hub_.deferred_);
+  hub_.deferred_.clear();
+  for (const protocol::Event& e : events)
+    hub_.broadcast(e);
 }
 
 void SessionHub::tick(Clock::time_point now) {
@@ -409,7 +506,10 @@ void SessionHub::tick(Clock::time_point now) {
       continue;
     }
     if (s.telemetry_period == Clock::duration::zero() || now < s.next_telemetry) continue;
-    if (!telemetry) telemetry = engine_.telemetry();
+    if (!telemetry) {
+      telemetry = engine_.telemetry();
+      record_telemetry(engine_.recorder(), *telemetry);
+    }
     SharedFrame& frame = frames[s.minor];
     if (!frame) frame = encode_frame(protocol::Envelope{0, 0, *telemetry}, s.minor);
     if (!frame) return;
@@ -422,7 +522,7 @@ void SessionHub::tick(Clock::time_point now) {
 
 void SessionHub::release_all() {
   for (auto& [id, s] : sessions_)
-    release_settled(s, std::numeric_limits<std::uint64_t>::max());
+    release_settled(s, std::numeric_limits<std::uint64_t>::max(), Clock::time_point::max());
 }
 
 bool SessionHub::make_room() {
@@ -445,7 +545,7 @@ bool SessionHub::make_room() {
   error.code = ErrorCode::kTooManyClients;
   error.offending_type = MessageType::kHello;
   error.message.assign(why);
-  release_settled(s, std::numeric_limits<std::uint64_t>::max());
+  release_settled(s, std::numeric_limits<std::uint64_t>::max(), Clock::time_point::max());
   send_reply(s, 0, error);
   s.link->close_after_flush("evicted: session table full");
   sessions_.erase(victim);
@@ -458,7 +558,13 @@ void SessionHub::RefusalHandler::on_message(SessionLink& link, const protocol::E
   if (is_stop(type) && link.access().may_stop) {  // no table state may refuse a stop
     spdlog::warn("refused connection {} from {}: {} executed", link.id(), link.peer(),
                  protocol::to_string(type));
+    hub_.engine_.catch_up();
+    const EventDeferral after_reply(hub_);
     answer = hub_.call_engine(envelope.message);
+    if (auto frame = encode_frame(protocol::Envelope{envelope.request_id, 0, std::move(answer)})) {
+      link.send(std::move(frame));
+    }
+    return;
   } else {
     protocol::ErrorReply error;
     error.code = ErrorCode::kTooManyClients;

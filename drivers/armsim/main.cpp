@@ -1,4 +1,4 @@
-// ajar-armsim [--task-ms N] [--reply-delay-ms N] [--refuse]
+// ajar-armsim [--task-ms N] [--reply-delay-ms N] [--refuse] [--fault WORD] [--silent-ms N]
 // Runs ArmControllerSimulator on a pseudo-terminal, prints the device path to open, and serves
 // until SIGINT or SIGTERM. Requests and counters are printed once a second when they change.
 #include <csignal>
@@ -15,7 +15,8 @@ namespace {
 
 // --help (also the source of the ajar-armsim(1) man page, cmake/AjarManPages.cmake).
 constexpr const char* kHelp =
-    "Usage: ajar-armsim [--task-ms N] [--reply-delay-ms N] [--refuse]\n"
+    "Usage: ajar-armsim [--task-ms N] [--reply-delay-ms N] [--refuse] [--fault WORD]\n"
+    "                   [--silent-ms N]\n"
     "\n"
     "Runs the arm-controller simulator on a pseudo-terminal: prints the device path to open (a\n"
     "stable symlink to the pseudo-terminal), then serves the arm's serial protocol\n"
@@ -28,6 +29,12 @@ constexpr const char* kHelp =
     "                        200; 0..3600000)\n"
     "  --reply-delay-ms N    delay every reply by N ms (a slow controller; default 0)\n"
     "  --refuse              refuse every task (the controller's refusal path)\n"
+    "  --fault WORD          the controller's own fault in every task: silent-mid-task (stops\n"
+    "                        answering half way through), silent-mid-stop (the first STOP is\n"
+    "                        not answered: it falls silent), reset-mid-task (half way through it\n"
+    "                        comes back IDLE, the task forgotten), stop-ignored (STOP answered,\n"
+    "                        the arm stays BUSY); default none\n"
+    "  --silent-ms N         a silence lasts N ms (default 0: for good)\n"
     "  --version             print the version and exit\n"
     "  --help, -h            print this help and exit\n";
 
@@ -52,6 +59,28 @@ int main(int argc, char** argv) {
       settings.task_duration_ms = parse_ms(argv[++i], "--task-ms");
     } else if (arg == "--reply-delay-ms" && i + 1 < argc) {
       settings.reply_delay_ms = parse_ms(argv[++i], "--reply-delay-ms");
+    } else if (arg == "--silent-ms" && i + 1 < argc) {
+      settings.silent_ms = parse_ms(argv[++i], "--silent-ms");
+    } else if (arg == "--fault" && i + 1 < argc) {
+      const std::string word = argv[++i];
+      using ajar::drivers::ArmSimFault;
+      if (word == "none") {
+        settings.fault = ArmSimFault::kNone;
+      } else if (word == "silent-mid-task") {
+        settings.fault = ArmSimFault::kSilentMidTask;
+      } else if (word == "silent-mid-stop") {
+        settings.fault = ArmSimFault::kSilentMidStop;
+      } else if (word == "reset-mid-task") {
+        settings.fault = ArmSimFault::kResetMidTask;
+      } else if (word == "stop-ignored") {
+        settings.fault = ArmSimFault::kStopIgnored;
+      } else {
+        std::fprintf(stderr,
+                     "ajar-armsim: --fault wants none, silent-mid-task, silent-mid-stop, "
+                     "reset-mid-task or stop-ignored, not '%s'\n",
+                     word.c_str());
+        return 2;
+      }
     } else if (arg == "--refuse") {
       refuse = true;
     } else if (arg == "--help" || arg == "-h") {
@@ -87,13 +116,14 @@ int main(int argc, char** argv) {
       if (c.requests != last.requests || c.tasks_completed != last.tasks_completed) {
         std::fprintf(stderr,
                      "requests %llu, duplicates %llu, tasks executed %llu, completed %llu, "
-                     "stops %llu, bad lines %llu, phase %s\n",
+                     "stops %llu, bad lines %llu, unanswered %llu, phase %s\n",
                      static_cast<unsigned long long>(c.requests),
                      static_cast<unsigned long long>(c.duplicates_ignored),
                      static_cast<unsigned long long>(c.tasks_executed),
                      static_cast<unsigned long long>(c.tasks_completed),
                      static_cast<unsigned long long>(c.stops),
                      static_cast<unsigned long long>(c.bad_requests),
+                     static_cast<unsigned long long>(c.unanswered),
                      ajar::drivers::arm::to_string(sim.phase()));
         last = c;
       }

@@ -68,6 +68,13 @@ struct ArmControllerSimulator::Impl {
   Injection garble;
   bool refuse = false;
   bool fail_task = false;
+  // The controller's own faults (header).
+  bool silent = false;
+  std::optional<Clock::time_point> silent_until;  // empty: until answer_again()
+  bool silence_next_stop = false;
+  bool ignore_stops = false;
+  bool hold_task = false;                   // a STOP was ignored: the task never ends
+  std::optional<Clock::time_point> midway;  // silent / reset mid-task: when
   std::string raw_out;
   Counters counters;
   arm::ControllerPhase phase = arm::ControllerPhase::kIdle;
@@ -157,7 +164,14 @@ struct ArmControllerSimulator::Impl {
           task = req.task;
           task_done_at = now + std::chrono::milliseconds(settings.task_duration_ms);
           fail_task = false;
+          hold_task = false;
           ++counters.tasks_executed;
+          midway.reset();
+          if (settings.fault == ArmSimFault::kSilentMidTask ||
+              settings.fault == ArmSimFault::kResetMidTask) {
+            midway = now + std::chrono::milliseconds(settings.task_duration_ms / 2);
+          }
+          silence_next_stop = settings.fault == ArmSimFault::kSilentMidStop;
         }
         break;
       }
@@ -166,7 +180,13 @@ struct ArmControllerSimulator::Impl {
         break;
       case arm::Command::kStop:
         ++counters.stops;
-        if (phase == arm::ControllerPhase::kBusy) phase = arm::ControllerPhase::kIdle;
+        if (phase == arm::ControllerPhase::kBusy &&
+            (ignore_stops || settings.fault == ArmSimFault::kStopIgnored)) {
+          hold_task = true;  // answered, and it goes on working
+        } else if (phase == arm::ControllerPhase::kBusy || phase == arm::ControllerPhase::kDone) {
+          phase = arm::ControllerPhase::kIdle;
+          midway.reset();
+        }
         break;
       case arm::Command::kClear:
         if (phase == arm::ControllerPhase::kFault) phase = arm::ControllerPhase::kIdle;
@@ -206,6 +226,15 @@ struct ArmControllerSimulator::Impl {
       return;
     }
     ++counters.requests;
+    if (req.command == arm::Command::kStop && silence_next_stop &&
+        phase == arm::ControllerPhase::kBusy) {
+      silence_next_stop = false;
+      fall_silent(now);
+    }
+    if (silent) {
+      ++counters.unanswered;
+      return;
+    }
     if (last_seq && *last_seq == req.seq) {
       ++counters.duplicates_ignored;
       queue_reply(last_reply, req.command, now);
@@ -216,8 +245,42 @@ struct ArmControllerSimulator::Impl {
     queue_reply(last_reply, req.command, now);
   }
 
+  void fall_silent(Clock::time_point now) {
+    silent = true;
+    silent_until.reset();
+    if (settings.silent_ms > 0) silent_until = now + std::chrono::milliseconds(settings.silent_ms);
+  }
+
+  void reset_locked() {
+    phase = arm::ControllerPhase::kIdle;
+    task_id = 0;
+    task.reset();
+    last_seq.reset();
+    last_reply.clear();
+    outgoing.clear();
+    silent = false;
+    silence_next_stop = false;
+    hold_task = false;
+    fail_task = false;
+    midway.reset();
+  }
+
   void tick(Clock::time_point now) {
+    if (silent && silent_until && now >= *silent_until) silent = false;
+    if (silent) return;  // its task neither ends nor fails until it answers again
     if (phase != arm::ControllerPhase::kBusy) return;
+    if (midway && now >= *midway) {
+      midway.reset();
+      if (settings.fault == ArmSimFault::kSilentMidTask) {
+        fall_silent(now);
+        return;
+      }
+      if (settings.fault == ArmSimFault::kResetMidTask) {
+        reset_locked();
+        return;
+      }
+    }
+    if (hold_task) return;
     if (fail_task) {
       phase = arm::ControllerPhase::kFault;
       fail_task = false;
@@ -282,7 +345,9 @@ struct ArmControllerSimulator::Impl {
         if (ms < timeout_ms) timeout_ms = static_cast<int>(ms < 0 ? 0 : ms);
       };
       if (!outgoing.empty()) until(outgoing.front().due);
-      if (phase == arm::ControllerPhase::kBusy) until(task_done_at);
+      if (phase == arm::ControllerPhase::kBusy && !silent && !hold_task) until(task_done_at);
+      if (midway && !silent && phase == arm::ControllerPhase::kBusy) until(*midway);
+      if (silent && silent_until) until(*silent_until);
       const int master = plugged ? master_fd : -1;
       lock.unlock();
 
@@ -401,6 +466,45 @@ void ArmControllerSimulator::send_raw(std::string bytes) {
   std::lock_guard lock(impl_->mutex);
   impl_->raw_out += bytes;
   impl_->wake();
+}
+
+void ArmControllerSimulator::set_fault(ArmSimFault fault) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->settings.fault = fault;
+}
+
+void ArmControllerSimulator::go_silent() {
+  std::lock_guard lock(impl_->mutex);
+  impl_->fall_silent(Clock::now());
+  impl_->wake();
+}
+
+void ArmControllerSimulator::answer_again() {
+  std::lock_guard lock(impl_->mutex);
+  impl_->silent = false;
+  impl_->wake();
+}
+
+void ArmControllerSimulator::silence_next_stop() {
+  std::lock_guard lock(impl_->mutex);
+  impl_->silence_next_stop = true;
+}
+
+void ArmControllerSimulator::reset_controller() {
+  std::lock_guard lock(impl_->mutex);
+  impl_->reset_locked();
+  impl_->wake();
+}
+
+void ArmControllerSimulator::set_ignore_stops(bool ignore) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->ignore_stops = ignore;
+  if (!ignore) impl_->hold_task = false;
+}
+
+bool ArmControllerSimulator::silent() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->silent;
 }
 
 void ArmControllerSimulator::unplug() {

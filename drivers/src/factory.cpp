@@ -73,6 +73,7 @@ DriverSet make_drivers(const DriverSettings& settings, const core::BaseGeometry&
       SerialArmSettings arm_settings = settings.arm;
       arm_settings.device = backends->arm_sim->device_path();
       arm = std::make_unique<SerialManipulator>(arm_settings);
+      set.arm_simulator = backends->arm_sim.get();
       set.keepalive = std::move(backends);
       break;
     }

@@ -7,10 +7,35 @@
 
 namespace ajar::drivers {
 
-MockManipulator::MockManipulator(MockFault fault, int slow_ms, MockClock clock)
+namespace {
+
+MockArmFault arm_fault(MockFault fault) {
+  switch (fault) {
+    case MockFault::kNone:
+      return MockArmFault::kNone;
+    case MockFault::kStuck:
+      return MockArmFault::kStuck;
+    case MockFault::kSlow:
+      return MockArmFault::kSlow;
+    case MockFault::kErrorCode:
+      return MockArmFault::kErrorCode;
+    case MockFault::kIntermittent:
+      return MockArmFault::kIntermittent;
+    case MockFault::kGarbage:
+      return MockArmFault::kGarbage;
+  }
+  return MockArmFault::kNone;
+}
+
+}  // namespace
+
+MockManipulator::MockManipulator(MockArmFault fault, int slow_ms, MockClock clock)
     : fault_(fault),
       slow_ms_(slow_ms < 0 ? 0 : slow_ms),
       clock_(or_steady_clock(std::move(clock))) {}
+
+MockManipulator::MockManipulator(MockFault fault, int slow_ms, MockClock clock)
+    : MockManipulator(arm_fault(fault), slow_ms, std::move(clock)) {}
 
 std::optional<Error> MockManipulator::enter_locked(const char* call) {
   calls_.emplace_back(call);
@@ -20,7 +45,7 @@ std::optional<Error> MockManipulator::enter_locked(const char* call) {
 }
 
 Outcome MockManipulator::connect() {
-  MockFault fault;
+  MockArmFault fault;
   int slow_ms;
   {
     std::lock_guard lock(mutex_);
@@ -28,7 +53,7 @@ Outcome MockManipulator::connect() {
     fault = fault_;
     slow_ms = slow_ms_;
   }
-  if (fault == MockFault::kSlow) std::this_thread::sleep_for(std::chrono::milliseconds(slow_ms));
+  if (fault == MockArmFault::kSlow) std::this_thread::sleep_for(std::chrono::milliseconds(slow_ms));
   std::lock_guard lock(mutex_);
   connected_ = true;
   if (status_.phase == ArmPhase::kDisconnected) {
@@ -48,6 +73,18 @@ Outcome MockManipulator::disconnect() {
 }
 
 void MockManipulator::settle_locked(std::int64_t now_ns) const {
+  if (midway_ns_ != 0 && now_ns >= midway_ns_ && !silent_) {
+    if (status_.phase == ArmPhase::kBusy && fault_ == MockArmFault::kSilentMidTask) {
+      silent_ = true;
+      silent_since_ns_ = midway_ns_;
+    } else if (status_.phase == ArmPhase::kBusy && fault_ == MockArmFault::kResetMidTask) {
+      status_.phase = ArmPhase::kIdle;  // came back idle, the task forgotten
+      status_.task_id = 0;
+      task_never_ends_ = false;
+    }
+    midway_ns_ = 0;
+  }
+  if (silent_) return;  // nothing the controller does is heard of
   if (status_.phase != ArmPhase::kBusy || task_never_ends_ || now_ns < busy_until_ns_) return;
   if (task_outcome_ == ErrorCode::kOk) {
     status_.phase = ArmPhase::kDone;
@@ -63,6 +100,9 @@ Result<std::uint32_t> MockManipulator::hand_off(const DoorTask& task) {
   const std::int64_t now = clock_();
   settle_locked(now);
   if (!connected_) return make_error(ErrorCode::kArmDisconnected, "", "mock arm: not connected");
+  if (silent_) {
+    return make_error(ErrorCode::kArmDisconnected, "", "mock arm: the controller does not answer");
+  }
   if (status_.phase == ArmPhase::kBusy || status_.phase == ArmPhase::kFault) {
     return make_error(ErrorCode::kWrongState, "",
                       status_.phase == ArmPhase::kBusy ? "mock arm: a task is busy"
@@ -76,26 +116,37 @@ Result<std::uint32_t> MockManipulator::hand_off(const DoorTask& task) {
   status_.last_error = ErrorCode::kOk;
   task_never_ends_ = false;
   task_outcome_ = ErrorCode::kOk;
+  midway_ns_ = 0;
   int duration_ms = kTaskDurationMs;
   switch (fault_) {
-    case MockFault::kNone:
+    case MockArmFault::kNone:
       break;
-    case MockFault::kStuck:
+    case MockArmFault::kStuck:
+    case MockArmFault::kStopIgnored:
       task_never_ends_ = true;
       break;
-    case MockFault::kSlow:
+    case MockArmFault::kSlow:
       duration_ms = slow_ms_ * 4;
       break;
-    case MockFault::kErrorCode:
+    case MockArmFault::kErrorCode:
       duration_ms = 0;
       task_outcome_ = ErrorCode::kArmRejected;
       break;
-    case MockFault::kIntermittent:
+    case MockArmFault::kIntermittent:
       if (tasks_started_ % 2 == 0) task_outcome_ = ErrorCode::kArmTimeout;
       break;
-    case MockFault::kGarbage:
+    case MockArmFault::kGarbage:
       duration_ms = slow_ms_;
       task_outcome_ = ErrorCode::kArmTimeout;
+      break;
+    case MockArmFault::kSilentMidTask:
+    case MockArmFault::kResetMidTask:
+      task_never_ends_ = true;
+      midway_ns_ = now + std::int64_t{kTaskDurationMs} * 500'000;  // half way
+      break;
+    case MockArmFault::kSilentMidStop:
+      task_never_ends_ = true;
+      silence_next_stop_ = true;
       break;
   }
   busy_until_ns_ = now + std::int64_t{duration_ms} * 1'000'000;
@@ -107,11 +158,41 @@ Outcome MockManipulator::stop() {
   std::lock_guard lock(mutex_);
   if (auto e = enter_locked("stop")) return std::move(*e);
   ++stops_;
-  settle_locked(clock_());
-  if (status_.phase == ArmPhase::kBusy) status_.phase = ArmPhase::kIdle;
-  task_never_ends_ = false;
+  const std::int64_t now = clock_();
+  settle_locked(now);
+  if (silence_next_stop_ && status_.phase == ArmPhase::kBusy && !silent_) {
+    silence_next_stop_ = false;
+    silent_ = true;  // this stop is the first thing it does not answer
+    silent_since_ns_ = now;
+  }
+  if (silent_) {
+    stop_owed_ = true;  // queued, as the serial driver keeps it for when the controller answers
+  } else {
+    apply_stop_locked();
+  }
   if (!connected_) return make_error(ErrorCode::kArmDisconnected, "", "mock arm: not connected");
   return Ok{};
+}
+
+void MockManipulator::apply_stop_locked() {
+  if (status_.phase == ArmPhase::kBusy && (ignore_stops_ || fault_ == MockArmFault::kStopIgnored)) {
+    task_never_ends_ = true;  // answered, and it goes on working
+    return;
+  }
+  if (status_.phase == ArmPhase::kBusy || status_.phase == ArmPhase::kDone) {
+    status_.phase = ArmPhase::kIdle;
+  }
+  task_never_ends_ = false;
+  midway_ns_ = 0;
+}
+
+void MockManipulator::answer_again_locked() {
+  if (!silent_) return;
+  silent_ = false;
+  if (stop_owed_) {
+    stop_owed_ = false;
+    apply_stop_locked();
+  }
 }
 
 Outcome MockManipulator::clear_fault() {
@@ -119,6 +200,9 @@ Outcome MockManipulator::clear_fault() {
   if (auto e = enter_locked("clear_fault")) return std::move(*e);
   settle_locked(clock_());
   if (!connected_) return make_error(ErrorCode::kArmDisconnected, "", "mock arm: not connected");
+  if (silent_) {
+    return make_error(ErrorCode::kArmDisconnected, "", "mock arm: the controller does not answer");
+  }
   if (status_.phase == ArmPhase::kFault) {
     status_.phase = ArmPhase::kIdle;
     status_.last_error = ErrorCode::kOk;
@@ -128,13 +212,72 @@ Outcome MockManipulator::clear_fault() {
 
 ArmStatus MockManipulator::status() const {
   std::lock_guard lock(mutex_);
-  settle_locked(clock_());
-  return status_;
+  const std::int64_t now = clock_();
+  settle_locked(now);
+  ArmStatus reported = status_;
+  if (silent_ && now - silent_since_ns_ >= std::int64_t{slow_ms_} * 1'000'000) {
+    reported.phase = ArmPhase::kDisconnected;  // the driver's retries ran out
+    reported.last_error = ErrorCode::kArmTimeout;
+  }
+  return reported;
 }
 
 void MockManipulator::set_fault(MockFault fault) {
+  set_fault(arm_fault(fault));
+}
+
+void MockManipulator::set_fault(MockArmFault fault) {
   std::lock_guard lock(mutex_);
+  settle_locked(clock_());
   fault_ = fault;
+  if (fault == MockArmFault::kNone) {
+    silence_next_stop_ = false;
+    ignore_stops_ = false;
+    answer_again_locked();
+  }
+}
+
+void MockManipulator::go_silent() {
+  std::lock_guard lock(mutex_);
+  const std::int64_t now = clock_();
+  settle_locked(now);
+  if (silent_) return;
+  silent_ = true;
+  silent_since_ns_ = now;
+}
+
+void MockManipulator::answer_again() {
+  std::lock_guard lock(mutex_);
+  settle_locked(clock_());
+  answer_again_locked();
+}
+
+void MockManipulator::silence_next_stop() {
+  std::lock_guard lock(mutex_);
+  silence_next_stop_ = true;
+}
+
+void MockManipulator::reset_controller() {
+  std::lock_guard lock(mutex_);
+  settle_locked(clock_());
+  silent_ = false;
+  stop_owed_ = false;
+  midway_ns_ = 0;
+  task_never_ends_ = false;
+  if (connected_) status_.phase = ArmPhase::kIdle;
+  status_.last_error = ErrorCode::kOk;
+  status_.task_id = 0;
+}
+
+void MockManipulator::ignore_stops(bool ignore) {
+  std::lock_guard lock(mutex_);
+  ignore_stops_ = ignore;
+}
+
+bool MockManipulator::silent() const {
+  std::lock_guard lock(mutex_);
+  settle_locked(clock_());
+  return silent_;
 }
 
 std::uint64_t MockManipulator::tasks_started() const {

@@ -95,11 +95,10 @@ Result<std::uint32_t> SerialManipulator::hand_off(const DoorTask& task) {
 
 Outcome SerialManipulator::stop() {
   std::lock_guard lock(impl_->mutex);
-  auto& s = impl_->snapshot;
-  if (impl_->task_pending) {  // never sent: cancel it here
-    impl_->task_pending.reset();
-    if (s.phase == ArmPhase::kBusy) s.phase = ArmPhase::kIdle;
-  }
+  const auto& s = impl_->snapshot;
+  // A task never sent is cancelled here; the phase stays what it shows until the controller's
+  // reply to the STOP below says idle (the daemon moves the base only on that word).
+  impl_->task_pending.reset();
   if (!impl_->running) {
     return make_error(ErrorCode::kArmDisconnected, "", "serial arm: not connected");
   }

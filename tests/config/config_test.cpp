@@ -251,7 +251,7 @@ TEST_F(ConfigTest, NoneMeansNoFaultAndNoLogging) {
   const Config c = load_config(
       write("drivers:\n  mock: {card_fault: none, arm_fault: stuck}\nlogging:\n  level: none\n"));
   EXPECT_EQ(c.drivers.mock.card_fault, drivers::MockFault::kNone);
-  EXPECT_EQ(c.drivers.mock.arm_fault, drivers::MockFault::kStuck);
+  EXPECT_EQ(c.drivers.mock.arm_fault, drivers::MockArmFault::kStuck);
   EXPECT_EQ(c.logging.level, LogLevel::kNone);
   const std::string yaml = to_yaml(c);
   EXPECT_NE(yaml.find("card_fault: none"), std::string::npos) << yaml;
@@ -297,7 +297,7 @@ TEST_F(ConfigTest, ChangedKeysSeeListsAndWords) {
   const Config a = default_config();
   Config b = a;
   b.network.tls.identities.push_back({{TlsIdentity::Kind::kCommonName, "op"}, true, true});
-  b.drivers.mock.arm_fault = drivers::MockFault::kGarbage;
+  b.drivers.mock.arm_fault = drivers::MockArmFault::kGarbage;
   b.limits.max_depth_m = 5;
   EXPECT_EQ(changed_keys(a, b),
             (std::vector<std::string>{"network.tls.identities", "limits.depth_m",

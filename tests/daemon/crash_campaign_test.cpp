@@ -28,6 +28,7 @@
 #include <gtest/gtest.h>
 
 #include "ajard_restarts.hpp"
+#include "campaign_seeds.hpp"
 #include "e2e_fixture.hpp"
 
 namespace ajar::test {
@@ -37,16 +38,7 @@ using protocol::EventKind;
 using protocol::ProcedureState;
 using protocol::Role;
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-constexpr std::uint64_t kCiRounds = 12;
-#else
-constexpr std::uint64_t kCiRounds = 40;
-#endif
-
-std::uint64_t env_u64(const char* name, std::uint64_t fallback) {
-  const char* v = std::getenv(name);
-  return v != nullptr ? std::strtoull(v, nullptr, 10) : fallback;
-}
+constexpr std::uint64_t kCiRounds = ci_size(40, 12);
 
 // What the state file must give back: the measurements the Acks accepted.
 struct Stored {
@@ -79,7 +71,7 @@ enum class Ending : std::uint8_t {
   kKill,               // SIGKILL at once (the motion may be running)
   kKillAfterEstopAck,  // EmergencyStop, its Ack read, SIGKILL at once
   kKillOnHungDisk,     // the disk hangs, EmergencyStop, its Ack, SIGKILL
-  kKillInFlight,       // a MeasureDoorWidth sent, no reply read, SIGKILL
+  kKillInFlight,       // a MeasureDoorWidth sent, no reply read, SIGKILL 0-3 ms later
   kTerm,               // SIGTERM, drained until the sessions close
   kTermThenEstop,      // SIGTERM, then an observer's EmergencyStop during the shutdown
   kTermThenStop,       // SIGTERM, then the controller's Stop during the shutdown
@@ -164,6 +156,18 @@ class Campaign {
       if (fault_ != ErrorCode::kInternal) {
         EXPECT_EQ(status.latched_fault, fault_);
       }
+    }
+    if (!first && killed_) {
+      ++counters[status.latched_fault == ErrorCode::kUncleanShutdown
+                     ? "after a kill: UNCLEAN_SHUTDOWN latched"
+                     : "after a kill: the fault from before it restored"];
+    } else if (!first && status.latched_fault != ErrorCode::kOk) {
+      ++counters["after a clean shutdown: the fault from before it restored"];
+    }
+    if (allowed_.size() > 1) {
+      ++counters[allowed_.back().matches(stored) && !allowed_.front().matches(stored)
+                     ? "measurement in flight at the kill: found executed"
+                     : "measurement in flight at the kill: not executed"];
     }
     bool found = false;
     for (const auto& s : allowed_)
@@ -297,6 +301,8 @@ class Campaign {
         Stored after = stored_;
         after.width_m = length;
         allowed_.push_back(after);
+        // 0 to 3 ms: killed before the daemon read it, while it saves, or after the save.
+        std::this_thread::sleep_for(std::chrono::microseconds(uniform(0, 3000)));
         break;
       }
       case Ending::kTerm:

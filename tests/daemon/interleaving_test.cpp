@@ -8,7 +8,8 @@
 // controller loss (disconnect) and take-over by a second controller session, silence (deadman),
 // card faults at random cycles (the mock card's test menu: also a card that drops a command,
 // answers an error after taking one, reports stale status or is silent), a slow state store (held
-// durable Acks), and arm outcomes (done, fault, disconnect, a controller that resets mid-task). The
+// durable Acks), and arm outcomes (done, fault, disconnect, a controller that resets mid-task,
+// stops answering mid-task or at a stop, or answers stops but stays busy: world_arm.cpp). The
 // loop runs by hand (EngineOptions::manual_loop), so a seed replays exactly. After every command
 // and every cycle the invariants are checked (docs/control-loop.md, "Proof"); a campaign also
 // asserts that the interesting situations were actually reached (coverage counters, printed).
@@ -24,6 +25,7 @@
 #include <string>
 
 #include "ajar/daemon/logging.hpp"
+#include "campaign_seeds.hpp"
 #include "det_mock_card.hpp"
 #include "fake_door.hpp"
 #include "fake_engine_fixture.hpp"
@@ -32,28 +34,17 @@
 namespace ajar::testing::interleaving {
 namespace {
 
-// CI's campaign. Under ASan/TSan (10-20x the CPU) a shorter one: the Release run asserts coverage.
-#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
-constexpr std::uint64_t kCiSeeds = 400;
-#else
-constexpr std::uint64_t kCiSeeds = 2000;
-#endif
-
-std::uint64_t env_u64(const char* name, std::uint64_t fallback) {
-  const char* v = std::getenv(name);
-  return v != nullptr && *v != '\0' ? std::strtoull(v, nullptr, 10) : fallback;
-}
+// CI's campaign (campaign_seeds.hpp: shorter under a sanitizer).
+constexpr std::uint64_t kCiSeeds = test::ci_size(2000, 400);
 
 TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
   daemon::set_log_level(daemon::LogLevel::kNone);  // the hub logs every command
   const std::string dir = shm_dir();
-  const char* one = std::getenv("AJAR_SEED");
-  const std::uint64_t first = one != nullptr ? env_u64("AJAR_SEED", 0) : 1;
-  const std::uint64_t count = one != nullptr ? 1 : env_u64("AJAR_SEEDS", kCiSeeds);
+  const auto [first, count, replay] = test::seed_range(kCiSeeds);
   int failures = 0;
   Coverage total;
   for (std::uint64_t seed = first; seed < first + count && failures < 3; ++seed) {
-    World world(seed, dir, one != nullptr);
+    World world(seed, dir, replay);
     const std::string violation = world.run(60);
     total.add(world.coverage());
     if (!violation.empty()) {
@@ -72,7 +63,7 @@ TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
   for (const auto& [k, v] : total.counts)
     counters << "  " << k << ": " << v << "\n";
   std::cout << "coverage over " << count << " seeds:\n" << counters.str();
-  if (one != nullptr || count < 2000) return;
+  if (replay || count < 2000) return;
   // Over a CI campaign every interesting situation is reached a few times at least.
   for (const char* what :
        {"aligning", "alignment finished", "engaging", "arm task finished", "jog stopped by a Stop",
@@ -84,6 +75,13 @@ TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
         "approach at the card", "card drops a move", "card drops jog updates mid-jog",
         "stale status mid-motion", "card silent mid-motion", "fault VELOCITY_MISMATCH",
         "fault MOTION_TIMEOUT", "jog held at the door's standoff"}) {
+    EXPECT_GE(total.get(what), 10) << "the campaign no longer reaches: " << what;
+  }
+  // The arm controller's faults and the arm interlock (world_arm.cpp).
+  for (const char* what :
+       {"arm silent mid-task", "arm silent mid-stop", "arm reset mid-task", "arm stop ignored",
+        "fault ARM_NOT_CLEAR", "Reset refused: the arm not clear",
+        "wheel motion refused: the arm not clear", "cycles with the arm at the door"}) {
     EXPECT_GE(total.get(what), 10) << "the campaign no longer reaches: " << what;
   }
 }

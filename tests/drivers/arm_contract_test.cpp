@@ -129,6 +129,16 @@ TYPED_TEST(ArmContract, StopEndsATaskAndANewOneIsAccepted) {
   EXPECT_TRUE(arm.stop().ok());
 }
 
+// A done arm may still be at the door: a stop sends it back to rest (idle), which is the word the
+// daemon moves the base on (docs/procedure.md, "The arm interlock").
+TYPED_TEST(ArmContract, StopAfterADoneTaskReturnsToIdle) {
+  Manipulator& arm = this->connected();
+  ASSERT_TRUE(arm.hand_off(sample_task()).ok());
+  ASSERT_TRUE(wait_phase(arm, ArmPhase::kDone));
+  ASSERT_TRUE(arm.stop().ok());
+  ASSERT_TRUE(wait_phase(arm, ArmPhase::kIdle));
+}
+
 TYPED_TEST(ArmContract, StopWhenIdleIsAccepted) {
   Manipulator& arm = this->connected();
   EXPECT_TRUE(arm.stop().ok());

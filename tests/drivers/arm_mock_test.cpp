@@ -138,5 +138,61 @@ TEST_F(ArmMock, SetPhaseReportsWhatTheTestSays) {
   EXPECT_EQ(a.count("clear_fault"), 1U);
 }
 
+// The config's fault words run the same faults by time (drivers.mock.arm_fault).
+TEST(ArmMockControllerFaults, RunByTimeUnderTheConfigWords) {
+  std::int64_t now = 0;
+  const auto clock = [&now] { return now; };
+  const auto ms = [&now](int n) { now += std::int64_t{n} * 1'000'000; };
+  const int half = MockManipulator::kTaskDurationMs / 2;
+  {
+    MockManipulator a(MockArmFault::kSilentMidTask, 10, clock);
+    ASSERT_TRUE(a.connect().ok());
+    ASSERT_TRUE(a.hand_off(DoorTask{}).ok());
+    ms(half);
+    EXPECT_TRUE(a.silent());
+    EXPECT_EQ(a.status().phase, ArmPhase::kBusy);  // the driver still retries
+    ms(10);
+    EXPECT_EQ(a.status().phase, ArmPhase::kDisconnected);
+    EXPECT_EQ(a.status().last_error, ErrorCode::kArmTimeout);
+    EXPECT_TRUE(a.stop().ok());  // queued, owed
+    ms(3600'000);
+    EXPECT_EQ(a.status().phase, ArmPhase::kDisconnected);
+    a.answer_again();
+    EXPECT_EQ(a.status().phase, ArmPhase::kIdle);
+  }
+  {
+    MockManipulator a(MockArmFault::kSilentMidStop, 10, clock);
+    ASSERT_TRUE(a.connect().ok());
+    ASSERT_TRUE(a.hand_off(DoorTask{}).ok());
+    ms(3600'000);
+    EXPECT_EQ(a.status().phase, ArmPhase::kBusy);
+    EXPECT_TRUE(a.stop().ok());
+    EXPECT_TRUE(a.silent());
+    ms(10);
+    EXPECT_EQ(a.status().phase, ArmPhase::kDisconnected);
+    a.set_fault(MockArmFault::kNone);  // answers again: the stop acts
+    EXPECT_EQ(a.status().phase, ArmPhase::kIdle);
+  }
+  {
+    MockManipulator a(MockArmFault::kResetMidTask, 10, clock);
+    ASSERT_TRUE(a.connect().ok());
+    ASSERT_TRUE(a.hand_off(DoorTask{}).ok());
+    ms(half - 1);
+    EXPECT_EQ(a.status().phase, ArmPhase::kBusy);
+    ms(1);
+    EXPECT_EQ(a.status().phase, ArmPhase::kIdle);
+    EXPECT_EQ(a.status().task_id, 0U);
+  }
+  {
+    MockManipulator a(MockArmFault::kStopIgnored, 10, clock);
+    ASSERT_TRUE(a.connect().ok());
+    ASSERT_TRUE(a.hand_off(DoorTask{}).ok());
+    EXPECT_TRUE(a.stop().ok());
+    ms(3600'000);
+    EXPECT_EQ(a.status().phase, ArmPhase::kBusy);
+    EXPECT_EQ(a.stops(), 1U);
+  }
+}
+
 }  // namespace
 }  // namespace ajar::drivers

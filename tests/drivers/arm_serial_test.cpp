@@ -255,5 +255,100 @@ TEST(ArmSerial, InvalidLineSettingsAreNamed) {
   EXPECT_EQ(st.error().field, "baud");
 }
 
+// The arm controller's own faults (ArmSimulatorSettings::fault and the test calls), as the serial
+// driver shows them: the daemon's arm interlock (docs/procedure.md) relies on these reports.
+
+// A controller that falls silent mid-task: the STOP runs out of retries (kDisconnected with
+// kArmTimeout, never kIdle), is sent again when it answers, and only then is the arm idle.
+TEST(ArmSerial, AStopToASilentControllerIsSentAgainWhenItAnswers) {
+  SerialRig rig(endless_tasks());
+  ASSERT_TRUE(rig.arm->connect().ok());
+  ASSERT_TRUE(rig.arm->hand_off(sample_task()).ok());
+  ASSERT_TRUE(wait_for([&] { return rig.sim->phase() == arm::ControllerPhase::kBusy; }));
+  ASSERT_TRUE(wait_phase(*rig.arm, ArmPhase::kBusy));
+  rig.sim->go_silent();
+  ASSERT_TRUE(rig.arm->stop().ok());
+  ASSERT_TRUE(wait_phase(*rig.arm, ArmPhase::kDisconnected));
+  EXPECT_EQ(rig.arm->status().last_error, ErrorCode::kArmTimeout);
+  EXPECT_EQ(rig.sim->counters().stops, 0U);
+  EXPECT_GE(rig.sim->counters().unanswered, 1U);
+  EXPECT_EQ(rig.sim->phase(), arm::ControllerPhase::kBusy);
+  rig.sim->answer_again();
+  ASSERT_TRUE(wait_phase(*rig.arm, ArmPhase::kIdle));
+  EXPECT_EQ(rig.sim->counters().stops, 1U);
+  EXPECT_EQ(rig.sim->phase(), arm::ControllerPhase::kIdle);
+}
+
+// silent-mid-stop: the STOP itself is the first request it does not answer.
+TEST(ArmSerial, AControllerSilentAtTheStopNeverShowsIdle) {
+  ArmSimulatorSettings sim = endless_tasks();
+  sim.fault = ArmSimFault::kSilentMidStop;
+  SerialRig rig(sim);
+  ASSERT_TRUE(rig.arm->connect().ok());
+  ASSERT_TRUE(rig.arm->hand_off(sample_task()).ok());
+  ASSERT_TRUE(wait_for([&] { return rig.sim->phase() == arm::ControllerPhase::kBusy; }));
+  ASSERT_TRUE(rig.arm->stop().ok());
+  ASSERT_TRUE(wait_phase(*rig.arm, ArmPhase::kDisconnected));
+  EXPECT_TRUE(rig.sim->silent());
+  EXPECT_EQ(rig.sim->counters().stops, 0U);
+  rig.sim->answer_again();
+  ASSERT_TRUE(wait_phase(*rig.arm, ArmPhase::kIdle));
+  EXPECT_EQ(rig.sim->counters().stops, 1U);
+}
+
+// stop-ignored: the STOP is acknowledged, with phase BUSY: the driver reports busy, not idle.
+TEST(ArmSerial, AStopAnsweredWithBusyLeavesTheArmBusy) {
+  ArmSimulatorSettings sim = quick_tasks();
+  sim.fault = ArmSimFault::kStopIgnored;
+  SerialRig rig(sim);
+  ASSERT_TRUE(rig.arm->connect().ok());
+  rig.sim->set_task_duration_ms(600'000);
+  ASSERT_TRUE(rig.arm->hand_off(sample_task()).ok());
+  ASSERT_TRUE(wait_for([&] { return rig.sim->phase() == arm::ControllerPhase::kBusy; }));
+  ASSERT_TRUE(rig.arm->stop().ok());
+  ASSERT_TRUE(wait_for([&] { return rig.sim->counters().stops == 1; }));
+  // Several status polls later the driver still reports the controller's word: busy.
+  const auto requests = rig.sim->counters().requests;
+  ASSERT_TRUE(wait_for([&] { return rig.sim->counters().requests >= requests + 3; }));
+  EXPECT_EQ(rig.arm->status().phase, ArmPhase::kBusy);
+  EXPECT_EQ(rig.sim->phase(), arm::ControllerPhase::kBusy);
+  rig.sim->set_fault(ArmSimFault::kNone);
+  rig.sim->set_ignore_stops(false);
+  ASSERT_TRUE(rig.arm->stop().ok());
+  ASSERT_TRUE(wait_phase(*rig.arm, ArmPhase::kIdle));
+}
+
+// reset-mid-task: half way through the task the controller comes back idle with task id 0; the
+// driver reports idle (the daemon, which saw the task busy, latches ARM_FAULT).
+TEST(ArmSerial, AControllerResetMidTaskShowsIdle) {
+  ArmSimulatorSettings sim;
+  sim.task_duration_ms = 400;
+  sim.fault = ArmSimFault::kResetMidTask;
+  SerialRig rig(sim);
+  ASSERT_TRUE(rig.arm->connect().ok());
+  ASSERT_TRUE(rig.arm->hand_off(sample_task()).ok());
+  ASSERT_TRUE(wait_for([&] { return rig.sim->counters().tasks_executed == 1; }));
+  ASSERT_TRUE(wait_for([&] { return rig.sim->phase() == arm::ControllerPhase::kIdle; }));
+  EXPECT_EQ(rig.sim->last_task_id(), 0U);
+  EXPECT_EQ(rig.sim->counters().tasks_completed, 0U);
+  ASSERT_TRUE(wait_phase(*rig.arm, ArmPhase::kIdle));
+}
+
+// silent-mid-task with a bounded silence: it answers again by itself and the task goes on.
+TEST(ArmSerial, ASilenceOfSilentMsEndsByItself) {
+  ArmSimulatorSettings sim;
+  sim.task_duration_ms = 200;
+  sim.fault = ArmSimFault::kSilentMidTask;
+  sim.silent_ms = 1500;
+  SerialRig rig(sim);
+  ASSERT_TRUE(rig.arm->connect().ok());
+  ASSERT_TRUE(rig.arm->hand_off(sample_task()).ok());
+  ASSERT_TRUE(wait_for([&] { return rig.sim->silent(); }));
+  ASSERT_TRUE(wait_phase(*rig.arm, ArmPhase::kDisconnected));
+  ASSERT_TRUE(wait_for([&] { return !rig.sim->silent(); }));
+  ASSERT_TRUE(wait_phase(*rig.arm, ArmPhase::kDone));
+  EXPECT_EQ(rig.sim->counters().tasks_completed, 1U);
+}
+
 }  // namespace
 }  // namespace ajar::drivers

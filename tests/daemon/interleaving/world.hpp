@@ -1,8 +1,9 @@
 // The interleaving proof's world (interleaving_test.cpp): one seed's engine over the
 // deterministic mock card and the mock arm behind the real SessionHub, on a fake clock. Its jobs
-// live in three files: the sessions (world_sessions.cpp), the random scenario
-// (world_scenario.cpp), and the invariants checked after every command and cycle
-// (world_checks.cpp).
+// live in five files: the sessions (world_sessions.cpp), the random scenario
+// (world_scenario.cpp), the invariants checked after every command and cycle
+// (world_checks.cpp), the card's misbehaviour and limits (world_card.cpp), and the arm
+// controller's faults with the arm interlock (world_arm.cpp).
 #pragma once
 
 #include <chrono>
@@ -40,9 +41,11 @@ class World {
   World(std::uint64_t seed, const std::string& dir, bool verbose) : rng_(seed), verbose_(verbose) {
     config_ = test_config(dir);
     config_.state.directory = dir + "/state-" + std::to_string(seed % 8);
+    config_.recorder.enabled = false;  // thousands of seeds: the black box is tested elsewhere
     config_.safety.deadman_timeout_s = 0.05;
     config_.control.motion_timeout_margin_s = 0.2;
     config_.safety.arm_task_timeout_s = 1.0;
+    config_.safety.arm_stop_timeout_s = seed % 2 == 0 ? 0.04 : 0.15;
     // Jogs end sooner than with the defaults on most seeds (CPU); the defaults on some.
     if (seed % 4 != 0) {
       config_.drive.command_timeout_s = seed % 4 == 1 ? 0.1 : 0.2;
@@ -72,7 +75,12 @@ class World {
                     3 * kPeriodNs;
     drivers::DriverSet set;
     set.card = std::move(card);
-    set.arm = make_mock_arm(arm_);
+    // The arm on the world's clock (a seed replays exactly): tasks stay busy until the scenario
+    // says; a silent controller shows as disconnected 40 ms later.
+    auto arm = std::make_unique<drivers::MockManipulator>(drivers::MockArmFault::kStuck, 40,
+                                                          [this] { return now_; });
+    arm_ = arm.get();
+    set.arm = std::move(arm);
     daemon::EngineOptions options;
     options.now_ns = [this] { return now_; };
     options.manual_loop = true;
@@ -151,6 +159,32 @@ class World {
   void inject_card_fault();
 
   void arm_event();
+
+  // ---- the arm controller's faults and the arm interlock (world_arm.cpp) ----
+
+  // It stops answering mid-task, will not answer the next stop, resets mid-task, answers stops
+  // but stays busy (now during a task, or by time in the next one) — or answers again (its link
+  // back, idle).
+  void inject_arm_fault();
+
+  // Quiescing: the arm answers again, stops act, its link is back.
+  void arm_clears_up();
+
+  // The world's own view of the arm: "at the door" from every task handed off until the arm
+  // reports idle. Read from the mock itself, never from the engine.
+  void observe_arm();
+
+  // Every cycle and after every read: while the arm may be at the door no wheel motion reaches the
+  // card (no move, no jog with a speed) and the simulated wheels do not turn.
+  void check_arm_interlock();
+
+  // After a command: AlignBase, Drive, Approach accepted while the arm may be at the door fail;
+  // coverage of the interlock's refusals.
+  void check_arm_on_executed(const protocol::Message& m, const protocol::Message& reply);
+
+  // A Reset may be refused only by the arm (field `arm`), with a fault latched, while the arm does
+  // not report idle (it still stopped everything).
+  bool reset_refused_by_the_arm(const protocol::Message& reply, const protocol::Status& before);
 
   // Everything clears up: a controller speaks, the card answers, the arm finishes, the key is
   // released. Within a bounded time nothing moves any more, every motion is closed, a Reset
@@ -276,6 +310,13 @@ class World {
   double guard_distance_m_ = 0;      // the fresh door distance after the last cycle (else inf)
   ErrorCode last_fault_ = ErrorCode::kOk;
   bool reset_seen_ = false;
+  bool arm_at_door_ = true;  // unknown until the arm's first idle report
+  std::uint64_t arm_tasks_seen_ = 0;
+  std::size_t arm_log_seen_ = 0;      // the card's log checked by check_arm_interlock
+  bool arm_silence_on_stop_ = false;  // the next silence is the stop's (coverage)
+  bool arm_was_silent_ = false;
+  std::uint64_t arm_stops_seen_ = 0;
+  drivers::ArmPhase arm_last_phase_ = drivers::ArmPhase::kIdle;
   Coverage coverage_;
   std::vector<std::string> trace_;
   std::string violation_;

@@ -257,7 +257,7 @@ void World::check_wheels(bool halted) {
       return fail("a wheel disagreed with the jog velocity the card was told and nothing noticed");
     }
   }
-  check_door_guard();
+  if (moving) check_door_guard();  // the distance changes only while the wheels turn
   if (!violation_.empty()) return;
   if (rest_by_drive_) rest_by_ns_ = last_drive_ns_ + jog_rest_ns_;
   if (moving && !silent && now_ > rest_by_ns_) {

@@ -21,16 +21,21 @@ void World::on_executed(const protocol::Message& m, const protocol::Message& rep
                        std::holds_alternative<protocol::EmergencyStop>(m) ||
                        std::holds_alternative<protocol::Reset>(m);
   if (is_stop) {
-    if (ack == nullptr) return fail("a Stop/EmergencyStop/Reset was not acknowledged");
+    if (ack == nullptr && !reset_refused_by_the_arm(reply, before)) {
+      return fail("a Stop/EmergencyStop/Reset was not acknowledged");
+    }
     if (std::holds_alternative<protocol::Stop>(m) && open_kind_ == 'd' && card_jogging()) {
       coverage_.bump("jog stopped by a Stop");
     }
     stop_expected(std::holds_alternative<protocol::EmergencyStop>(m), "acknowledged stop");
     if (std::holds_alternative<protocol::Reset>(m)) {
       reset_seen_ = true;
-      if (before.latched_fault != ErrorCode::kOk) coverage_.bump("recovery (Reset of a fault)");
+      if (before.latched_fault != ErrorCode::kOk && ack != nullptr) {
+        coverage_.bump("recovery (Reset of a fault)");
+      }
     }
   }
+  check_arm_on_executed(m, reply);
   if (ack == nullptr) return;
   if (std::holds_alternative<protocol::MeasureDoorPlane>(m)) {
     plane_ = std::get<protocol::PlaneAck>(ack->body);
@@ -235,7 +240,16 @@ void World::check_jog(bool stop_call) {
   }
   const double dt_s = static_cast<double>(kPeriodNs) / 1e9;
   const bool to_rest = lin == 0 && ang == 0;
-  if (!(to_rest && stop_call) &&
+  // commanded_* is what the wheels are told: at the wheel-speed cap both wheels are scaled, and the
+  // scaled body velocity slides along the cap faster than the limiter's steps (the card's ramp
+  // bounds the wheels there: check_card_call checks the jog calls' wheel acceleration).
+  const auto& b = config_.base;
+  const auto at_wheel_cap = [&](double v, double w) {
+    return std::abs(v) + std::abs(w) * b.turning_radius_m >=
+           b.max_wheel_speed_rad_s * b.wheel_radius_m - 1e-9;
+  };
+  const bool capped = at_wheel_cap(lin, ang) || at_wheel_cap(commanded_lin_, commanded_ang_);
+  if (!(to_rest && stop_call) && !capped &&
       (std::abs(lin - commanded_lin_) > d.max_linear_accel_m_s2 * dt_s + kEps ||
        std::abs(ang - commanded_ang_) > d.max_angular_accel_rad_s2 * dt_s + kEps)) {
     return fail("the commanded velocity changed faster than drive.max_*_accel allow");
@@ -304,6 +318,7 @@ void World::on_event(const protocol::Event& e) {
 }
 
 void World::check_now() {
+  check_arm_interlock();
   if (!violation_.empty()) return;
   const ErrorCode fault = engine_->status().latched_fault;
   if (last_fault_ != ErrorCode::kOk && fault != last_fault_ && !reset_seen_) {

@@ -264,6 +264,9 @@ void World::inject_card_fault() {
 }
 
 void World::arm_event() {
+  if (pick(calm_ ? 4 : 2) == 0 || arm_->status().phase != drivers::ArmPhase::kBusy) {
+    return inject_arm_fault();  // world_arm.cpp (when idle: for the next task)
+  }
   const auto st = arm_->status();
   if (st.phase != drivers::ArmPhase::kBusy) return;
   switch (calm_ && pick(2) == 0 ? 0 : pick(4)) {  // calm: the task mostly succeeds
@@ -294,6 +297,7 @@ void World::quiesce() {
   clear_card_misbehaviour();
   stops_never_rest_ = false;
   card_->set_stops_never_rest(false);
+  arm_clears_up();
   if (controller_ == nullptr) controller_ = connect(protocol::Role::kController, true, 0x55);
   // Bounded: every deadline (motion, stop, arm task, recovery, command timeout) is far shorter.
   const auto settled = [&] {

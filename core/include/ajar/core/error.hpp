@@ -27,14 +27,16 @@ enum class ErrorCode : std::uint16_t {
   kBadCount = 110,      // element count outside the allowed range (e.g. plane points 3..16)
 
   // 2xx: session rules (daemon/).
-  kHelloRequired = 200,   // first message of a session must be Hello
-  kAlreadyGreeted = 201,  // second Hello on one session
-  kNotController = 202,   // command needs the controller role
-  kControllerBusy = 203,  // another session holds control and take-over was not requested
-  kTooManyClients = 204,  // max clients reached; connection will be closed
-  kRateLimited = 205,     // telemetry rate outside 0..loop rate (or similar)
-  kShuttingDown = 206,    // daemon is stopping
-  kNotSupported = 207,    // 1.1: this daemon or its drivers cannot do the request (yet)
+  kHelloRequired = 200,      // first message of a session must be Hello
+  kAlreadyGreeted = 201,     // second Hello on one session
+  kNotController = 202,      // command needs the controller role
+  kControllerBusy = 203,     // another session holds control and take-over was not requested
+  kTooManyClients = 204,     // max clients reached; connection will be closed
+  kRateLimited = 205,        // telemetry rate outside 0..loop rate (or similar)
+  kShuttingDown = 206,       // daemon is stopping
+  kNotSupported = 207,       // 1.1: this daemon or its drivers cannot do the request (yet)
+  kNoSuchRecording = 208,    // 1.2: no recording of that name (field "name")
+  kRequestOutOfRange = 209,  // 1.2: a request parameter outside its range (the field names it)
 
   // 3xx: geometry and validation (core/).
   kNonFinite = 300,             // a value is NaN or infinite
@@ -68,7 +70,7 @@ enum class ErrorCode : std::uint16_t {
   kNoDoorDistance = 410,     // Approach: no width points and no plane give the distance
   kNotSquareToDoor = 411,    // Approach: the base is not square to the door within tolerance
   kApproachTooFar = 412,     // Approach: the move is longer than the configured maximum
-  kDriveNotAllowed = 413,    // Drive/Approach not allowed now (aligning, engaging, engaged, ...)
+  kDriveNotAllowed = 413,    // the base may not move now (engaging, engaged, arm not idle, ...)
   kAtMinimumStandoff = 414,  // Drive straight forward at the minimum standoff from the door
 
   // 5xx: drivers.
@@ -88,8 +90,10 @@ enum class ErrorCode : std::uint16_t {
   kEmergencyStopped = 513,  // an emergency stop was commanded: Reset to continue
   kCardOpenFailed = 514,    // GTS -6: the card could not be opened (missing, in use, driver)
   kArmFault = 515,          // the arm controller reported a fault (task aborted): clear_fault
-  kLoopStalled = 517,       // the control loop stopped cycling (a card call hung): base stopped
-  kStateRejected = 518,     // the state file could not be restored (latched at start): Reset
+  kArmNotClear = 516,    // the arm has not reported idle (clear of the door): a stop not confirmed
+                         // in time latches it; Reset is refused with it until the arm reports idle
+  kLoopStalled = 517,    // the control loop stopped cycling (a card call hung): base stopped
+  kStateRejected = 518,  // the state file could not be restored (latched at start): Reset
   kUncleanShutdown = 519,   // the previous run did not end cleanly (latched at start): Reset
   kVelocityMismatch = 520,  // the wheels did not do what the card was told (a card that does not
                             // apply a command, or reports stale status): emergency stop

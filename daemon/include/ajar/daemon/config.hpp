@@ -82,7 +82,7 @@ struct ControlConfig {
   double rate_hz = 500;   // control loop rate
   bool realtime = false;  // try SCHED_FIFO at `priority`; warn and fall back if refused
   int priority = 80;
-  bool lock_memory = false;              // try mlockall(MCL_CURRENT | MCL_FUTURE)
+  bool lock_memory = false;              // try mlockall (realtime.hpp: what is locked)
   double motion_timeout_margin_s = 2.0;  // deadline = planned duration * 1.5 + margin
   double aligned_tolerance_rad = 0.01;   // a re-measured plane within this counts as aligned
   double stall_timeout_s = 0.1;  // no loop cycle for this long -> the supervisor stops the base
@@ -91,6 +91,7 @@ struct ControlConfig {
 struct SafetyConfig {
   double deadman_timeout_s = 0.5;   // controller silent this long during motion -> stop + fault
   double arm_task_timeout_s = 120;  // an arm task not done within this -> arm stop + ARM_TIMEOUT
+  double arm_stop_timeout_s = 2.0;  // an arm stop not confirmed (idle) within this -> ARM_NOT_CLEAR
 };
 
 // logging.level: trace | debug | info | warn | error | critical | none (nothing is logged).
@@ -113,6 +114,19 @@ struct StateConfig {
   int debug_write_delay_ms = 0;
 };
 
+// The black box (docs/blackbox.md; recorder/include/ajar/recorder/recorder.hpp).
+struct RecorderConfig {
+  bool enabled = true;
+  std::string directory = "recordings";  // relative paths are relative to the working directory
+  std::int64_t max_bytes = 512LL << 20;  // every recording but the saved ones
+  std::int64_t max_file_bytes = 64LL << 20;
+  double max_file_s = 600;
+  int loop_decimation = 5;  // every n-th control-loop cycle (1: all)
+  // Test and benchmark hook, NOT a config-file key: every write to a recording waits this long
+  // first (a slow disk). Always 0 when loaded from a file.
+  int debug_write_delay_ms = 0;
+};
+
 struct Config {
   std::string source_path;  // the file it was loaded from
   NetworkConfig network;
@@ -126,6 +140,7 @@ struct Config {
   SafetyConfig safety;
   LoggingConfig logging;
   StateConfig state;
+  RecorderConfig recorder;
 };
 
 // What every key that a file does not give takes (Config{} with the paper's camera transform).

@@ -19,6 +19,10 @@
 #include "ajar/drivers/factory.hpp"
 #include "ajar/protocol/messages.hpp"
 
+namespace ajar::recorder {
+class Recorder;
+}
+
 namespace ajar::daemon {
 
 struct Config;
@@ -89,6 +93,10 @@ class Engine {
   // Called periodically (at least every few ms) on the I/O thread: drains control-loop reports,
   // emits events, persists changes.
   virtual void poll() = 0;
+  // Delivers what the control loop reported since the last poll() (its events go out now), so
+  // that the events of a command handled next are the only ones it causes. The session hub calls
+  // it before a command: it sends those events after the command's reply (docs/protocol.md 6.6).
+  virtual void catch_up() {}
 
   // Durability of accepted changes (persistence runs on the state store's writer thread, never on
   // the I/O thread). Every change accepted so far is in the save numbered accepted_generation()
@@ -117,6 +125,12 @@ class Engine {
                                           std::chrono::steady_clock::now().time_since_epoch())
                                           .count());
   }
+
+  // The black box (recorder.hpp, docs/blackbox.md), or nullptr (an engine double). Made with the
+  // engine, started by start() (before the control thread), stopped by shutdown() (after it). The
+  // session layer records frames, sessions and events into it; the protocol's black-box requests
+  // list, read and save its recordings.
+  virtual recorder::Recorder* recorder() noexcept { return nullptr; }
 
   // Test seam (EngineOptions::manual_loop only): runs one control-loop cycle at the engine's
   // clock on the calling thread. Without manual_loop it does nothing.

@@ -32,6 +32,12 @@
 //   (bad magic, oversize) -> that session is closed after the reply; nobody else notices.
 // - Events from the engine go to every greeted session; Subscribe{rate} sends Telemetry at that
 //   rate (capped at the control loop rate; 0 = off; negative or non-finite: RATE_LIMITED).
+// - The reply before the events it causes (docs/protocol.md 6.6): before a command the engine
+//   catches up (Engine::catch_up(): what happened before goes out first); the events the engine
+//   emits while it handles the command (motion_started, state_changed, ...) are broadcast only
+//   after the command's reply was sent or queued; on a session with a held reply (a durable Ack)
+//   every later event queues behind it too, so it never overtakes that Ack. The same for a Hello
+//   that takes control: its Welcome comes before the events of the old controller's stop.
 // - Durable Acks: a command that changed the persisted state (Engine::accepted_generation() moved)
 //   has its reply held until Engine::settled_generation() reaches that generation (the state
 //   store's writer thread finished the save: on disk, or failed with a logged warning — the
@@ -43,6 +49,14 @@
 //   (hung, failing) costs the durability of that Ack, never the session's later replies (a
 //   Stop's Ack behind it). The journal says so, once per stall. tick() releases
 //   what has settled; release_all() sends everything (shutdown).
+// - The black box (1.2: ListRecordings, FetchRecording, SaveRecording): any greeted session,
+//   NOT_SUPPORTED without a recorder (Options::recordings null). Handed to the Recordings, which
+//   answers from another thread (never a disk access on the I/O thread); the reply takes its
+//   place in the session's queue at once (a pending held reply): the session's later replies wait
+//   behind it, every other session is served at once. A black box that has not answered within
+//   kHeldReplyLimit gets its request answered DRIVER_ERROR ("the recorder did not answer") and its
+//   late answer is dropped, so a slow disk never holds a Stop's Ack longer than a durable Ack
+//   can be held. At most kMaxRecordingsPending per session (more: QUEUE_FULL, nothing done).
 // - Shutdown (begin_shutdown(), SIGTERM): Stop and EmergencyStop are still executed and
 //   acknowledged from any session; every other request (Hello and GetStatus included) gets ERROR
 //   SHUTTING_DOWN; events, telemetry and held replies still go out until close_all().
@@ -60,9 +74,12 @@
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
+#include "ajar/daemon/recordings.hpp"
 #include "ajar/daemon/engine.hpp"
 #include "ajar/daemon/request_ledger.hpp"
 #include "ajar/daemon/session.hpp"
@@ -76,6 +93,7 @@ class SessionHub final : public SessionHandler {
   struct Options {
     RequestLedger::Limits ledger;
     Clock::duration hello_timeout{0};  // 0 = none
+    Recordings* recordings = nullptr;  // the recorder (1.2); null: NOT_SUPPORTED. Outlives the hub
   };
 
   explicit SessionHub(Engine& engine) : SessionHub(engine, Options{}) {}
@@ -89,6 +107,7 @@ class SessionHub final : public SessionHandler {
   void on_read_begin(SessionLink&) override { engine_.begin_read_batch(); }
   void on_read_end(SessionLink&) override { engine_.end_read_batch(); }
   void on_closed(SessionLink& link, std::string_view reason) override;
+  std::uint8_t frame_minor(const SessionLink& link) const override { return minor_of(link.id()); }
 
   // Engine events (wire this as the engine's EventSink).
   void on_event(const protocol::Event& event);
@@ -119,6 +138,7 @@ class SessionHub final : public SessionHandler {
 
  public:
   static constexpr std::chrono::seconds kHeldReplyLimit{2};
+  static constexpr std::size_t kMaxRecordingsPending = 16;
 
  private:
   struct HeldReply {
@@ -126,13 +146,15 @@ class SessionHub final : public SessionHandler {
     protocol::Message message;
     std::uint64_t generation = 0;  // released once the engine's settled generation reaches it
     Clock::time_point since{};     // ... or once held for kHeldReplyLimit
+    std::uint64_t ticket = 0;      // a black-box reply not there yet (0: `message` is the reply)
   };
   struct SessionState {
     SessionLink* link = nullptr;
     Clock::time_point opened{};
     Clock::time_point last_activity{};  // last frame received
     bool closing = false;               // past the Hello deadline: being closed
-    std::deque<HeldReply> held;         // replies waiting for durability, in request order
+    std::deque<HeldReply>
+        held;  // replies waiting for durability (and the events behind them), in order
     bool greeted = false;
     protocol::Role role = protocol::Role::kObserver;
     std::uint64_t client_instance_id = 0;
@@ -145,6 +167,8 @@ class SessionHub final : public SessionHandler {
   void handle_hello(SessionState& s, const protocol::Envelope& envelope);
   void handle_subscribe(SessionState& s, const protocol::Envelope& envelope);
   void handle_command(SessionState& s, const protocol::Envelope& envelope);
+  void handle_recordings(SessionState& s, const protocol::Envelope& envelope);
+  void recordings_answered(std::uint64_t session_id, std::uint64_t ticket, protocol::Message reply);
   protocol::Message call_engine(const protocol::Message& request);
   // Sends at once unless `generation` is not settled yet or earlier replies are held.
   void reply(SessionState& s, std::uint32_t request_id, protocol::Message message,
@@ -155,6 +179,18 @@ class SessionHub final : public SessionHandler {
   void refuse(SessionState& s, const protocol::Envelope& envelope, ErrorCode code,
               std::string_view field, std::string_view message);
   void broadcast(const protocol::Message& message);
+  // Holds the engine's events while a request is handled (RAII; nests); the last one to end
+  // broadcasts them, after the request's reply was sent or queued.
+  class EventDeferral {
+   public:
+    explicit EventDeferral(SessionHub& hub) : hub_(hub) { ++hub_.deferring_; }
+    ~EventDeferral();
+    EventDeferral(const EventDeferral&) = delete;
+    EventDeferral& operator=(const EventDeferral&) = delete;
+
+   private:
+    SessionHub& hub_;
+  };
   void announce_controller(std::string_view detail);
   std::string describe(const SessionState& s) const;
 
@@ -178,6 +214,11 @@ class SessionHub final : public SessionHandler {
   std::map<std::uint64_t, SessionState> sessions_;
   std::optional<std::uint64_t> controller_;
   bool shutting_down_ = false;
+  std::uint64_t next_ticket_ = 1;
+  // Black-box answers check it (on the I/O thread) so that none reaches a destroyed hub.
+  std::shared_ptr<int> alive_ = std::make_shared<int>(0);
+  int deferring_ = 0;                      // EventDeferrals alive
+  std::vector<protocol::Event> deferred_;  // events emitted meanwhile, in order
 };
 
 }  // namespace ajar::daemon

@@ -9,7 +9,14 @@
 // re-points the link, so the driver's reconnect by path works.
 //
 // A task runs for task_duration_ms, then the controller sends DONE (unsolicited) and reports DONE.
+// STOP ends a task, running or done (-> IDLE: the arm at rest, clear of the door).
 // A repeated sequence number is answered with the previous reply and not acted upon.
+//
+// The controller's own faults (settings.fault for every task, or the calls below at any instant):
+// it stops answering mid-task or at the first STOP of a task (a silent controller reads nothing,
+// answers nothing and its task neither ends nor stops; for settings.silent_ms, 0 = until
+// answer_again()), it resets mid-task (IDLE, task id 0, the last sequence number forgotten), or it
+// answers STOP but stays BUSY (and its task no longer ends).
 #pragma once
 
 #include <cstdint>
@@ -22,9 +29,19 @@
 
 namespace ajar::drivers {
 
+enum class ArmSimFault : std::uint8_t {
+  kNone,
+  kSilentMidTask,  // half way through every task the controller stops answering
+  kSilentMidStop,  // the first STOP of every task is not answered: the controller falls silent
+  kResetMidTask,   // half way through every task the controller resets (IDLE, task forgotten)
+  kStopIgnored,    // STOP is answered, but a busy arm stays BUSY (and its task never ends)
+};
+
 struct ArmSimulatorSettings {
   int task_duration_ms = 200;  // time from accepting a task to DONE
   int reply_delay_ms = 0;      // delay before every reply (slow controller)
+  ArmSimFault fault = ArmSimFault::kNone;
+  int silent_ms = 0;  // how long a silence lasts (0: until answer_again())
 };
 
 class ArmControllerSimulator {
@@ -53,6 +70,12 @@ class ArmControllerSimulator {
   void set_refuse_tasks(bool refuse);  // TASK answered NAK REFUSED
   void fail_current_task();            // a running task ends in FAULT (no DONE)
   void send_raw(std::string bytes);    // writes bytes to the line as they are
+  void set_fault(ArmSimFault fault);   // settings.fault from the next task on
+  void go_silent();                    // stops answering now (for settings.silent_ms)
+  void answer_again();                 // answers again (a task frozen by the silence goes on)
+  void silence_next_stop();            // the next STOP during a task is not answered: silent
+  void reset_controller();             // IDLE, task id 0, sequence forgotten, replies dropped
+  void set_ignore_stops(bool ignore);  // STOP answered, a busy arm stays BUSY
   void unplug();                       // device gone: pty pair closed, link removed
   void replug();                       // device back: new pty pair, link re-pointed
 
@@ -64,12 +87,14 @@ class ArmControllerSimulator {
     std::uint64_t tasks_completed = 0;     // tasks that reached DONE
     std::uint64_t stops = 0;               // STOP requests acted upon
     std::uint64_t bad_requests = 0;        // lines dropped (bad CRC, malformed)
+    std::uint64_t unanswered = 0;          // valid requests a silent controller ignored
   };
   Counters counters() const;
   arm::ControllerPhase phase() const;
   std::optional<DoorTask> last_task() const;  // the last task acted upon
   std::uint32_t last_task_id() const;
   bool plugged() const;
+  bool silent() const;
 
  private:
   struct Impl;

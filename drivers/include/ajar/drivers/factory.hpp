@@ -18,12 +18,17 @@ class DriverStartupError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+class ArmControllerSimulator;
+
 struct DriverSet {
   // Whatever must outlive the drivers (e.g. the in-process arm-controller simulator behind the
   // pseudo-terminal in sim mode). Declared first so that it is destroyed after card and arm.
   std::shared_ptr<void> keepalive;
   std::unique_ptr<MotionCard> card;
   std::unique_ptr<Manipulator> arm;
+  // kSim: the in-process arm controller behind the pseudo-terminal (owned by keepalive), so that a
+  // test can inject its faults (arm_simulator.hpp); null otherwise.
+  ArmControllerSimulator* arm_simulator = nullptr;
 };
 
 // kReal: GTS4 driver over settings.card.library_path + serial arm on settings.arm.device.

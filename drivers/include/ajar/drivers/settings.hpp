@@ -32,9 +32,25 @@ struct SerialArmSettings {
 // The in-process mock's fault menu (tests and rehearsals).
 enum class MockFault : std::uint8_t { kNone, kStuck, kSlow, kErrorCode, kIntermittent, kGarbage };
 
+// The mock arm's: the same menu (MockManipulator, mock_arm.hpp), and the arm controller's own
+// faults: it stops answering half way through a task or at the first stop of a task, resets half
+// way through a task (idle, the task forgotten), or answers a stop but stays busy.
+enum class MockArmFault : std::uint8_t {
+  kNone,
+  kStuck,
+  kSlow,
+  kErrorCode,
+  kIntermittent,
+  kGarbage,
+  kSilentMidTask,
+  kSilentMidStop,
+  kResetMidTask,
+  kStopIgnored,
+};
+
 struct MockSettings {
   MockFault card_fault = MockFault::kNone;
-  MockFault arm_fault = MockFault::kNone;
+  MockArmFault arm_fault = MockArmFault::kNone;
   int slow_ms = 50;
 };
 
