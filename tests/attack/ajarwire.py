@@ -116,7 +116,9 @@ def parse_telem(p):
 
 def parse_status(p):
     d = {"state": STATES[p[0]], "fault": struct.unpack_from("<H", p, 1)[0],
-         "restored": bool(p[3]), "controller": bool(p[4])}
+         "restored": bool(p[3]), "controller": bool(p[4]),
+         "has_width": bool(p[7]), "has_handle": bool(p[65]), "has_plane": bool(p[123]),
+         "has_contact": bool(p[205])}
     d["card"], d["arm_link"], d["arm"] = p[246], p[247], ARM[p[248]]
     d["odo_x"], d["odo_y"] = struct.unpack_from("<dd", p, 285)
     d["yaw"] = struct.unpack_from("<d", p, 238)[0]
@@ -249,19 +251,35 @@ BASE_CONFIG = open(os.path.join(ROOT, "config", "ajard.yaml")).read()
 
 def make_config(overrides):
     """overrides: {"drive.max_linear_speed_m_s": 0.02, ...} applied by textual substitution on
-    config/ajard.yaml (only keys that appear there), or appended sections (extra_yaml)."""
+    config/ajard.yaml (only keys that appear there), or appended sections (extra_yaml). A key is
+    its dotted path ("recorder.directory") or, when that leaf is unique in the file, the leaf alone
+    ("port")."""
     import re
-    text = BASE_CONFIG
+    lines = BASE_CONFIG.split("\n")
     extra = overrides.pop("__extra__", "")
+
+    def paths():
+        stack = []  # (indent, name)
+        for i, line in enumerate(lines):
+            m = re.match(r"^(\s*)([A-Za-z_][A-Za-z0-9_]*):", line)
+            if not m:
+                continue
+            ind = len(m.group(1))
+            while stack and stack[-1][0] >= ind:
+                stack.pop()
+            stack.append((ind, m.group(2)))
+            yield i, ".".join(n for _, n in stack), m.group(1), m.group(2)
+
     for k, v in overrides.items():
-        leaf = k.split(".")[-1]
-        pat = re.compile(r"^(\s*)" + re.escape(leaf) + r":[^\n#]*", re.M)
         if k == "drivers.kind":
-            pat = re.compile(r"^(\s*)kind:[^\n#]*", re.M)
-        n = len(pat.findall(text))
-        assert n == 1, "key %s found %d times" % (k, n)
-        text = pat.sub(lambda mm: "%s%s: %s " % (mm.group(1), leaf, v), text)
-    return text + "\n" + extra
+            k = "drivers.kind"
+        hits = [(i, ind, leaf) for i, path, ind, leaf in paths() if path == k]
+        if not hits and "." not in k:
+            hits = [(i, ind, leaf) for i, path, ind, leaf in paths() if leaf == k]
+        assert len(hits) == 1, "key %s found %d times" % (k, len(hits))
+        i, ind, leaf = hits[0]
+        lines[i] = "%s%s: %s" % (ind, leaf, v)
+    return "\n".join(lines) + "\n" + extra
 
 
 class Daemon:
@@ -278,8 +296,9 @@ class Daemon:
     def write_config(self, overrides=None):
         o = dict(self.overrides)
         o.update(overrides or {})
-        o.setdefault("port", 0)
-        o.setdefault("directory", self.state_dir)
+        o.setdefault("network.port", 0)
+        o.setdefault("state.directory", self.state_dir)
+        o.setdefault("recorder.directory", os.path.join(self.dir, "recordings"))
         self.cfg = os.path.join(self.dir, "ajard.yaml")
         with open(self.cfg, "w") as f:
             f.write(make_config(o))
