@@ -143,8 +143,8 @@ struct Item {
 
 class Link final : public daemon::SessionLink {
  public:
-  Link(std::uint64_t id, std::uint64_t instance)
-      : id_(id), instance(instance), peer_("127.0.0.1:" + std::to_string(50000 + id)) {}
+  Link(std::uint64_t id, std::uint64_t client_instance)
+      : id_(id), instance(client_instance), peer_("127.0.0.1:" + std::to_string(50000 + id)) {}
   std::uint64_t id() const noexcept override { return id_; }
   const std::string& peer() const noexcept override { return peer_; }
   bool send(daemon::SharedFrame frame) override {
@@ -217,8 +217,9 @@ class World {
     observer_ = connect(protocol::Role::kObserver, false, 0);
   }
   ~World() {
+    engine_->set_event_sink([](const protocol::Event&) {});  // the hub goes first
     hub_.reset();
-    if (engine_) engine_->shutdown();
+    engine_->shutdown();
   }
 
   std::string run(int steps) {
@@ -623,7 +624,11 @@ class World {
   void finish() {
     while (!recordings_.pending.empty() && violation_.empty())
       answer_black_box();
-    for (int i = 0; i < 50 && violation_.empty(); ++i)
+    // The wheels come to rest (a Stop through the model like any other), so that the engine's
+    // shutdown does not wait for them on a clock that no longer runs.
+    Link* stopper = controller_ != nullptr ? controller_ : observer_;
+    if (stopper != nullptr && card_moving()) read(*stopper, {protocol::Message{protocol::Stop{}}});
+    for (int i = 0; i < 500 && violation_.empty() && (i < 50 || card_moving()); ++i)
       cycle(true);
     land_saves();
     for (auto& l : links_) {
