@@ -1,7 +1,8 @@
 // docs/protocol.md against the message tables: the message type table (section 4), the enum words
 // (4.1) and every payload layout table of section 5 (offsets, wire types, field names, the sizes
 // in the headings, what 1.1 appended) must say what the codec encodes. The document is parsed,
-// its structure rows expanded into wire fields, and compared with payload_layout().
+// its structure rows expanded into wire fields, and compared with payload_layout(); the error
+// table (section 8) must be core's error table, row by row.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "ajar/protocol/codec.hpp"
 #include "ajar/protocol/layout.hpp"
 
 namespace ajar::protocol {
@@ -399,6 +401,76 @@ TEST(ProtocolDoc, DoorPlaneTableIsTheCodecs) {
     expect_same(leaves_of(m, kVersionMinor), expected);
     EXPECT_EQ(size_of(payload_layout(m)), 1u + 25u * count);
   }
+}
+
+// Section 2's header table is kHeaderFields (codec.hpp): each field's offset, size and name, in
+// order, then the payload at kHeaderSize.
+TEST(ProtocolDoc, HeaderTableIsTheCodecsOffsets) {
+  const Doc& doc = the_doc();
+  std::vector<std::vector<std::string>> rows;
+  bool in_table = false;
+  for (const auto& line : doc.lines()) {
+    if (line.starts_with("| offset | size | type | field |")) {
+      in_table = true;
+      continue;
+    }
+    if (in_table && !line.starts_with("|")) break;
+    if (in_table && !line.starts_with("| ---")) rows.push_back(cells(line));
+  }
+  ASSERT_EQ(rows.size(), kHeaderFields.size() + 1) << "section 2: one row per field + payload";
+  for (std::size_t i = 0; i < kHeaderFields.size(); ++i) {
+    const HeaderField& f = kHeaderFields[i];
+    EXPECT_EQ(rows[i].at(0), std::to_string(f.offset)) << f.name;
+    EXPECT_EQ(rows[i].at(1), std::to_string(f.size)) << f.name;
+    EXPECT_EQ(rows[i].at(3), f.name);
+    if (i + 1 < kHeaderFields.size()) {
+      EXPECT_EQ(f.offset + f.size, kHeaderFields[i + 1].offset);
+    }
+  }
+  EXPECT_EQ(rows.back().at(0), std::to_string(kHeaderSize));
+  EXPECT_EQ(rows.back().at(3), "payload");
+}
+
+// Section 8 is the error table (core/include/ajar/core/error.hpp, AJAR_ERROR_CODES) row by row:
+// code, name, meaning and what to do (the doc's `code` marks aside), every code once, both ways.
+TEST(ProtocolDoc, ErrorTableIsTheErrorCodes) {
+  const Doc& doc = the_doc();
+  const auto plain = [](std::string text) {
+    std::erase(text, '`');
+    return text;
+  };
+  std::map<unsigned, std::vector<std::string>> documented;
+  bool in_section = false;
+  for (const auto& line : doc.lines()) {
+    if (line.starts_with("## ")) in_section = line.starts_with("## 8. Error codes");
+    if (!in_section || !std::regex_search(line, std::regex(R"(^\| \d+ \|)"))) continue;
+    const auto c = cells(line);
+    ASSERT_EQ(c.size(), 4u) << line;
+    EXPECT_TRUE(documented.emplace(std::stoul(c[0]), c).second) << "twice: " << line;
+  }
+  for (const ErrorInfo& row : error_table()) {
+    const auto code = static_cast<unsigned>(row.value);
+    const std::string expected = "| " + std::to_string(code) + " | " + std::string(row.word) +
+                                 " | " + std::string(row.meaning) + " | " +
+                                 std::string(row.action) + " |";
+    const auto it = documented.find(code);
+    if (it == documented.end()) {
+      ADD_FAILURE() << "section 8 lacks code " << code << "; expected the row\n" << expected;
+      continue;
+    }
+    const auto& c = it->second;
+    EXPECT_EQ(c[1], row.word) << "code " << code << ", expected\n" << expected;
+    EXPECT_EQ(plain(c[2]), row.meaning) << "code " << code << ", expected\n" << expected;
+    EXPECT_EQ(plain(c[3]), row.action) << "code " << code << ", expected\n" << expected;
+    EXPECT_EQ(error_code_from_string(row.word), row.value);
+    EXPECT_EQ(to_string(row.value), row.word);
+    documented.erase(it);
+  }
+  for (const auto& [code, c] : documented)
+    ADD_FAILURE() << "section 8 lists code " << code << " (" << c[1]
+                  << "), which error.hpp does not have";
+  EXPECT_EQ(to_string(static_cast<ErrorCode>(999)), "UNKNOWN");
+  EXPECT_EQ(error_code_from_string("UNKNOWN"), std::nullopt);
 }
 
 // Every type has its section; those "(0 bytes" have no payload.

@@ -48,10 +48,10 @@ void put_u32(Bytes& b, std::size_t at, std::uint32_t v) {
 }
 // Sets the payload length from the buffer size and recomputes the CRC.
 void refresh(Bytes& b) {
-  put_u32(b, 14, static_cast<std::uint32_t>(b.size() - kHeaderSize));
-  Bytes covered(b.begin(), b.begin() + 18);
+  put_u32(b, kOffsetPayloadLength, static_cast<std::uint32_t>(b.size() - kHeaderSize));
+  Bytes covered(b.begin(), b.begin() + kOffsetCrc);
   covered.insert(covered.end(), b.begin() + static_cast<std::ptrdiff_t>(kHeaderSize), b.end());
-  put_u32(b, 18, crc32c(covered));
+  put_u32(b, kOffsetCrc, crc32c(covered));
 }
 void put_f64(Bytes& b, std::size_t at, double v) {
   const auto u = std::bit_cast<std::uint64_t>(v);
@@ -102,7 +102,7 @@ int main(int argc, char** argv) {
     v.name = "newer_minor_appended_field";
     v.roundtrip = false;
     v.bytes = encode_sample("ping");
-    v.bytes[5] = 3;  // version 1.3 (newer than this library's 1.1)
+    v.bytes[kOffsetVersionMinor] = 3;  // version 1.3 (newer than this library's 1.1)
     for (const std::uint8_t x : Bytes{0xDE, 0xAD, 0xBE, 0xEF})
       v.bytes.push_back(x);
     refresh(v.bytes);
@@ -139,12 +139,12 @@ int main(int argc, char** argv) {
 
   bad(
       "bad_magic", "ping", ErrorCode::kBadMagic, true, "header.magic",
-      [](Bytes& b, std::size_t) { b[3] = 'X'; },
+      [](Bytes& b, std::size_t) { b[kOffsetMagic + 3] = 'X'; },
       "Magic \"AJAX\" instead of \"AJAR\": framing lost, close.");
   bad(
       "unsupported_version", "ping", ErrorCode::kUnsupportedVersion, true, "header.version_major",
       [](Bytes& b, std::size_t) {
-        b[4] = 2;
+        b[kOffsetVersionMajor] = 2;
         refresh(b);
       },
       "Major version 2: reply UNSUPPORTED_VERSION, then close.");
@@ -152,7 +152,7 @@ int main(int argc, char** argv) {
       "payload_too_large", "ping", ErrorCode::kPayloadTooLarge, true, "header.payload_length",
       [](Bytes& b, std::size_t) {
         b.resize(kHeaderSize);
-        put_u32(b, 14, 1025);
+        put_u32(b, kOffsetPayloadLength, 1025);
       },
       "Header announces 1025 payload bytes (max 1024): refused before reading the payload;\n"
       "framing lost. The vector is the header only.");
@@ -162,7 +162,7 @@ int main(int argc, char** argv) {
       "One payload bit flipped; the CRC no longer matches.");
   bad(
       "crc_mismatch_header", "ping", ErrorCode::kCrcMismatch, false, "header.crc",
-      [](Bytes& b, std::size_t) { b[10] ^= 0x80; },
+      [](Bytes& b, std::size_t) { b[kOffsetRequestId] ^= 0x80; },
       "Request id bit flipped: the CRC covers the header too.");
   bad(
       "bad_payload_length_short", "ping", ErrorCode::kBadPayloadLength, false,
@@ -191,14 +191,14 @@ int main(int argc, char** argv) {
   bad(
       "unknown_message_type", "stop", ErrorCode::kUnknownMessageType, false, "header.type",
       [](Bytes& b, std::size_t) {
-        put_u16(b, 6, 0x0199);
+        put_u16(b, kOffsetType, 0x0199);
         refresh(b);
       },
       "Type 0x0199 is not defined in v1: reply UNKNOWN_MESSAGE_TYPE, session continues.");
   bad(
       "unknown_flags", "ping", ErrorCode::kUnknownFlags, false, "header.flags",
       [](Bytes& b, std::size_t) {
-        put_u16(b, 8, 0x8001);
+        put_u16(b, kOffsetFlags, 0x8001);
         refresh(b);
       },
       "Reserved flag bit 15 set: refused with UNKNOWN_FLAGS, not executed, session continues.");
@@ -296,7 +296,7 @@ int main(int argc, char** argv) {
       "v1_0_status_with_1_1_length", "status", ErrorCode::kBadPayloadLength, false,
       "header.payload_length",
       [](Bytes& b, std::size_t) {
-        b[5] = 0;
+        b[kOffsetVersionMinor] = 0;
         refresh(b);
       },
       "A Status frame that says 1.0 but carries the 1.1 layout: a 1.0 frame must have the 1.0\n"
@@ -304,7 +304,7 @@ int main(int argc, char** argv) {
   bad(
       "v1_0_drive", "drive", ErrorCode::kUnknownMessageType, false, "header.type",
       [](Bytes& b, std::size_t) {
-        b[5] = 0;
+        b[kOffsetVersionMinor] = 0;
         refresh(b);
       },
       "Drive (0x0122) in a frame that says 1.0: 1.0 has no such type.");

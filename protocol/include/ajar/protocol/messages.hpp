@@ -12,6 +12,7 @@
 
 #include "ajar/core/error.hpp"
 #include "ajar/core/types.hpp"
+#include "ajar/core/words.hpp"
 
 namespace ajar::protocol {
 
@@ -51,8 +52,9 @@ struct FixedString {
   }
 };
 
-// The words of a wire enum, in value order (the values are 0..words.size()-1); `last` is its last
-// enumerator, so that an enumerator added without its word fails to compile (to_string below).
+// The words of a wire enum (ajar::Word rows, core/words.hpp), in value order (the values are
+// 0..words.size()-1); `last` is its last enumerator, so that an enumerator added without its word
+// fails to compile (to_string below).
 template <typename E>
 struct EnumWords;
 
@@ -91,7 +93,8 @@ enum class MessageType : std::uint16_t {
 enum class Role : std::uint8_t { kController = 0, kObserver = 1 };
 template <>
 struct EnumWords<Role> {
-  static constexpr std::array<std::string_view, 2> words = {"controller", "observer"};
+  static constexpr std::array<Word<Role>, 2> words{
+      {{Role::kController, "controller"}, {Role::kObserver, "observer"}}};
   static constexpr auto last = Role::kObserver;
 };
 
@@ -110,9 +113,17 @@ enum class ProcedureState : std::uint8_t {
 };
 template <>
 struct EnumWords<ProcedureState> {
-  static constexpr std::array<std::string_view, 10> words = {
-      "awaiting_width", "awaiting_handle", "awaiting_plane", "ready_to_align", "aligning",
-      "aligned",        "ready_to_engage", "engaging",       "engaged",        "fault"};
+  static constexpr std::array<Word<ProcedureState>, 10> words{
+      {{ProcedureState::kAwaitingWidth, "awaiting_width"},
+       {ProcedureState::kAwaitingHandle, "awaiting_handle"},
+       {ProcedureState::kAwaitingPlane, "awaiting_plane"},
+       {ProcedureState::kReadyToAlign, "ready_to_align"},
+       {ProcedureState::kAligning, "aligning"},
+       {ProcedureState::kAligned, "aligned"},
+       {ProcedureState::kReadyToEngage, "ready_to_engage"},
+       {ProcedureState::kEngaging, "engaging"},
+       {ProcedureState::kEngaged, "engaged"},
+       {ProcedureState::kFault, "fault"}}};
   static constexpr auto last = ProcedureState::kFault;
 };
 
@@ -127,9 +138,14 @@ enum class EventKind : std::uint8_t {
 };
 template <>
 struct EnumWords<EventKind> {
-  static constexpr std::array<std::string_view, 7> words = {
-      "state_changed", "motion_started", "motion_finished", "motion_stopped",
-      "fault_latched", "fault_cleared",  "control_changed"};
+  static constexpr std::array<Word<EventKind>, 7> words{
+      {{EventKind::kStateChanged, "state_changed"},
+       {EventKind::kMotionStarted, "motion_started"},
+       {EventKind::kMotionFinished, "motion_finished"},
+       {EventKind::kMotionStopped, "motion_stopped"},
+       {EventKind::kFaultLatched, "fault_latched"},
+       {EventKind::kFaultCleared, "fault_cleared"},
+       {EventKind::kControlChanged, "control_changed"}}};
   static constexpr auto last = EventKind::kControlChanged;
 };
 
@@ -142,8 +158,11 @@ enum class ArmState : std::uint8_t {
 };
 template <>
 struct EnumWords<ArmState> {
-  static constexpr std::array<std::string_view, 5> words = {"disconnected", "idle", "busy", "done",
-                                                            "fault"};
+  static constexpr std::array<Word<ArmState>, 5> words{{{ArmState::kDisconnected, "disconnected"},
+                                                        {ArmState::kIdle, "idle"},
+                                                        {ArmState::kBusy, "busy"},
+                                                        {ArmState::kDone, "done"},
+                                                        {ArmState::kFault, "fault"}}};
   static constexpr auto last = ArmState::kFault;
 };
 
@@ -156,8 +175,11 @@ enum class DriverState : std::uint8_t {
 };
 template <>
 struct EnumWords<DriverState> {
-  static constexpr std::array<std::string_view, 4> words = {"unconfigured", "inactive", "active",
-                                                            "fault"};
+  static constexpr std::array<Word<DriverState>, 4> words{
+      {{DriverState::kUnconfigured, "unconfigured"},
+       {DriverState::kInactive, "inactive"},
+       {DriverState::kActive, "active"},
+       {DriverState::kFault, "fault"}}};
   static constexpr auto last = DriverState::kFault;
 };
 
@@ -165,7 +187,8 @@ struct EnumWords<DriverState> {
 enum class DriverKind : std::uint8_t { kSim = 0, kMock = 1, kReal = 2 };
 template <>
 struct EnumWords<DriverKind> {
-  static constexpr std::array<std::string_view, 3> words = {"sim", "mock", "real"};
+  static constexpr std::array<Word<DriverKind>, 3> words{
+      {{DriverKind::kSim, "sim"}, {DriverKind::kMock, "mock"}, {DriverKind::kReal, "real"}}};
   static constexpr auto last = DriverKind::kReal;
 };
 
@@ -173,7 +196,10 @@ struct EnumWords<DriverKind> {
 enum class SchedulingPolicy : std::uint8_t { kOther = 0, kFifo = 1, kRoundRobin = 2 };
 template <>
 struct EnumWords<SchedulingPolicy> {
-  static constexpr std::array<std::string_view, 3> words = {"other", "fifo", "rr"};
+  static constexpr std::array<Word<SchedulingPolicy>, 3> words{
+      {{SchedulingPolicy::kOther, "other"},
+       {SchedulingPolicy::kFifo, "fifo"},
+       {SchedulingPolicy::kRoundRobin, "rr"}}};
   static constexpr auto last = SchedulingPolicy::kRoundRobin;
 };
 
@@ -461,10 +487,10 @@ requires requires {
   EnumWords<E>::words;
 }
 constexpr std::string_view to_string(E value) noexcept {
-  static_assert(EnumWords<E>::words.size() == static_cast<std::size_t>(EnumWords<E>::last) + 1,
+  static_assert(EnumWords<E>::words.size() == static_cast<std::size_t>(EnumWords<E>::last) + 1 &&
+                    values_are_indices(EnumWords<E>::words),
                 "every enumerator has its word, in value order");
-  const auto i = static_cast<std::size_t>(value);
-  return i < EnumWords<E>::words.size() ? EnumWords<E>::words[i] : "unknown";
+  return ajar::word_of(EnumWords<E>::words, value);
 }
 
 }  // namespace ajar::protocol
