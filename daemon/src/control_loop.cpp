@@ -107,14 +107,14 @@ ControlLoop::ControlLoop(drivers::MotionCard& card, const ControlLoopSettings& s
       guard_accel_m_s2_(std::min(settings.drive.max_linear_accel_m_s2 / card_scale_,
                                  jog_profile_.deceleration_counts_per_ms2 * 1e6 /
                                      counts_per_wheel_rad_ * settings.base.wheel_radius_m)),
-      guard_reaction_s_(3.0 / settings.rate_hz * card_scale_),
+      guard_reaction_s_(3.0 / settings.control.rate_hz * card_scale_),
       drive_timeout_ns_(seconds_to_ns(settings.drive.command_timeout_s)),
-      period_ns_(std::max<std::int64_t>(1, std::llround(kNsPerS / settings.rate_hz))),
-      deadman_ns_(seconds_to_ns(settings.deadman_timeout_s)),
-      margin_ns_(seconds_to_ns(settings.motion_timeout_margin_s)),
+      period_ns_(std::max<std::int64_t>(1, std::llround(kNsPerS / settings.control.rate_hz))),
+      deadman_ns_(seconds_to_ns(settings.safety.deadman_timeout_s)),
+      margin_ns_(seconds_to_ns(settings.control.motion_timeout_margin_s)),
       mismatch_ns_(seconds_to_ns(settings.velocity_mismatch_s)),
       recovery_timeout_ns_(seconds_to_ns(settings.recovery_timeout_s)),
-      statistics_(settings.rate_hz) {}
+      statistics_(settings.control.rate_hz) {}
 
 ControlLoop::~ControlLoop() {
   stop_thread();
@@ -125,7 +125,8 @@ std::vector<std::string> ControlLoop::start_thread() {
   exit_requested_.store(false);
   std::promise<std::vector<std::string>> warnings;
   auto ready = warnings.get_future();
-  const RealtimeRequest request{settings_.realtime, settings_.priority, settings_.lock_memory};
+  const RealtimeRequest request{settings_.control.realtime, settings_.control.priority,
+                                settings_.control.lock_memory};
   last_cycle_end_ns_.store(monotonic_now_ns());
   thread_ = std::thread([this, request, promise = std::move(warnings)]() mutable {
     thread_tid_.store(static_cast<int>(::gettid()), std::memory_order_release);

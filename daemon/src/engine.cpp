@@ -27,7 +27,7 @@ EngineImpl::EngineImpl(const Config& config, drivers::DriverSet drivers, EngineO
                      [this] { return loop_->last_cycle_end_ns(); },
                      [this] { loop_->latch_stalled(); },
                      [this] { return thread_run_delay_ns(loop_->thread_tid()); }},
-      *card_, axes, supervisor_settings(config));
+      *card_, axes, config.control);
   arm_ = std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm));
 }
 

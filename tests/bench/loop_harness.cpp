@@ -42,11 +42,9 @@ void run(const daemon::Config& base_config, bool fifo, double seconds) {
   auto set = drivers::make_drivers(config.drivers, config.base);
   const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
   daemon::ControlLoopSettings s;
-  s.rate_hz = config.control.rate_hz;
-  s.realtime = fifo;
-  s.priority = config.control.priority;
-  s.deadman_timeout_s = config.safety.deadman_timeout_s;
-  s.motion_timeout_margin_s = config.control.motion_timeout_margin_s;
+  s.control = config.control;
+  s.control.realtime = fifo;
+  s.safety = config.safety;
   s.base = config.base;
   drivers::ManagedMotionCard card(std::move(set.card), axes);
   Outcome up = card.configure();
