@@ -164,37 +164,34 @@ void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
   }
 }
 
+bool ControlLoop::post(Command c) noexcept {
+  c.stop_stamp = stop_generation_.load();
+  c.latch_stamp = latch_generation_.load();
+  return commands_.push(c);
+}
 bool ControlLoop::post_move(const MoveCommand& move) noexcept {
   Command c;
   c.kind = CommandKind::kMove;
   c.move = move;
-  c.stop_stamp = stop_generation_.load();
-  c.latch_stamp = latch_generation_.load();
-  return commands_.push(c);
+  return post(c);
 }
 bool ControlLoop::post_drive(const DriveCommand& drive) noexcept {
   Command c;
   c.kind = drive.start ? CommandKind::kDriveStart : CommandKind::kDriveUpdate;
   c.drive = drive;
-  c.stop_stamp = stop_generation_.load();
-  c.latch_stamp = latch_generation_.load();
-  return commands_.push(c);
+  return post(c);
 }
 bool ControlLoop::post_door_guard(const DoorGuard& guard) noexcept {
   Command c;
   c.kind = CommandKind::kDoorGuard;
   c.guard = guard;
-  c.stop_stamp = stop_generation_.load();
-  c.latch_stamp = latch_generation_.load();
-  return commands_.push(c);
+  return post(c);
 }
 bool ControlLoop::request_recover(std::uint32_t sequence) noexcept {
   Command c;
   c.kind = CommandKind::kRecover;
   c.sequence = sequence;
-  c.stop_stamp = stop_generation_.load();
-  c.latch_stamp = latch_generation_.load();
-  return commands_.push(c);
+  return post(c);
 }
 // The generations are bumped after the code is queued: a cycle that sees the new generation sees
 // the code too. The emergency generation is bumped before the latch generation for the same reason.

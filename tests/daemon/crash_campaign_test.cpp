@@ -28,6 +28,7 @@
 #include <gtest/gtest.h>
 
 #include "ajard_restarts.hpp"
+#include "campaign_seeds.hpp"
 #include "e2e_fixture.hpp"
 
 namespace ajar::test {
@@ -37,16 +38,7 @@ using protocol::EventKind;
 using protocol::ProcedureState;
 using protocol::Role;
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-constexpr std::uint64_t kCiRounds = 12;
-#else
-constexpr std::uint64_t kCiRounds = 40;
-#endif
-
-std::uint64_t env_u64(const char* name, std::uint64_t fallback) {
-  const char* v = std::getenv(name);
-  return v != nullptr ? std::strtoull(v, nullptr, 10) : fallback;
-}
+constexpr std::uint64_t kCiRounds = ci_size(40, 12);
 
 // What the state file must give back: the measurements the Acks accepted.
 struct Stored {

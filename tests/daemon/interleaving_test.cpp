@@ -25,6 +25,7 @@
 #include <string>
 
 #include "ajar/daemon/logging.hpp"
+#include "campaign_seeds.hpp"
 #include "det_mock_card.hpp"
 #include "fake_door.hpp"
 #include "fake_engine_fixture.hpp"
@@ -33,28 +34,17 @@
 namespace ajar::testing::interleaving {
 namespace {
 
-// CI's campaign. Under ASan/TSan (10-20x the CPU) a shorter one: the Release run asserts coverage.
-#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
-constexpr std::uint64_t kCiSeeds = 400;
-#else
-constexpr std::uint64_t kCiSeeds = 2000;
-#endif
-
-std::uint64_t env_u64(const char* name, std::uint64_t fallback) {
-  const char* v = std::getenv(name);
-  return v != nullptr && *v != '\0' ? std::strtoull(v, nullptr, 10) : fallback;
-}
+// CI's campaign (campaign_seeds.hpp: shorter under a sanitizer).
+constexpr std::uint64_t kCiSeeds = test::ci_size(2000, 400);
 
 TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
   daemon::set_log_level(daemon::LogLevel::kNone);  // the hub logs every command
   const std::string dir = shm_dir();
-  const char* one = std::getenv("AJAR_SEED");
-  const std::uint64_t first = one != nullptr ? env_u64("AJAR_SEED", 0) : 1;
-  const std::uint64_t count = one != nullptr ? 1 : env_u64("AJAR_SEEDS", kCiSeeds);
+  const auto [first, count, replay] = test::seed_range(kCiSeeds);
   int failures = 0;
   Coverage total;
   for (std::uint64_t seed = first; seed < first + count && failures < 3; ++seed) {
-    World world(seed, dir, one != nullptr);
+    World world(seed, dir, replay);
     const std::string violation = world.run(60);
     total.add(world.coverage());
     if (!violation.empty()) {
@@ -73,7 +63,7 @@ TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
   for (const auto& [k, v] : total.counts)
     counters << "  " << k << ": " << v << "\n";
   std::cout << "coverage over " << count << " seeds:\n" << counters.str();
-  if (one != nullptr || count < 2000) return;
+  if (replay || count < 2000) return;
   // Over a CI campaign every interesting situation is reached a few times at least.
   for (const char* what :
        {"aligning", "alignment finished", "engaging", "arm task finished", "jog stopped by a Stop",

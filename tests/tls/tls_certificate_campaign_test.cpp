@@ -45,6 +45,7 @@
 #include <gtest/gtest.h>
 
 #include "ajar/daemon/logging.hpp"
+#include "campaign_seeds.hpp"
 #include "tls_stepped_client.hpp"
 #include "tls_support.hpp"
 
@@ -54,16 +55,7 @@ namespace {
 using protocol::MessageType;
 using protocol::Role;
 
-#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
-constexpr std::uint64_t kCiTrials = 60;
-#else
-constexpr std::uint64_t kCiTrials = 200;
-#endif
-
-std::uint64_t env_u64(const char* name, std::uint64_t fallback) {
-  const char* v = std::getenv(name);
-  return v != nullptr && *v != '\0' ? std::strtoull(v, nullptr, 10) : fallback;
-}
+constexpr std::uint64_t kCiTrials = ci_size(200, 60);
 
 // Writes `path`: a CRL of the test CA (ca.crt, ca.key) revoking the certificates (PEM files) in
 // `revoked`. The OpenSSL API rather than make-certs: its `revoke` runs two openssl processes, too
@@ -398,19 +390,17 @@ class Campaign {
 };
 
 TEST(CertificateCampaign, CertificateChangesAtAnyInstantNeverGrantTheOldRole) {
-  const char* one = std::getenv("AJAR_SEED");
-  const std::uint64_t first = one != nullptr ? env_u64("AJAR_SEED", 0) : 1;
-  const std::uint64_t count = one != nullptr ? 1 : env_u64("AJAR_SEEDS", kCiTrials);
+  const auto [first, count, replay] = seed_range(kCiTrials);
   std::cout << "certificate campaign: seeds " << first << ".." << first + count - 1
             << " (replay one with AJAR_SEED=<seed>)" << std::endl;
   // The daemon's log only when replaying one trial (a reload alone logs a warning).
-  daemon::set_log_level(one != nullptr ? daemon::LogLevel::kInfo : daemon::LogLevel::kNone);
+  daemon::set_log_level(replay ? daemon::LogLevel::kInfo : daemon::LogLevel::kNone);
   Campaign campaign;
   int failures = 0;
   for (std::uint64_t seed = first; seed < first + count && failures < 3; ++seed) {
     std::vector<std::string> trace;
     const std::string violation = campaign.run(seed, trace);
-    if (one != nullptr || !violation.empty()) {
+    if (replay || !violation.empty()) {
       std::ostringstream out;
       for (const auto& line : trace)
         out << "  " << line << "\n";
@@ -428,7 +418,7 @@ TEST(CertificateCampaign, CertificateChangesAtAnyInstantNeverGrantTheOldRole) {
   for (const auto& [k, v] : campaign.counters())
     counters << "  " << k << ": " << v << "\n";
   std::cout << "coverage over " << count << " trials:\n" << counters.str();
-  if (one != nullptr || count < kCiTrials) return;
+  if (replay || count < kCiTrials) return;
   // Every kind of outcome was reached: the campaign is not vacuous.
   for (const char* reached :
        {"welcomed controller", "welcomed observer", "refused by a TLS alert",

@@ -303,6 +303,8 @@ class ControlLoop {
     }
   };
 
+  // Stamps `c` with the stop and latch generations current now and queues it (I/O thread).
+  bool post(Command c) noexcept;
   void thread_main(std::int64_t first_deadline_ns) noexcept;
   void handle_stops(std::int64_t now_ns) noexcept;
   void execute(const Command& command, std::int64_t now_ns) noexcept;

@@ -1,0 +1,291 @@
+// The recorder (recorder.hpp) end to end on a real directory: what goes in comes out (per channel,
+// in order, as the counters say), files are 0640, rotation keeps the budget and never removes a
+// saved recording, a slow disk and a full disk (a small tmpfs, when root) lose only what they
+// count, and read() serves the bytes by offset.
+#include "ajar/recorder/recorder.hpp"
+
+#include <sys/mount.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <filesystem>
+#include <future>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "ajar/recorder/channels.hpp"
+#include "mcap_read.hpp"
+
+namespace ajar::recorder {
+namespace {
+namespace fs = std::filesystem;
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    char tmpl[] = "/tmp/ajar-recorder-XXXXXX";
+    path = ::mkdtemp(tmpl);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+};
+
+// Waits (bounded, generously) until `pred` holds.
+template <typename Pred>
+bool eventually(Pred pred, std::chrono::milliseconds bound = std::chrono::seconds(20)) {
+  const auto until = std::chrono::steady_clock::now() + bound;
+  while (!pred()) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return true;
+}
+
+LoopSample sample(std::uint64_t cycle) {
+  LoopSample s;
+  s.cycle = cycle;
+  s.time_ns = static_cast<std::int64_t>(1'000'000'000 + cycle * 2'000'000);
+  s.measured_rad[0] = 0.001 * static_cast<double>(cycle);
+  return s;
+}
+
+struct Logged {
+  std::mutex m;
+  std::vector<std::string> lines;
+  Recorder::Log sink() {
+    return [this](std::string_view line) {
+      std::lock_guard lock(m);
+      lines.emplace_back(line);
+    };
+  }
+  std::size_t size() {
+    std::lock_guard lock(m);
+    return lines.size();
+  }
+};
+
+std::vector<fs::path> recordings(const fs::path& dir) {
+  std::vector<fs::path> out;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (e.path().extension() == ".mcap") out.push_back(e.path());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST(Recorder, WhatGoesInComesOutPerChannelAndTheFileIs0640) {
+  TempDir dir;
+  RecorderSettings settings;
+  settings.directory = (dir.path / "rec").string();
+  settings.loop_decimation = 3;
+  settings.monotonic_origin_ns = 1'000'000'000;
+  Logged log;
+  Recorder r(settings, log.sink());
+  r.start();
+  for (std::uint64_t i = 1; i <= 300; ++i)
+    r.loop_sample(sample(i));  // every 3rd: 100
+  const std::uint8_t frame[] = {0xA5, 1, 2, 3};
+  for (std::uint64_t i = 0; i < 40; ++i)
+    r.frame(kWireIn, 7, 1000 + i, frame);
+  for (std::uint64_t i = 0; i < 5; ++i) {
+    r.json(
+        kEventsChannel, 2000 + i,
+        R"({"daemon_time_ns":1,"kind":"state_changed","state":"aligned","fault":"OK","detail":)" +
+            json_string("line \"one\"\n") + "}");
+  }
+  ASSERT_TRUE(eventually([&] { return r.counters().messages_written >= 145; }));
+  r.stop();
+  const auto c = r.counters();
+  EXPECT_EQ(c.loop_samples, 100U);
+  EXPECT_EQ(c.loop_dropped, 0U);
+  EXPECT_EQ(c.io_records, 45U);
+  EXPECT_EQ(c.io_dropped, 0U);
+  EXPECT_EQ(c.write_failures, 0U);
+  EXPECT_EQ(log.size(), 0U);
+
+  const auto files = recordings(settings.directory);
+  ASSERT_EQ(files.size(), 1U);
+  struct stat st {};
+  ASSERT_EQ(::stat(files[0].c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0640U);
+  ASSERT_EQ(::stat(settings.directory.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0750U);
+
+  const auto f = test::read_mcap(test::file_bytes(files[0]));
+  EXPECT_TRUE(f.complete) << "a stopped recorder closes its file with a footer";
+  EXPECT_EQ(f.counts.at(kLoopChannel), 100U);
+  EXPECT_EQ(f.counts.at(kWireChannel), 40U);
+  EXPECT_EQ(f.counts.at(kEventsChannel), 5U);
+  EXPECT_GE(f.counts.at(kRecorderChannel), 2U) << "the counters at the file's start and end";
+  EXPECT_EQ(c.messages_written, f.messages.size());
+  // Loop samples in order, the 3rd, 6th, ... cycle; wire messages carry the layout's header.
+  std::uint64_t expect_cycle = 3;
+  for (const auto& m : f.messages) {
+    if (m.channel == kLoopChannel) {
+      const std::string text(m.data.begin(), m.data.end());
+      EXPECT_EQ(text.rfind("{\"cycle\":" + std::to_string(expect_cycle) + ",", 0), 0U) << text;
+      expect_cycle += 3;
+    } else if (m.channel == kWireChannel) {
+      ASSERT_EQ(m.data.size(), kWireHeaderBytes + 4);
+      EXPECT_EQ(m.data[0], kWireLayoutVersion);
+      EXPECT_EQ(m.data[1], kWireIn);
+      EXPECT_EQ(test::le(m.data, 2, 8), 7U);
+      EXPECT_EQ(m.data[kWireHeaderBytes], 0xA5);
+    }
+  }
+}
+
+TEST(Recorder, RotationKeepsTheBudgetAndNeverRemovesASavedRecording) {
+  TempDir dir;
+  RecorderSettings settings;
+  settings.directory = dir.path.string();
+  settings.loop_decimation = 1;
+  settings.max_file_bytes = 16 << 10;
+  settings.max_bytes = 64 << 10;
+  Recorder r(settings, {});
+  r.start();
+  std::uint64_t cycle = 0;
+  const auto feed = [&](int n) {
+    for (int i = 0; i < n; ++i) {
+      r.loop_sample(sample(++cycle));
+      if (i % 200 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  };
+  feed(2000);
+  ASSERT_TRUE(eventually([&] { return r.counters().messages_written >= 2000; }));
+  std::promise<SaveResult> saved;
+  r.save_last(3600, [&](SaveResult s) { saved.set_value(std::move(s)); });
+  const SaveResult s = saved.get_future().get();
+  ASSERT_TRUE(s.ok) << s.error;
+  ASSERT_FALSE(s.names.empty());
+  feed(4000);
+  ASSERT_TRUE(eventually([&] { return r.counters().messages_written >= 6000; }));
+  r.stop();
+  EXPECT_EQ(r.counters().loop_dropped, 0U);
+  std::uint64_t total = 0;
+  const auto files = recordings(dir.path);
+  EXPECT_GE(files.size(), 3U) << "rotated by size";
+  for (const auto& p : files) {
+    total += fs::file_size(p);
+    EXPECT_TRUE(test::read_mcap(test::file_bytes(p)).complete) << p;
+  }
+  // The budget holds after each rotation; the file being written may add up to one file more.
+  EXPECT_LE(total, settings.max_bytes + settings.max_file_bytes + (8 << 10));
+  for (const auto& name : s.names) {
+    EXPECT_TRUE(fs::exists(dir.path / name)) << name << " was removed by rotation";
+  }
+  const auto listed = r.list();
+  std::size_t saved_listed = 0;
+  for (const auto& info : listed)
+    saved_listed += info.saved ? 1 : 0;
+  EXPECT_EQ(saved_listed, s.names.size());
+}
+
+TEST(Recorder, ReadServesTheBytesByOffsetAndRefusesOtherNames) {
+  TempDir dir;
+  RecorderSettings settings;
+  settings.directory = dir.path.string();
+  Recorder r(settings, {});
+  r.start();
+  for (std::uint64_t i = 1; i <= 500; ++i)
+    r.loop_sample(sample(i));
+  r.stop();
+  const auto listed = r.list();
+  ASSERT_EQ(listed.size(), 1U);
+  EXPECT_FALSE(listed[0].active);
+  std::vector<std::uint8_t> joined;
+  std::string error;
+  for (std::uint64_t off = 0;; off += 1000) {
+    const auto part = r.read(listed[0].name, off, 1000, &error);
+    ASSERT_TRUE(part) << error;
+    if (part->empty()) break;
+    joined.insert(joined.end(), part->begin(), part->end());
+  }
+  EXPECT_EQ(joined, test::file_bytes(dir.path / listed[0].name));
+  for (const char* bad : {"../etc/passwd", "x.mcap", "saved/../../x", "/etc/passwd",
+                          "ajard-20260101T000000000Z.mcap"}) {
+    EXPECT_FALSE(r.read(bad, 0, 10, &error)) << bad;
+  }
+}
+
+TEST(Recorder, ASlowDiskNeverBlocksTheInputsAndLosesOnlyWhatItCounts) {
+  TempDir dir;
+  RecorderSettings settings;
+  settings.directory = dir.path.string();
+  settings.loop_decimation = 1;
+  settings.before_write = [] { std::this_thread::sleep_for(std::chrono::milliseconds(200)); };
+  Recorder r(settings, {});
+  r.start();
+  // Far more than the ring holds while the recorder thread sleeps in write: the inputs return
+  // anyway (this thread would hang otherwise) and count the drops.
+  for (std::uint64_t i = 1; i <= 3 * Recorder::kLoopRingCapacity; ++i)
+    r.loop_sample(sample(i));
+  const std::uint8_t frame[] = {1, 2, 3};
+  for (int i = 0; i < 100; ++i)
+    r.frame(kWireOut, 1, 5, frame);
+  const auto c = r.counters();
+  EXPECT_EQ(c.loop_samples, 3 * Recorder::kLoopRingCapacity);
+  EXPECT_GT(c.loop_dropped, 0U);
+  r.stop();
+  const auto end = r.counters();
+  const auto files = recordings(dir.path);
+  ASSERT_EQ(files.size(), 1U);
+  const auto f = test::read_mcap(test::file_bytes(files[0]));
+  EXPECT_TRUE(f.complete);
+  EXPECT_EQ(f.counts.at(kLoopChannel) + end.loop_dropped, end.loop_samples);
+  EXPECT_EQ(f.counts.at(kWireChannel) + end.io_dropped, 100U);
+}
+
+// A full disk: a 256 KiB tmpfs (needs root: CI runs as root; skipped otherwise).
+TEST(Recorder, AFullDiskIsLoggedOnceCountedAndTheFileStaysReadable) {
+  TempDir dir;
+  const fs::path mnt = dir.path / "small";
+  fs::create_directories(mnt);
+  if (::geteuid() != 0 || ::mount("tmpfs", mnt.c_str(), "tmpfs", 0, "size=256k") != 0) {
+    GTEST_SKIP() << "needs root to mount a small tmpfs (CI runs as root)";
+  }
+  struct Unmount {
+    fs::path p;
+    ~Unmount() { ::umount2(p.c_str(), MNT_DETACH); }
+  } unmount{mnt};
+  RecorderSettings settings;
+  settings.directory = mnt.string();
+  settings.loop_decimation = 1;
+  settings.max_bytes = 64ULL << 20;  // the disk, not the budget, is the limit
+  Logged log;
+  Recorder r(settings, log.sink());
+  r.start();
+  std::uint64_t cycle = 0;
+  ASSERT_TRUE(eventually([&] {
+    for (int i = 0; i < 5; ++i)
+      r.loop_sample(sample(++cycle));  // ~40 KB per write
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    return r.counters().disk_full;
+  }));
+  // It goes on: inputs accepted and counted, nothing thrown, logged once.
+  for (int i = 0; i < 2000; ++i)
+    r.loop_sample(sample(++cycle));
+  ASSERT_TRUE(eventually([&] { return r.counters().write_failures > 0; }));
+  r.stop();
+  EXPECT_EQ(log.size(), 1U) << "logged once per episode";
+  const auto c = r.counters();
+  EXPECT_TRUE(c.disk_full);
+  EXPECT_EQ(c.loop_samples, cycle);
+  // The file the disk refused was cut back to its last whole record: it reads to the end.
+  const auto files = recordings(mnt);
+  ASSERT_FALSE(files.empty());
+  const auto bytes = test::file_bytes(files.front());
+  const auto f = test::read_mcap(bytes);
+  EXPECT_TRUE(f.magic);
+  EXPECT_GT(f.counts.count(kLoopChannel) ? f.counts.at(kLoopChannel) : 0U, 0U);
+}
+
+}  // namespace
+}  // namespace ajar::recorder
