@@ -159,6 +159,13 @@ void Suite::protocol_1_1() {
       return "timing.all.samples went from " + std::to_string(before->timing.all.samples) + " to " +
              std::to_string(after->timing.all.samples) + ": not restarted";
     }
+    // loop.cycles restarts too (over the same span as loop.overruns and timing.all; Status reads
+    // loop before timing): a daemon that keeps counting since start shows all its earlier cycles.
+    if (after->loop.cycles > after->timing.all.samples + 2) {
+      return "loop.cycles is " + std::to_string(after->loop.cycles) + " right after the reset (" +
+             std::to_string(after->timing.all.samples) +
+             " timing samples since): it did not restart";
+    }
     return std::string{};
   });
   check("1.1: Drive with a NaN / infinite velocity is NON_FINITE_NUMBER naming the field", [&] {

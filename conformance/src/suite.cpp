@@ -35,6 +35,7 @@ Result Suite::run() {
   roles();
   telemetry();
   procedure();
+  ordering();
   driving();
   duplicates();
   faults();

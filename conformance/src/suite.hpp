@@ -340,6 +340,8 @@ class Suite {
   void session_rules();
   void roles();
   void telemetry();
+  // ---- order on the wire: replies before their events, zero-count motions (ordering.cpp) ----
+  void ordering();
   // ---- the procedure, with every refusal on the way ----
   void procedure();
   // ---- protocol 1.1: versions, the robot model, loop statistics ----

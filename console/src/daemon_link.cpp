@@ -15,6 +15,7 @@ void ConsoleServer::Impl::refresh_status() {
     const protocol::Status copy = *st;
     on_io([this, copy] {
       status = copy;
+      if (foxglove) foxglove->on_status(copy);
       mark_dirty();
     });
   }
@@ -74,6 +75,7 @@ void ConsoleServer::Impl::connect_now() {
     mark_dirty();
   });
   refresh_status();
+  refresh_recorder();
 }
 
 // The daemon's calibration: base-frame coordinates on the page and the simulated camera's mount.
@@ -91,12 +93,14 @@ void ConsoleServer::Impl::set_model(const protocol::RobotModel& m) {
   camera_to_base = *checked;
   model = m;
   if (sim != nullptr) sim->set_camera_to_base(t);
+  if (foxglove) foxglove->on_model(m);
   add_log("calibration from ajard: camera -> base (eq. 1)");
   mark_dirty();
 }
 
 void ConsoleServer::Impl::idle() {
   if (!client.connected() && Clock::now() >= next_connect_attempt) connect_now();
+  if (Clock::now() >= next_recorder_poll) refresh_recorder();
 }
 
 void ConsoleServer::Impl::on_telemetry(const protocol::Telemetry& t) {
@@ -108,6 +112,7 @@ void ConsoleServer::Impl::on_telemetry(const protocol::Telemetry& t) {
     pose.yaw_rad = t.base_yaw_odometry_rad;
     pose_at = now;
   }
+  if (foxglove) foxglove->on_telemetry(t);
   const std::string json = telemetry_json(t).str();
   on_io([this, json, t, now] {
     const bool stale_changed = !telemetry || telemetry->staleness.plane != t.staleness.plane ||
@@ -167,6 +172,7 @@ void ConsoleServer::Impl::on_event_io(const protocol::Event& e, std::uint64_t se
   using protocol::EventKind;
   const std::string detail(e.detail.view());
   const std::string state(protocol::to_string(e.state));
+  if (foxglove) foxglove->on_event(e);
   std::string text;
   switch (e.kind) {
     case EventKind::kStateChanged:

@@ -66,11 +66,17 @@ void ConsoleServer::Impl::frame_loop() {
       entry->pose = p;
       entry->captured = Clock::now();
       entry->pose_from = p_at;
-      if (any_page) {
+      // One PNG for the pages and Foxglove live (only while someone subscribes to the image).
+      const bool to_foxglove = foxglove && foxglove->wants_image();
+      std::shared_ptr<const std::vector<std::uint8_t>> png;
+      if (any_page || to_foxglove) {
         const auto& k = entry->frame.intrinsics;
-        entry->colour =
-            frame_message(1, entry->frame.sequence,
-                          encode_png_rgb8(Rgb8Image{k.width_px, k.height_px, entry->frame.rgb}, 1));
+        png = std::make_shared<const std::vector<std::uint8_t>>(
+            encode_png_rgb8(Rgb8Image{k.width_px, k.height_px, entry->frame.rgb}, 1));
+      }
+      if (to_foxglove) foxglove->on_image(png, foxglove::unix_time_ns());
+      if (any_page) {
+        entry->colour = frame_message(1, entry->frame.sequence, *png);
         if (overlay_wanted) {
           entry->depth = frame_message(2, entry->frame.sequence,
                                        encode_png_rgb8(colourise_depth(entry->frame), 1));

@@ -1,6 +1,6 @@
 // Accepting connections and answering HTTP: the page's files from the web folder, /api/state,
-// /api/sim/landmarks; a request whose Host is not this console's own address is refused (DNS
-// rebinding), and a WebSocket only at /ws from the console's own page (Origin).
+// /api/sim/landmarks, /api/foxglove; a request whose Host is not this console's own address is
+// refused (DNS rebinding), and a WebSocket only at /ws from the console's own page (Origin).
 #include "server_impl.hpp"
 
 #include <boost/asio/co_spawn.hpp>
@@ -51,6 +51,21 @@ http::response<http::string_body> respond(const http::request<http::string_body>
 }
 
 }  // namespace
+
+// Foxglove live's counters (docs/console.md): "null" when it is off.
+std::string ConsoleServer::Impl::foxglove_json() const {
+  if (!foxglove) return "null";
+  const auto s = foxglove->stats();
+  return client::JsonObject()
+      .add("port", static_cast<unsigned>(foxglove_port))
+      .add("clients", s.clients)
+      .add("clients_total", s.clients_total)
+      .add("clients_refused", s.clients_refused)
+      .add("clients_disconnected_slow", s.clients_disconnected_slow)
+      .add("messages_sent", s.messages_sent)
+      .add("messages_dropped", s.messages_dropped)
+      .str();
+}
 
 asio::awaitable<void> ConsoleServer::Impl::accept_loop() {
   for (;;) {
@@ -112,6 +127,9 @@ asio::awaitable<void> ConsoleServer::Impl::serve(tcp::socket socket) {
       res = respond(req, http::status::method_not_allowed, "GET only\n", "text/plain");
     } else if (target == "/api/state") {
       res = respond(req, http::status::ok, snapshot(), "application/json");
+    } else if (target == "/api/foxglove") {
+      res = respond(req, foxglove ? http::status::ok : http::status::not_found, foxglove_json(),
+                    "application/json");
     } else if (target == "/api/sim/landmarks") {
       res = respond(req, sim ? http::status::ok : http::status::not_found, landmarks_json(),
                     "application/json");

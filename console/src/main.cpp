@@ -31,6 +31,8 @@ constexpr const char* kUsage = R"(usage: ajar-console [options]
   --recorded DIR        recorded: a folder in the TUM RGB-D layout (docs/console.md)
   --device URI          live: the OpenNI2 device URI (default: the first sensor)
   --fps HZ              sim: frame rate (default 15)
+  --foxglove HOST:PORT  also serve Foxglove live (foxglove.websocket.v1) on this loopback
+                        address, e.g. 127.0.0.1:8765 (port 0 = any free port; default off)
   --web DIR             the page's files (default: the installed/source web folder)
   --ca FILE             mutual TLS to ajard: the CA that signed ajard's certificate (PEM)
   --cert FILE           with --ca: this console's certificate (PEM), made by scripts/make-certs
@@ -101,6 +103,12 @@ Args parse(int argc, char** argv) {
       if (!e) usage_error("--listen: expected HOST:PORT (port 0..65535; IPv6 as [::1]:8080)");
       a.options.listen_host = std::move(e->host);
       a.options.listen_port = e->port;
+    } else if (o == "--foxglove") {
+      auto e = ajar::protocol::parse_host_port(value(), ajar::protocol::PortZero::kAllowed);
+      if (!e) usage_error("--foxglove: expected HOST:PORT (e.g. 127.0.0.1:8765)");
+      a.options.foxglove = true;
+      a.options.foxglove_host = std::move(e->host);
+      a.options.foxglove_port = e->port;
     } else if (o == "--source") {
       a.source = value();
       if (a.source != "sim" && a.source != "recorded" && a.source != "live") {
@@ -239,6 +247,12 @@ int main(int argc, char** argv) {
                 host.c_str(), static_cast<unsigned>(port), a.options.daemon.host.c_str(),
                 static_cast<unsigned>(a.options.daemon.port),
                 a.options.tls.enabled() ? "mutual TLS" : "plaintext");
+    if (server.foxglove_port() != 0) {
+      std::string fhost = a.options.foxglove_host;
+      if (fhost.find(':') != std::string::npos) fhost = "[" + fhost + "]";
+      std::printf("ajar-console: Foxglove live at ws://%s:%u/ (foxglove.websocket.v1)\n",
+                  fhost.c_str(), static_cast<unsigned>(server.foxglove_port()));
+    }
     std::fflush(stdout);
     server.run();
     return 0;

@@ -53,6 +53,8 @@ void ConsoleServer::Impl::handle_page(const std::shared_ptr<WsSession>& s,
     send_step(s);
   } else if (op == "align" || op == "engage" || op == "reset" || op == "stop" || op == "estop") {
     command(op, m->flag("clear").value_or(false));
+  } else if (op == "save_recording") {
+    save_recording(m->number("last_s").value_or(kSaveLast_s));
   } else if (op == "drive") {
     drive(s, *m);
   } else if (op == "approach") {

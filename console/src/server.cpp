@@ -110,7 +110,18 @@ std::uint16_t ConsoleServer::listen() {
                              std::to_string(d.options.listen_port) + ": " + ec.message());
   }
   d.port = d.acceptor.local_endpoint().port();
+  if (d.options.foxglove) {
+    foxglove::ServerOptions fo;
+    fo.host = d.options.foxglove_host;
+    fo.port = d.options.foxglove_port;
+    d.foxglove = std::make_unique<FoxgloveLive>(fo);
+    d.foxglove_port = d.foxglove->listen();
+  }
   return d.port;
+}
+
+std::uint16_t ConsoleServer::foxglove_port() const {
+  return impl_->foxglove_port;
 }
 
 void ConsoleServer::run() {
@@ -130,6 +141,7 @@ void ConsoleServer::run() {
   d.stop_worker = std::make_unique<Worker>();
   d.worker->post([&d] { d.connect_now(); });
   d.frame_thread = std::thread([&d] { d.frame_loop(); });
+  if (d.foxglove) d.foxglove->start();
   asio::signal_set signals(d.ioc, SIGINT, SIGTERM);
   signals.async_wait([this](const error_code& ec, int) {
     if (!ec) stop();
@@ -144,6 +156,7 @@ void ConsoleServer::run() {
 void ConsoleServer::stop() {
   auto& d = *impl_;
   d.stopping = true;
+  if (d.foxglove) d.foxglove->stop();
   asio::post(d.ioc, [&d] {
     error_code ec;
     d.acceptor.close(ec);

@@ -7,6 +7,8 @@
 //   state_json.cpp    the console's state as the page's JSON (and the simulated landmarks)
 //   daemon_link.cpp   the worker threads' side: connect, Hello, status, events, telemetry
 //   frames.cpp        the frame thread: paces the source, encodes PNGs for the pages
+//   foxglove_live.cpp Foxglove live: the channels and messages (its server: foxglove_server.cpp)
+//   recorder_panel.cpp the black box's state and "save the last 5 minutes"
 // Members are touched only by the thread named at their group; the rest is posted (on_io).
 #pragma once
 
@@ -42,6 +44,7 @@
 #include "ajar/console/pick_pose.hpp"
 #include "ajar/console/server.hpp"
 #include "ajar/core/geometry.hpp"
+#include "foxglove_live.hpp"
 #include "worker.hpp"
 
 namespace ajar::console {
@@ -160,6 +163,9 @@ struct ConsoleServer::Impl {
   std::atomic<bool> any_page{false};
   std::atomic<bool> stopping{false};
   std::thread frame_thread;
+  // Foxglove live (foxglove_live.hpp): null when off; its methods never block the caller.
+  std::unique_ptr<FoxgloveLive> foxglove;
+  std::uint16_t foxglove_port = 0;
 
   // ---- Daemon side (worker threads) ----
   protocol::Role role;  // worker thread only
@@ -188,6 +194,7 @@ struct ConsoleServer::Impl {
   asio::awaitable<void> accept_loop();
   asio::awaitable<void> serve(tcp::socket socket);
   bool host_allowed(const http::request<http::string_body>& req) const;
+  std::string foxglove_json() const;  // /api/foxglove
 
   // ---- page_sessions.cpp (Asio thread) ----
   asio::awaitable<void> run_session(std::shared_ptr<WsSession> s);
@@ -240,6 +247,14 @@ struct ConsoleServer::Impl {
 
   // ---- frames.cpp (frame thread) ----
   void frame_loop();
+
+  // ---- recorder_panel.cpp: the black box (ajard's recorder, protocol 1.2) ----
+  static constexpr double kSaveLast_s = 300;  // "save the last 5 minutes"
+  client::JsonObject recorder_state;  // Asio thread: {"known":false,"why":...} until ajard says
+  client::JsonObject recorder_save;   // Asio thread: the last save's answer; empty before one
+  Clock::time_point next_recorder_poll{};  // worker thread
+  void refresh_recorder();  // worker thread: every 2 s while idle, after a connect and a save
+  void save_recording(double last_s);  // Asio thread: the page's "save_recording {last_s}"
 };
 
 }  // namespace ajar::console

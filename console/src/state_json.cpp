@@ -198,6 +198,12 @@ std::string ConsoleServer::Impl::snapshot() const {
   o.add("active_step", kStepNames[active]);
   o.add("picks", picks_json());
   o.add("results", results_json());
+  o.add("recorder", recorder_state);
+  if (recorder_save.empty()) {
+    o.add_null("recorder_save");
+  } else {
+    o.add("recorder_save", recorder_save);
+  }
   if (last_command.empty()) {
     o.add_null("last_command");
   } else {

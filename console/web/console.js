@@ -575,7 +575,8 @@ let lastAnswers = {};
 function showRefusalsOnImage() {
   const answers = { step: state.results[state.active_step] || null, command: state.last_command ? state.last_command.reply : null };
   for (const [k, r] of Object.entries(answers)) {
-    const key = JSON.stringify(r) + (k === 'command' ? state.last_command.at : state.active_step);
+    // Before any command last_command is null: its key is the empty answer's.
+    const key = JSON.stringify(r) + (k === 'command' ? (state.last_command ? state.last_command.at : '') : state.active_step);
     if (key === lastAnswers[k]) continue;
     lastAnswers[k] = key;
     if (!r) continue;
@@ -603,6 +604,7 @@ function updateState() {
     cr.textContent = `${lc.op} at ${lc.at || ''}: ` + (r.ok ? 'accepted' : `REFUSED ${r.code}${r.field ? ' (' + r.field + ')' : ''}: ${r.message}`);
   } else { cr.className = 'result one'; cr.textContent = ''; cr.dataset.ok = ''; }
   cr.dataset.op = lc ? lc.op : '';
+  updateRecorder();
   for (const name of Object.keys(STEPS)) {
     const stale = st && st[name] && stepStale(name);
     $('stored-' + name).textContent = st && st[name] ? (stale ? 'STALE · ' : '') + describeValues(name, st[name]).split('\n')[0] : '—';
@@ -610,6 +612,44 @@ function updateState() {
   updateHud();
   render();
 }
+
+// ---- The black box: the recorder's state as ajard reports it, and "save the last 5 minutes" -------
+
+function bytes(n) {
+  if (n >= 1 << 30) return (n / (1 << 30)).toFixed(2) + ' GiB';
+  if (n >= 1 << 20) return (n / (1 << 20)).toFixed(1) + ' MiB';
+  if (n >= 1 << 10) return (n / (1 << 10)).toFixed(1) + ' KiB';
+  return n + ' B';
+}
+function updateRecorder() {
+  const r = state.recorder && 'known' in state.recorder ? state.recorder : { known: false, why: 'the console has not asked ajard yet' };
+  const on = $('rec-on');
+  // Never more than ajard said: without its word every field reads "unknown".
+  on.textContent = !r.known ? `unknown (${r.why})` : r.on ? 'ON' : `OFF${r.why ? ' (' + r.why + ')' : ''}`;
+  on.dataset.state = !r.known ? 'unknown' : r.on ? 'on' : 'off';
+  $('rec-file').textContent = r.known && r.file ? r.file : r.known ? '—' : 'unknown';
+  $('rec-size').textContent = r.known && r.size_bytes !== undefined && r.size_bytes !== null ? bytes(r.size_bytes) : r.known ? '—' : 'unknown';
+  $('rec-drops').textContent = r.known && r.drops !== undefined && r.drops !== null ? String(r.drops) : 'unknown';
+  const a = state.recorder_save;
+  const el = $('recorder-result');
+  if (!a) { el.className = 'result one'; el.textContent = ''; el.dataset.ok = ''; return; }
+  if (a.pending) { el.className = 'result one'; el.textContent = `saving the last 5 minutes… (asked at ${a.at})`; el.dataset.ok = 'pending'; return; }
+  if (a.reply.ok) {
+    const saved = a.saved || [];
+    el.className = 'result one ok';
+    el.dataset.ok = 'true';
+    el.dataset.code = '';
+    el.dataset.field = '';
+    el.textContent = `saved at ${a.at}: ${saved.length} recording${saved.length === 1 ? '' : 's'}` + (saved.length ? ' — ' + saved.join(', ') : '');
+  } else {
+    showResult(el, a.reply);
+    el.className = 'result one refused';
+    el.insertAdjacentText('afterbegin', `save at ${a.at}: `);
+  }
+}
+$('btn-save-recording').addEventListener('click', () => {
+  if (!send({ op: 'save_recording' })) { const el = $('recorder-result'); el.className = 'result one refused'; el.dataset.ok = 'false'; el.textContent = 'not sent: no link to the console'; }
+});
 
 // ---- Telemetry plots and the log --------------------------------------------------------------------
 

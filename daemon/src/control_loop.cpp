@@ -252,7 +252,7 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   snapshot_.time_ns = now_ns;
   snapshot_.motion_active = motion_ != Motion::kIdle;
   snapshot_.jogging = motion_ == Motion::kJogging;
-  snapshot_.commanded = jog_command_;
+  snapshot_.commanded = within_wheel_cap(jog_command_, settings_.base);
   snapshot_.fault = fault_;
   snapshot_.recover_sequence = recover_sequence_;
   snapshot_.recovering = recovery_ != Recovery::kNone;

@@ -6,6 +6,7 @@ namespace ajar::daemon::detail {
 
 EngineImpl::EngineImpl(const Config& config, drivers::DriverSet drivers, EngineOptions options)
     : config_(config),
+      loop_on_engine_clock_(options.manual_loop || !options.now_ns),
       clock_(options.now_ns ? std::move(options.now_ns)
                             : std::function<std::int64_t()>([] { return monotonic_now_ns(); })),
       manual_loop_(options.manual_loop),
@@ -227,7 +228,10 @@ protocol::Status EngineImpl::status() const {
 protocol::Telemetry EngineImpl::telemetry() const {
   const LoopSnapshot snap = loop_->snapshot();
   protocol::Telemetry t;
-  t.daemon_time_ns = daemon_time_ns();
+  // When the loop sampled the wheels (the cycle of this snapshot), not when the frame was built.
+  t.daemon_time_ns = loop_on_engine_clock_ && snap.cycles > 0 && snap.time_ns >= start_ns_
+                         ? static_cast<std::uint64_t>(snap.time_ns - start_ns_)
+                         : daemon_time_ns();
   t.state = procedure_.state();
   t.moving = snap.moving || snap.motion_active || procedure_.phase() == Phase::kEngaging;
   t.left_wheel_rad = snap.left_wheel_rad;

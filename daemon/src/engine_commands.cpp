@@ -66,6 +66,10 @@ protocol::Message EngineImpl::align(MessageType type) {
     procedure_.alignment_started();
     procedure_.alignment_finished();
     dirty_ = true;
+    // An accepted motion of zero counts is still opened and closed by events (protocol.md 5.7).
+    emit(EventKind::kMotionStarted, ErrorCode::kOk,
+         "aligning: left 0 counts, right 0 counts (already square to the door)");
+    emit(EventKind::kMotionFinished, ErrorCode::kOk, "base aligned (nothing to turn)");
     return ack(type, protocol::EmptyAck{});
   }
   if (auto s = check_arm_clear(); !s) return refuse(type, s.error());
@@ -201,7 +205,16 @@ protocol::Message EngineImpl::approach(MessageType type, const protocol::Approac
   const core::StraightCommand wheels = core::straight_command(body.travel_m, config_.base);
   body.left_counts = wheels.left_counts;
   body.right_counts = wheels.right_counts;
-  if (wheels.left_counts == 0 && wheels.right_counts == 0) return ack(type, body);  // there
+  if (wheels.left_counts == 0 && wheels.right_counts == 0) {  // there already: nothing moves
+    emit(EventKind::kMotionStarted, ErrorCode::kOk,
+         fmt::format("approaching: {:.3f} m to {:.3f} m from the door (left 0 counts, right 0 "
+                     "counts)",
+                     body.travel_m, m.standoff_m));
+    emit(EventKind::kMotionFinished, ErrorCode::kOk,
+         fmt::format("approach finished: the door is {:.3f} m away (nothing to drive)",
+                     door.distance_m));
+    return ack(type, body);
+  }
   loop_->heartbeat(now_ns());
   const MoveCommand move{motion_id_ + 1, wheels.left_counts, wheels.right_counts,
                          MoveProfile::kStraight};
@@ -249,8 +262,8 @@ Outcome EngineImpl::check_base_may_drive(bool jog) {
   }
   if (auto s = check_arm_clear(); !s) return s;
   if (wheel_motion_ == 0) return Ok{};
-  if (wheel_stopping_) {
-    return make_error(ErrorCode::kDriveNotAllowed, "",
+  if (wheel_stopping_) {  // a motion in progress, as for every other command (protocol.md 6.6)
+    return make_error(ErrorCode::kMotionInProgress, "",
                       "the wheels are still stopping: wait for motion_stopped");
   }
   if (wheel_kind_ == WheelKind::kApproach) {

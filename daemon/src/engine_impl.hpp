@@ -125,6 +125,11 @@ class EngineImpl final : public Engine {
 
   void poll() override;
 
+  void catch_up() override {
+    drain_reports();
+    flush();
+  }
+
   protocol::Status status() const override;
 
   protocol::Telemetry telemetry() const override;
@@ -308,6 +313,9 @@ class EngineImpl final : public Engine {
   void bring_down_card() noexcept;
 
   Config config_;
+  // The control loop's cycles are stamped with clock_ (the daemon's clock, or a test's clock that
+  // also drives the loop by hand): Telemetry can carry the time its wheels were sampled.
+  bool loop_on_engine_clock_ = true;
   std::function<std::int64_t()> clock_;
   bool manual_loop_ = false;
   std::shared_ptr<void> keepalive_;                   // first: outlives the drivers

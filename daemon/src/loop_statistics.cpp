@@ -81,6 +81,7 @@ LoopStatisticsRecorder::Copy LoopStatisticsRecorder::take_copy(std::int64_t now_
   Copy c;
   c.time_ns = now_ns;
   c.overruns = overruns();
+  c.cycles = cycles();
   for (std::size_t q = 0; q < kQuantities; ++q) {
     const Histogram& h = (*histograms_)[q];
     for (std::size_t g = 0; g < kGroups; ++g) {
@@ -196,7 +197,7 @@ protocol::LoopStatistics LoopStatisticsRecorder::summary() const {
   const Copy* base = reset_base_.get();
   protocol::LoopStatistics s;
   s.rate_hz = rate_hz_;
-  s.cycles = cycles();
+  s.cycles = cycles() - (base != nullptr ? base->cycles : 0);
   s.overruns = overruns() - (base != nullptr ? base->overruns : 0);
   TimingQuantiles period;
   span_of(kPeriod, base, period);

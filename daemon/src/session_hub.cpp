@@ -131,6 +131,10 @@ void SessionHub::broadcast(const protocol::Message& message) {
   std::array<SharedFrame, protocol::kVersionMinor + 1> frames;  // encoded once per minor in use
   for (auto& [id, s] : sessions_) {
     if (!s.greeted) continue;
+    if (!s.held.empty()) {  // never ahead of a held reply (a durable Ack) of this session
+      s.held.push_back(HeldReply{0, message, 0, Clock::now()});
+      continue;
+    }
     SharedFrame& frame = frames[s.minor];
     if (!frame) frame = encode_frame(protocol::Envelope{0, 0, message}, s.minor);
     if (frame) s.link->send(frame);
@@ -186,6 +190,8 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
       return;
     }
     spdlog::info("{}: {}", describe(s), protocol::to_string(type));
+    engine_.catch_up();
+    const EventDeferral after_reply(*this);
     reply(s, envelope.request_id, call_engine(envelope.message));
     return;
   }
@@ -236,6 +242,7 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
            "this daemon speaks protocol version " + std::to_string(protocol::kVersionMajor) + ".x");
     return;
   }
+  const EventDeferral after_welcome(*this);  // the old controller's stop: after the Welcome
   std::optional<std::uint64_t> demoted;
   if (hello.requested_role == protocol::Role::kController) {
     if (!s.link->access().may_control) {
@@ -343,6 +350,8 @@ void SessionHub::handle_command(SessionState& s, const protocol::Envelope& envel
     }
   }
   spdlog::debug("{}: {} request {}", describe(s), protocol::to_string(type), envelope.request_id);
+  engine_.catch_up();  // what happened before this command goes out before its reply
+  const EventDeferral after_reply(*this);
   const std::uint64_t before = engine_.accepted_generation();
   protocol::Message answer = call_engine(envelope.message);
   const std::uint64_t after = engine_.accepted_generation();
@@ -386,7 +395,19 @@ void SessionHub::on_closed(SessionLink& link, std::string_view reason) {
 }
 
 void SessionHub::on_event(const protocol::Event& event) {
+  if (deferring_ > 0) {
+    deferred_.push_back(event);
+    return;
+  }
   broadcast(event);
+}
+
+SessionHub::EventDeferral::~EventDeferral() {
+  if (--hub_.deferring_ > 0) return;
+  std::vector<protocol::Event> events = std::move(hub_.deferred_);
+  hub_.deferred_.clear();
+  for (const protocol::Event& e : events)
+    hub_.broadcast(e);
 }
 
 void SessionHub::tick(Clock::time_point now) {
@@ -458,7 +479,13 @@ void SessionHub::RefusalHandler::on_message(SessionLink& link, const protocol::E
   if (is_stop(type) && link.access().may_stop) {  // no table state may refuse a stop
     spdlog::warn("refused connection {} from {}: {} executed", link.id(), link.peer(),
                  protocol::to_string(type));
+    hub_.engine_.catch_up();
+    const EventDeferral after_reply(hub_);
     answer = hub_.call_engine(envelope.message);
+    if (auto frame = encode_frame(protocol::Envelope{envelope.request_id, 0, std::move(answer)})) {
+      link.send(std::move(frame));
+    }
+    return;
   } else {
     protocol::ErrorReply error;
     error.code = ErrorCode::kTooManyClients;

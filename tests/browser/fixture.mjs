@@ -84,7 +84,8 @@ export async function theBrowser() {
 export async function closeBrowser() { if (browser) await browser.close().catch(() => {}); browser = null; }
 
 // ajard + ajar-console; `stack.stop()` ends both (and prints their output when a test failed).
-export async function startStack(name, { consoleArgs = [] } = {}) {
+// `ajardConfig(yaml)` may change the shipped config's text (e.g. turn the black box off).
+export async function startStack(name, { consoleArgs = [], ajardConfig = (yaml) => yaml } = {}) {
   mkdirSync(artifacts, { recursive: true });
   const work = mkdtempSync(path.join(tmpdir(), 'ajar-browser-'));
   const portFile = path.join(work, 'port');
@@ -93,8 +94,8 @@ export async function startStack(name, { consoleArgs = [] } = {}) {
   // with Chromium, a scheduling gap of the (not realtime) control thread is not what these tests
   // test (LOOP_STALLED has its own tests in tests/daemon and tests/drivers).
   const config = path.join(work, 'ajard.yaml');
-  writeFileSync(config, readFileSync(path.join(root, 'config/ajard.yaml'), 'utf8')
-    .replace(/^(\s*stall_timeout_s:\s*)[0-9.]+/m, (_, key) => `${key}0.5`));
+  writeFileSync(config, ajardConfig(readFileSync(path.join(root, 'config/ajard.yaml'), 'utf8')
+    .replace(/^(\s*stall_timeout_s:\s*)[0-9.]+/m, (_, key) => `${key}0.5`)));
   stack.ajard = start(process.env.AJAR_AJARD || path.join(build, 'daemon/ajard'), ['--config', config,
     '--listen', '127.0.0.1:0', '--port-file', portFile, '--state-dir', path.join(work, 'state')], 'ajard');
   stack.daemonPort = await until('ajard port file', () => existsSync(portFile) && readFileSync(portFile, 'utf8').trim());

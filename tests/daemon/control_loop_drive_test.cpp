@@ -68,6 +68,46 @@ TEST_F(LoopDrive, LimiterRampsAtTheAccelerationAndClampsTheSpeed) {
   EXPECT_TRUE(loop->snapshot().jogging);
 }
 
+// The wheel-speed cap binds before the body limits: commanded_* (the snapshot's `commanded`) is
+// what the wheels are told, not the body command above the cap (issue 24: a 5 m/s Drive with a
+// 1 rad/s wheel cap showed 0.300 m/s while the wheels were told R_W * 1 rad/s).
+class LoopDriveWheelCap : public LoopDrive {
+ protected:
+  void configure(ControlLoopSettings& s) override {
+    LoopDrive::configure(s);
+    s.base.max_wheel_speed_rad_s = 1.0;
+  }
+};
+
+TEST_F(LoopDriveWheelCap, CommandedIsWhatTheWheelsAreToldAfterTheWheelSpeedCap) {
+  const double r_w = settings.base.wheel_radius_m;
+  ASSERT_LT(r_w * 1.0, 0.3) << "the wheel cap must bind before the body speed limit";
+  ASSERT_TRUE(loop->post_drive(drive(1, true, 5.0, 0.0)));
+  for (int i = 0; i < 400; ++i) {
+    if (i % 50 == 0) {
+      ASSERT_TRUE(loop->post_drive(drive(1, false, 5.0, 0.0)));
+    }
+    run(1);
+    EXPECT_LE(loop->snapshot().commanded.linear_m_s, r_w * 1.0 + 1e-12) << "cycle " << i;
+  }
+  const auto snap = loop->snapshot();
+  EXPECT_NEAR(snap.commanded.linear_m_s, r_w * 1.0, 1e-12);
+  EXPECT_EQ(snap.commanded.angular_rad_s, 0.0);
+  const auto last = jogs().back();  // and that is what the card was told
+  EXPECT_NEAR(last.velocity_counts_per_ms(left_axis),
+              card_velocity(snap.commanded.linear_m_s / r_w, settings.base.left.polarity), 1e-9);
+  // Turning on the spot at the angular limit: the wheels at the cap, the yaw rate with them.
+  for (int i = 0; i < 400; ++i) {
+    if (i % 50 == 0) {
+      ASSERT_TRUE(loop->post_drive(drive(1, false, 0.0, 0.6)));
+    }
+    run(1);
+  }
+  const double r_b = settings.base.turning_radius_m;
+  const double yaw_rate = std::min(0.6, 1.0 * r_w / r_b);
+  EXPECT_NEAR(loop->snapshot().commanded.angular_rad_s, yaw_rate, 1e-9);
+}
+
 TEST_F(LoopDrive, CommandTimeoutStopsAJogWhileTheControllerKeepsPinging) {
   ASSERT_TRUE(loop->post_drive(drive(7, true, 0.2, 0.3)));
   run(250);  // 0.5 s: just within the timeout, at speed

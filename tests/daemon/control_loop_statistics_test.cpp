@@ -106,13 +106,17 @@ TEST(LoopStatistics, RecentWindowForgetsOldCyclesAndResetRestartsEverything) {
   EXPECT_EQ(fresh.all.latency.max_ns, 0U);
   EXPECT_EQ(fresh.recent.samples, 0U);
   EXPECT_EQ(r.summary().overruns, 0U);
-  EXPECT_EQ(r.summary().cycles, 27'000U);  // the cycle counter counts since start
+  // Every counter of the summary restarts (issue 24: cycles kept counting since start while
+  // overruns restarted, so overruns / cycles meant nothing after a reset).
+  EXPECT_EQ(r.summary().cycles, 0U);
+  EXPECT_EQ(r.cycles(), 27'000U);  // the recorder's own counter still counts since start
   run(1, 30'000);
   const auto after = r.timing(now);
   EXPECT_EQ(after.all.samples, 1000U);
   EXPECT_NEAR(after.all.latency.p50_ns, 30'000, 8);
   EXPECT_NEAR(after.all.latency.max_ns, 30'000, 8);
   EXPECT_EQ(after.recent.samples, 1000U);
+  EXPECT_EQ(r.summary().cycles, after.all.samples);  // the same span as timing.all
 }
 
 TEST(LoopStatistics, PercentilesMatchASortedReferenceWithinOneBucket) {

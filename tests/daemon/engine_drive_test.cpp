@@ -79,7 +79,11 @@ TEST_F(EngineDrive, MeasurementsAlignAndApproachWaitWhileTheBaseIsDriven) {
   expect_refused(send(protocol::AlignBase{}), ErrorCode::kMotionInProgress);
   expect_refused(send(protocol::Approach{1.0}), ErrorCode::kMotionInProgress);
   expect_accepted(send(protocol::Stop{}));
-  expect_refused(send(protocol::Drive{0.05, 0.0}), ErrorCode::kDriveNotAllowed);  // stopping
+  // The wheels are still stopping: one code for every motion command (issue 24: Drive and
+  // Approach answered DRIVE_NOT_ALLOWED, AlignBase and Engage MOTION_IN_PROGRESS).
+  expect_refused(send(protocol::Drive{0.05, 0.0}), ErrorCode::kMotionInProgress);
+  expect_refused(send(protocol::Approach{1.0}), ErrorCode::kMotionInProgress);
+  expect_refused(send(protocol::AlignBase{}), ErrorCode::kMotionInProgress);
   cycles(300);
   EXPECT_TRUE(paired());
 }

@@ -66,6 +66,7 @@ class RecordingEngine final : public daemon::Engine {
   void begin_read_batch() override { inner_.begin_read_batch(); }
   void end_read_batch() override { inner_.end_read_batch(); }
   void poll() override { inner_.poll(); }
+  void catch_up() override { inner_.catch_up(); }
   std::uint64_t accepted_generation() const noexcept override {
     return inner_.accepted_generation();
   }

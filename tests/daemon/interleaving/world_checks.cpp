@@ -240,7 +240,16 @@ void World::check_jog(bool stop_call) {
   }
   const double dt_s = static_cast<double>(kPeriodNs) / 1e9;
   const bool to_rest = lin == 0 && ang == 0;
-  if (!(to_rest && stop_call) &&
+  // commanded_* is what the wheels are told: at the wheel-speed cap both wheels are scaled, and the
+  // scaled body velocity slides along the cap faster than the limiter's steps (the card's ramp
+  // bounds the wheels there: check_card_call checks the jog calls' wheel acceleration).
+  const auto& b = config_.base;
+  const auto at_wheel_cap = [&](double v, double w) {
+    return std::abs(v) + std::abs(w) * b.turning_radius_m >=
+           b.max_wheel_speed_rad_s * b.wheel_radius_m - 1e-9;
+  };
+  const bool capped = at_wheel_cap(lin, ang) || at_wheel_cap(commanded_lin_, commanded_ang_);
+  if (!(to_rest && stop_call) && !capped &&
       (std::abs(lin - commanded_lin_) > d.max_linear_accel_m_s2 * dt_s + kEps ||
        std::abs(ang - commanded_ang_) > d.max_angular_accel_rad_s2 * dt_s + kEps)) {
     return fail("the commanded velocity changed faster than drive.max_*_accel allow");

@@ -43,6 +43,11 @@ struct ConsoleOptions {
   // are checked by listen() with ajarctl's rule (a private key readable by group or others is
   // refused). The page itself is plain HTTP: keep listen_host on loopback (docs/console.md).
   client::TlsOptions tls;
+  // Foxglove live (docs/console.md): the Foxglove WebSocket protocol on a second port, loopback
+  // only (listen() refuses another address). Off unless foxglove is set (--foxglove HOST:PORT).
+  bool foxglove = false;
+  std::string foxglove_host = "127.0.0.1";
+  std::uint16_t foxglove_port = 8765;  // 0: any free port
 };
 
 class ConsoleServer {
@@ -58,6 +63,9 @@ class ConsoleServer {
   // the listening socket (throws std::runtime_error naming the address on failure) and returns the
   // bound port.
   std::uint16_t listen();
+  // The Foxglove port listen() bound (0 when Foxglove live is off). listen() throws naming
+  // --foxglove when its address is not loopback or cannot be bound.
+  std::uint16_t foxglove_port() const;
   // Runs until stop() or SIGINT/SIGTERM; then closes the pages, stops the heartbeat and
   // disconnects from ajard.
   void run();

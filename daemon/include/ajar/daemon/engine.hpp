@@ -89,6 +89,10 @@ class Engine {
   // Called periodically (at least every few ms) on the I/O thread: drains control-loop reports,
   // emits events, persists changes.
   virtual void poll() = 0;
+  // Delivers what the control loop reported since the last poll() (its events go out now), so
+  // that the events of a command handled next are the only ones it causes. The session hub calls
+  // it before a command: it sends those events after the command's reply (docs/protocol.md 6.6).
+  virtual void catch_up() {}
 
   // Durability of accepted changes (persistence runs on the state store's writer thread, never on
   // the I/O thread). Every change accepted so far is in the save numbered accepted_generation()

@@ -61,13 +61,14 @@ class LoopStatisticsRecorder {
   void record_overrun() noexcept;  // a deadline was missed
 
   // ---- any thread except the control thread ----
-  // Protocol 1.0's summary: cycles since start; overruns and period percentiles since the last
-  // reset; jitter = |period - nominal| p99.
+  // Protocol 1.0's summary: cycles, overruns and period percentiles since start or the last reset
+  // (one span for all, so overruns / cycles is a ratio); jitter = |period - nominal| p99.
   protocol::LoopStatistics summary() const;
   TimingSummary timing(std::int64_t now_ns) const;
   void reset(std::int64_t now_ns);  // "all" and "recent" restart from now
 
   std::int64_t nominal_period_ns() const noexcept { return nominal_ns_; }
+  // Since start (the reset does not touch them; summary() reports since the reset).
   std::uint64_t cycles() const noexcept { return cycles_.load(std::memory_order_relaxed); }
   std::uint64_t overruns() const noexcept { return overruns_.load(std::memory_order_relaxed); }
 
@@ -87,6 +88,7 @@ class LoopStatisticsRecorder {
   struct Copy {
     std::int64_t time_ns = 0;
     std::uint64_t overruns = 0;
+    std::uint64_t cycles = 0;
     std::array<std::vector<std::pair<std::uint32_t, std::uint32_t>>, kQuantities> buckets;
     std::array<std::array<std::uint32_t, kGroups>, kQuantities> groups{};
   };

@@ -32,6 +32,12 @@
 //   (bad magic, oversize) -> that session is closed after the reply; nobody else notices.
 // - Events from the engine go to every greeted session; Subscribe{rate} sends Telemetry at that
 //   rate (capped at the control loop rate; 0 = off; negative or non-finite: RATE_LIMITED).
+// - The reply before the events it causes (docs/protocol.md 6.6): before a command the engine
+//   catches up (Engine::catch_up(): what happened before goes out first); the events the engine
+//   emits while it handles the command (motion_started, state_changed, ...) are broadcast only
+//   after the command's reply was sent or queued; on a session with a held reply (a durable Ack)
+//   every later event queues behind it too, so it never overtakes that Ack. The same for a Hello
+//   that takes control: its Welcome comes before the events of the old controller's stop.
 // - Durable Acks: a command that changed the persisted state (Engine::accepted_generation() moved)
 //   has its reply held until Engine::settled_generation() reaches that generation (the state
 //   store's writer thread finished the save: on disk, or failed with a logged warning — the
@@ -62,6 +68,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "ajar/daemon/engine.hpp"
 #include "ajar/daemon/request_ledger.hpp"
@@ -132,7 +139,8 @@ class SessionHub final : public SessionHandler {
     Clock::time_point opened{};
     Clock::time_point last_activity{};  // last frame received
     bool closing = false;               // past the Hello deadline: being closed
-    std::deque<HeldReply> held;         // replies waiting for durability, in request order
+    std::deque<HeldReply>
+        held;  // replies waiting for durability (and the events behind them), in order
     bool greeted = false;
     protocol::Role role = protocol::Role::kObserver;
     std::uint64_t client_instance_id = 0;
@@ -155,6 +163,18 @@ class SessionHub final : public SessionHandler {
   void refuse(SessionState& s, const protocol::Envelope& envelope, ErrorCode code,
               std::string_view field, std::string_view message);
   void broadcast(const protocol::Message& message);
+  // Holds the engine's events while a request is handled (RAII; nests); the last one to end
+  // broadcasts them, after the request's reply was sent or queued.
+  class EventDeferral {
+   public:
+    explicit EventDeferral(SessionHub& hub) : hub_(hub) { ++hub_.deferring_; }
+    ~EventDeferral();
+    EventDeferral(const EventDeferral&) = delete;
+    EventDeferral& operator=(const EventDeferral&) = delete;
+
+   private:
+    SessionHub& hub_;
+  };
   void announce_controller(std::string_view detail);
   std::string describe(const SessionState& s) const;
 
@@ -178,6 +198,8 @@ class SessionHub final : public SessionHandler {
   std::map<std::uint64_t, SessionState> sessions_;
   std::optional<std::uint64_t> controller_;
   bool shutting_down_ = false;
+  int deferring_ = 0;                      // EventDeferrals alive
+  std::vector<protocol::Event> deferred_;  // events emitted meanwhile, in order
 };
 
 }  // namespace ajar::daemon
