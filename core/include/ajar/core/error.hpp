@@ -15,7 +15,7 @@
 #include <string_view>
 
 // clang-format off
-#define AJAR_ERROR_CODES(X) \
+#define AJAR_ERROR_CODES(X)                                                                        \
   X(kOk, 0, OK,                                                                                    \
     "no error (Event.fault / Status.latched_fault when none)",                                     \
     "–")                                                                                           \
@@ -70,8 +70,9 @@
     "maximum number of clients reached; the connection will be closed",                            \
     "retry later; close idle clients")                                                             \
   X(kRateLimited, 205, RATE_LIMITED,                                                               \
-    "telemetry rate outside 0..loop rate (negative)",                                              \
-    "send a rate between 0 and Welcome.loop_rate_hz")                                              \
+    "telemetry rate negative (a rate above the loop rate is not refused: it is capped at "         \
+    "Welcome.loop_rate_hz, 5.9)",                                                                  \
+    "send a rate ≥ 0 (0 = off)")                                                                   \
   X(kShuttingDown, 206, SHUTTING_DOWN,                                                             \
     "the daemon is stopping: until it closes the session only Stop and EmergencyStop are "         \
     "executed (and acknowledged)",                                                                 \
@@ -81,7 +82,11 @@
     "show the message; do not retry")                                                              \
   /* 3xx: geometry and validation (core/) */                                                       \
   X(kNonFinite, 300, NON_FINITE,                                                                   \
-    "a value is NaN or infinite",                                                                  \
+    "a value is NaN or infinite. **Never for a number on the wire**: a NaN or infinity "           \
+    "there is refused by the decoder first (NON_FINITE_NUMBER, 107). ajard's validation "          \
+    "returns 300 only for a value it *derives* that is not finite (an overflow from extreme "      \
+    "but finite coordinates, e.g. a point taken to the base frame), naming that value's "          \
+    "field (p1.x, width_m, normal, ...)",                                                          \
     "pick the point(s) again")                                                                     \
   X(kPointOutOfDepthRange, 301, POINT_OUT_OF_DEPTH_RANGE,                                          \
     "a camera-frame point is outside the sensor's depth range",                                    \
@@ -117,7 +122,10 @@
     "plane fit RMS residual above the configured maximum",                                         \
     "pick points again, on the flat leaf (not the handle/frame)")                                  \
   X(kUnknownFrame, 312, UNKNOWN_FRAME,                                                             \
-    "a point names a frame that is neither camera nor base",                                       \
+    "a point names a frame that is neither camera nor base. **Never sent by ajard**: a "           \
+    "frame value other than 0/1 is refused by the decoder first (INVALID_ENUM_VALUE, 106, "        \
+    "field e.g. p1.frame), and nothing else makes a point's frame. Kept in the table (codes "      \
+    "are never renumbered) for implementations that validate points they did not decode",          \
     "send frame 0 or 1")                                                                           \
   X(kTransformNotRigid, 313, TRANSFORM_NOT_RIGID,                                                  \
     "the configured camera→base matrix is not rigid",                                              \
@@ -148,29 +156,31 @@
     "a fault is latched",                                                                          \
     "show Status.latched_fault; send Reset after fixing the cause")                                \
   X(kMotionInProgress, 407, MOTION_IN_PROGRESS,                                                    \
-    "a motion is running",                                                                         \
-    "wait for motion_finished, or send Stop")                                                      \
+    "a motion is running, or the wheels are still stopping after one (every command that "         \
+    "measures or moves, Drive and Approach included)",                                             \
+    "wait for motion_finished / motion_stopped, or send Stop")                                     \
   X(kQueueFull, 408, QUEUE_FULL,                                                                   \
     "control loop command queue full",                                                             \
     "retry the same request (same id) after a short delay")                                        \
   X(kMeasurementStale, 409, MEASUREMENT_STALE,                                                     \
-    "1.1: the base moved since a stored measurement (field: plane or contact)",                    \
+    "1.1: the base moved since a stored measurement (field: plane or contact; plane when "         \
+    "both are stale)",                                                                             \
     "measure it again")                                                                            \
   X(kNoDoorDistance, 410, NO_DOOR_DISTANCE,                                                        \
-    "1.1: Approach without width points or a plane to give the distance",                          \
+    "1.1: Approach without width points or a plane to give the distance (field empty)",            \
     "measure the width (or the plane) first")                                                      \
   X(kNotSquareToDoor, 411, NOT_SQUARE_TO_DOOR,                                                     \
     "1.1: Approach while the base is not square to the door within "                               \
     "approach_square_tolerance_rad",                                                               \
     "align first (or jog square)")                                                                 \
   X(kApproachTooFar, 412, APPROACH_TOO_FAR,                                                        \
-    "1.1: the approach move is longer than approach_max_travel_m",                                 \
+    "1.1: the approach move is longer than approach_max_travel_m (field standoff_m)",              \
     "jog closer first")                                                                            \
   X(kDriveNotAllowed, 413, DRIVE_NOT_ALLOWED,                                                      \
-    "1.1: the base may not move now: Drive/Approach while engaging or engaged or the wheels "      \
-    "are stopping; Drive/Approach/AlignBase while the arm has not reported idle since its "        \
-    "last task (field arm)",                                                                       \
-    "wait for the motion to end, or Stop (a done arm withdraws on Stop)")                          \
+    "1.1: the base may not move because of the arm: Drive/Approach while engaging or "             \
+    "engaged (field empty); Drive/Approach/AlignBase while the arm has not reported idle "         \
+    "since its last task (field arm)",                                                             \
+    "wait for the arm's task to end, or Stop (a done arm withdraws on Stop)")                      \
   X(kAtMinimumStandoff, 414, AT_MINIMUM_STANDOFF,                                                  \
     "Drive straight forward while the base is at approach_min_standoff_m from the door (a "        \
     "fresh door distance; field linear_m_s)",                                                      \
@@ -235,18 +245,19 @@
     "check the card and its bus; Reset once Status shows the loop running again "                  \
     "(docs/control-loop.md, \"Stalled loop\")")                                                    \
   X(kStateRejected, 518, STATE_REJECTED,                                                           \
-    "latched at start: the state file could not be read, decoded or validated with the config "    \
-    "(moved aside as ajard.state.rejected-<time>; its own latched fault, if it could be read, "    \
-    "is kept instead); the stored measurements are gone",                                          \
+    "latched at start: the state file could not be read, decoded or validated with the "           \
+    "config (moved aside as ajard.state.rejected-<time>; its own latched fault, if it could "      \
+    "be read, is kept instead); the stored measurements are gone",                                 \
     "read the journal; measure again; Reset")                                                      \
   X(kUncleanShutdown, 519, UNCLEAN_SHUTDOWN,                                                       \
     "latched at start: the previous run did not end with a clean shutdown (crash, kill -9, "       \
-    "watchdog abort, power loss) — a stop acknowledged just before may not have been recorded",    \
+    "watchdog abort, power loss) — a stop acknowledged just before may not have been "             \
+    "recorded",                                                                                    \
     "check the robot and the scene; Reset")                                                        \
   X(kVelocityMismatch, 520, VELOCITY_MISMATCH,                                                     \
-    "the wheels did not do what the motion card was told: a wheel's measured velocity stayed "     \
-    "outside the commanded one, or the wheels moved with no motion running (a card that "          \
-    "missed a command or reports stale status); the daemon emergency-stopped them",                \
+    "the wheels did not do what the motion card was told: a wheel's measured velocity "            \
+    "stayed outside the commanded one, or the wheels moved with no motion running (a card "        \
+    "that missed a command or reports stale status); the daemon emergency-stopped them",           \
     "check the card and the drives; Reset")                                                        \
   /* 9xx: bugs */                                                                                  \
   X(kInternal, 900, INTERNAL,                                                                      \
