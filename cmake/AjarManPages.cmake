@@ -12,19 +12,33 @@ if(NOT AJAR_HELP2MAN OR NOT PERL_FOUND)
 endif()
 set(man_dir ${PROJECT_BINARY_DIR}/man)
 file(MAKE_DIRECTORY ${man_dir})
+# help2man runs the program: a cross build (cmake/toolchain-arm64.cmake) runs it through its
+# emulator, by a wrapper of the program's own name (help2man names the page after it).
+foreach(program ajard ajarctl ajar-armsim)
+  if(CMAKE_CROSSCOMPILING AND CMAKE_CROSSCOMPILING_EMULATOR)
+    list(JOIN CMAKE_CROSSCOMPILING_EMULATOR " " _ajar_emulator)
+    file(GENERATE OUTPUT ${man_dir}/run/${program}
+      CONTENT "#!/bin/sh\nexec ${_ajar_emulator} $<TARGET_FILE:${program}> \"$@\"\n"
+      FILE_PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE GROUP_READ GROUP_EXECUTE WORLD_READ
+                       WORLD_EXECUTE)
+    set(help2man_run_${program} ${man_dir}/run/${program})
+  else()
+    set(help2man_run_${program} $<TARGET_FILE:${program}>)
+  endif()
+endforeach()
 add_custom_command(OUTPUT ${man_dir}/ajard.8
   COMMAND ${AJAR_HELP2MAN} --no-info --section 8 --name "the Ajar door-opening controller daemon"
           --include ${CMAKE_CURRENT_LIST_DIR}/man/ajard.h2m --output ${man_dir}/ajard.8
-          $<TARGET_FILE:ajard>
+          ${help2man_run_ajard}
   DEPENDS ajard ${CMAKE_CURRENT_LIST_DIR}/man/ajard.h2m VERBATIM)
 add_custom_command(OUTPUT ${man_dir}/ajarctl.1
   COMMAND ${AJAR_HELP2MAN} --no-info --section 1 --name "command-line client of the Ajar daemon"
           --include ${CMAKE_CURRENT_LIST_DIR}/man/ajarctl.h2m --output ${man_dir}/ajarctl.1
-          $<TARGET_FILE:ajarctl>
+          ${help2man_run_ajarctl}
   DEPENDS ajarctl ${CMAKE_CURRENT_LIST_DIR}/man/ajarctl.h2m VERBATIM)
 add_custom_command(OUTPUT ${man_dir}/ajar-armsim.1
   COMMAND ${AJAR_HELP2MAN} --no-info --section 1 --name "arm-controller simulator on a pseudo-terminal"
-          --output ${man_dir}/ajar-armsim.1 $<TARGET_FILE:ajar-armsim>
+          --output ${man_dir}/ajar-armsim.1 ${help2man_run_ajar-armsim}
   DEPENDS ajar-armsim VERBATIM)
 add_custom_command(OUTPUT ${man_dir}/ajard.yaml.5
   COMMAND ${PERL_EXECUTABLE} ${CMAKE_CURRENT_LIST_DIR}/md2man.pl ajard.yaml 5

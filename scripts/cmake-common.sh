@@ -6,6 +6,15 @@ ajar_cmake_common=()
 if [[ "${AJAR_NO_CCACHE:-0}" != 1 ]] && command -v ccache >/dev/null 2>&1; then
   export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}"
   ajar_cmake_common+=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+  # An empty cache (a fresh CI machine) compiles every file: there ccache's depend mode, unless
+  # CCACHE_DEPEND is set already. On a miss ccache otherwise runs the preprocessor once more, to
+  # hash the preprocessed file (0.1-0.7 CPU s a file here: Asio, Beast, Eigen; docs/development.md,
+  # CI time); depend mode hashes the sources and takes the headers from the compiler's own -MD
+  # output. It gives up preprocessor-mode hits, which only a cache already holding objects has.
+  if [[ -z ${CCACHE_DEPEND+set} ]] &&
+    [[ $(ccache --print-stats 2>/dev/null | awk '$1 == "files_in_cache" { print $2 }') == 0 ]]; then
+    export CCACHE_DEPEND=1
+  fi
 fi
 
 # ajar_generator DIR: the CMake generator arguments for a build tree: Ninja (when installed) for a

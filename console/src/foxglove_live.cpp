@@ -150,6 +150,26 @@ Json compressed_image_schema() {
   return s;
 }
 
+Json camera_calibration_schema() {
+  const auto fixed = [](int n) {
+    Json a = array(number());
+    a["minItems"] = n;
+    a["maxItems"] = n;
+    return a;
+  };
+  Json s = object("foxglove.CameraCalibration", {{"timestamp", time_schema()},
+                                                 {"frame_id", string()},
+                                                 {"width", integer(0)},
+                                                 {"height", integer(0)},
+                                                 {"distortion_model", string()},
+                                                 {"D", array(number())},
+                                                 {"K", fixed(9)},
+                                                 {"R", fixed(9)},
+                                                 {"P", fixed(12)}});
+  s["description"] = "Camera calibration parameters (a pinhole camera: no distortion)";
+  return s;
+}
+
 // ---- message pieces ----
 Json stamp(std::uint64_t unix_ns) {
   return {{"sec", unix_ns / 1000000000U}, {"nsec", unix_ns % 1000000000U}};
@@ -277,12 +297,14 @@ std::vector<foxglove::Channel> foxglove_channels() {
     c.latched = latched;
     return c;
   };
-  return {recorded(kFoxgloveTelemetry, recorder::kTelemetryChannel),
-          recorded(kFoxgloveEvents, recorder::kEventsChannel),
-          channel(kFoxgloveOdometry, "/tf", frame_transform_schema(), false),
-          channel(kFoxgloveCameraMount, "/tf_static", frame_transform_schema(), true),
-          channel(kFoxgloveDoor, "/ajar/door", scene_update_schema(), true),
-          channel(kFoxgloveImage, "/ajar/camera/image", compressed_image_schema(), false)};
+  return {
+      recorded(kFoxgloveTelemetry, recorder::kTelemetryChannel),
+      recorded(kFoxgloveEvents, recorder::kEventsChannel),
+      channel(kFoxgloveOdometry, "/tf", frame_transform_schema(), false),
+      channel(kFoxgloveCameraMount, "/tf_static", frame_transform_schema(), true),
+      channel(kFoxgloveDoor, "/ajar/door", scene_update_schema(), true),
+      channel(kFoxgloveImage, "/ajar/camera/image", compressed_image_schema(), false),
+      channel(kFoxgloveCalibration, "/ajar/camera/calibration", camera_calibration_schema(), true)};
 }
 
 // The recorder's ajar.Telemetry (recorder/include/ajar/recorder/channels.hpp) with the rest of
@@ -431,6 +453,21 @@ std::string foxglove_image_json(const std::vector<std::uint8_t>& png, std::uint6
       .dump();
 }
 
+// The pinhole model of core/camera.hpp (pixel centres at integers), no distortion: an Image panel
+// draws the 3D scene over the camera image with it.
+std::string foxglove_calibration_json(const core::PinholeIntrinsics& k, std::uint64_t unix_ns) {
+  return Json{{"timestamp", stamp(unix_ns)},
+              {"frame_id", "camera"},
+              {"width", k.width_px},
+              {"height", k.height_px},
+              {"distortion_model", "plumb_bob"},
+              {"D", {0.0, 0.0, 0.0, 0.0, 0.0}},
+              {"K", {k.fx_px, 0.0, k.cx_px, 0.0, k.fy_px, k.cy_px, 0.0, 0.0, 1.0}},
+              {"R", {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0}},
+              {"P", {k.fx_px, 0.0, k.cx_px, 0.0, 0.0, k.fy_px, k.cy_px, 0.0, 0.0, 0.0, 1.0, 0.0}}}
+      .dump();
+}
+
 FoxgloveLive::FoxgloveLive(foxglove::ServerOptions options)
     : server_(std::move(options), foxglove_channels()) {}
 
@@ -462,7 +499,16 @@ void FoxgloveLive::on_model(const protocol::RobotModel& m) {
 }
 
 void FoxgloveLive::on_image(std::shared_ptr<const std::vector<std::uint8_t>> png,
-                            std::uint64_t unix_ns) {
+                            std::uint64_t unix_ns, const core::PinholeIntrinsics& k) {
+  const auto same = [](const core::PinholeIntrinsics& a, const core::PinholeIntrinsics& b) {
+    return a.fx_px == b.fx_px && a.fy_px == b.fy_px && a.cx_px == b.cx_px && a.cy_px == b.cy_px &&
+           a.width_px == b.width_px && a.height_px == b.height_px;
+  };
+  if (!last_intrinsics_ || !same(*last_intrinsics_, k)) {
+    last_intrinsics_ = k;
+    server_.publish(kFoxgloveCalibration, unix_ns,
+                    [k, unix_ns] { return foxglove_calibration_json(k, unix_ns); });
+  }
   if (!png || png->empty()) return;
   server_.publish(kFoxgloveImage, unix_ns,
                   [png = std::move(png), unix_ns] { return foxglove_image_json(*png, unix_ns); });

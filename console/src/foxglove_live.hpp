@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "ajar/console/foxglove_server.hpp"
+#include "ajar/core/camera.hpp"
 #include "ajar/protocol/messages.hpp"
 
 namespace ajar::console {
@@ -31,6 +32,7 @@ enum FoxgloveChannel : std::uint32_t {
   kFoxgloveCameraMount = 4,  // /tf_static             foxglove.FrameTransform base_link -> camera
   kFoxgloveDoor = 5,         // /ajar/door             foxglove.SceneUpdate (latched)
   kFoxgloveImage = 6,        // /ajar/camera/image     foxglove.CompressedImage (PNG)
+  kFoxgloveCalibration = 7,  // /ajar/camera/calibration foxglove.CameraCalibration (latched)
 };
 
 // The channels with their JSON Schemas (the schemas of the foxglove.* messages describe the fields
@@ -52,12 +54,16 @@ class FoxgloveLive {
   // The door scene from the daemon's stored measurements (published when they change).
   void on_status(const protocol::Status& s);
   void on_model(const protocol::RobotModel& m);  // the camera's mount (base_link -> camera)
-  // One camera frame as PNG (`png`: the file's bytes), captured at `unix_ns`.
-  void on_image(std::shared_ptr<const std::vector<std::uint8_t>> png, std::uint64_t unix_ns);
+  // One camera frame as PNG (`png`: the file's bytes; null when nobody subscribes), captured at
+  // `unix_ns`, and the camera's intrinsics (the calibration, published when they change). The
+  // frame thread only.
+  void on_image(std::shared_ptr<const std::vector<std::uint8_t>> png, std::uint64_t unix_ns,
+                const core::PinholeIntrinsics& intrinsics);
 
  private:
   foxglove::Server server_;
   std::string last_door_;  // the door scene's entities last sent (publish only on a change)
+  std::optional<core::PinholeIntrinsics> last_intrinsics_;  // frame thread
 };
 
 // The JSON payloads, for the server's thread and for tests.
@@ -69,5 +75,6 @@ std::string foxglove_camera_mount_json(const protocol::RobotModel& m, std::uint6
 std::string foxglove_door_json(const protocol::Status& s, std::uint64_t unix_ns,
                                bool entities_only = false);
 std::string foxglove_image_json(const std::vector<std::uint8_t>& png, std::uint64_t unix_ns);
+std::string foxglove_calibration_json(const core::PinholeIntrinsics& k, std::uint64_t unix_ns);
 
 }  // namespace ajar::console

@@ -94,6 +94,7 @@ bool origin_allowed(std::string_view origin) {
   auto host = origin.substr(host_start);
   if (const auto slash = host.find('/'); slash != std::string_view::npos)
     host = host.substr(0, slash);
+  if (host.empty()) return false;
   const auto name =
       host.front() == '[' ? host.substr(0, host.find(']') + 1) : host.substr(0, host.find(':'));
   return name == "app.foxglove.dev" || name == "studio.foxglove.dev" || name == "localhost" ||
@@ -199,6 +200,7 @@ struct Server::Impl {
   }
 
   void handle_text(const std::shared_ptr<Client>& c, const std::string& text) {
+    if (c->closed) return;  // read before the watchdog closed it: no subscription after close()
     const Json j = Json::parse(text, nullptr, false);
     if (j.is_discarded() || !j.is_object() || !j.contains("op") || !j["op"].is_string()) {
       send_control(c, status(2, "not a JSON object with a string \"op\""));

@@ -74,7 +74,9 @@ void ConsoleServer::Impl::frame_loop() {
         png = std::make_shared<const std::vector<std::uint8_t>>(
             encode_png_rgb8(Rgb8Image{k.width_px, k.height_px, entry->frame.rgb}, 1));
       }
-      if (to_foxglove) foxglove->on_image(png, foxglove::unix_time_ns());
+      if (foxglove)
+        foxglove->on_image(to_foxglove ? png : nullptr, foxglove::unix_time_ns(),
+                           entry->frame.intrinsics);
       if (any_page) {
         entry->colour = frame_message(1, entry->frame.sequence, *png);
         if (overlay_wanted) {

@@ -627,6 +627,7 @@ function updateRecorder() {
   // Never more than ajard said: without its word every field reads "unknown".
   on.textContent = !r.known ? `unknown (${r.why})` : r.on ? 'ON' : `OFF${r.why ? ' (' + r.why + ')' : ''}`;
   on.dataset.state = !r.known ? 'unknown' : r.on ? 'on' : 'off';
+  on.title = on.textContent;  // the cell is one line: the whole reason on hover
   $('rec-file').textContent = r.known && r.file ? r.file : r.known ? '—' : 'unknown';
   $('rec-size').textContent = r.known && r.size_bytes !== undefined && r.size_bytes !== null ? bytes(r.size_bytes) : r.known ? '—' : 'unknown';
   $('rec-drops').textContent = r.known && r.drops !== undefined && r.drops !== null ? String(r.drops) : 'unknown';

@@ -427,6 +427,11 @@ void check(const Config& c, const Reader& r) {
                 "1.." + std::to_string(d.card.axis_count) + " (drivers.card.axis_count)");
     }
   }
+  if (c.recorder.max_file_bytes > c.recorder.max_bytes) {
+    r.fail_at("recorder.max_file_bytes", "must not be above recorder.max_bytes",
+              std::to_string(c.recorder.max_file_bytes),
+              "<= " + std::to_string(c.recorder.max_bytes));
+  }
 }
 
 YAML::Node load_yaml(const std::string& path) {

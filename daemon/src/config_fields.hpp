@@ -412,6 +412,30 @@ void fields(Io& io, C& c) {
              "relative paths are relative to the working directory). `--state-dir` overrides it"},
             c.state.directory, "directory path", Text::kNonEmpty);
   });
+  io.section("recorder", [&] {
+    io.boolean({"enabled",
+                "record (a directory that cannot be written is logged and recording stays off; the "
+                "daemon runs on)"},
+               c.recorder.enabled);
+    io.text({"directory",
+             "where recordings are written (created 0750 if missing; files 0640, the daemon's user "
+             "only; relative paths are relative to the working directory); saved recordings go to "
+             "its `saved/`"},
+            c.recorder.directory, "directory path", Text::kNonEmpty);
+    io.integer({"max_bytes",
+                "the disk budget: after each rotation the oldest recordings are removed until the "
+                "rest fit (saved ones are never removed)"},
+               c.recorder.max_bytes, 1LL << 20, 1LL << 50);
+    io.integer(
+        {"max_file_bytes",
+         "a recording is closed and the next one started at this size (at most `max_bytes`)"},
+        c.recorder.max_file_bytes, 64LL << 10, 1LL << 40);
+    io.number({"max_file_s", "... or at this age"}, c.recorder.max_file_s, 1, 86400, "s");
+    io.integer(
+        {"loop_decimation",
+         "record every n-th control-loop cycle (`1`: every cycle; 5 at 500 Hz: 100 samples/s)"},
+        c.recorder.loop_decimation, 1, 10000);
+  });
 }
 
 // "a, b, c" of text(item) for every item.

@@ -13,6 +13,7 @@
 
 #include "ajar/core/geometry.hpp"
 #include "ajar/daemon/realtime.hpp"
+#include "ajar/recorder/recorder.hpp"
 #include "control_loop_units.hpp"
 
 namespace ajar::daemon {
@@ -155,6 +156,7 @@ void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
     const std::int64_t end = monotonic_now_ns();
     statistics_.record_cycle(deadline, wake, end);
     last_cycle_end_ns_.store(end, std::memory_order_release);
+    if (recorder_ != nullptr) record_sample(deadline, wake, end);
     deadline += period_ns_;
     if (end > deadline) {  // missed at least one deadline: count it, skip to the next free slot
       statistics_.record_overrun();
@@ -169,6 +171,55 @@ bool ControlLoop::post(Command c) noexcept {
   c.latch_stamp = latch_generation_.load();
   return commands_.push(c);
 }
+void ControlLoop::record_sample(std::int64_t deadline_ns, std::int64_t wake_ns,
+                                std::int64_t end_ns) noexcept {
+  // Velocities from the counts since the previous cycle (every cycle, decimated or not).
+  const double dt_s = static_cast<double>(wake_ns - sample_last_wake_ns_) / 1e9;
+  const bool have_last = sample_last_wake_ns_ != 0 && dt_s > 0;
+  const std::int64_t previous_wake = sample_last_wake_ns_;
+  sample_last_wake_ns_ = wake_ns;
+  std::int64_t last[2][2];
+  std::copy(&sample_last_counts_[0][0], &sample_last_counts_[0][0] + 4, &last[0][0]);
+  for (int i = 0; i < 2; ++i) {
+    sample_last_counts_[i][0] = status_[i].profile_position_counts;
+    sample_last_counts_[i][1] = status_[i].encoder_position_counts;
+  }
+  if (!recorder_->take_loop_sample()) return;
+  recorder::LoopSample s;
+  s.cycle = snapshot_.cycles;
+  s.time_ns = wake_ns;
+  const core::WheelAxis* wheels[2] = {&settings_.base.left, &settings_.base.right};
+  for (int i = 0; i < 2; ++i) {
+    const auto rad = [&](std::int64_t counts) {
+      return core::counts_to_wheel_rad(counts, *wheels[i], settings_.base);
+    };
+    s.commanded_rad[i] = rad(status_[i].profile_position_counts - origin_counts_[i]);
+    s.measured_rad[i] = rad(status_[i].encoder_position_counts - origin_counts_[i]);
+    if (have_last) {
+      s.commanded_rad_s[i] = rad(status_[i].profile_position_counts - last[i][0]) / dt_s;
+      s.measured_rad_s[i] = rad(status_[i].encoder_position_counts - last[i][1]) / dt_s;
+    }
+    s.counts[i] = status_[i].encoder_position_counts;
+  }
+  s.x_m = snapshot_.pose.x_m;
+  s.y_m = snapshot_.pose.y_m;
+  s.yaw_rad = snapshot_.pose.yaw_rad;
+  s.commanded_linear_m_s = snapshot_.commanded.linear_m_s;
+  s.commanded_angular_rad_s = snapshot_.commanded.angular_rad_s;
+  s.motion = static_cast<std::uint8_t>(motion_);
+  s.phase = recovery_ != Recovery::kNone                                 ? 3
+            : motion_ == Motion::kStopping || (jog_resting_ && moving()) ? 2
+            : moving()                                                   ? 1
+                                                                         : 0;
+  s.fault = static_cast<std::uint16_t>(fault_);
+  s.motion_id = motion_id_;
+  s.stop_generation = handled_stop_;
+  s.wakeup_latency_ns = wake_ns - deadline_ns;
+  s.execution_ns = end_ns - wake_ns;
+  s.period_ns = previous_wake != 0 ? wake_ns - previous_wake : 0;
+  recorder_->loop_sample(s);
+}
+
 bool ControlLoop::post_move(const MoveCommand& move) noexcept {
   Command c;
   c.kind = CommandKind::kMove;

@@ -17,6 +17,7 @@
 #include <boost/asio/steady_timer.hpp>
 #include <spdlog/spdlog.h>
 
+#include "ajar/daemon/blackbox.hpp"
 #include "ajar/daemon/cli.hpp"
 #include "ajar/daemon/logging.hpp"
 #include "ajar/daemon/realtime.hpp"
@@ -209,6 +210,7 @@ class Runner {
     }
     try {
       const Config fresh = options_.reload_config();
+      const Config config_before = config_;
       std::string applied;
       std::string need_restart;
       for (const auto& key : changed_keys(config_, fresh)) {
@@ -235,6 +237,9 @@ class Runner {
                         e.what());
         }
       }
+      // The black box: the config in force now (what was applied) and every key that changed.
+      record_config(engine_->recorder(), engine_->daemon_time_ns(), "reload", config_,
+                    changed_keys(config_before, fresh));
       if (applied.empty() && need_restart.empty()) {
         spdlog::info("SIGHUP: config re-read, nothing changed");
       } else if (need_restart.empty()) {

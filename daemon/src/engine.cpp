@@ -21,6 +21,11 @@ EngineImpl::EngineImpl(const Config& config, drivers::DriverSet drivers, EngineO
   const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
   card_ = std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
                                                        config.drivers.card.poll_timeout_ms);
+  recorder_ = std::make_unique<recorder::Recorder>(recorder_settings(config, start_ns_),
+                                                   [w = recorder_warnings_](std::string_view text) {
+                                                     std::lock_guard lock(w->first);
+                                                     w->second.emplace_back(text);
+                                                   });
   loop_ = std::make_unique<ControlLoop>(*card_, loop_settings(config));
   loop_->set_arm_at_door(true);  // the arm interlock: until the arm reports idle
   supervisor_ = std::make_unique<LoopSupervisor>(
@@ -64,6 +69,12 @@ void EngineImpl::start() {
         s.error().message);
   }
   store_.start();
+  recorder_->start();  // a directory it cannot use: a warning, and the daemon runs on
+  loop_->set_recorder(recorder_.get());
+  record_config(recorder_.get(), daemon_time_ns(), "start", config_, {});
+  if (const ErrorCode latched = procedure_.fault(); latched != ErrorCode::kOk) {
+    record_fault(recorder_.get(), daemon_time_ns(), true, latched, "latched at start");
+  }
   if (!manual_loop_) {
     for (auto& w : loop_->start_thread())
       startup_warnings_.push_back(std::move(w));
@@ -142,6 +153,7 @@ void EngineImpl::shutdown() noexcept {
     warnings_.push_back("state writer abandoned: a save has not returned (a hung disk?)");
   }
   loop_->stop_thread();
+  recorder_->stop();  // after the loop: its last samples are in the file, which gets its footer
   supervisor_->stop_thread();  // before the card goes down: no out-of-band call into a closing card
   bring_down_card();
   if (arm_->state() == drivers::LifecycleState::kActive) (void)arm_->deactivate();
@@ -263,6 +275,12 @@ protocol::Welcome EngineImpl::welcome_template() const {
 std::vector<std::string> EngineImpl::take_warnings() {
   std::vector<std::string> w;
   w.swap(warnings_);
+  {
+    std::lock_guard lock(recorder_warnings_->first);
+    for (auto& e : recorder_warnings_->second)
+      w.push_back(std::move(e));
+    recorder_warnings_->second.clear();
+  }
   for (auto& e : store_.take_errors())
     w.push_back("state not persisted: " + e);
   return w;

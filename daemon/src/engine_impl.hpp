@@ -8,6 +8,8 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
@@ -16,6 +18,7 @@
 #include <fmt/format.h>
 
 #include "ajar/core/geometry.hpp"
+#include "ajar/daemon/blackbox.hpp"
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/control_loop.hpp"
 #include "ajar/daemon/engine.hpp"
@@ -24,6 +27,7 @@
 #include "ajar/daemon/realtime.hpp"
 #include "ajar/daemon/state_store.hpp"
 #include "ajar/daemon/wire_model.hpp"
+#include "ajar/recorder/recorder.hpp"
 #include "ajar/version.hpp"
 
 namespace ajar::daemon::detail {
@@ -153,6 +157,7 @@ class EngineImpl final : public Engine {
   std::vector<std::string> startup_warnings() const override { return startup_warnings_; }
 
   std::vector<std::string> take_warnings() override;
+  recorder::Recorder* recorder() noexcept override { return recorder_.get(); }
 
   std::uint64_t accepted_generation() const noexcept override { return store_.submitted(); }
   std::uint64_t settled_generation() const noexcept override { return store_.settled(); }
@@ -320,6 +325,7 @@ class EngineImpl final : public Engine {
   bool manual_loop_ = false;
   std::shared_ptr<void> keepalive_;                   // first: outlives the drivers
   std::unique_ptr<drivers::ManagedMotionCard> card_;  // outlives the loop that drives it
+  std::unique_ptr<recorder::Recorder> recorder_;      // outlives the loop that feeds it
   std::unique_ptr<ControlLoop> loop_;
   std::unique_ptr<LoopSupervisor> supervisor_;  // runs while the loop's thread does
   std::uint32_t stalls_seen_ = 0;  // the supervisor's stalls() and stops() already taken
@@ -356,6 +362,9 @@ class EngineImpl final : public Engine {
   ProcedureState last_state_ = ProcedureState::kAwaitingWidth;
   std::vector<std::string> startup_warnings_;
   std::vector<std::string> warnings_;
+  // The recorder's warnings (from its thread), for take_warnings().
+  std::shared_ptr<std::pair<std::mutex, std::vector<std::string>>> recorder_warnings_ =
+      std::make_shared<std::pair<std::mutex, std::vector<std::string>>>();
 };
 
 }  // namespace ajar::daemon::detail

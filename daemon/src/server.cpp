@@ -12,6 +12,7 @@
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/session_hub.hpp"
 #include "ajar/daemon/tls.hpp"
+#include "ajar/recorder/recorder.hpp"
 
 namespace ajar::daemon {
 namespace {
@@ -54,7 +55,14 @@ struct Server::Impl {
         options(std::move(opts)),
         acceptor(io),
         poll_timer(io),
-        hub(eng, SessionHub::Options{options.ledger, options.hello_timeout}) {}
+        hub(eng, SessionHub::Options{options.ledger, options.hello_timeout}) {
+    if (engine.recorder() != nullptr) {
+      options.session.frame_tap = [&eng = engine](std::uint64_t id, std::uint8_t direction,
+                                                  std::span<const std::uint8_t> frame) {
+        eng.recorder()->frame(direction, id, eng.daemon_time_ns(), frame);
+      };
+    }
+  }
 
   void accept() {
     acceptor.async_accept([this](const boost::system::error_code& ec, tcp::socket socket) {

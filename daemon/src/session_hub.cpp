@@ -8,6 +8,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include "ajar/daemon/blackbox.hpp"
+
 namespace ajar::daemon {
 namespace {
 
@@ -67,6 +69,8 @@ void SessionHub::on_open(SessionLink& link) {
   state.opened = Clock::now();
   state.last_activity = state.opened;
   sessions_[link.id()] = std::move(state);
+  record_session(engine_.recorder(), engine_.daemon_time_ns(), link.id(), "open", link.peer(),
+                 link.access().identity, "none", "");
   spdlog::info("session {} opened from {} as {} ({} sessions)", link.id(), link.peer(),
                link.access().identity, sessions_.size());
 }
@@ -148,6 +152,7 @@ void SessionHub::announce_controller(std::string_view detail) {
   event.daemon_time_ns = engine_.daemon_time_ns();  // one clock: since the daemon started
   event.detail = detail;
   spdlog::info("control changed: {}", detail);
+  record_event(engine_.recorder(), event);
   broadcast(event);
 }
 
@@ -275,6 +280,9 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
     if (old != sessions_.end()) {
       old->second.role = protocol::Role::kObserver;
       old_name = describe(old->second);
+      record_session(engine_.recorder(), engine_.daemon_time_ns(), *demoted, "role",
+                     old->second.link->peer(), old->second.link->access().identity, "observer",
+                     "control taken over by session " + std::to_string(s.link->id()));
     }
     engine_.controller_lost();
   }
@@ -283,6 +291,8 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
   welcome.granted_role = s.role;
   welcome.session_id = s.link->id();
   reply(s, envelope.request_id, welcome);
+  record_session(engine_.recorder(), engine_.daemon_time_ns(), s.link->id(), "role", s.link->peer(),
+                 s.link->access().identity, protocol::to_string(s.role), s.client_name);
   spdlog::info("{} greeted from {} as {} (client instance {:#x})", describe(s), s.link->peer(),
                protocol::to_string(s.role), s.client_instance_id);
 
@@ -385,6 +395,9 @@ void SessionHub::on_closed(SessionLink& link, std::string_view reason) {
   auto it = sessions_.find(link.id());
   if (it == sessions_.end()) return;
   const std::string name = describe(it->second);
+  record_session(engine_.recorder(), engine_.daemon_time_ns(), link.id(), "close", link.peer(),
+                 link.access().identity,
+                 it->second.greeted ? protocol::to_string(it->second.role) : "none", reason);
   sessions_.erase(it);
   spdlog::info("{} closed: {} ({} sessions)", name, reason, sessions_.size());
   if (controller_ == link.id()) {
@@ -395,6 +408,7 @@ void SessionHub::on_closed(SessionLink& link, std::string_view reason) {
 }
 
 void SessionHub::on_event(const protocol::Event& event) {
+  record_event(engine_.recorder(), event);  // when it happened (its broadcast may be deferred)
   if (deferring_ > 0) {
     deferred_.push_back(event);
     return;
@@ -430,7 +444,10 @@ void SessionHub::tick(Clock::time_point now) {
       continue;
     }
     if (s.telemetry_period == Clock::duration::zero() || now < s.next_telemetry) continue;
-    if (!telemetry) telemetry = engine_.telemetry();
+    if (!telemetry) {
+      telemetry = engine_.telemetry();
+      record_telemetry(engine_.recorder(), *telemetry);
+    }
     SharedFrame& frame = frames[s.minor];
     if (!frame) frame = encode_frame(protocol::Envelope{0, 0, *telemetry}, s.minor);
     if (!frame) return;

@@ -79,7 +79,7 @@ std::string_view phase_word(std::uint8_t p) {
 }
 
 void append_number(std::string& out, double v) {
-  if (!std::isfinite(v)) v = 0;  // JSON has no NaN; never produced by the loop
+  if (!std::isfinite(v) || v == 0) v = 0;  // JSON has no NaN (the loop makes none); -0 -> 0
   char buf[32];
   const int n = std::snprintf(buf, sizeof buf, "%.9g", v);
   out.append(buf, static_cast<std::size_t>(n));
@@ -139,7 +139,8 @@ struct Recorder::Impl {
   fs::path dir;
   std::int64_t wall_minus_mono_ns = 0;
 
-  // The queue (any thread -> recorder thread).
+  // The queue (any thread -> recorder thread), open while the thread runs.
+  std::atomic<bool> accepting{false};
   mutable std::mutex queue_mutex;
   std::vector<IoRecord> queue;
   std::size_t queue_bytes = 0;
@@ -170,6 +171,7 @@ struct Recorder::Impl {
   // Counters (read by counters() under counters_mutex).
   mutable std::mutex counters_mutex;
   bool recording = false, disk_full = false, started = false;
+  std::string current_file;  // the open file's name (counters())
   std::uint64_t write_failures = 0, messages_written = 0, bytes_written = 0;
 
   Impl(Recorder& r, Log l) : self(r), log(std::move(l)), dir(r.settings_.directory) {}
@@ -213,6 +215,7 @@ struct Recorder::Impl {
     set_counters([&] {
       recording = true;
       disk_full = false;
+      current_file = name;
     });
     failure_logged = false;
     last_status_text.clear();
@@ -257,6 +260,7 @@ struct Recorder::Impl {
     set_counters([&] {
       recording = false;
       disk_full = error == ENOSPC || error == EDQUOT;
+      current_file.clear();
     });
     file.clear();
     retry_at = clock_ns(CLOCK_MONOTONIC) + kRetryNs;
@@ -279,7 +283,10 @@ struct Recorder::Impl {
     }
     writer.reset();
     file.clear();
-    set_counters([&] { recording = false; });
+    set_counters([&] {
+      recording = false;
+      current_file.clear();
+    });
   }
 
   // Closes the file (footer), removes the oldest recordings beyond the budget, starts the next.
@@ -523,10 +530,12 @@ void Recorder::start() {
   impl_->enforce_budget(false);
   impl_->open_file();
   impl_->thread = std::thread([this] { impl_->run(); });
+  impl_->accepting.store(true, std::memory_order_release);
 }
 
 void Recorder::stop() {
   if (!impl_->thread.joinable()) return;
+  impl_->accepting.store(false, std::memory_order_release);
   {
     std::lock_guard lock(impl_->wake_mutex);
     impl_->stopping = true;
@@ -541,15 +550,12 @@ void Recorder::stop() {
 }
 
 void Recorder::loop_sample(const LoopSample& sample) noexcept {
-  if (!settings_.enabled) return;
-  if (++decimation_count_ < settings_.loop_decimation) return;
-  decimation_count_ = 0;
-  ring_.push(sample);
+  if (settings_.enabled) ring_.push(sample);
 }
 
 void Recorder::frame(std::uint8_t direction, std::uint64_t session_id, std::uint64_t daemon_time_ns,
                      std::span<const std::uint8_t> bytes) {
-  if (!settings_.enabled) return;
+  if (!impl_->accepting.load(std::memory_order_acquire)) return;  // off, or not running
   IoRecord r;
   r.channel = kWireChannel;
   r.daemon_time_ns = daemon_time_ns;
@@ -573,7 +579,7 @@ void Recorder::frame(std::uint8_t direction, std::uint64_t session_id, std::uint
 }
 
 void Recorder::json(std::uint16_t channel, std::uint64_t daemon_time_ns, std::string text) {
-  if (!settings_.enabled) return;
+  if (!impl_->accepting.load(std::memory_order_acquire)) return;  // off, or not running
   IoRecord r;
   r.channel = channel;
   r.daemon_time_ns = daemon_time_ns;
@@ -605,6 +611,7 @@ RecorderCounters Recorder::counters() const {
   c.write_failures = impl_->write_failures;
   c.messages_written = impl_->messages_written;
   c.bytes_written = impl_->bytes_written;
+  c.file = impl_->current_file;
   return c;
 }
 

@@ -126,6 +126,7 @@ Figures run(int slow_ms, bool load, int samples, int interval_ms) {
   config.drivers.kind = ajar::drivers::DriverKind::kMock;
   config.camera_to_base_m = ajar::testing::forward_camera_to_base_m();
   config.state.directory = dir.path() + "/state";
+  config.recorder.directory = dir.path() + "/recordings";
   config.state.debug_write_delay_ms = slow_ms;
   config.network.bind_address = "127.0.0.1";
   config.network.port = 0;

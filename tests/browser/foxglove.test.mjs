@@ -78,7 +78,7 @@ test('Foxglove live: a @foxglove/ws-protocol client receives telemetry, the door
     assert.equal(fox.serverInfo.name, 'ajar-console');
     assert.deepEqual(fox.serverInfo.capabilities, [], 'read-only: no publishing, parameters or services');
     const topics = [...fox.channels.values()].map((c) => c.topic).sort();
-    assert.deepEqual(topics, ['/ajar/camera/image', '/ajar/door', '/ajar/events', '/ajar/telemetry', '/tf', '/tf_static']);
+    assert.deepEqual(topics, ['/ajar/camera/calibration', '/ajar/camera/image', '/ajar/door', '/ajar/events', '/ajar/telemetry', '/tf', '/tf_static']);
 
     // Every advertised schema compiles (strict JSON Schema), and foxglove.* names are the official ones.
     const ajv = new Ajv({ strict: true, allErrors: true });
@@ -112,7 +112,7 @@ test('Foxglove live: a @foxglove/ws-protocol client receives telemetry, the door
     const entities = () => { const d = fox.last('/ajar/door'); return d ? d.message.entities.map((e) => e.id).sort() : []; };
     await until('telemetry, events, odometry, camera mount, an image and the measured door', () =>
       fox.count('/ajar/telemetry') >= 5 && fox.count('/tf') >= 5 && fox.count('/tf_static') >= 1 &&
-      fox.count('/ajar/camera/image') >= 2 && fox.count('/ajar/events') >= 1 &&
+      fox.count('/ajar/camera/image') >= 2 && fox.count('/ajar/camera/calibration') >= 1 && fox.count('/ajar/events') >= 1 &&
       entities().join() === 'door_plane,door_width,handle', 30000);
 
     // Every message received is valid against its advertised schema and the official one.
@@ -163,6 +163,10 @@ test('Foxglove live: a @foxglove/ws-protocol client receives telemetry, the door
     const png = Buffer.from(image.data, 'base64');
     assert.equal(png.subarray(1, 4).toString(), 'PNG');
     assert.deepEqual([png.readUInt32BE(16), png.readUInt32BE(20)], [640, 480], 'the camera image, full size');
+    // Its calibration (latched): the simulated camera's pinhole model.
+    const cal = fox.last('/ajar/camera/calibration').message;
+    assert.deepEqual([cal.frame_id, cal.width, cal.height], ['camera', 640, 480]);
+    assert.deepEqual(cal.K, [570.3, 0, 319.5, 0, 570.3, 239.5, 0, 0, 1]);
 
     // An unknown channel and an unsupported op get a status message; nothing else changes.
     fox.ws.send(JSON.stringify({ op: 'subscribe', subscriptions: [{ id: 99, channelId: 4242 }] }));

@@ -11,7 +11,8 @@
 // Run: scripts/test (stage "browser"), or: node --test tests/browser/
 import { test, after } from 'node:test';
 import assert from 'node:assert/strict';
-import { withStack, openPage, closeBrowser, axeViolations, dumpPages } from './fixture.mjs';
+import path from 'node:path';
+import { withStack, openPage, closeBrowser, axeViolations, dumpPages, artifacts } from './fixture.mjs';
 
 after(async () => { await closeBrowser(); });
 
@@ -79,7 +80,7 @@ test('black box panel: the recorder\'s state and "Save the last 5 minutes" with 
         assert.equal(await page.textContent('#recorder-result .field.bad'), 'last_s');
         assert.match(await page.textContent('#recorder-result'), /last_s is -1/);
       }
-      await P.shot('recorder-panel');
+      await page.locator('#recorder-region').screenshot({ path: path.join(artifacts, 'recorder-panel.png') });
       assert.deepEqual(await axeViolations(page), []);
       assert.deepEqual(P.errors, []);
     } catch (e) {

@@ -54,13 +54,13 @@ TEST(CameraToBaseProperty, RandomRigidTransformsRoundTrip) {
     const Eigen::Matrix4d m = test::random_rigid(rng);
     auto t = CameraToBase::from_matrix(m);
     ASSERT_TRUE(t.ok()) << "trial " << trial << ": " << t.error().message;
-    const Vec3 c(test::uniform(rng, -2, 2), test::uniform(rng, -2, 2), test::uniform(rng, 0, 4));
+    const Vec3 c = test::uniform_vec3(rng, Vec3(-2, -2, 0), Vec3(2, 2, 4));
     const Vec3 b = t->to_base(c);
     EXPECT_TRUE(b.isApprox((m * c.homogeneous()).head<3>(), 1e-12));
     EXPECT_LT((t->to_camera(b) - c).norm(), 1e-12) << "trial " << trial;
     EXPECT_LT((t->to_base(t->to_camera(c)) - c).norm(), 1e-12) << "trial " << trial;
     // Rigid: distances are preserved.
-    const Vec3 c2(test::uniform(rng, -2, 2), test::uniform(rng, -2, 2), test::uniform(rng, 0, 4));
+    const Vec3 c2 = test::uniform_vec3(rng, Vec3(-2, -2, 0), Vec3(2, 2, 4));
     EXPECT_NEAR((t->to_base(c2) - b).norm(), (c2 - c).norm(), 1e-12);
   }
 }

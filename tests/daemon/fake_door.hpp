@@ -85,6 +85,7 @@ inline daemon::Config test_config(const std::string& state_directory) {
   daemon::Config c;
   c.camera_to_base_m = forward_camera_to_base_m();
   c.state.directory = state_directory + "/state";
+  c.recorder.directory = state_directory + "/recordings";
   c.control.rate_hz = 500;
   c.safety.deadman_timeout_s = 30;  // tests that exercise the deadman shorten it
   c.drivers.kind = drivers::DriverKind::kMock;

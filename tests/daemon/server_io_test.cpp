@@ -158,6 +158,28 @@ TEST_F(ServerIo, AHalfSentFrameHitsTheReadDeadline) {
   expect_bystander_fine(bystander);
 }
 
+// Before: the read deadline's Error was written in the daemon's own minor, also to a 1.0 session
+// (docs/protocol.md 7.1: every frame to a session has the minor its Hello settled).
+TEST_F(ServerIo, TheReadDeadlinesErrorToA10SessionIsA10Frame) {
+  TestClient c(server_.port());
+  protocol::Hello hello = hello_as(Role::kObserver);
+  hello.version_minor = 0;
+  ASSERT_TRUE(std::holds_alternative<protocol::Welcome>(c.reply_to(c.send(hello))));
+  const auto frame = frame_of(protocol::Ping{5}, 38);
+  c.send_raw(std::span<const std::uint8_t>(frame.data(), 10));
+  std::vector<std::uint8_t> bytes;  // what the daemon writes until it closes, raw
+  for (;;) {
+    std::array<std::uint8_t, 512> buffer{};
+    boost::system::error_code ec;
+    const std::size_t n = c.socket().read_some(asio::buffer(buffer), ec);
+    bytes.insert(bytes.end(), buffer.begin(), buffer.begin() + static_cast<long>(n));
+    if (ec) break;
+  }
+  ASSERT_GE(bytes.size(), protocol::kHeaderSize);
+  EXPECT_EQ(bytes[5], 0) << "the Error frame's header says 1." << int{bytes[5]};
+  EXPECT_EQ(bytes[6] | (bytes[7] << 8), static_cast<int>(protocol::MessageType::kError));
+}
+
 // A full table makes room: the observer idle the longest is closed (never the controller) and
 // the newcomer is served.
 TEST_F(ServerIo, AFullTableClosesTheIdlestObserverForANewcomer) {

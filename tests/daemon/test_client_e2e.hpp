@@ -29,6 +29,7 @@ inline daemon::Config e2e_config(drivers::DriverKind kind, const std::string& di
   c.drivers.sim_speedup = speedup;
   c.camera_to_base_m = ajar::testing::forward_camera_to_base_m();
   c.state.directory = dir + "/state";
+  c.recorder.directory = dir + "/recordings";  // the black box records every e2e run
   c.network.bind_address = "127.0.0.1";
   c.network.port = 0;
   c.logging.sink = daemon::LogSink::kStderr;

@@ -40,6 +40,25 @@ TEST(Crc32c, TableIsAlwaysAvailableAndTheHardwarePathIsPickedWhenPresent) {
   std::printf("CRC-32C path in use: %s\n", std::string(to_string(crc32c_path())).c_str());
 }
 
+// A run that must prove which implementation it exercised names it: AJAR_EXPECT_CRC32C_PATH=armv8
+// (scripts/test-arm64, under qemu-aarch64) fails unless the ARMv8 instruction is available and is
+// the one in use, so the golden vectors and the frames of every other test went through it.
+TEST(Crc32c, ThePathNamedByTheRunIsTheOneInUse) {
+  const char* expected = std::getenv("AJAR_EXPECT_CRC32C_PATH");
+  if (expected == nullptr) GTEST_SKIP() << "AJAR_EXPECT_CRC32C_PATH is not set";
+  bool known = false;
+  for (const auto path : kAllPaths) {
+    if (to_string(path) != expected) continue;
+    known = true;
+    EXPECT_TRUE(crc32c_available(path)) << expected << " is not available on this CPU";
+  }
+  EXPECT_TRUE(known) << "AJAR_EXPECT_CRC32C_PATH=" << expected
+                     << " names no path (table, sse4.2, armv8)";
+  EXPECT_EQ(std::string(to_string(crc32c_path())), std::string(expected));
+  std::printf("CRC-32C path in use: %s (expected %s)\n",
+              std::string(to_string(crc32c_path())).c_str(), expected);
+}
+
 TEST(Crc32c, KnownValuesOnEveryPath) {
   // RFC 3720 (iSCSI) B.4 and the usual check value.
   const std::vector<std::uint8_t> zeros(32, 0x00), ones(32, 0xFF);

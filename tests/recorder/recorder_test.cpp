@@ -56,6 +56,11 @@ LoopSample sample(std::uint64_t cycle) {
   return s;
 }
 
+// What the control loop does each cycle: the sample only when the decimation takes it.
+void offer(Recorder& r, const LoopSample& s) {
+  if (r.take_loop_sample()) r.loop_sample(s);
+}
+
 struct Logged {
   std::mutex m;
   std::vector<std::string> lines;
@@ -90,7 +95,7 @@ TEST(Recorder, WhatGoesInComesOutPerChannelAndTheFileIs0640) {
   Recorder r(settings, log.sink());
   r.start();
   for (std::uint64_t i = 1; i <= 300; ++i)
-    r.loop_sample(sample(i));  // every 3rd: 100
+    offer(r, sample(i));  // every 3rd: 100
   const std::uint8_t frame[] = {0xA5, 1, 2, 3};
   for (std::uint64_t i = 0; i < 40; ++i)
     r.frame(kWireIn, 7, 1000 + i, frame);
@@ -154,7 +159,7 @@ TEST(Recorder, RotationKeepsTheBudgetAndNeverRemovesASavedRecording) {
   std::uint64_t cycle = 0;
   const auto feed = [&](int n) {
     for (int i = 0; i < n; ++i) {
-      r.loop_sample(sample(++cycle));
+      offer(r, sample(++cycle));
       if (i % 200 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
   };
@@ -195,7 +200,7 @@ TEST(Recorder, ReadServesTheBytesByOffsetAndRefusesOtherNames) {
   Recorder r(settings, {});
   r.start();
   for (std::uint64_t i = 1; i <= 500; ++i)
-    r.loop_sample(sample(i));
+    offer(r, sample(i));
   r.stop();
   const auto listed = r.list();
   ASSERT_EQ(listed.size(), 1U);
@@ -226,7 +231,7 @@ TEST(Recorder, ASlowDiskNeverBlocksTheInputsAndLosesOnlyWhatItCounts) {
   // Far more than the ring holds while the recorder thread sleeps in write: the inputs return
   // anyway (this thread would hang otherwise) and count the drops.
   for (std::uint64_t i = 1; i <= 3 * Recorder::kLoopRingCapacity; ++i)
-    r.loop_sample(sample(i));
+    offer(r, sample(i));
   const std::uint8_t frame[] = {1, 2, 3};
   for (int i = 0; i < 100; ++i)
     r.frame(kWireOut, 1, 5, frame);
@@ -265,13 +270,13 @@ TEST(Recorder, AFullDiskIsLoggedOnceCountedAndTheFileStaysReadable) {
   std::uint64_t cycle = 0;
   ASSERT_TRUE(eventually([&] {
     for (int i = 0; i < 5; ++i)
-      r.loop_sample(sample(++cycle));  // ~40 KB per write
+      offer(r, sample(++cycle));  // ~40 KB per write
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
     return r.counters().disk_full;
   }));
   // It goes on: inputs accepted and counted, nothing thrown, logged once.
   for (int i = 0; i < 2000; ++i)
-    r.loop_sample(sample(++cycle));
+    offer(r, sample(++cycle));
   ASSERT_TRUE(eventually([&] { return r.counters().write_failures > 0; }));
   r.stop();
   EXPECT_EQ(log.size(), 1U) << "logged once per episode";

@@ -114,6 +114,19 @@ struct StateConfig {
   int debug_write_delay_ms = 0;
 };
 
+// The black box (docs/blackbox.md; recorder/include/ajar/recorder/recorder.hpp).
+struct RecorderConfig {
+  bool enabled = true;
+  std::string directory = "recordings";  // relative paths are relative to the working directory
+  std::int64_t max_bytes = 512LL << 20;  // every recording but the saved ones
+  std::int64_t max_file_bytes = 64LL << 20;
+  double max_file_s = 600;
+  int loop_decimation = 5;  // every n-th control-loop cycle (1: all)
+  // Test and benchmark hook, NOT a config-file key: every write to a recording waits this long
+  // first (a slow disk). Always 0 when loaded from a file.
+  int debug_write_delay_ms = 0;
+};
+
 struct Config {
   std::string source_path;  // the file it was loaded from
   NetworkConfig network;
@@ -127,6 +140,7 @@ struct Config {
   SafetyConfig safety;
   LoggingConfig logging;
   StateConfig state;
+  RecorderConfig recorder;
 };
 
 // What every key that a file does not give takes (Config{} with the paper's camera transform).

@@ -87,6 +87,10 @@
 #include "ajar/drivers/lifecycle.hpp"
 #include "ajar/drivers/motion_card.hpp"
 
+namespace ajar::recorder {
+class Recorder;
+}
+
 namespace ajar::daemon {
 
 struct ControlLoopSettings {
@@ -282,6 +286,11 @@ class ControlLoop {
   // ---- control thread (or a test driving the loop by hand, without start_thread()) ----
   void cycle(std::int64_t now_ns) noexcept;
 
+  // The black box (recorder.hpp): set before start_thread() (nullptr: none). After each cycle the
+  // thread hands it every loop_decimation-th cycle (commanded and measured wheels, motion, stop
+  // generation, timing) through its lock-free ring: no allocation, lock or system call.
+  void set_recorder(recorder::Recorder* recorder) noexcept { recorder_ = recorder; }
+
  private:
   enum class Motion : std::uint8_t { kIdle, kMoving, kJogging, kStopping };
   enum class Recovery : std::uint8_t { kNone, kWaitRest, kClear, kEnable, kPoll };
@@ -306,6 +315,8 @@ class ControlLoop {
   // Stamps `c` with the stop and latch generations current now and queues it (I/O thread).
   bool post(Command c) noexcept;
   void thread_main(std::int64_t first_deadline_ns) noexcept;
+  // The cycle that just ran, for the recorder (control thread; reads loop-private state).
+  void record_sample(std::int64_t deadline_ns, std::int64_t wake_ns, std::int64_t end_ns) noexcept;
   void handle_stops(std::int64_t now_ns) noexcept;
   void execute(const Command& command, std::int64_t now_ns) noexcept;
   void start_move(const Command& move, std::int64_t now_ns) noexcept;
@@ -418,6 +429,9 @@ class ControlLoop {
   std::uint64_t reports_dropped_ = 0;
   LoopStatisticsRecorder statistics_;
   LoopSnapshot snapshot_;
+  recorder::Recorder* recorder_ = nullptr;
+  std::int64_t sample_last_wake_ns_ = 0;  // record_sample(): the previous cycle's wake-up ...
+  std::int64_t sample_last_counts_[2][2] = {{0, 0}, {0, 0}};  // ... profile, encoder counts
 
   std::thread thread_;
 };

@@ -19,6 +19,10 @@
 #include "ajar/drivers/factory.hpp"
 #include "ajar/protocol/messages.hpp"
 
+namespace ajar::recorder {
+class Recorder;
+}
+
 namespace ajar::daemon {
 
 struct Config;
@@ -121,6 +125,12 @@ class Engine {
                                           std::chrono::steady_clock::now().time_since_epoch())
                                           .count());
   }
+
+  // The black box (recorder.hpp, docs/blackbox.md), or nullptr (an engine double). Made with the
+  // engine, started by start() (before the control thread), stopped by shutdown() (after it). The
+  // session layer records frames, sessions and events into it; the protocol's black-box requests
+  // list, read and save its recordings.
+  virtual recorder::Recorder* recorder() noexcept { return nullptr; }
 
   // Test seam (EngineOptions::manual_loop only): runs one control-loop cycle at the engine's
   // clock on the calling thread. Without manual_loop it does nothing.

@@ -30,6 +30,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -87,6 +88,12 @@ class SessionHandler {
   // Around the frames decoded from one read (several frames can arrive in one TCP segment).
   virtual void on_read_begin(SessionLink& link) { (void)link; }
   virtual void on_read_end(SessionLink& link) { (void)link; }
+  // The protocol minor of the frames the session writes itself (the read deadline's Error): the
+  // minor its Hello settled (docs/protocol.md 7.1), ours before.
+  virtual std::uint8_t frame_minor(const SessionLink& link) const {
+    (void)link;
+    return protocol::kVersionMinor;
+  }
 
  protected:
   ~SessionHandler() = default;
@@ -97,6 +104,11 @@ struct SessionOptions {
   std::chrono::steady_clock::duration read_deadline = std::chrono::seconds(10);
   std::chrono::steady_clock::duration idle_timeout{0};  // 0 = none
   std::chrono::steady_clock::duration linger = std::chrono::seconds(2);
+  // The black box (docs/blackbox.md): every frame as on the wire, with the session's id and its
+  // direction (0 received, once its last byte is in; 1 sent, when queued). Empty: none.
+  std::function<void(std::uint64_t session_id, std::uint8_t direction,
+                     std::span<const std::uint8_t> frame)>
+      frame_tap;
 };
 
 // Sessions per stream type. Stream: an AsyncReadStream + AsyncWriteStream with lowest_layer()
@@ -145,6 +157,7 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
                 " frames): client not reading");
       return false;
     }
+    if (options_.frame_tap) options_.frame_tap(id_, 1, *frame);
     queue_.push_back(std::move(frame));
     if (!writing_) write_more();
     return true;
@@ -202,7 +215,15 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
   void process(std::span<const std::uint8_t> in) {
     while (!in.empty() && state_ == State::kOpen) {
       const std::size_t used = decoder_.feed(in, outcome_);
+      if (options_.frame_tap) {
+        const auto part = in.first(used);
+        tap_bytes_.insert(tap_bytes_.end(), part.begin(), part.end());
+      }
       in = in.subspan(used);
+      if (options_.frame_tap && outcome_.kind != protocol::StreamDecoder::Kind::kNeedMore) {
+        options_.frame_tap(id_, 0, tap_bytes_);
+        tap_bytes_.clear();
+      }
       switch (outcome_.kind) {
         case protocol::StreamDecoder::Kind::kNeedMore:
           if (used == 0) return;
@@ -301,7 +322,9 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
       error.code = ErrorCode::kBadPayloadLength;
       error.field = "read_deadline_s";
       error.message.assign(what);
-      if (auto frame = encode_frame(protocol::Envelope{0, 0, error})) send(std::move(frame));
+      const std::uint8_t minor =
+          handler_ != nullptr ? handler_->frame_minor(*this) : protocol::kVersionMinor;
+      if (auto frame = encode_frame(protocol::Envelope{0, 0, error}, minor)) send(std::move(frame));
       close_after_flush(what);
     } else {
       close_now("idle timeout");
@@ -328,6 +351,7 @@ class Session final : public SessionLink, public std::enable_shared_from_this<Se
   std::string peer_;
   SessionHandler* handler_;
   SessionOptions options_;
+  std::vector<std::uint8_t> tap_bytes_;  // the frame being received (options_.frame_tap only)
   PeerAccess access_;
 
   State state_ = State::kOpen;

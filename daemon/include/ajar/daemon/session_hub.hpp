@@ -96,6 +96,7 @@ class SessionHub final : public SessionHandler {
   void on_read_begin(SessionLink&) override { engine_.begin_read_batch(); }
   void on_read_end(SessionLink&) override { engine_.end_read_batch(); }
   void on_closed(SessionLink& link, std::string_view reason) override;
+  std::uint8_t frame_minor(const SessionLink& link) const override { return minor_of(link.id()); }
 
   // Engine events (wire this as the engine's EventSink).
   void on_event(const protocol::Event& event);

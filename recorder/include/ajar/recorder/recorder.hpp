@@ -119,10 +119,18 @@ class Recorder {
   void stop();
 
   // ---- the control thread (single producer): noexcept, no allocation, lock or system call ----
+  // Called every cycle: true every loop_decimation-th call (then make the sample and hand it
+  // over with loop_sample()); false when disabled.
+  bool take_loop_sample() noexcept {
+    if (!settings_.enabled || ++decimation_count_ < settings_.loop_decimation) return false;
+    decimation_count_ = 0;
+    return true;
+  }
+  // Copies `sample` into the ring (dropped and counted when full).
   void loop_sample(const LoopSample& sample) noexcept;
 
-  // ---- any other thread ----
-  // A protocol frame in or out (channels.hpp, /ajar/wire).
+  // ---- any other thread (ignored unless the recorder thread runs: between start() and stop())
+  // ---- A protocol frame in or out (channels.hpp, /ajar/wire).
   void frame(std::uint8_t direction, std::uint64_t session_id, std::uint64_t daemon_time_ns,
              std::span<const std::uint8_t> bytes);
   // A JSON message on a JSON channel of channels.hpp (the text must match its schema).
@@ -130,8 +138,8 @@ class Recorder {
   RecorderCounters counters() const;
   const RecorderSettings& settings() const noexcept { return settings_; }
 
-  // ---- the black box over the protocol (protocol handlers, I/O thread) ----
-  // Every recording in the directory and in saved/, oldest first.
+  // ---- the black box over the protocol (protocol handlers: the thread that also calls stop())
+  // ---- Every recording in the directory and in saved/, oldest first.
   std::vector<RecordingInfo> list() const;
   // Up to `max_bytes` of recording `name` (as list() names it) from byte `offset`; a short (or
   // empty) result at the end of the file. nullopt (with `error`) when `name` is not a recording

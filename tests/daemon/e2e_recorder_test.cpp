@@ -1,0 +1,140 @@
+// The black box in ajard (docs/blackbox.md), end to end in process: on by default, it records the
+// whole procedure (every channel, the counts its counters give); a 200 ms-per-write disk and a full
+// disk (a 256 KiB tmpfs, when root: CI runs as root) change nothing for the loop or the sessions:
+// cycles keep counting, Pings are answered, commands acked, the procedure completes, and the
+// recorder counts (and reports) what it lost. No timing assertions.
+#include <sys/mount.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "../recorder/mcap_read.hpp"
+#include "ajar/recorder/channels.hpp"
+#include "ajar/recorder/recorder.hpp"
+#include "e2e_fixture.hpp"
+
+namespace ajar::test {
+namespace {
+namespace fs = std::filesystem;
+using protocol::ProcedureState;
+using protocol::Role;
+
+std::vector<fs::path> mcap_files(const std::string& dir) {
+  std::vector<fs::path> out;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    if (e.path().extension() == ".mcap") out.push_back(e.path());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// The sessions and the loop go on: Pings answered, cycles counting, the whole procedure acked.
+void daemon_keeps_serving(InProcessDaemon& d) {
+  TestClient observer(d.port());
+  observer.hello(Role::kObserver);
+  TestClient controller(d.port());
+  ASSERT_EQ(controller.hello(Role::kController).granted_role, Role::kController);
+  const auto before = controller.request_as<protocol::Status>(protocol::GetStatus{});
+  for (std::uint64_t i = 1; i <= 20; ++i) {
+    const auto pong = observer.request_as<protocol::Pong>(protocol::Ping{i});
+    EXPECT_EQ(pong.client_time_ns, i);
+  }
+  run_procedure(controller);
+  const auto after = controller.request_as<protocol::Status>(protocol::GetStatus{});
+  EXPECT_EQ(after.state, ProcedureState::kEngaged);
+  EXPECT_GT(after.loop.cycles, before.loop.cycles) << "the control loop kept cycling";
+}
+
+TEST(EndToEndRecorder, OnByDefaultItRecordsTheWholeProcedureOnEveryChannel) {
+  TempDir dir;
+  daemon::Config config = e2e_config(drivers::DriverKind::kMock, dir.path());
+  ASSERT_TRUE(config.recorder.enabled) << "config/ajard.yaml records";
+  recorder::RecorderCounters counters;
+  {
+    InProcessDaemon d(config);
+    ASSERT_NE(d.engine().recorder(), nullptr);
+    daemon_keeps_serving(d);
+    d.stop();  // the engine's shutdown closes the file
+    counters = d.engine().recorder()->counters();
+  }
+  const auto files = mcap_files(config.recorder.directory);
+  ASSERT_EQ(files.size(), 1U);
+  const auto f = recorder::test::read_mcap(recorder::test::file_bytes(files[0]));
+  EXPECT_TRUE(f.complete);
+  EXPECT_EQ(f.messages.size(), counters.messages_written);
+  EXPECT_EQ(counters.write_failures, 0U);
+  for (const auto channel :
+       {recorder::kWireChannel, recorder::kEventsChannel, recorder::kFaultsChannel,
+        recorder::kConfigChannel, recorder::kSessionsChannel, recorder::kLoopChannel,
+        recorder::kRecorderChannel}) {
+    if (channel == recorder::kFaultsChannel) continue;  // no fault in a good procedure
+    EXPECT_GT(f.counts.count(channel) ? f.counts.at(channel) : 0U, 0U)
+        << recorder::channel_by_id(channel)->topic;
+  }
+  EXPECT_EQ(f.counts.at(recorder::kLoopChannel) + counters.loop_dropped, counters.loop_samples);
+  // Frames in and out; the first frame in is a Hello, as on the wire.
+  bool in = false, out = false;
+  for (const auto& m : f.messages) {
+    if (m.channel != recorder::kWireChannel) continue;
+    (m.data[1] == recorder::kWireIn ? in : out) = true;
+    EXPECT_EQ(m.data[recorder::kWireHeaderBytes], 0x41) << "frames start with AJAR";
+  }
+  EXPECT_TRUE(in && out);
+}
+
+TEST(EndToEndRecorder, ASlowDiskChangesNothingForTheLoopOrTheSessions) {
+  TempDir dir;
+  daemon::Config config = e2e_config(drivers::DriverKind::kMock, dir.path());
+  config.recorder.debug_write_delay_ms = 200;  // every write to a recording waits 200 ms
+  config.recorder.loop_decimation = 1;         // 500 samples/s against a crawling disk
+  InProcessDaemon d(config);
+  daemon_keeps_serving(d);
+  const auto c = d.engine().recorder()->counters();
+  EXPECT_GT(c.loop_samples, 0U);
+  d.stop();
+  const auto end = d.engine().recorder()->counters();
+  // Whatever the disk could not take was dropped and counted, never waited for.
+  const auto files = mcap_files(config.recorder.directory);
+  ASSERT_FALSE(files.empty());
+  std::uint64_t loop_messages = 0;
+  for (const auto& p : files) {
+    const auto f = recorder::test::read_mcap(recorder::test::file_bytes(p));
+    if (f.counts.count(recorder::kLoopChannel))
+      loop_messages += f.counts.at(recorder::kLoopChannel);
+  }
+  EXPECT_EQ(loop_messages + end.loop_dropped + end.write_failures, end.loop_samples);
+}
+
+TEST(EndToEndRecorder, AFullDiskChangesNothingForTheLoopOrTheSessionsAndIsReported) {
+  TempDir dir;
+  const std::string small = dir.path() + "/small";
+  fs::create_directories(small);
+  if (::geteuid() != 0 || ::mount("tmpfs", small.c_str(), "tmpfs", 0, "size=256k") != 0) {
+    GTEST_SKIP() << "needs root to mount a small tmpfs (CI runs as root)";
+  }
+  struct Unmount {
+    std::string p;
+    ~Unmount() { ::umount2(p.c_str(), MNT_DETACH); }
+  } unmount{small};
+  daemon::Config config = e2e_config(drivers::DriverKind::kMock, dir.path());
+  config.recorder.directory = small;
+  config.recorder.loop_decimation = 1;  // fills 256 KiB in about a second
+  InProcessDaemon d(config);
+  // Wait until the disk is full (bounded, generous), then the daemon must serve as ever.
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (!d.engine().recorder()->counters().disk_full && std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_TRUE(d.engine().recorder()->counters().disk_full);
+  daemon_keeps_serving(d);
+  const auto c = d.engine().recorder()->counters();
+  EXPECT_TRUE(c.disk_full);
+  EXPECT_GT(c.write_failures, 0U) << "what the full disk cost is counted";
+}
+
+}  // namespace
+}  // namespace ajar::test
