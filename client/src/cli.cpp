@@ -182,7 +182,9 @@ std::unique_ptr<CLI::App> global_parser(GlobalOptions& o) {
 std::unique_ptr<CLI::App> command_parser(const CommandInfo& info, core::Frame& frame,
                                          CommandArgs& a) {
   const std::string_view n = info.name;
-  if (n == "help" || n == "conformance" || n == "simulate" || n == "script") return nullptr;
+  if (n == "help" || n == "conformance" || n == "simulate" || n == "script" || n == "blackbox" ||
+      n == "replay")
+    return nullptr;
   auto app = std::make_unique<CLI::App>("", std::string(n));
   app->set_help_flag();  // COMMAND --help is found before parsing
   app->option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
@@ -324,6 +326,15 @@ CommandParse parse_command(std::span<const std::string> words, core::Frame frame
     }
     if (c.kind == Command::Kind::kScript && c.args.size() > 1) {
       return fail("script takes at most one FILE");
+    }
+    return {c, {}};
+  }
+  if (name == "blackbox" || name == "replay") {  // their own parsers (blackbox_cmd.cpp, replay.cpp)
+    c.kind = name == "blackbox" ? Command::Kind::kBlackbox : Command::Kind::kReplay;
+    c.args.assign(rest.begin(), rest.end());
+    if (c.args.empty()) {
+      return fail(name == "blackbox" ? "blackbox wants list, fetch, save, show or export"
+                                     : "replay wants FILE");
     }
     return {c, {}};
   }

@@ -118,6 +118,32 @@ constexpr CommandInfo kCommands[] = {
      "# comments are ignored; `quit` ends the script; the first failure ends it unless\n"
      "--keep-going.",
      "", "@file"},
+    {"blackbox", "blackbox list|fetch NAME [-o FILE]|save S|show FILE|export FILE --csv",
+     "the daemon's recordings: list, fetch, save; a file's timeline or loop trace",
+     "The black box (docs/blackbox.md). Over the protocol (1.2, observer role):\n"
+     "  blackbox list                 the daemon's recordings, newest first: name, size, start\n"
+     "                                and end (UTC), (writing), (saved)\n"
+     "  blackbox fetch NAME [-o FILE] copies recording NAME into FILE (default: its base name)\n"
+     "                                in chunks, progress on stderr; a FILE that exists is a\n"
+     "                                partial copy: the fetch resumes at its size\n"
+     "  blackbox save S               keeps the recordings of the last S seconds (saved/...)\n"
+     "A local recording (an MCAP file; one cut short by a crash reads up to the cut):\n"
+     "  blackbox show FILE [--all]    the timeline: sessions, requests, replies, events, faults,\n"
+     "                                config, decoded from the recorded frames (--all: also\n"
+     "                                pings, status, telemetry and the recorder's counters)\n"
+     "  blackbox export FILE --csv [-o OUT]  the loop trace as CSV (stdout unless -o)\n"
+     "--json prints one JSON object per line instead.",
+     "-o --csv --all", "list fetch save show export"},
+    {"replay", "replay FILE [--settle S]",
+     "re-send a recording's controller requests; report what differs",
+     "Re-sends the requests of every controller session recorded in FILE (an MCAP recording of\n"
+     "ajard) to the daemon, with their recorded timing (and, before each request, waiting at\n"
+     "most S seconds, default 2, for the events the recorded session had seen), then reports\n"
+     "every reply and event that differs from the recording, one DIFFERENCE line each, and ends\n"
+     "with \"no difference\" or \"N difference(s)\". Times, session ids, sequence numbers and\n"
+     "texts are not compared (docs/blackbox.md, \"Replay\"). Exit 0: no difference; 1: some.\n"
+     "Run it against a daemon on simulated drivers: it moves what the recording moved.",
+     "--settle", "@file"},
     {"help", "help [COMMAND]", "this list, or one command's help",
      "Prints the list of commands, or what COMMAND does (same as `ajarctl COMMAND --help`).", "",
      ""},

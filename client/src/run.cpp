@@ -7,6 +7,7 @@
 #include "ajar/client/conformance.hpp"
 #include "ajar/client/simulate.hpp"
 #include "ajar/version.hpp"
+#include "blackbox_cmd.hpp"
 #include "session.hpp"
 
 namespace ajar::client {
@@ -85,6 +86,10 @@ int run_ajarctl(std::span<const std::string> args, std::istream& in, std::ostrea
       return run_conformance(c, options, out, err);
     case Command::Kind::kSimulate:
       return run_simulate(c, options, out, err);
+    case Command::Kind::kBlackbox:
+      return run_blackbox(c, options, out, err);
+    case Command::Kind::kReplay:
+      return run_replay(c, options, out, err);
     case Command::Kind::kScript: {
       Session session(options, out, err);
       if (c.args.empty()) return run_script(session, in, options, err);

@@ -126,6 +126,8 @@ int Session::execute(const Command& c) {
     case Command::Kind::kConformance:
     case Command::Kind::kSimulate:
     case Command::Kind::kScript:
+    case Command::Kind::kBlackbox:
+    case Command::Kind::kReplay:
       print_error(c.name, "USAGE", c.name + " cannot run inside a session");
       return kExitUsage;
   }

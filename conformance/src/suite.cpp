@@ -32,6 +32,7 @@ Result Suite::run() {
   decode_errors();
   session_rules();
   protocol_1_1();
+  recordings();
   roles();
   telemetry();
   procedure();

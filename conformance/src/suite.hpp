@@ -348,6 +348,7 @@ class Suite {
   // Says Hello 1.0 (header and payload minor 0) on `c` as an observer; "" when welcomed.
   std::string hello_1_0(Client& c);
   void protocol_1_1();
+  void recordings();  // 1.2: the black box (recordings.cpp)
   // "" when the model is plausible, else what is not.
   static std::string robot_model_problems(const protocol::RobotModel& m,
                                           const protocol::Welcome& w);

@@ -84,6 +84,18 @@ std::string Suite::send_vector(const protocol::GoldenVector& v) {
       case MessageType::kEmergencyStop:
         if (!std::holds_alternative<protocol::Ack>(reply->message)) return "got " + describe(reply);
         break;
+      case MessageType::kListRecordings:
+      case MessageType::kFetchRecording:
+      case MessageType::kSaveRecording:
+        // 1.2, any greeted session: answered (RecordingList / RecordingChunk), or refused for
+        // what the daemon has (its recorder off, no such recording), never by the decoder.
+        if (err == nullptr ? !std::holds_alternative<protocol::RecordingList>(reply->message) &&
+                                 !std::holds_alternative<protocol::RecordingChunk>(reply->message)
+                           : err->code != ErrorCode::kNotSupported &&
+                                 err->code != ErrorCode::kNoSuchRecording) {
+          return "got " + describe(reply);
+        }
+        break;
       default:  // commands: decoded, then refused by the session rules (observer)
         if (!err || err->code != ErrorCode::kNotController) {
           return "expected Error NOT_CONTROLLER (decoded, observer), got " + describe(reply);

@@ -1,66 +1,160 @@
-// The console's side of ajard, on the worker threads: connect (Hello as controller, or as observer
-// when another controller holds the robot; reconnect once a second), Subscribe, the robot model
-// (calibration), Status after every request and event; telemetry and events from the client's
-// reader. Results reach the Asio thread's state through on_io.
+// The console's side of ajard: DaemonLink (daemon_link.hpp) on its worker threads: connect (Hello
+// as controller, or as observer when another controller holds the robot; reconnect once a second),
+// Subscribe, the robot model (calibration), Status after every request and event; and what the
+// console makes of it, of telemetry and of events (the client's reader), on the Asio thread
+// (on_io).
 #include "server_impl.hpp"
+
+#include <utility>
 
 #include "ajar/client/json.hpp"
 #include "daemon_json.hpp"
 
 namespace ajar::console {
 
-void ConsoleServer::Impl::refresh_status() {
-  const auto r = client.request(protocol::GetStatus{}, std::chrono::milliseconds(1000), 0);
-  if (const auto* st = r.get<protocol::Status>()) {
-    const protocol::Status copy = *st;
-    on_io([this, copy] {
-      status = copy;
-      if (foxglove) foxglove->on_status(copy);
-      mark_dirty();
-    });
+DaemonLink::DaemonLink(const ConsoleOptions& options, Listener& listener)
+    : options_(options),
+      listener_(listener),
+      client_(client::ClientOptions{std::chrono::milliseconds(2000),
+                                    std::chrono::milliseconds(3000), 1, 0, "ajar-console",
+                                    options.tls}),
+      role_(options.role),
+      take_over_next_(options.take_over) {}
+
+DaemonLink::~DaemonLink() {
+  shutdown();
+}
+
+void DaemonLink::start() {
+  worker_ = std::make_unique<Worker>([this] { idle(); });
+  stop_worker_ = std::make_unique<Worker>();
+  worker_->post([this] { connect_now(); });
+}
+
+void DaemonLink::shutdown() {
+  if (worker_) worker_->shutdown();
+  if (stop_worker_) stop_worker_->shutdown();
+  client_.set_heartbeat(std::chrono::milliseconds(0));
+  client_.close();
+}
+
+void DaemonLink::post(Job job) {
+  worker_->post(std::move(job));
+}
+
+void DaemonLink::post_stop(Job job) {
+  stop_worker_->post(std::move(job));
+}
+
+void DaemonLink::take_over() {
+  worker_->post([this] {
+    client_.close();
+    role_ = protocol::Role::kController;
+    take_over_next_ = true;
+    connect_now();
+  });
+}
+
+void DaemonLink::observe() {
+  worker_->post([this] {
+    client_.close();
+    role_ = protocol::Role::kObserver;
+    connect_now();
+  });
+}
+
+void DaemonLink::demoted() {
+  worker_->post([this] { role_ = protocol::Role::kObserver; });
+}
+
+void DaemonLink::drive(const protocol::Drive& d,
+                       std::function<void(const client::Response&)> refused) {
+  bool post = false;
+  {
+    const std::lock_guard lock(drive_mutex_);
+    pending_drive_ = d;
+    post = !drive_queued_;
+    drive_queued_ = true;
+  }
+  if (!post) return;
+  worker_->post([this, refused = std::move(refused)] {
+    protocol::Drive newest;
+    {
+      const std::lock_guard lock(drive_mutex_);
+      newest = pending_drive_;
+      drive_queued_ = false;
+    }
+    const auto r = client_.request(newest, std::chrono::milliseconds(300), 0);
+    if (!r.ok()) refused(r);
+  });
+}
+
+void DaemonLink::refresh_status() {
+  const auto r = client_.request(protocol::GetStatus{}, std::chrono::milliseconds(1000), 0);
+  if (const auto* st = r.get<protocol::Status>()) listener_.status_received(*st);
+}
+
+void DaemonLink::connect_now() {
+  next_connect_attempt_ = Clock::now() + std::chrono::seconds(1);
+  if (const auto connected = client_.connect(options_.daemon); !connected) {
+    listener_.connect_failed(connected.error().message);
+    return;
+  }
+  auto r = client_.hello(role_, take_over_next_);
+  if (r.outcome == client::CallOutcome::kRefused && r.error.code == ErrorCode::kControllerBusy) {
+    // Someone else controls the robot: watch as an observer; the page offers take-over.
+    client_.close();
+    if (!client_.connect(options_.daemon)) return;
+    r = client_.hello(protocol::Role::kObserver, false);
+  }
+  take_over_next_ = false;
+  if (!r.ok()) {
+    const std::string why = "Hello refused: " + response_json(r).str();
+    client_.close();
+    listener_.hello_refused(why);
+    return;
+  }
+  const auto w = *client_.welcome();
+  client_.request(protocol::Subscribe{options_.telemetry_rate_hz});
+  if (w.version_minor >= 1) listener_.robot_model(client_.request(protocol::GetRobotModel{}));
+  listener_.connected(w);
+  refresh_status();
+  listener_.worker_idle(true);
+}
+
+void DaemonLink::idle() {
+  if (!client_.connected() && Clock::now() >= next_connect_attempt_) connect_now();
+  listener_.worker_idle(false);
+}
+
+// ---- the console's side: what the link learns, on the Asio thread ----
+
+void ConsoleServer::Impl::connect_failed(const std::string& why) {
+  on_io([this, why] {
+    if (connection_message != why) add_log("ajard: " + why);
+    daemon_connected = false;
+    connection_message = why;
+    mark_dirty();
+  });
+}
+
+void ConsoleServer::Impl::hello_refused(const std::string& why) {
+  on_io([this, why] {
+    add_log(why);
+    connection_message = why;
+    mark_dirty();
+  });
+}
+
+void ConsoleServer::Impl::robot_model(const client::Response& reply) {
+  if (const auto* m = reply.get<protocol::RobotModel>()) {
+    on_io([this, copy = *m] { set_model(copy); });
+  } else {
+    on_io([this, reply] { log_response("GetRobotModel", reply); });
   }
 }
 
-void ConsoleServer::Impl::connect_now() {
-  next_connect_attempt = Clock::now() + std::chrono::seconds(1);
-  if (const auto connected = client.connect(options.daemon); !connected) {
-    on_io([this, err = connected.error().message] {
-      if (connection_message != err) add_log("ajard: " + err);
-      daemon_connected = false;
-      connection_message = err;
-      mark_dirty();
-    });
-    return;
-  }
-  auto r = client.hello(role, take_over_next);
-  if (r.outcome == client::CallOutcome::kRefused && r.error.code == ErrorCode::kControllerBusy) {
-    // Someone else controls the robot: watch as an observer; the page offers take-over.
-    client.close();
-    if (!client.connect(options.daemon)) return;
-    r = client.hello(protocol::Role::kObserver, false);
-  }
-  take_over_next = false;
-  if (!r.ok()) {
-    const std::string why = "Hello refused: " + response_json(r).str();
-    client.close();
-    on_io([this, why] {
-      add_log(why);
-      connection_message = why;
-      mark_dirty();
-    });
-    return;
-  }
-  const auto w = *client.welcome();
-  client.request(protocol::Subscribe{options.telemetry_rate_hz});
-  if (w.version_minor >= 1) {
-    const auto rm = client.request(protocol::GetRobotModel{});
-    if (const auto* m = rm.get<protocol::RobotModel>()) {
-      const protocol::RobotModel copy = *m;
-      on_io([this, copy] { set_model(copy); });
-    } else {
-      on_io([this, rm] { log_response("GetRobotModel", rm); });
-    }
-  }
+void ConsoleServer::Impl::connected(const protocol::Welcome& w) {
   on_io([this, w] {
     welcome = w;
     role_now = w.granted_role;
@@ -74,8 +168,18 @@ void ConsoleServer::Impl::connect_now() {
             std::to_string(w.version_major) + "." + std::to_string(w.version_minor) + ")");
     mark_dirty();
   });
-  refresh_status();
-  refresh_recorder();
+}
+
+void ConsoleServer::Impl::worker_idle(bool connected_now) {
+  if (connected_now || Clock::now() >= next_recorder_poll) refresh_recorder();
+}
+
+void ConsoleServer::Impl::status_received(const protocol::Status& s) {
+  on_io([this, s] {
+    status = s;
+    if (foxglove) foxglove->on_status(s);
+    mark_dirty();
+  });
 }
 
 // The daemon's calibration: base-frame coordinates on the page and the simulated camera's mount.
@@ -98,11 +202,6 @@ void ConsoleServer::Impl::set_model(const protocol::RobotModel& m) {
   mark_dirty();
 }
 
-void ConsoleServer::Impl::idle() {
-  if (!client.connected() && Clock::now() >= next_connect_attempt) connect_now();
-  if (Clock::now() >= next_recorder_poll) refresh_recorder();
-}
-
 void ConsoleServer::Impl::on_telemetry(const protocol::Telemetry& t) {
   const auto now = Clock::now();
   {
@@ -120,7 +219,7 @@ void ConsoleServer::Impl::on_telemetry(const protocol::Telemetry& t) {
                                telemetry->moving != t.moving;
     telemetry = t;
     telemetry_at = now;
-    broadcast_text(json);
+    pages.broadcast_text(json);
     // The picks' places (moved, stale) and the guidance follow the pose: a new snapshot when the
     // base moved (at most 10 per second: the tick).
     const core::PlanarPose p{t.odometry_x_m, t.odometry_y_m, t.base_yaw_odometry_rad};
@@ -135,15 +234,15 @@ void ConsoleServer::Impl::on_event(const protocol::Event& e) {
   if (e.kind == protocol::EventKind::kControlChanged) {
     // Compared with this session's id once the Hello that may have caused it has returned (the
     // worker runs connect_now to its end first).
-    worker->post([this, e] {
-      const auto w = client.welcome();
+    link.post([this, e] {
+      const auto w = link.client().welcome();
       on_io([this, e, id = w ? w->session_id : 0] { on_event_io(e, id); });
-      refresh_status();
+      link.refresh_status();
     });
     return;
   }
   on_io([this, e] { on_event_io(e, 0); });
-  worker->post([this] { refresh_status(); });
+  link.post([this] { link.refresh_status(); });
 }
 
 namespace {
@@ -210,7 +309,7 @@ void ConsoleServer::Impl::on_event_io(const protocol::Event& e, std::uint64_t se
             *controller == session_id ? protocol::Role::kController : protocol::Role::kObserver;
         if (was == protocol::Role::kController && role_now == protocol::Role::kObserver) {
           text += ": this console is now an OBSERVER (Take over to command again)";
-          worker->post([this] { role = protocol::Role::kObserver; });  // a reconnect stays so
+          link.demoted();  // a reconnect stays so
         }
       }
       break;

@@ -69,7 +69,7 @@ void ConsoleServer::Impl::frame_loop() {
       // One PNG for the pages and Foxglove live (only while someone subscribes to the image).
       const bool to_foxglove = foxglove && foxglove->wants_image();
       std::shared_ptr<const std::vector<std::uint8_t>> png;
-      if (any_page || to_foxglove) {
+      if (pages.any_page() || to_foxglove) {
         const auto& k = entry->frame.intrinsics;
         png = std::make_shared<const std::vector<std::uint8_t>>(
             encode_png_rgb8(Rgb8Image{k.width_px, k.height_px, entry->frame.rgb}, 1));
@@ -77,9 +77,9 @@ void ConsoleServer::Impl::frame_loop() {
       if (foxglove)
         foxglove->on_image(to_foxglove ? png : nullptr, foxglove::unix_time_ns(),
                            entry->frame.intrinsics);
-      if (any_page) {
+      if (pages.any_page()) {
         entry->colour = frame_message(1, entry->frame.sequence, *png);
-        if (overlay_wanted) {
+        if (pages.overlay_wanted()) {
           entry->depth = frame_message(2, entry->frame.sequence,
                                        encode_png_rgb8(colourise_depth(entry->frame), 1));
         }
@@ -93,15 +93,7 @@ void ConsoleServer::Impl::frame_loop() {
           mark_dirty();
         }
         // Its age, pose and where each pick's marker is on it, just before the image itself.
-        const auto meta =
-            sessions.empty() ? nullptr : std::make_shared<const std::string>(frame_json(*entry));
-        for (const auto& s : sessions) {
-          if (entry->colour) {
-            enqueue(s, false, meta);
-            enqueue(s, true, entry->colour);
-          }
-          if (s->overlay && entry->depth) enqueue(s, true, entry->depth);
-        }
+        pages.broadcast_frame([&] { return frame_json(*entry); }, entry->colour, entry->depth);
       });
       last_error.clear();
     } else if (why != last_error) {

@@ -43,11 +43,11 @@ std::string unavailable(client::Client& c) {
 void ConsoleServer::Impl::refresh_recorder() {
   next_recorder_poll = Clock::now() + std::chrono::seconds(2);
   client::JsonObject o;
-  if (const auto why = unavailable(client); !why.empty()) {
+  if (const auto why = unavailable(link.client()); !why.empty()) {
     o.add("known", false).add("why", why);
   } else {
 #if AJAR_CONSOLE_HAVE_BLACKBOX
-    const auto list = client::list_recordings(client);
+    const auto list = client::list_recordings(link.client());
     if (!list && list.error().code == ErrorCode::kNotSupported) {
       o.add("known", true).add("on", false).add("why", list.error().message);
     } else if (!list) {
@@ -81,14 +81,14 @@ void ConsoleServer::Impl::save_recording(double last_s) {
   add_log("asking ajard to save the last " + std::to_string(static_cast<long>(last_s)) +
           " s of its black box");
   mark_dirty();
-  worker->post([this, last_s] {
+  link.post([this, last_s] {
     client::JsonObject reply;
     client::JsonArray saved;
-    if (const auto why = unavailable(client); !why.empty()) {
+    if (const auto why = unavailable(link.client()); !why.empty()) {
       reply = refusal(ajar::to_string(ErrorCode::kNotSupported), "", why);
     } else {
 #if AJAR_CONSOLE_HAVE_BLACKBOX
-      const auto r = client::save_recording(client, last_s);
+      const auto r = client::save_recording(link.client(), last_s);
       if (r) {
         reply = client::JsonObject().add("ok", true);
         for (const auto& info : *r)

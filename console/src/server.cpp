@@ -32,7 +32,7 @@ void ConsoleServer::Impl::add_log(const std::string& text) {
   log.push_back(entry);
   while (log.size() > 200)
     log.pop_front();
-  broadcast_text(
+  pages.broadcast_text(
       client::JsonObject().add("type", "log").add("entries", client::JsonArray().add(entry)).str());
 }
 
@@ -50,7 +50,7 @@ asio::awaitable<void> ConsoleServer::Impl::tick_loop() {
         broadcast_pose = {telemetry->odometry_x_m, telemetry->odometry_y_m,
                           telemetry->base_yaw_odometry_rad};
       }
-      broadcast_text(snapshot());
+      pages.broadcast_text(snapshot());
     }
     // The page's link watchdog: a word from the console at least every 250 ms, with the age of
     // ajard's telemetry as the console sees it.
@@ -61,7 +61,7 @@ asio::awaitable<void> ConsoleServer::Impl::tick_loop() {
         t.add("telemetry_age_ms",
               std::chrono::duration<double, std::milli>(Clock::now() - telemetry_at).count());
       }
-      broadcast_text(t.str());
+      pages.broadcast_text(t.str());
     }
   }
 }
@@ -72,11 +72,8 @@ ConsoleServer::ConsoleServer(ConsoleOptions options, std::unique_ptr<FrameSource
 
 ConsoleServer::~ConsoleServer() {
   stop();
-  if (impl_->worker) impl_->worker->shutdown();
-  if (impl_->stop_worker) impl_->stop_worker->shutdown();
   if (impl_->frame_thread.joinable()) impl_->frame_thread.join();
-  impl_->client.set_heartbeat(std::chrono::milliseconds(0));
-  impl_->client.close();
+  impl_->link.shutdown();
 }
 
 std::uint16_t ConsoleServer::listen() {
@@ -126,9 +123,10 @@ std::uint16_t ConsoleServer::foxglove_port() const {
 
 void ConsoleServer::run() {
   auto& d = *impl_;
-  d.client.on_telemetry([&d](const protocol::Telemetry& t) { d.on_telemetry(t); });
-  d.client.on_event([&d](const protocol::Event& e) { d.on_event(e); });
-  d.client.on_disconnect([&d](const std::string& why) {
+  auto& client = d.link.client();
+  client.on_telemetry([&d](const protocol::Telemetry& t) { d.on_telemetry(t); });
+  client.on_event([&d](const protocol::Event& e) { d.on_event(e); });
+  client.on_disconnect([&d](const std::string& why) {
     d.on_io([&d, why] {
       d.daemon_connected = false;
       d.connection_message = "disconnected: " + why;
@@ -137,9 +135,7 @@ void ConsoleServer::run() {
     });
   });
   d.add_log("camera: " + d.source->describe());
-  d.worker = std::make_unique<Worker>([&d] { d.idle(); });
-  d.stop_worker = std::make_unique<Worker>();
-  d.worker->post([&d] { d.connect_now(); });
+  d.link.start();
   d.frame_thread = std::thread([&d] { d.frame_loop(); });
   if (d.foxglove) d.foxglove->start();
   asio::signal_set signals(d.ioc, SIGINT, SIGTERM);
@@ -150,7 +146,7 @@ void ConsoleServer::run() {
   asio::co_spawn(d.ioc, d.tick_loop(), asio::detached);
   d.ioc.run();
   d.stopping = true;
-  d.client.set_heartbeat(std::chrono::milliseconds(0));
+  d.link.client().set_heartbeat(std::chrono::milliseconds(0));
 }
 
 void ConsoleServer::stop() {
@@ -160,11 +156,7 @@ void ConsoleServer::stop() {
   asio::post(d.ioc, [&d] {
     error_code ec;
     d.acceptor.close(ec);
-    for (const auto& s : d.sessions) {
-      s->closed = true;
-      s->wake.cancel();
-      s->ws.next_layer().close(ec);
-    }
+    d.pages.close_all();
     d.ioc.stop();
   });
 }

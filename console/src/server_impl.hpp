@@ -2,10 +2,11 @@
 // are in ajar/console/server.hpp):
 //   server.cpp        start, run, stop; the Asio thread's tick (state broadcast); the log
 //   http.cpp          accepting connections; HTTP: the page's files, /api/state, the Host guard
-//   page_sessions.cpp one WebSocket per page: send queue, reader; overlay and the deadman's gate
+//   page_sessions.cpp one WebSocket per page: its reader; the deadman's gate (queues: page_hub.hpp)
 //   page_requests.cpp what a page asks (hover, pick, rect, send, commands, jog, approach)
 //   state_json.cpp    the console's state as the page's JSON (and the simulated landmarks)
-//   daemon_link.cpp   the worker threads' side: connect, Hello, status, events, telemetry
+//   daemon_link.cpp   DaemonLink (daemon_link.hpp: the client, its workers: connect, Hello, status)
+//                     and the console's side of it: status, events, telemetry
 //   frames.cpp        the frame thread: paces the source, encodes PNGs for the pages
 //   foxglove_live.cpp Foxglove live: the channels and messages (its server: foxglove_server.cpp)
 //   recorder_panel.cpp the black box's state and "save the last 5 minutes"
@@ -41,10 +42,13 @@
 #include "ajar/console/door_scene.hpp"
 #include "ajar/console/frame.hpp"
 #include "ajar/console/page_message.hpp"
+#include "ajar/console/pick_board.hpp"
 #include "ajar/console/pick_pose.hpp"
 #include "ajar/console/server.hpp"
 #include "ajar/core/geometry.hpp"
+#include "daemon_link.hpp"
 #include "foxglove_live.hpp"
+#include "page_hub.hpp"
 #include "worker.hpp"
 
 namespace ajar::console {
@@ -57,30 +61,6 @@ using tcp = asio::ip::tcp;
 using boost::system::error_code;
 using Clock = std::chrono::steady_clock;
 
-// The parameter region's steps, in the procedure's order, and how many picks each holds.
-enum Step : std::size_t { kWidth = 0, kHandle = 1, kPlane = 2, kContact = 3, kStepCount = 4 };
-inline constexpr std::array<const char*, kStepCount> kStepNames{"width", "handle", "plane",
-                                                                "contact"};
-inline constexpr std::array<std::size_t, kStepCount> kStepCapacity{2, 2, protocol::kMaxPlanePoints,
-                                                                   1};
-
-// One point the operator picked on a frame (camera frame, metres), with the base pose of that
-// frame: the daemon's odometry when the frame was captured (ajar/console/pick_pose.hpp).
-struct Pick {
-  double u_px = 0;
-  double v_px = 0;
-  core::Vec3 camera_m = core::Vec3::Zero();
-  bool from_window = false;  // depth from the pick rule's window median (a hole at the pixel)
-  std::uint64_t frame_sequence = 0;
-  core::PlanarPose pose;  // odometry of the frame it was picked on
-};
-
-// What a step's accepted measurement was taken from: the points as sent (camera frame at `pose`).
-struct SentStep {
-  std::vector<core::Vec3> camera_m;
-  core::PlanarPose pose;
-};
-
 // A frame with the base pose it was taken at and its WebSocket messages (frames.cpp).
 struct FrameEntry {
   Frame frame;
@@ -91,33 +71,9 @@ struct FrameEntry {
   std::shared_ptr<const std::string> depth;   // null when no page asked for the overlay
 };
 
-// One open page's WebSocket.
-struct WsSession {
-  explicit WsSession(tcp::socket socket) : ws(std::move(socket)), wake(ws.get_executor()) {}
-  websocket::stream<tcp::socket> ws;
-  asio::steady_timer wake;  // cancelled when the queue gets a message
-  struct Outgoing {
-    bool binary = false;
-    std::shared_ptr<const std::string> data;
-  };
-  std::deque<Outgoing> queue;
-  int frames_queued = 0;  // binary messages in the queue (at most 2: a slow page skips frames)
-  bool closed = false;
-  bool overlay = false;  // the page shows the depth overlay
-  Clock::time_point last_alive{};
-};
-
-struct ConsoleServer::Impl {
+struct ConsoleServer::Impl final : DaemonLink::Listener {
   Impl(ConsoleOptions o, std::unique_ptr<FrameSource> s, SimulatedSource* sim_source)
-      : options(std::move(o)),
-        source(std::move(s)),
-        sim(sim_source),
-        acceptor(ioc),
-        client(client::ClientOptions{std::chrono::milliseconds(2000),
-                                     std::chrono::milliseconds(3000), 1, 0, "ajar-console",
-                                     options.tls}),
-        role(options.role),
-        take_over_next(options.take_over) {}
+      : options(std::move(o)), source(std::move(s)), sim(sim_source), acceptor(ioc) {}
 
   ConsoleOptions options;
   std::unique_ptr<FrameSource> source;
@@ -125,10 +81,10 @@ struct ConsoleServer::Impl {
   asio::io_context ioc{1};
   tcp::acceptor acceptor;
   std::uint16_t port = 0;
-  client::Client client;
+  DaemonLink link{options, *this};  // ajard: the client and its worker threads
 
   // ---- State owned by the Asio thread ----
-  std::set<std::shared_ptr<WsSession>> sessions;
+  PageHub pages;  // the open pages' WebSockets (any_page, overlay_wanted: read by the frame thread)
   std::deque<std::shared_ptr<const FrameEntry>> frames;  // newest last
   std::string source_error;
   bool daemon_connected = false;
@@ -137,11 +93,8 @@ struct ConsoleServer::Impl {
   std::optional<protocol::Status> status;
   std::optional<core::CameraToBase> camera_to_base;  // from the daemon (RobotModel)
   std::optional<protocol::RobotModel> model;         // protocol 1.1: GetRobotModel
-  std::array<std::vector<Pick>, kStepCount> picks;
-  std::array<client::JsonObject, kStepCount> results;    // the replies; empty when nothing sent yet
-  std::array<std::optional<SentStep>, kStepCount> sent;  // what each accepted measurement was
+  PickBoard board;                                   // the operator's picks and each step's reply
   client::JsonObject last_command;  // {"op", "reply", "at"} of the last command; empty before one
-  Step active = kWidth;
   // Honest state (issue 23): who controls, what moves, how old the daemon's word is.
   std::optional<protocol::Role> role_now;  // the role the daemon gives this console's session now
   std::string controller_text;             // the daemon's last control_changed detail
@@ -159,24 +112,11 @@ struct ConsoleServer::Impl {
   std::mutex pose_mutex;
   BasePose pose;
   Clock::time_point pose_at{};  // when `pose` arrived (telemetry); epoch: never
-  std::atomic<bool> overlay_wanted{false};
-  std::atomic<bool> any_page{false};
   std::atomic<bool> stopping{false};
   std::thread frame_thread;
   // Foxglove live (foxglove_live.hpp): null when off; its methods never block the caller.
   std::unique_ptr<FoxgloveLive> foxglove;
   std::uint16_t foxglove_port = 0;
-
-  // ---- Daemon side (worker threads) ----
-  protocol::Role role;  // worker thread only
-  bool take_over_next;  // worker thread only
-  Clock::time_point next_connect_attempt{};
-  std::unique_ptr<Worker> worker;       // connect, measurements, commands
-  std::unique_ptr<Worker> stop_worker;  // Stop and EmergencyStop only
-  // Jog: the newest Drive the page asked for; one job at a time carries the latest to ajard.
-  std::mutex drive_mutex;
-  protocol::Drive pending_drive;
-  bool drive_queued = false;
 
   // Posting to the Asio thread (from any thread).
   template <typename F>
@@ -198,14 +138,7 @@ struct ConsoleServer::Impl {
 
   // ---- page_sessions.cpp (Asio thread) ----
   asio::awaitable<void> run_session(std::shared_ptr<WsSession> s);
-  asio::awaitable<void> write_loop(std::shared_ptr<WsSession> s);
-  void enqueue(const std::shared_ptr<WsSession>& s, bool binary,
-               std::shared_ptr<const std::string> data);
-  void broadcast_text(const std::string& text);
-  void reply(const std::shared_ptr<WsSession>& s, const std::string& text);
-  void notice(const std::shared_ptr<WsSession>& s, const std::string& text);
   void update_heartbeat();  // feeds the deadman only while a page is connected and alive
-  void update_overlay();
 
   // ---- page_requests.cpp (Asio thread) ----
   void handle_page(const std::shared_ptr<WsSession>& s, const std::string& text);
@@ -226,20 +159,22 @@ struct ConsoleServer::Impl {
   // The pose now and how old it is; nullopt when no telemetry came within kTelemetryStaleAfter.
   std::optional<core::PlanarPose> pose_now(std::string& why) const;
   StaleRule stale_rule() const;
+  BoardView board_view() const;  // the pose now (newest telemetry), calibration, staleness rule
   std::string frame_json(const FrameEntry& f) const;  // {"type":"frame"}: age, pose, markers
 
   // ---- state_json.cpp (Asio thread) ----
-  std::string snapshot() const;  // {"type":"state",...}: everything the page draws
-  client::JsonObject picks_json() const;
-  client::JsonObject results_json() const;
+  std::string snapshot() const;              // {"type":"state",...}: everything the page draws
   client::JsonObject guidance_json() const;  // door distance, view limits, default standoff, hinge
   std::vector<Landmark> landmarks_now(const core::PlanarPose& now) const;
   std::string landmarks_json() const;  // /api/sim/landmarks; "null" without a simulated source
 
-  // ---- daemon_link.cpp (worker threads; client callbacks) ----
-  void connect_now();
-  void idle();  // reconnects at most once a second while disconnected
-  void refresh_status();
+  // ---- daemon_link.cpp (DaemonLink's listener: posts to the Asio thread; client callbacks) ----
+  void connect_failed(const std::string& why) override;
+  void hello_refused(const std::string& why) override;
+  void connected(const protocol::Welcome& welcome) override;
+  void robot_model(const client::Response& reply) override;
+  void status_received(const protocol::Status& status) override;
+  void worker_idle(bool connected_now) override;  // the black box's poll
   void set_model(const protocol::RobotModel& m);  // Asio thread
   void on_telemetry(const protocol::Telemetry& t);
   void on_event(const protocol::Event& e);

@@ -14,52 +14,6 @@ namespace ajar::console {
 
 using client::JsonObject;
 
-namespace {
-const char* place_name(PickPlace p) {
-  switch (p) {
-    case PickPlace::kHere:
-      return "here";
-    case PickPlace::kMoved:
-      return "moved";
-    case PickPlace::kStale:
-      return "stale";
-  }
-  return "stale";
-}
-}  // namespace
-
-// Each pick with the pose it was taken at and how far the base moved since (to the newest
-// telemetry): "here", "moved" (within the daemon's staleness rule: sent transformed) or "stale".
-JsonObject ConsoleServer::Impl::picks_json() const {
-  JsonObject o;
-  std::optional<core::PlanarPose> now;
-  if (telemetry) {
-    now = core::PlanarPose{telemetry->odometry_x_m, telemetry->odometry_y_m,
-                           telemetry->base_yaw_odometry_rad};
-  }
-  for (std::size_t s = 0; s < kStepCount; ++s) {
-    client::JsonArray items;
-    for (const auto& p : picks[s]) {
-      JsonObject j;
-      j.add("u", p.u_px)
-          .add("v", p.v_px)
-          .add("camera_m", p.camera_m)
-          .add("from_window", p.from_window)
-          .add("frame", static_cast<std::uint64_t>(p.frame_sequence))
-          .add("pose", client::JsonArray().add(p.pose.x_m).add(p.pose.y_m).add(p.pose.yaw_rad));
-      if (camera_to_base) j.add("base_m", camera_to_base->to_base(p.camera_m));
-      if (now) {
-        const auto m = pick_motion(p.pose, *now, stale_rule());
-        j.add("place", place_name(m.place));
-        if (m.place != PickPlace::kHere) j.add("moved", moved_text(m));
-      }
-      items.add(j);
-    }
-    o.add(kStepNames[s], items);
-  }
-  return o;
-}
-
 // One frame's age, pose and the picks' markers on it: each pick seen from the frame's pose (its
 // pixel), and its place by the daemon's staleness rule; "out" when it is not in this image.
 std::string ConsoleServer::Impl::frame_json(const FrameEntry& f) const {
@@ -71,39 +25,9 @@ std::string ConsoleServer::Impl::frame_json(const FrameEntry& f) const {
            f.pose_from != Clock::time_point{} && f.captured - f.pose_from <= kFrozenAfter)
       .add("pose", client::JsonArray().add(f.pose.x_m).add(f.pose.y_m).add(f.pose.yaw_rad));
   const core::PlanarPose at_frame{f.pose.x_m, f.pose.y_m, f.pose.yaw_rad};
-  const auto& k = f.frame.intrinsics;
-  JsonObject markers;
-  for (std::size_t s = 0; s < kStepCount; ++s) {
-    client::JsonArray items;
-    for (const auto& p : picks[s]) {
-      const auto m = pick_motion(p.pose, at_frame, stale_rule());
-      JsonObject j;
-      if (m.place == PickPlace::kHere || !camera_to_base) {
-        j.add("u", p.u_px)
-            .add("v", p.v_px)
-            .add("place", m.place == PickPlace::kHere ? "here" : "stale");
-      } else {
-        const auto px =
-            core::project(k, camera_point_now(p.camera_m, p.pose, at_frame, *camera_to_base));
-        const bool in = px && px->u_px >= -0.5 && px->v_px >= -0.5 &&
-                        px->u_px <= k.width_px - 0.5 && px->v_px <= k.height_px - 0.5;
-        if (px) j.add("u", px->u_px).add("v", px->v_px);
-        j.add("place", in ? place_name(m.place) : "out");
-      }
-      items.add(j);
-    }
-    markers.add(kStepNames[s], items);
-  }
+  const JsonObject markers = board.markers_json(at_frame, f.frame.intrinsics, board_view());
   o.add("markers", markers);
   return o.str();
-}
-
-JsonObject ConsoleServer::Impl::results_json() const {
-  JsonObject o;
-  for (std::size_t s = 0; s < kStepCount; ++s) {
-    if (!results[s].empty()) o.add(kStepNames[s], results[s]);
-  }
-  return o;
 }
 
 std::string ConsoleServer::Impl::snapshot() const {
@@ -195,9 +119,15 @@ std::string ConsoleServer::Impl::snapshot() const {
                             .add("height_px", k.height_px));
   }
   o.add("guidance", guidance_json());
-  o.add("active_step", kStepNames[active]);
-  o.add("picks", picks_json());
-  o.add("results", results_json());
+  o.add("active_step", kStepNames[board.active()]);
+  BoardView view = board_view();
+  view.now.reset();  // the picks' places: to the newest telemetry, however old
+  if (telemetry) {
+    view.now = core::PlanarPose{telemetry->odometry_x_m, telemetry->odometry_y_m,
+                                telemetry->base_yaw_odometry_rad};
+  }
+  o.add("picks", board.picks_json(view));
+  o.add("results", board.results_json());
   o.add("recorder", recorder_state);
   if (recorder_save.empty()) {
     o.add_null("recorder_save");
@@ -265,9 +195,10 @@ std::vector<Landmark> ConsoleServer::Impl::landmarks_now(const core::PlanarPose&
   std::vector<Landmark> out;
   if (!camera_to_base) return out;
   const auto add = [&](Step step, std::size_t i, const char* name) {
-    if (!sent[step] || sent[step]->camera_m.size() <= i) return;
-    out.push_back({name, core::rebase(camera_to_base->to_base(sent[step]->camera_m[i]),
-                                      sent[step]->pose, now)});
+    const auto& sent = board.sent(step);
+    if (!sent || sent->camera_m.size() <= i) return;
+    out.push_back(
+        {name, core::rebase(camera_to_base->to_base(sent->camera_m[i]), sent->pose, now)});
   };
   add(kWidth, 0, "hinge edge (P1)");
   add(kWidth, 1, "moving edge (P2)");
@@ -311,11 +242,15 @@ JsonObject ConsoleServer::Impl::guidance_json() const {
   }
   // Hinge side: the handle's axis (accepted, or picked and not sent yet) must lie nearer P2 (the
   // moving edge) than P1.
-  if (landmarks.size() >= 2 && sent[kWidth]) {
+  const auto picks = [this](Step step) -> const std::vector<Pick>& { return board.picks(step); };
+  const auto sent = [this](Step step) -> const std::optional<SentStep>& {
+    return board.sent(step);
+  };
+  if (landmarks.size() >= 2 && sent(kWidth)) {
     std::optional<core::Vec3> axis;
-    if (sent[kHandle] && landmarks.size() >= 3) axis = landmarks[2].base_m;
-    if (!picks[kHandle].empty()) {
-      const auto& p = picks[kHandle][0];
+    if (sent(kHandle) && landmarks.size() >= 3) axis = landmarks[2].base_m;
+    if (!picks(kHandle).empty()) {
+      const auto& p = picks(kHandle)[0];
       axis = core::rebase(camera_to_base->to_base(p.camera_m), p.pose, now);
     }
     if (axis) {
@@ -333,9 +268,9 @@ JsonObject ConsoleServer::Impl::guidance_json() const {
   };
   constexpr double kOffPlane_m = 0.02;
   std::array<char, 200> buf{};
-  if (picks[kPlane].size() >= 4) {
+  if (picks(kPlane).size() >= 4) {
     std::vector<core::Vec3> pts;
-    for (const auto& p : picks[kPlane])
+    for (const auto& p : picks(kPlane))
       pts.push_back(base_now(p));
     for (std::size_t i = 0; i < pts.size(); ++i) {
       std::vector<core::Vec3> others = pts;
@@ -351,10 +286,10 @@ JsonObject ConsoleServer::Impl::guidance_json() const {
       }
     }
   }
-  if (landmarks.size() >= 2 && sent[kWidth]) {
-    for (std::size_t i = 0; i < picks[kPlane].size(); ++i) {
+  if (landmarks.size() >= 2 && sent(kWidth)) {
+    for (std::size_t i = 0; i < picks(kPlane).size(); ++i) {
       const double t =
-          along_edges(landmarks[0].base_m, landmarks[1].base_m, base_now(picks[kPlane][i]));
+          along_edges(landmarks[0].base_m, landmarks[1].base_m, base_now(picks(kPlane)[i]));
       if (t < -0.02 || t > 1.02) {
         std::snprintf(buf.data(), buf.size(),
                       "point %zu is outside the door's measured edges (P1..P2): on the wall?",
@@ -363,13 +298,13 @@ JsonObject ConsoleServer::Impl::guidance_json() const {
       }
     }
   }
-  if (sent[kPlane] && sent[kPlane]->camera_m.size() >= 3) {
+  if (sent(kPlane) && sent(kPlane)->camera_m.size() >= 3) {
     std::vector<core::Vec3> pts;
-    for (const auto& c : sent[kPlane]->camera_m)
-      pts.push_back(core::rebase(camera_to_base->to_base(c), sent[kPlane]->pose, now));
+    for (const auto& c : sent(kPlane)->camera_m)
+      pts.push_back(core::rebase(camera_to_base->to_base(c), sent(kPlane)->pose, now));
     if (const auto plane = fit_points(pts)) {
-      for (std::size_t i = 0; i < picks[kWidth].size(); ++i) {
-        const double d = distance_to_plane(*plane, base_now(picks[kWidth][i]));
+      for (std::size_t i = 0; i < picks(kWidth).size(); ++i) {
+        const double d = distance_to_plane(*plane, base_now(picks(kWidth)[i]));
         if (d > kOffPlane_m) {
           std::snprintf(buf.data(), buf.size(),
                         "P%zu is %.3f m off the door plane: not on the door leaf's edge?", i + 1,

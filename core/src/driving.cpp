@@ -8,7 +8,6 @@ namespace ajar::core {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-constexpr double kMaxCounts = 9007199254740992.0;  // 2^53: doubles hold every integer below
 
 double finite_or_zero(double v) noexcept {
   return std::isfinite(v) ? v : 0.0;
@@ -25,14 +24,6 @@ double limit(double target, double previous, double max_speed, double max_accel,
   const double v = std::clamp(finite_or_zero(target), -max_speed, max_speed);
   const double step = max_accel * std::max(dt_s, 0.0);
   return std::clamp(v, previous - step, previous + step);
-}
-
-// Motor counts for a wheel rotation, without polarity; false when not representable.
-bool motor_counts(double wheel_rad, const BaseGeometry& base, std::int64_t& out) noexcept {
-  const double raw = wheel_rad / (2.0 * kPi) * base.gear_ratio * base.encoder_counts_per_rev;
-  if (!std::isfinite(raw) || !(std::abs(raw) < kMaxCounts)) return false;
-  out = static_cast<std::int64_t>(std::round(raw));
-  return true;
 }
 
 Vec3 rotate_z(const Vec3& v, double yaw_rad) noexcept {
@@ -97,7 +88,7 @@ Vec3 rebase(const Vec3& point_m, const PlanarPose& at, const PlanarPose& now) no
 DoorView door_from_plane(const Plane& plane, const PlanarPose& at, const PlanarPose& now) noexcept {
   const Vec3 n = rotate_z(plane.normal, at.yaw_rad - now.yaw_rad);
   const Vec3 c = rebase(plane.centroid_m, at, now);
-  return {-n.dot(c), std::atan2(-n.y(), -n.x())};
+  return {-n.dot(c), yaw_from_normal_rad(n)};
 }
 
 DoorView door_from_width(const Vec3& p1_m, const Vec3& p2_m, const PlanarPose& at,
@@ -109,7 +100,7 @@ DoorView door_from_width(const Vec3& p1_m, const Vec3& p2_m, const PlanarPose& a
   if (!(length > 0)) return {mid.x(), 0.0};
   n /= length;
   if (n.dot(-mid) < 0) n = -n;  // toward the robot
-  return {-n.dot(mid), std::atan2(-n.y(), -n.x())};
+  return {-n.dot(mid), yaw_from_normal_rad(n)};
 }
 
 namespace {
@@ -143,11 +134,11 @@ DoorLine door_line_from_width(const Vec3& p1_m, const Vec3& p2_m, const PlanarPo
 StraightCommand straight_command(double travel_m, const BaseGeometry& base) noexcept {
   StraightCommand c;
   const double theta = travel_m / base.wheel_radius_m;
-  std::int64_t counts = 0;
-  if (!motor_counts(theta, base, counts)) return c;
+  const std::optional<std::int64_t> counts = wheel_rad_to_motor_counts(theta, base);
+  if (!counts) return c;
   c.wheel_rad = theta;
-  c.left_counts = counts * (base.left.polarity < 0 ? -1 : 1);
-  c.right_counts = counts * (base.right.polarity < 0 ? -1 : 1);
+  c.left_counts = *counts * (base.left.polarity < 0 ? -1 : 1);
+  c.right_counts = *counts * (base.right.polarity < 0 ? -1 : 1);
   return c;
 }
 

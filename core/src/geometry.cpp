@@ -18,7 +18,7 @@ double deg(double rad) {
   return rad * 180.0 / kPi;
 }
 
-// Largest |counts| we convert: doubles hold every integer up to 2^53 exactly.
+// Largest |counts| we convert: doubles hold every integer below 2^53 exactly.
 constexpr double kMaxCounts = 9007199254740992.0;
 
 // Within this distance (m) of the base origin a plane counts as passing through the robot's
@@ -257,7 +257,7 @@ Result<double> yaw_deviation_rad(const Plane& plane, const Tolerances& tol) {
                     tilt, deg(tilt), tol.max_door_tilt_rad, deg(tol.max_door_tilt_rad)));
   }
   // The base's +x must point into the door: along -normal (the normal faces the robot).
-  const double yaw = std::atan2(-n.y(), -n.x());
+  const double yaw = yaw_from_normal_rad(n);
   if (!(std::abs(yaw) < kPi / 2)) {
     return make_error(
         ErrorCode::kYawOutOfRange, "yaw_deviation_rad",
@@ -268,7 +268,18 @@ Result<double> yaw_deviation_rad(const Plane& plane, const Tolerances& tol) {
   return yaw;
 }
 
+double yaw_from_normal_rad(const Vec3& normal) noexcept {
+  return std::atan2(-normal.y(), -normal.x());
+}
+
 // ---- Wheel angles ----------------------------------------------------------------------------
+
+std::optional<std::int64_t> wheel_rad_to_motor_counts(double wheel_rad,
+                                                      const BaseGeometry& base) noexcept {
+  const double raw = wheel_rad / (2.0 * kPi) * base.gear_ratio * base.encoder_counts_per_rev;
+  if (!std::isfinite(raw) || !(std::abs(raw) < kMaxCounts)) return std::nullopt;
+  return static_cast<std::int64_t>(std::round(raw));
+}
 
 double counts_to_wheel_rad(std::int64_t counts, const WheelAxis& axis, const BaseGeometry& base) {
   const double motor_counts = static_cast<double>(counts) * sign_of(axis.polarity);
@@ -283,17 +294,16 @@ double base_yaw_from_wheels_rad(double left_wheel_rad, double right_wheel_rad,
 WheelCommand wheel_command(double yaw_rad, const BaseGeometry& base) {
   WheelCommand cmd;
   const double theta_w = yaw_rad * base.turning_radius_m / base.wheel_radius_m;  // eq. 7
-  const double raw_counts = theta_w / (2.0 * kPi) * base.gear_ratio * base.encoder_counts_per_rev;
-  if (!std::isfinite(raw_counts) || !(std::abs(raw_counts) < kMaxCounts)) {
+  const std::optional<std::int64_t> motor_counts = wheel_rad_to_motor_counts(theta_w, base);
+  if (!motor_counts) {
     cmd.residual_yaw_rad = yaw_rad;  // nothing moves
     return cmd;
   }
   cmd.left_wheel_rad = -theta_w;
   cmd.right_wheel_rad = theta_w;
-  // std::round rounds half away from zero, so the two wheels' counts stay exact opposites.
-  const auto motor_counts = static_cast<std::int64_t>(std::round(raw_counts));
-  cmd.left_counts = -motor_counts * sign_of(base.left.polarity);
-  cmd.right_counts = motor_counts * sign_of(base.right.polarity);
+  // Rounded half away from zero, so the two wheels' counts stay exact opposites.
+  cmd.left_counts = -*motor_counts * sign_of(base.left.polarity);
+  cmd.right_counts = *motor_counts * sign_of(base.right.polarity);
   cmd.achieved_yaw_rad =
       base_yaw_from_wheels_rad(counts_to_wheel_rad(cmd.left_counts, base.left, base),
                                counts_to_wheel_rad(cmd.right_counts, base.right, base), base);

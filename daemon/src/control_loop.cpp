@@ -97,24 +97,18 @@ ControlLoop::ControlLoop(drivers::MotionCard& card, const ControlLoopSettings& s
     : card_(card),
       settings_(settings),
       axes_{settings.base.left.card_axis, settings.base.right.card_axis},
-      jog_profile_(jog_profile(settings.base, settings.drive)),
       counts_per_wheel_rad_(counts_per_wheel_rad(settings.base)),
       max_wheel_counts_per_ms_(settings.base.max_wheel_speed_rad_s * counts_per_wheel_rad_ / 1e3),
       card_scale_(settings.card_time_scale > 0 && std::isfinite(settings.card_time_scale)
                       ? settings.card_time_scale
                       : 1.0),
-      // A straight jog's wheels ramp at the jog profile: that, or the limiter's own deceleration
-      // (in the card's time), whichever is slower, brakes the base at the door's standoff.
-      guard_accel_m_s2_(std::min(settings.drive.max_linear_accel_m_s2 / card_scale_,
-                                 jog_profile_.deceleration_counts_per_ms2 * 1e6 /
-                                     counts_per_wheel_rad_ * settings.base.wheel_radius_m)),
-      guard_reaction_s_(3.0 / settings.control.rate_hz * card_scale_),
-      drive_timeout_ns_(seconds_to_ns(settings.drive.command_timeout_s)),
       period_ns_(std::max<std::int64_t>(1, std::llround(kNsPerS / settings.control.rate_hz))),
       deadman_ns_(seconds_to_ns(settings.safety.deadman_timeout_s)),
       margin_ns_(seconds_to_ns(settings.control.motion_timeout_margin_s)),
       mismatch_ns_(seconds_to_ns(settings.velocity_mismatch_s)),
-      recovery_timeout_ns_(seconds_to_ns(settings.recovery_timeout_s)),
+      recovery_(seconds_to_ns(settings.recovery_timeout_s)),
+      jog_(settings, jog_profile(settings.base, settings.drive), counts_per_wheel_rad_, card_scale_,
+           period_ns_),
       statistics_(settings.control.rate_hz) {}
 
 ControlLoop::~ControlLoop() {
@@ -207,10 +201,10 @@ void ControlLoop::record_sample(std::int64_t deadline_ns, std::int64_t wake_ns,
   s.commanded_linear_m_s = snapshot_.commanded.linear_m_s;
   s.commanded_angular_rad_s = snapshot_.commanded.angular_rad_s;
   s.motion = static_cast<std::uint8_t>(motion_);
-  s.phase = recovery_ != Recovery::kNone                                 ? 3
-            : motion_ == Motion::kStopping || (jog_resting_ && moving()) ? 2
-            : moving()                                                   ? 1
-                                                                         : 0;
+  s.phase = recovery_.running()                                            ? 3
+            : motion_ == Motion::kStopping || (jog_.resting() && moving()) ? 2
+            : moving()                                                     ? 1
+                                                                           : 0;
   s.fault = static_cast<std::uint16_t>(fault_);
   s.motion_id = motion_id_;
   s.stop_generation = handled_stop_;
@@ -289,8 +283,8 @@ bool ControlLoop::healthy(std::int64_t now_ns) const noexcept {
 void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   read_axes(now_ns);  // first: odometry and a move's start position come from before any command
   handle_stops(now_ns);
-  if (recovery_ != Recovery::kNone) advance_recovery(now_ns);
-  while (recovery_ == Recovery::kNone) {  // the queue waits behind a running recovery
+  if (recovery_.running()) advance_recovery(now_ns);
+  while (!recovery_.running()) {  // the queue waits behind a running recovery
     Command c;
     if (!commands_.pop(c)) break;
     execute(c, now_ns);
@@ -303,10 +297,10 @@ void ControlLoop::cycle(std::int64_t now_ns) noexcept {
   snapshot_.time_ns = now_ns;
   snapshot_.motion_active = motion_ != Motion::kIdle;
   snapshot_.jogging = motion_ == Motion::kJogging;
-  snapshot_.commanded = within_wheel_cap(jog_command_, settings_.base);
+  snapshot_.commanded = within_wheel_cap(jog_.command(), settings_.base);
   snapshot_.fault = fault_;
-  snapshot_.recover_sequence = recover_sequence_;
-  snapshot_.recovering = recovery_ != Recovery::kNone;
+  snapshot_.recover_sequence = recovery_.sequence();
+  snapshot_.recovering = recovery_.running();
   snapshot_.card_state = card_state();
   snapshot_.reports_dropped = reports_dropped_;
   published_.store(snapshot_);
@@ -325,7 +319,7 @@ drivers::LifecycleState ControlLoop::card_state() const noexcept {
     default:
       break;
   }
-  if (recovery_ != Recovery::kNone) return drivers::LifecycleState::kInactive;
+  if (recovery_.running()) return drivers::LifecycleState::kInactive;
   return status_[0].enabled && status_[1].enabled ? drivers::LifecycleState::kActive
                                                   : drivers::LifecycleState::kInactive;
 }

@@ -31,15 +31,14 @@ void ControlLoop::execute(const Command& c, std::int64_t now_ns) noexcept {
       if (c.stop_stamp != handled_stop_ || motion_ != Motion::kJogging ||
           c.drive.motion_id != motion_id_)
         return;
-      jog_target_ = c.drive.velocity;
-      jog_stamp_ns_ = c.drive.stamp_ns;
+      jog_.update(c.drive);
       return;
     case CommandKind::kDoorGuard:
-      guard_ = c.guard;
+      jog_.set_guard(c.guard);
       return;
     case CommandKind::kRecover:
-      if (recovery_ != Recovery::kNone) end_recovery(ErrorCode::kOk);  // cannot happen: queue waits
-      recover_sequence_ = c.sequence;
+      if (recovery_.running()) end_recovery(ErrorCode::kOk);  // cannot happen: the queue waits
+      recovery_.take(c.sequence);
       // An emergency or fault stop posted after it, handled or not yet (read live: a stop posted
       // while this cycle runs must not be cleared by the recovery it followed).
       if (c.latch_stamp != latch_generation_.load()) {
@@ -49,45 +48,34 @@ void ControlLoop::execute(const Command& c, std::int64_t now_ns) noexcept {
         return;
       }
       fault_ = ErrorCode::kOk;
-      recovery_ = Recovery::kWaitRest;
+      recovery_.begin(c.sequence);
       advance_recovery(now_ns);
       return;
   }
 }
 
 void ControlLoop::end_recovery(ErrorCode code) noexcept {
-  recovery_ = Recovery::kNone;
-  report({LoopReportKind::kRecovered, code, 0, 0, recover_sequence_});
+  recovery_.end();
+  report({LoopReportKind::kRecovered, code, 0, 0, recovery_.sequence()});
 }
 
 void ControlLoop::advance_recovery(std::int64_t now_ns) noexcept {
-  if (recovery_ != Recovery::kWaitRest && now_ns > recovery_deadline_ns_) {
-    latch(ErrorCode::kMotionTimeout, 0);  // the servo did not come on in time; ends the recovery
-    return;
-  }
-  switch (recovery_) {
-    case Recovery::kNone:
+  using Kind = CardRecovery::Step::Kind;
+  const CardRecovery::Step step =
+      recovery_.next(now_ns, motion_ == Motion::kIdle, answered_, status_);
+  switch (step.kind) {
+    case Kind::kWait:
       return;
-    case Recovery::kWaitRest:  // the wheels come to rest first (a stop has its own deadline)
-      if (motion_ != Motion::kIdle) return;
-      recovery_ = Recovery::kClear;
-      recovery_deadline_ns_ = now_ns + recovery_timeout_ns_;
-      [[fallthrough]];
-    case Recovery::kClear:
-      if (const ErrorCode e = (card_.clear_faults(axes_)); e != ErrorCode::kOk) return latch(e, 0);
-      recovery_ = Recovery::kEnable;
+    case Kind::kClearFaults:
+      if (const ErrorCode e = card_.clear_faults(axes_); e != ErrorCode::kOk) latch(e, 0);
       return;
-    case Recovery::kEnable:
-      if (const ErrorCode e = (card_.enable_axes(axes_)); e != ErrorCode::kOk) return latch(e, 0);
-      recovery_ = Recovery::kPoll;
+    case Kind::kEnableAxes:
+      if (const ErrorCode e = card_.enable_axes(axes_); e != ErrorCode::kOk) latch(e, 0);
       return;
-    case Recovery::kPoll:
-      if (!answered_) return;  // not answering: keep polling until the deadline
-      for (int i = 0; i < 2; ++i) {
-        if (status_[i].alarm) return latch(ErrorCode::kAxisAlarm, axes_[i]);
-        if (status_[i].following_error) return latch(ErrorCode::kFollowingError, axes_[i]);
-        if (!status_[i].enabled) return;
-      }
+    case Kind::kFault:  // also the timeout: latching ends the recovery
+      latch(step.code, step.axis_index < 0 ? 0 : axes_[step.axis_index]);
+      return;
+    case Kind::kRecovered:
       end_recovery(ErrorCode::kOk);
       return;
   }
@@ -163,17 +151,9 @@ void ControlLoop::start_jog(const Command& c, std::int64_t now_ns) noexcept {
   motion_id_ = drive.motion_id;
   motion_ = Motion::kJogging;
   stop_reason_ = ErrorCode::kOk;
-  jog_target_ = drive.velocity;
-  jog_stamp_ns_ = drive.stamp_ns;
-  jog_command_ = {};
-  jog_last_ns_ = now_ns;
-  jog_sent_ = false;
-  jog_resting_ = false;
+  jog_.start(drive, now_ns);
   stop_time_s_ = 0;
-  for (int i = 0; i < 2; ++i) {  // from rest (check_can_start saw the status)
-    told_counts_per_ms_[i] = expected_counts_per_ms_[i] = 0;
-    mismatch_since_ns_[i] = -1;
-  }
+  mismatch_since_ns_[0] = mismatch_since_ns_[1] = -1;
   advance_jog(now_ns);
   // A stop posted while the card took the jog acts in this cycle.
   if (stop_generation_.load() != handled_stop_ ||
@@ -181,82 +161,24 @@ void ControlLoop::start_jog(const Command& c, std::int64_t now_ns) noexcept {
     handle_stops(now_ns);
 }
 
-double ControlLoop::guard_forward_limit_m_s() const noexcept {
-  if (guard_.mode == DoorGuard::Mode::kStale) return guard_.stale_speed_m_s;
-  const double room = door_guard_room_m(guard_, snapshot_.pose);
-  if (!std::isfinite(room)) return room;
-  if (room <= 0) return 0;
-  // Stop within `room` from speed v: v t + v^2 / (2 a) <= room, with the reaction time t.
-  const double a = guard_accel_m_s2_, t = guard_reaction_s_;
-  return -a * t + std::sqrt(a * a * t * t + 2 * a * room);
-}
-
 void ControlLoop::advance_jog(std::int64_t now_ns) noexcept {
-  const bool timed_out = now_ns - jog_stamp_ns_ > drive_timeout_ns_;
-  const core::BodyVelocity asked = timed_out ? core::BodyVelocity{} : jog_target_;
-  core::BodyVelocity target = asked;
-  // The door guard: the forward speed it allows from where the base is now.
-  const double forward_limit = guard_forward_limit_m_s();
-  snapshot_.guard_limiting = target.linear_m_s > forward_limit;
-  snapshot_.guard_limit_m_s = std::isfinite(forward_limit) ? forward_limit : 0.0;
-  if (snapshot_.guard_limiting) target.linear_m_s = forward_limit;
-  const std::int64_t elapsed_ns =
-      std::clamp<std::int64_t>(now_ns - jog_last_ns_, 0, 10 * period_ns_);
-  const double dt_s = static_cast<double>(elapsed_ns) / kNsPerS;
-  jog_last_ns_ = now_ns;
-  // The card's ramp toward what it was told (jog_profile_), for the velocity check.
-  const double ramp = jog_profile_.acceleration_counts_per_ms2 * static_cast<double>(elapsed_ns) /
-                      1e6 * card_scale_;
-  for (int i = 0; i < 2; ++i) {
-    expected_counts_per_ms_[i] +=
-        std::clamp(told_counts_per_ms_[i] - expected_counts_per_ms_[i], -ramp, ramp);
-  }
-  const core::BodyVelocity next = core::limit_velocity(target, jog_command_, dt_s, settings_.drive);
-  const bool changed = next.linear_m_s != jog_command_.linear_m_s ||
-                       next.angular_rad_s != jog_command_.angular_rad_s;
-  jog_command_ = next;
-  if (changed || !jog_sent_) {
-    const core::WheelVelocity w = core::wheel_velocity(next, settings_.base);
-    const double per_ms = counts_per_wheel_rad_ / 1e3;
-    const drivers::AxisVelocity axes[2] = {
-        {axes_[0], w.left_rad_s * per_ms * (settings_.base.left.polarity < 0 ? -1 : 1)},
-        {axes_[1], w.right_rad_s * per_ms * (settings_.base.right.polarity < 0 ? -1 : 1)}};
-    if (const ErrorCode e = card_.jog(axes, jog_profile_); e != ErrorCode::kOk) {
+  const Jog::Step step = jog_.step(now_ns, snapshot_.pose);
+  snapshot_.guard_limiting = step.guard_limiting;
+  snapshot_.guard_limit_m_s = step.guard_limit_m_s;
+  if (step.send) {
+    if (const ErrorCode e = card_.jog(step.axes, jog_.profile()); e != ErrorCode::kOk) {
       // The card may have taken the velocities before it failed: stop it hard.
       return emergency_fault(e, 0, now_ns);
     }
-    for (int i = 0; i < 2; ++i) {
-      told_counts_per_ms_[i] = axes[i].velocity_counts_per_ms;
-      // The slowest stop of this jog: from the fastest the card was told, at the jog's ramp.
-      stop_time_s_ = std::max(stop_time_s_,
-                              std::abs(told_counts_per_ms_[i]) /
-                                  std::max(jog_profile_.deceleration_counts_per_ms2, 1e-12) / 1e3);
-    }
-    jog_sent_ = true;
+    stop_time_s_ = std::max(stop_time_s_, jog_.sent(step.axes));
   }
-  // Told zero (released, timed out, or held at the door's standoff): the card ramps the wheels
-  // from where they are to rest; a deadline for it (supervise).
-  const bool told_zero = next.linear_m_s == 0 && next.angular_rad_s == 0;
-  if (!told_zero) {
-    jog_resting_ = false;
-  } else if (!jog_resting_) {
-    jog_resting_ = true;
-    double rest_s = 0;
-    for (int i = 0; i < 2; ++i) {
-      rest_s =
-          std::max(rest_s, std::abs(expected_counts_per_ms_[i]) /
-                               std::max(jog_profile_.deceleration_counts_per_ms2, 1e-12) / 1e3);
-    }
-    motion_deadline_ns_ = now_ns + seconds_to_ns(rest_s * 1.5 / card_scale_) + margin_ns_;
+  // Told zero just now: the wheels' deadline to come to rest (supervise).
+  if (step.rest_s >= 0) {
+    motion_deadline_ns_ = now_ns + seconds_to_ns(step.rest_s * 1.5 / card_scale_) + margin_ns_;
   }
-  // The jog ends once the operator asks for nothing (a zero Drive or the timeout) and the wheels
-  // rest; held at the standoff it stays open while the key is held.
-  const bool released = asked.linear_m_s == 0 && asked.angular_rad_s == 0;
   const bool at_rest = answered_ && !status_[0].moving && !status_[1].moving;
-  if (released && told_zero && at_rest && !changed) {
-    // The timeout ended it only when the last Drive still asked for motion.
-    finish(LoopReportKind::kMotionFinished, ErrorCode::kOk,
-           timed_out && (jog_target_.linear_m_s != 0 || jog_target_.angular_rad_s != 0));
+  if (step.released && step.told_zero && at_rest && !step.changed) {
+    finish(LoopReportKind::kMotionFinished, ErrorCode::kOk, step.ended_by_timeout);
   }
 }
 

@@ -20,21 +20,20 @@ void ControlLoop::latch(ErrorCode code, int axis) noexcept {
   }
   if (fault_ == ErrorCode::kOk) {  // the first fault is the root cause
     fault_ = code;
-    report({LoopReportKind::kFault, code, motion_id_, axis, recover_sequence_});
+    report({LoopReportKind::kFault, code, motion_id_, axis, recovery_.sequence()});
   }
-  if (recovery_ != Recovery::kNone) end_recovery(code);  // a fault during recovery ends it
+  if (recovery_.running()) end_recovery(code);  // a fault during recovery ends it
 }
 
 void ControlLoop::finish(LoopReportKind kind, ErrorCode code, bool command_timeout) noexcept {
   report({kind, code, motion_id_, 0, 0, command_timeout});
   snapshot_.last_motion_id = motion_id_;
   motion_ = Motion::kIdle;
-  jog_command_ = {};
+  jog_.zero_command();
 }
 
 void ControlLoop::enter_stopping(std::int64_t now_ns) noexcept {
-  jog_command_ = {};
-  jog_resting_ = false;
+  jog_.stopping();
   motion_ = Motion::kStopping;
   // From the running motion's top speed at its deceleration, as the card was told.
   motion_deadline_ns_ = now_ns + seconds_to_ns(stop_time_s_ * 1.5 / card_scale_) + margin_ns_;
@@ -64,7 +63,7 @@ void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
     handled_emergency_ = e;
     const bool sent = card_.emergency_stop(axes_) == ErrorCode::kOk;
     estop_pending_ = !sent;
-    jog_command_ = {};
+    jog_.zero_command();
     if (motion_ != Motion::kIdle) {
       stop_reason_ = ErrorCode::kEmergencyStopped;
       enter_stopping(now_ns);
@@ -159,9 +158,9 @@ int ControlLoop::check_velocity(std::int64_t now_ns) noexcept {
     // What the card was told for this wheel: a velocity band and the ramp toward it.
     double low = 0, high = 0, ramp = 0;
     if (motion_ == Motion::kJogging) {  // between what it was told and its ramp toward it
-      low = std::min(told_counts_per_ms_[i], expected_counts_per_ms_[i]);
-      high = std::max(told_counts_per_ms_[i], expected_counts_per_ms_[i]);
-      ramp = jog_profile_.acceleration_counts_per_ms2;
+      low = jog_.band_low(i);
+      high = jog_.band_high(i);
+      ramp = jog_.profile().acceleration_counts_per_ms2;
     } else if (motion_ == Motion::kMoving) {  // at most the trapezoid's speed, either way
       high = move_profile_.velocity_counts_per_ms;
       low = -high;
@@ -189,8 +188,9 @@ int ControlLoop::check_velocity(std::int64_t now_ns) noexcept {
 }
 
 bool ControlLoop::past_door_standoff() const noexcept {
-  if (guard_.mode != DoorGuard::Mode::kStandoff || !answered_ || !measured_valid_) return false;
-  if (!(door_guard_room_m(guard_, snapshot_.pose) < -kDoorStandoffToleranceM)) return false;
+  const DoorGuard& guard = jog_.guard();
+  if (guard.mode != DoorGuard::Mode::kStandoff || !answered_ || !measured_valid_) return false;
+  if (!(door_guard_room_m(guard, snapshot_.pose) < -kDoorStandoffToleranceM)) return false;
   // Still driving forward (toward the door: room is finite only then), measured at the wheels.
   const auto& b = settings_.base;
   const double per_rad_ms = counts_per_wheel_rad_ / 1e3;  // counts/ms per rad/s
@@ -233,8 +233,8 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
       // does not do what it was told: it is not trusted with a smooth stop.
       // (A jog held at the standoff, told zero and at rest, has nothing left to do by then.)
       const bool still = !status[0].moving && !status[1].moving;
-      const bool deadline =
-          (motion_ == Motion::kMoving || (jog_resting_ && !still)) && now_ns > motion_deadline_ns_;
+      const bool deadline = (motion_ == Motion::kMoving || (jog_.resting() && !still)) &&
+                            now_ns > motion_deadline_ns_;
       if (deadline) return emergency_fault(ErrorCode::kMotionTimeout, 0, now_ns);
       if (const int off = check_velocity(now_ns); off != 0)
         return emergency_fault(ErrorCode::kVelocityMismatch, off, now_ns);
@@ -277,7 +277,7 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
       if (fault_ != ErrorCode::kOk) break;
       if (arm_moving_.load(std::memory_order_acquire) && silent) {
         latch(ErrorCode::kDeadman, 0);
-      } else if (answered && recovery_ == Recovery::kNone) {  // a recovery checks alarms itself
+      } else if (answered && !recovery_.running()) {  // a recovery checks alarms itself
         for (int i = 0; i < 2; ++i) {
           if (status[i].alarm) {
             latch(ErrorCode::kAxisAlarm, axes_[i]);

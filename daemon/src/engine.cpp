@@ -4,6 +4,16 @@
 
 namespace ajar::daemon::detail {
 
+namespace {
+std::unique_ptr<drivers::ManagedMotionCard> managed_card(const Config& config,
+                                                         drivers::DriverSet& drivers) {
+  if (!drivers.card || !drivers.arm) throw StartupError("drivers: card and arm are required");
+  const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
+  return std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
+                                                      config.drivers.card.poll_timeout_ms);
+}
+}  // namespace
+
 EngineImpl::EngineImpl(const Config& config, drivers::DriverSet drivers, EngineOptions options)
     : config_(config),
       loop_on_engine_clock_(options.manual_loop || !options.now_ns),
@@ -11,30 +21,29 @@ EngineImpl::EngineImpl(const Config& config, drivers::DriverSet drivers, EngineO
                             : std::function<std::int64_t()>([] { return monotonic_now_ns(); })),
       manual_loop_(options.manual_loop),
       keepalive_(std::move(drivers.keepalive)),
+      card_(managed_card(config, drivers)),
+      loop_(std::make_unique<ControlLoop>(*card_, loop_settings(config))),
+      arm_(std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm)), *loop_,
+           ArmTask::Settings{config.safety.arm_task_timeout_s, config.safety.arm_stop_timeout_s}),
       procedure_(camera_to_base_or_throw(config), config.limits, config.base,
                  ProcedureLimits{config.control.aligned_tolerance_rad, config.drive.stale_travel_m,
                                  config.drive.stale_yaw_rad}),
       store_(config.state.directory,
              StateStore::Options{std::chrono::milliseconds(config.state.debug_write_delay_ms)}),
-      start_ns_(clock_()) {
-  if (!drivers.card || !drivers.arm) throw StartupError("drivers: card and arm are required");
+      start_ns_(clock_()),
+      wheels_(*loop_) {
   const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
-  card_ = std::make_unique<drivers::ManagedMotionCard>(std::move(drivers.card), axes, 5000,
-                                                       config.drivers.card.poll_timeout_ms);
   recorder_ = std::make_unique<recorder::Recorder>(recorder_settings(config, start_ns_),
                                                    [w = recorder_warnings_](std::string_view text) {
                                                      std::lock_guard lock(w->first);
                                                      w->second.emplace_back(text);
                                                    });
-  loop_ = std::make_unique<ControlLoop>(*card_, loop_settings(config));
-  loop_->set_arm_at_door(true);  // the arm interlock: until the arm reports idle
   supervisor_ = std::make_unique<LoopSupervisor>(
       SupervisedLoop{[this] { return loop_->thread_running(); },
                      [this] { return loop_->last_cycle_end_ns(); },
                      [this] { loop_->latch_stalled(); },
                      [this] { return thread_run_delay_ns(loop_->thread_tid()); }},
       *card_, axes, config.control);
-  arm_ = std::make_unique<drivers::ManagedManipulator>(std::move(drivers.arm));
 }
 
 void EngineImpl::start() {
@@ -47,12 +56,7 @@ void EngineImpl::start() {
     bring_down_card();
     throw StartupError("motion card: " + describe(card_up.error()));
   }
-  if (auto s = arm_->configure(); !s) {
-    bring_down_card();
-    throw StartupError("manipulator: " + describe(s.error()));
-  }
-  if (auto s = arm_->activate(); !s) {
-    (void)arm_->cleanup();
+  if (auto s = arm_.bring_up(); !s) {
     bring_down_card();
     throw StartupError("manipulator: " + describe(s.error()));
   }
@@ -60,8 +64,7 @@ void EngineImpl::start() {
   // The run is on disk (with what restore() latched) before anything is served: an end other
   // than a clean shutdown from now on is seen by the next start.
   if (auto s = store_.save(StateRecord{procedure_.record(), false}); !s) {
-    if (arm_->state() == drivers::LifecycleState::kActive) (void)arm_->deactivate();
-    if (arm_->state() == drivers::LifecycleState::kInactive) (void)arm_->cleanup();
+    arm_.bring_down();
     bring_down_card();
     throw StartupError(
         "state.directory: cannot record the start (an unclean end would go "
@@ -103,19 +106,19 @@ void EngineImpl::begin_shutdown() {
 
 bool EngineImpl::wheels_at_rest() {
   drain_reports();
-  return wheel_motion_ == 0;
+  return wheels_.current() == 0;
 }
 
 void EngineImpl::seal_state() {
   if (!started_ || sealed_) return;
   begin_shutdown();
   drain_reports();
-  if (wheel_motion_ != 0) {
+  if (wheels_.current() != 0) {
     // The smooth stop did not end in time (the loop's own stop deadline should have caught it).
     loop_->request_emergency_stop();
     latch(ErrorCode::kMotionTimeout,
           "the wheels were not at rest when the daemon stopped: emergency stop");
-    wheel_motion_ = 0;
+    wheels_.forget();
     emit(EventKind::kMotionStopped, ErrorCode::kShuttingDown,
          "wheels emergency-stopped: the daemon is shutting down");
   }
@@ -156,8 +159,7 @@ void EngineImpl::shutdown() noexcept {
   recorder_->stop();  // after the loop: its last samples are in the file, which gets its footer
   supervisor_->stop_thread();  // before the card goes down: no out-of-band call into a closing card
   bring_down_card();
-  if (arm_->state() == drivers::LifecycleState::kActive) (void)arm_->deactivate();
-  if (arm_->state() == drivers::LifecycleState::kInactive) (void)arm_->cleanup();
+  arm_.bring_down();
 }
 
 protocol::Message EngineImpl::handle_command(const protocol::Message& request) {
@@ -179,31 +181,19 @@ void EngineImpl::controller_lost() {
   drain_reports();
   const Phase phase = procedure_.phase();
   cancel_held_move(ErrorCode::kDeadman);
-  if (phase == Phase::kAligning || phase == Phase::kEngaging || wheel_motion_ != 0) {
-    if (wheel_motion_ != 0) wheel_stopping_ = true;
+  if (phase == Phase::kAligning || phase == Phase::kEngaging || wheels_.current() != 0) {
+    wheels_.stopping_asked();
     loop_->request_fault_stop(ErrorCode::kDeadman);
-    (void)arm_->stop();
+    arm_.send_stop();
     latch(ErrorCode::kDeadman, "the controller went away during motion: stopped");
   }
   flush();
 }
 
 void EngineImpl::end_read_batch() {
-  in_read_batch_ = false;
-  if (held_move_) {
-    const MoveCommand move = *held_move_;
-    held_move_.reset();
-    if (!loop_->post_move(move)) {
-      close_unstarted_move(move.motion_id, ErrorCode::kQueueFull, false);
-    }
-  }
-  if (held_drive_) {
-    const DriveCommand drive = *held_drive_;
-    held_drive_.reset();
-    if (!loop_->post_drive(drive) && drive.start) {
-      close_unstarted_move(drive.motion_id, ErrorCode::kQueueFull, false);
-    }
-  }
+  wheels_.end_read_batch([this](std::uint32_t motion_id) {
+    close_unstarted_move(motion_id, ErrorCode::kQueueFull, false);
+  });
   flush();
 }
 
@@ -229,8 +219,8 @@ protocol::Status EngineImpl::status() const {
   fill_motion(snap, s);
   // A stalled loop publishes nothing: its last snapshot would still show the card active.
   s.card = to_wire(supervisor_->stalled() ? drivers::LifecycleState::kFault : snap.card_state);
-  s.arm = to_wire(arm_->state());
-  s.arm_state = to_wire(arm_->status().phase);
+  s.arm = to_wire(arm_.state());
+  s.arm_state = to_wire(arm_.status().phase);
   s.loop = loop_->statistics().summary();
   s.timing = loop_->statistics().timing(monotonic_now_ns());
   s.realtime = to_wire(realtime_granted());
@@ -252,7 +242,7 @@ protocol::Telemetry EngineImpl::telemetry() const {
   t.right_counts = snap.right_counts;
   t.base_yaw_odometry_rad = snap.base_yaw_rad;
   fill_motion(snap, t);
-  t.arm_state = to_wire(arm_->status().phase);
+  t.arm_state = to_wire(arm_.status().phase);
   t.loop = loop_->statistics().summary();
   t.timing = loop_->statistics().timing(monotonic_now_ns());
   return t;

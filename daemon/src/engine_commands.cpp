@@ -4,6 +4,16 @@
 
 namespace ajar::daemon::detail {
 
+namespace {
+// std::visit over the request: one lambda per message type it answers.
+template <typename... F>
+struct Overloaded : F... {
+  using F::operator()...;
+};
+template <typename... F>
+Overloaded(F...) -> Overloaded<F...>;
+}  // namespace
+
 protocol::Message EngineImpl::dispatch(const protocol::Message& request) {
   const MessageType type = protocol::type_of(request);
   const bool measures_or_moves = std::holds_alternative<protocol::MeasureDoorWidth>(request) ||
@@ -13,32 +23,38 @@ protocol::Message EngineImpl::dispatch(const protocol::Message& request) {
                                  std::holds_alternative<protocol::AlignBase>(request) ||
                                  std::holds_alternative<protocol::Engage>(request);
   if (measures_or_moves && procedure_.fault() == ErrorCode::kOk) {
-    if (auto s = check_wheels_at_rest(); !s) return refuse(type, s.error());
+    if (auto s = wheels_.check_at_rest(); !s) return refuse(type, s.error());
   }
-  if (const auto* m = std::get_if<protocol::MeasureDoorWidth>(&request)) {
-    return answer(type, procedure_.measure_width(*m));
-  }
-  if (const auto* m = std::get_if<protocol::MeasureHandle>(&request)) {
-    return answer(type, procedure_.measure_handle(*m));
-  }
-  if (const auto* m = std::get_if<protocol::MeasureDoorPlane>(&request)) {
-    return answer(type, procedure_.measure_plane(*m));
-  }
-  if (const auto* m = std::get_if<protocol::SetContactPoint>(&request)) {
-    return answer(type, procedure_.set_contact(*m));
-  }
-  if (std::holds_alternative<protocol::AlignBase>(request)) return align(type);
-  if (std::holds_alternative<protocol::Engage>(request)) return engage(type);
-  if (std::holds_alternative<protocol::Stop>(request)) return stop(type);
-  if (std::holds_alternative<protocol::EmergencyStop>(request)) return emergency_stop(type);
-  if (const auto* m = std::get_if<protocol::Reset>(&request)) return reset(type, *m);
-  if (const auto* m = std::get_if<protocol::Drive>(&request)) return drive(type, *m);
-  if (const auto* m = std::get_if<protocol::Approach>(&request)) return approach(type, *m);
-  if (type == MessageType::kResetLoopStatistics) {
-    loop_->statistics().reset(monotonic_now_ns());
-    return ack(type, protocol::EmptyAck{});
-  }
-  return refuse(type, make_error(ErrorCode::kWrongState, "", "not a command for the procedure"));
+  return std::visit(Overloaded{
+                        [&](const protocol::MeasureDoorWidth& m) {
+                          return answer(type, procedure_.measure_width(m));
+                        },
+                        [&](const protocol::MeasureHandle& m) {
+                          return answer(type, procedure_.measure_handle(m));
+                        },
+                        [&](const protocol::MeasureDoorPlane& m) {
+                          return answer(type, procedure_.measure_plane(m));
+                        },
+                        [&](const protocol::SetContactPoint& m) {
+                          return answer(type, procedure_.set_contact(m));
+                        },
+                        [&](const protocol::AlignBase&) { return align(type); },
+                        [&](const protocol::Engage&) { return engage(type); },
+                        [&](const protocol::Stop&) { return stop(type); },
+                        [&](const protocol::EmergencyStop&) { return emergency_stop(type); },
+                        [&](const protocol::Reset& m) { return reset(type, m); },
+                        [&](const protocol::Drive& m) { return drive(type, m); },
+                        [&](const protocol::Approach& m) { return approach(type, m); },
+                        [&](const protocol::ResetLoopStatistics&) {
+                          loop_->statistics().reset(monotonic_now_ns());
+                          return ack(type, protocol::EmptyAck{});
+                        },
+                        [&](const auto&) {
+                          return refuse(type, make_error(ErrorCode::kWrongState, "",
+                                                         "not a command for the procedure"));
+                        },
+                    },
+                    request);
 }
 
 protocol::Message EngineImpl::ack(MessageType type, protocol::AckBody body) {
@@ -61,7 +77,7 @@ protocol::Message EngineImpl::refuse(MessageType type, const Error& e) {
 protocol::Message EngineImpl::align(MessageType type) {
   auto wheels = procedure_.check_align();
   if (!wheels) return refuse(type, wheels.error());
-  if (auto s = check_wheels_stopped(); !s) return refuse(type, s.error());
+  if (auto s = wheels_.check_stopped(); !s) return refuse(type, s.error());
   if (wheels->left_counts == 0 && wheels->right_counts == 0) {  // already square to the door
     procedure_.alignment_started();
     procedure_.alignment_finished();
@@ -72,15 +88,16 @@ protocol::Message EngineImpl::align(MessageType type) {
     emit(EventKind::kMotionFinished, ErrorCode::kOk, "base aligned (nothing to turn)");
     return ack(type, protocol::EmptyAck{});
   }
-  if (auto s = check_arm_clear(); !s) return refuse(type, s.error());
+  if (auto s = arm_.check_clear(); !s) return refuse(type, s.error());
   loop_->heartbeat(now_ns());  // the controller just spoke
-  const MoveCommand move{++motion_id_, wheels->left_counts, wheels->right_counts};
-  if (!hand_over(move)) return refuse(type, queue_full());
+  if (!wheels_.start_move(wheels->left_counts, wheels->right_counts, MoveProfile::kTurn,
+                          WheelKind::kAlign)) {
+    return refuse(type, queue_full());
+  }
   procedure_.alignment_started();
-  begin_wheel_motion(move.motion_id, WheelKind::kAlign);
   emit(EventKind::kMotionStarted, ErrorCode::kOk,
-       "aligning: left " + std::to_string(move.left_counts) + " counts, right " +
-           std::to_string(move.right_counts) + " counts");
+       "aligning: left " + std::to_string(wheels->left_counts) + " counts, right " +
+           std::to_string(wheels->right_counts) + " counts");
   dirty_ = true;
   return ack(type, protocol::EmptyAck{});
 }
@@ -92,24 +109,14 @@ protocol::Message EngineImpl::drive(MessageType type, const protocol::Drive& m) 
   loop_->heartbeat(now_ns());
   const core::BodyVelocity velocity{m.linear_m_s, m.angular_rad_s};
   const std::int64_t stamp = now_ns();
-  if (wheel_motion_ != 0) {  // a running jog: update it
-    if (held_drive_ && held_drive_->motion_id == wheel_motion_) {
-      held_drive_->velocity = velocity;
-      held_drive_->stamp_ns = stamp;
-    } else {
-      if (!hand_over(DriveCommand{wheel_motion_, false, velocity, stamp})) {
-        return refuse(type, queue_full());
-      }
-    }
+  if (wheels_.current() != 0) {  // a running jog: update it
+    if (!wheels_.update_jog(velocity, stamp)) return refuse(type, queue_full());
     return ack(type, protocol::EmptyAck{});
   }
   if (velocity.linear_m_s == 0 && velocity.angular_rad_s == 0) {
     return ack(type, protocol::EmptyAck{});  // at rest already: nothing to do
   }
-  const DriveCommand start{motion_id_ + 1, true, velocity, stamp};
-  if (!hand_over(start)) return refuse(type, queue_full());
-  ++motion_id_;
-  begin_wheel_motion(start.motion_id, WheelKind::kJog);
+  if (!wheels_.start_jog(velocity, stamp)) return refuse(type, queue_full());
   emit(EventKind::kMotionStarted, ErrorCode::kOk,
        fmt::format("driving: {:.3f} m/s, {:.3f} rad/s asked (limits {:.3f} m/s, {:.3f} rad/s){}",
                    m.linear_m_s, m.angular_rad_s, config_.drive.max_linear_speed_m_s,
@@ -130,14 +137,6 @@ DoorGuard EngineImpl::door_guard() const {
   g.line = *line;
   g.standoff_m = config_.drive.approach_min_standoff_m;
   return g;
-}
-
-bool EngineImpl::sync_door_guard() {
-  const DoorGuard g = door_guard();
-  if (g == posted_guard_) return true;
-  if (!loop_->post_door_guard(g)) return false;
-  posted_guard_ = g;
-  return true;
 }
 
 Outcome EngineImpl::check_door_guard(const protocol::Drive& m) const {
@@ -216,28 +215,15 @@ protocol::Message EngineImpl::approach(MessageType type, const protocol::Approac
     return ack(type, body);
   }
   loop_->heartbeat(now_ns());
-  const MoveCommand move{motion_id_ + 1, wheels.left_counts, wheels.right_counts,
-                         MoveProfile::kStraight};
-  if (!hand_over(move)) return refuse(type, queue_full());
-  ++motion_id_;
-  begin_wheel_motion(move.motion_id, WheelKind::kApproach);
+  if (!wheels_.start_move(wheels.left_counts, wheels.right_counts, MoveProfile::kStraight,
+                          WheelKind::kApproach)) {
+    return refuse(type, queue_full());
+  }
   emit(EventKind::kMotionStarted, ErrorCode::kOk,
        fmt::format("approaching: {:.3f} m to {:.3f} m from the door (left {} counts, right {} "
                    "counts)",
-                   body.travel_m, m.standoff_m, move.left_counts, move.right_counts));
+                   body.travel_m, m.standoff_m, wheels.left_counts, wheels.right_counts));
   return ack(type, body);
-}
-
-bool EngineImpl::hand_over(const MoveCommand& move) {
-  if (!in_read_batch_) return loop_->post_move(move);
-  held_move_ = move;
-  return true;
-}
-
-bool EngineImpl::hand_over(const DriveCommand& drive) {
-  if (!in_read_batch_) return loop_->post_drive(drive);
-  held_drive_ = drive;
-  return true;
 }
 
 Error EngineImpl::queue_full() {
@@ -260,86 +246,44 @@ Outcome EngineImpl::check_base_may_drive(bool jog) {
                       "the arm is at the door (engaging or engaged): the base must not move; "
                       "re-measure or Reset first");
   }
-  if (auto s = check_arm_clear(); !s) return s;
-  if (wheel_motion_ == 0) return Ok{};
-  if (wheel_stopping_) {  // a motion in progress, as for every other command (protocol.md 6.6)
-    return make_error(ErrorCode::kMotionInProgress, "",
-                      "the wheels are still stopping: wait for motion_stopped");
-  }
-  if (wheel_kind_ == WheelKind::kApproach) {
-    return make_error(ErrorCode::kMotionInProgress, "",
-                      "an approach is running: wait for motion_finished, or Stop");
-  }
-  if (jog) return Ok{};  // updates the running jog
-  return make_error(ErrorCode::kMotionInProgress, "",
-                    "the base is being driven: release the drive keys (or Stop) and wait for "
-                    "motion_finished");
-}
-
-Outcome EngineImpl::check_wheels_stopped() const {
-  if (wheel_motion_ == 0) return Ok{};
-  return make_error(ErrorCode::kMotionInProgress, "",
-                    "the wheels are still stopping: wait for them to rest");
-}
-
-void EngineImpl::begin_wheel_motion(std::uint32_t id, WheelKind kind) {
-  wheel_motion_ = id;
-  wheel_kind_ = kind;
-  wheel_stopping_ = false;
-}
-
-Outcome EngineImpl::check_wheels_at_rest() const {
-  if (wheel_motion_ == 0 || wheel_kind_ == WheelKind::kAlign) return Ok{};
-  return make_error(
-      ErrorCode::kMotionInProgress, "",
-      std::string("the base is moving (") +
-          what_moves(wheel_kind_ == WheelKind::kJog, wheel_kind_ == WheelKind::kApproach) +
-          "): wait for it to come to rest (motion_finished), or Stop");
+  if (auto s = arm_.check_clear(); !s) return s;
+  return wheels_.check_may_drive(jog);
 }
 
 protocol::Message EngineImpl::engage(MessageType type) {
   auto task = procedure_.check_engage();
   if (!task) return refuse(type, task.error());
-  if (auto s = check_wheels_stopped(); !s) return refuse(type, s.error());
+  if (auto s = wheels_.check_stopped(); !s) return refuse(type, s.error());
   if (now_ns() < loop_->snapshot().rest_not_before_ns) {  // a card's status can lag a stop
     return refuse(type, make_error(ErrorCode::kMotionInProgress, "",
                                    "the wheels may still be coming to rest after the stop (the "
                                    "card's stop time): Engage again in a moment"));
   }
-  auto id = arm_->hand_off(*task);
+  loop_->heartbeat(now_ns());  // the controller just spoke (before the loop watches the arm move)
+  auto id = arm_.hand_off(*task, now_ns());
   if (!id) {
     Error e = id.error();
     if (e.field.empty()) e.field = "arm";
     return refuse(type, e);
   }
-  arm_task_id_ = *id;
-  arm_motion_ = true;
-  arm_at_door_ = true;  // until it reports idle after this task
-  loop_->set_arm_at_door(true);
-  // A driver shows the task busy at once (the mock, the serial driver's snapshot): a controller
-  // that drops it before the first poll is caught too.
-  arm_seen_busy_ = arm_->status().phase == drivers::ArmPhase::kBusy;
-  arm_deadline_ns_ = now_ns() + static_cast<std::int64_t>(config_.safety.arm_task_timeout_s * 1e9);
-  loop_->heartbeat(now_ns());
-  loop_->set_arm_moving(true);
   procedure_.engaging_started();
   emit(EventKind::kMotionStarted, ErrorCode::kOk,
-       "engaging: task " + std::to_string(arm_task_id_) + " handed to the arm");
+       "engaging: task " + std::to_string(*id) + " handed to the arm");
   dirty_ = true;
   return ack(type, protocol::EmptyAck{});
 }
 
 void EngineImpl::stop_motion() {
   cancel_held_move(ErrorCode::kOk);
-  if (wheel_motion_ != 0) wheel_stopping_ = true;
+  wheels_.stopping_asked();
   loop_->request_stop();
   stop_arm();
   loop_->set_arm_moving(false);
   if (procedure_.phase() == Phase::kAligning) procedure_.alignment_interrupted();
   if (procedure_.phase() == Phase::kEngaging) procedure_.engaging_interrupted();
-  end_arm_motion(
-      EventKind::kMotionStopped,
-      arm_stop_pending_ ? "arm told to stop: the base waits until it reports idle" : "arm stopped");
+  end_arm_motion(EventKind::kMotionStopped,
+                 arm_.stop_pending() ? "arm told to stop: the base waits until it reports idle"
+                                     : "arm stopped");
   dirty_ = true;
 }
 
@@ -350,7 +294,7 @@ protocol::Message EngineImpl::stop(MessageType type) {
 
 protocol::Message EngineImpl::emergency_stop(MessageType type) {
   cancel_held_move(ErrorCode::kEmergencyStopped);
-  if (wheel_motion_ != 0) wheel_stopping_ = true;
+  wheels_.stopping_asked();
   loop_->request_emergency_stop();
   stop_arm();
   latch(ErrorCode::kEmergencyStopped, "emergency stop: wheels and arm stopped");
@@ -364,23 +308,23 @@ protocol::Message EngineImpl::reset(MessageType type, const protocol::Reset& r) 
                                    "not returned): Reset once it runs again"));
   }
   if (procedure_.phase() == Phase::kAligning || procedure_.phase() == Phase::kEngaging ||
-      (wheel_motion_ != 0 && !wheel_stopping_) || held_move_ || held_drive_) {
+      (wheels_.current() != 0 && !wheels_.stopping()) || wheels_.held()) {
     stop_motion();  // also a jog or an approach
-  } else if (arm_at_door_) {
+  } else if (arm_.at_door()) {
     stop_arm();  // e.g. a done task (the next door): the arm returns to rest
   }
   if (procedure_.fault() != ErrorCode::kOk) {
-    if (auto s = recover_arm(); !s) {
+    if (auto s = arm_.recover(); !s) {
       Error e = s.error();
       if (e.field.empty()) e.field = "arm";
       return refuse(type, e);
     }
     // The arm interlock: the fault clears only once the arm answers, reporting idle.
-    const drivers::ArmStatus arm = observe_arm();
-    if (arm_at_door_ || arm.phase != drivers::ArmPhase::kIdle ||
-        arm_->state() != drivers::LifecycleState::kActive) {
+    const drivers::ArmStatus arm = arm_.observe();
+    if (arm_.at_door() || arm.phase != drivers::ArmPhase::kIdle ||
+        arm_.state() != drivers::LifecycleState::kActive) {
       return refuse(type, make_error(ErrorCode::kArmNotClear, "arm",
-                                     "the arm has not reported idle (" + describe_arm(arm) +
+                                     "the arm has not reported idle (" + arm_.describe(arm) +
                                          "): it may still be at the door, the fault stays "
                                          "latched; Reset again once it reports idle"));
     }
@@ -394,81 +338,6 @@ protocol::Message EngineImpl::reset(MessageType type, const protocol::Reset& r) 
   if (r.clear_parameters) procedure_.clear_parameters();
   dirty_ = true;
   return ack(type, protocol::EmptyAck{});
-}
-
-drivers::ArmStatus EngineImpl::observe_arm() {
-  const drivers::ArmStatus st = arm_->status();
-  const bool idle =
-      st.phase == drivers::ArmPhase::kIdle && arm_->state() == drivers::LifecycleState::kActive;
-  if (idle && !arm_motion_) {
-    arm_at_door_ = false;
-    arm_stop_pending_ = false;
-  }
-  loop_->set_arm_at_door(arm_at_door_ || !idle);
-  return st;
-}
-
-Outcome EngineImpl::check_arm_clear() {
-  const drivers::ArmStatus st = observe_arm();
-  if (!arm_at_door_ && st.phase == drivers::ArmPhase::kIdle &&
-      arm_->state() == drivers::LifecycleState::kActive) {
-    return Ok{};
-  }
-  std::string what;
-  switch (st.phase) {
-    case drivers::ArmPhase::kBusy:
-      what = arm_stop_pending_ ? ": its stop is not confirmed yet, wait for it to report idle"
-                               : ": wait for it to report idle, or Stop";
-      break;
-    case drivers::ArmPhase::kDone:
-      what = ": its task is done but it has not withdrawn; Stop sends it back to rest";
-      break;
-    case drivers::ArmPhase::kIdle:  // the driver is not active
-      what = ": Reset";
-      break;
-    case drivers::ArmPhase::kDisconnected:
-    case drivers::ArmPhase::kFault:
-      what = ": check the arm and its link; Reset once it reports idle";
-      break;
-  }
-  return make_error(ErrorCode::kDriveNotAllowed, "arm",
-                    "the arm has not reported that it is clear of the door since its last task "
-                    "(arm " +
-                        describe_arm(st) + ")" + what + "; the base must not move");
-}
-
-void EngineImpl::stop_arm() {
-  (void)arm_->stop();  // a refusal (link down) is no confirmation either: the deadline decides
-  const drivers::ArmStatus st = observe_arm();
-  const bool idle =
-      st.phase == drivers::ArmPhase::kIdle && arm_->state() == drivers::LifecycleState::kActive;
-  if (arm_at_door_ && !idle && !arm_stop_pending_ && procedure_.fault() == ErrorCode::kOk) {
-    arm_stop_pending_ = true;
-    arm_stop_deadline_ns_ =
-        now_ns() + static_cast<std::int64_t>(config_.safety.arm_stop_timeout_s * 1e9);
-  }
-}
-
-std::string EngineImpl::describe_arm(const drivers::ArmStatus& st) const {
-  std::string s(protocol::to_string(to_wire(st.phase)));
-  if (st.last_error != ErrorCode::kOk) s += " (" + std::string(to_string(st.last_error)) + ")";
-  if (arm_->state() != drivers::LifecycleState::kActive) {
-    s += std::string(", driver ") + drivers::to_string(arm_->state());
-  }
-  return s;
-}
-
-Outcome EngineImpl::recover_arm() {
-  if (arm_->state() == drivers::LifecycleState::kFault) {
-    if (auto s = arm_->recover(); !s) return s;
-  }
-  if (arm_->state() == drivers::LifecycleState::kInactive) {
-    if (auto s = arm_->activate(); !s) return s;
-  }
-  if (arm_->status().phase == drivers::ArmPhase::kFault) {
-    if (auto s = arm_->clear_fault(); !s) return s;
-  }
-  return Ok{};
 }
 
 }  // namespace ajar::daemon::detail

@@ -1,7 +1,10 @@
-// Internal to the engine's sources: EngineImpl, the Engine behind make_engine(). One class, three
-// files by job: lifecycle, sessions' views and the read batch (engine.cpp), the commands
-// (engine_commands.cpp), the loop's reports, the arm, faults, events and persistence
-// (engine_reports.cpp). docs/procedure.md and docs/control-loop.md describe the behaviour.
+// Internal to the engine's sources: EngineImpl, the Engine behind make_engine(). It owns the
+// procedure, the control loop, the state store and two collaborators: WheelMotions (the wheel
+// motions handed to the loop, wheel_motions.hpp) and ArmTask (the arm, its task and the arm
+// interlock, arm_task.hpp); it decides, latches faults and emits every event. Three files by job:
+// lifecycle, sessions' views and the read batch (engine.cpp), the commands (engine_commands.cpp),
+// the loop's reports, the arm's verdicts, faults, events and persistence (engine_reports.cpp).
+// docs/procedure.md and docs/control-loop.md describe the behaviour.
 #pragma once
 
 #include <algorithm>
@@ -29,6 +32,9 @@
 #include "ajar/daemon/wire_model.hpp"
 #include "ajar/recorder/recorder.hpp"
 #include "ajar/version.hpp"
+#include "arm_task.hpp"
+#include "driver_wire.hpp"
+#include "wheel_motions.hpp"
 
 namespace ajar::daemon::detail {
 
@@ -54,43 +60,6 @@ inline ControlLoopSettings loop_settings(const Config& c) {
   s.drive = c.drive;
   return s;
 }
-
-// The words of the events that close a wheel motion.
-inline const char* what_moves(bool jog, bool approach) {
-  return jog ? "driving" : approach ? "approach" : "alignment";
-}
-
-inline protocol::DriverState to_wire(drivers::LifecycleState s) {
-  switch (s) {
-    case drivers::LifecycleState::kUnconfigured:
-      return protocol::DriverState::kUnconfigured;
-    case drivers::LifecycleState::kInactive:
-      return protocol::DriverState::kInactive;
-    case drivers::LifecycleState::kActive:
-      return protocol::DriverState::kActive;
-    case drivers::LifecycleState::kFault:
-      return protocol::DriverState::kFault;
-  }
-  return protocol::DriverState::kFault;
-}
-
-inline protocol::ArmState to_wire(drivers::ArmPhase p) {
-  switch (p) {
-    case drivers::ArmPhase::kDisconnected:
-      return protocol::ArmState::kDisconnected;
-    case drivers::ArmPhase::kIdle:
-      return protocol::ArmState::kIdle;
-    case drivers::ArmPhase::kBusy:
-      return protocol::ArmState::kBusy;
-    case drivers::ArmPhase::kDone:
-      return protocol::ArmState::kDone;
-    case drivers::ArmPhase::kFault:
-      return protocol::ArmState::kFault;
-  }
-  return protocol::ArmState::kFault;
-}
-
-enum class WheelKind : std::uint8_t { kAlign, kApproach, kJog };
 
 inline std::string describe(const Error& e) {
   std::string s(to_string(e.code));
@@ -123,7 +92,7 @@ class EngineImpl final : public Engine {
 
   void controller_lost() override;
 
-  void begin_read_batch() override { in_read_batch_ = true; }
+  void begin_read_batch() override { wheels_.begin_read_batch(); }
 
   void end_read_batch() override;
 
@@ -186,11 +155,6 @@ class EngineImpl final : public Engine {
   // Approach: one straight trapezoidal move to `standoff_m` from the door plane.
   protocol::Message approach(MessageType type, const protocol::Approach& m);
 
-  // Hands a motion to the loop: held for the end of this read while one is being handled (a stop
-  // later in the same read cancels it before any wheel turns), else posted now. False: the loop's
-  // command queue is full (nothing was queued).
-  bool hand_over(const MoveCommand& move);
-  bool hand_over(const DriveCommand& drive);
   static Error queue_full();
 
   // Whether Drive (jog = true) or Approach may move the base now.
@@ -199,17 +163,9 @@ class EngineImpl final : public Engine {
   // knows asks of the loop now; posted to it when it changed (false: the queue is full); the
   // refusal of a straight-forward Drive at the standoff; the sentence of motion_started.
   DoorGuard door_guard() const;
-  bool sync_door_guard();
+  bool sync_door_guard() { return wheels_.sync_door_guard(door_guard()); }
   Outcome check_door_guard(const protocol::Drive& m) const;
   std::string door_guard_clause() const;
-
-  void begin_wheel_motion(std::uint32_t id, WheelKind kind);
-
-  // Measurements, AlignBase and Engage while a Drive or Approach moves the wheels.
-  Outcome check_wheels_at_rest() const;
-
-  // AlignBase and Engage while any wheel motion (also an alignment's stop) has not ended.
-  Outcome check_wheels_stopped() const;
 
   template <typename Message>
   void fill_motion(const LoopSnapshot& snap, Message& m) const {
@@ -233,8 +189,6 @@ class EngineImpl final : public Engine {
   // fresh sequence number; the loop answers exactly that sequence), then clears the fault.
   protocol::Message reset(MessageType type, const protocol::Reset& r);
 
-  Outcome recover_arm();
-
   // ---- reports and the arm ---------------------------------------------------------------------
 
   // Every wheel motion the engine announced (motion_started) is closed by exactly one event, from
@@ -249,31 +203,14 @@ class EngineImpl final : public Engine {
 
   std::string reason(ErrorCode code) const;
 
-  // The arm task: done, fault, disconnect, a controller that dropped the task, or the deadline.
+  // The arm (ArmTask::supervise_stop, supervise_task): its task done, or a fault to latch.
   void supervise_arm();
 
+  // Closes the open arm task with `kind` (an event), if one is open.
   void end_arm_motion(EventKind kind, const std::string& detail);
 
-  // ---- the arm interlock (docs/procedure.md, "The arm interlock") ------------------------------
-
-  // Reads the arm's report. An idle report from an active arm, with no task open, means the arm
-  // is clear of the door: it clears arm_at_door_ and confirms a pending stop. The loop is told
-  // whether the arm may be at the door (its own refusal to start a wheel motion). Returns it.
-  drivers::ArmStatus observe_arm();
-
-  // Ok while the arm has reported idle since its last task and still does; else DRIVE_NOT_ALLOWED
-  // (field `arm`) naming the arm's state. Every command that turns the wheels asks it.
-  Outcome check_arm_clear();
-
-  // Tells the arm to stop. While the arm may be at the door (and no fault is latched already) the
-  // stop must be confirmed by an idle report within safety.arm_stop_timeout_s, else
-  // ARM_NOT_CLEAR latches (supervise_arm_stop).
-  void stop_arm();
-
-  void supervise_arm_stop();
-
-  // The arm's state in words ("busy", "disconnected (ARM_TIMEOUT)", ...).
-  std::string describe_arm(const drivers::ArmStatus& st) const;
+  // Tells the arm to stop (ArmTask::stop: a confirmation is awaited unless a fault is latched).
+  void stop_arm() { arm_.stop(now_ns(), procedure_.fault() != ErrorCode::kOk); }
 
   // Backstop when reports were dropped (report queue full): the snapshot is authoritative.
   void reconcile();
@@ -330,11 +267,12 @@ class EngineImpl final : public Engine {
   std::unique_ptr<LoopSupervisor> supervisor_;  // runs while the loop's thread does
   std::uint32_t stalls_seen_ = 0;  // the supervisor's stalls() and stops() already taken
   std::uint32_t stall_stops_seen_ = 0;
-  std::unique_ptr<drivers::ManagedManipulator> arm_;
+  ArmTask arm_;  // after loop_: tells it whether the arm may be at the door
   Procedure procedure_;
   StateStore store_;
   std::int64_t start_ns_;
   EventSink sink_;
+  WheelMotions wheels_;
 
   bool started_ = false;
   bool shutting_down_ = false;  // begin_shutdown(): only stops are executed
@@ -342,21 +280,6 @@ class EngineImpl final : public Engine {
   bool stopped_ = false;
   bool restored_ = false;
   bool dirty_ = false;
-  std::uint32_t motion_id_ = 0;
-  std::uint32_t wheel_motion_ = 0;  // the announced wheel motion the loop has not ended (0: none)
-  bool in_read_batch_ = false;
-  std::optional<MoveCommand> held_move_;  // accepted in this read, not yet handed to the loop
-  DoorGuard posted_guard_;  // the door guard the loop has (or will have: posted in order)
-  std::optional<DriveCommand> held_drive_;    // likewise (the last Drive of this read)
-  WheelKind wheel_kind_ = WheelKind::kAlign;  // what wheel_motion_ is
-  bool wheel_stopping_ = false;               // a stop was asked for wheel_motion_
-  std::uint32_t arm_task_id_ = 0;
-  bool arm_motion_ = false;  // an announced arm task not yet ended
-  bool arm_seen_busy_ = false;
-  std::int64_t arm_deadline_ns_ = 0;
-  bool arm_at_door_ = true;        // a task since the arm last reported idle (unknown at start)
-  bool arm_stop_pending_ = false;  // a stop sent while arm_at_door_, not yet confirmed
-  std::int64_t arm_stop_deadline_ns_ = 0;
   std::uint32_t recover_sequence_ = 0;  // the last recover request sent to the loop
   std::string stop_reason_;             // why every motion is stopping (shutdown), else empty
   ProcedureState last_state_ = ProcedureState::kAwaitingWidth;

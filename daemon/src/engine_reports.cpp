@@ -12,17 +12,17 @@ void EngineImpl::drain_reports() {
   while (loop_->pop_report(r)) {
     switch (r.kind) {
       case LoopReportKind::kMotionFinished: {
-        if (r.motion_id != wheel_motion_) break;
-        wheel_motion_ = 0;
+        const std::optional<WheelKind> kind = wheels_.close(r.motion_id);
+        if (!kind) break;
         if (procedure_.phase() == Phase::kAligning) {
           procedure_.alignment_finished();
           dirty_ = true;
         }
         std::string detail = "base aligned";
-        if (wheel_kind_ == WheelKind::kApproach) {
+        if (*kind == WheelKind::kApproach) {
           const auto door = procedure_.door(snap.pose);
           detail = fmt::format("approach finished: the door is {:.3f} m away", door.distance_m);
-        } else if (wheel_kind_ == WheelKind::kJog) {
+        } else if (*kind == WheelKind::kJog) {
           detail = r.command_timeout
                        ? "driving ended: no Drive command within drive.command_timeout_s "
                          "(the base decelerated to rest)"
@@ -32,8 +32,7 @@ void EngineImpl::drain_reports() {
         break;
       }
       case LoopReportKind::kMotionStopped:
-        if (r.motion_id != wheel_motion_) break;
-        wheel_motion_ = 0;
+        if (!wheels_.close(r.motion_id)) break;
         if (procedure_.phase() == Phase::kAligning) {  // stopped on its own (should not happen)
           procedure_.alignment_interrupted();
           dirty_ = true;
@@ -63,9 +62,9 @@ void EngineImpl::drain_reports() {
 }
 
 void EngineImpl::close_unstarted_move(std::uint32_t motion_id, ErrorCode code, bool cancelled) {
-  if (motion_id != wheel_motion_) return;
-  wheel_motion_ = 0;
-  if (wheel_kind_ == WheelKind::kAlign) {
+  const std::optional<WheelKind> kind = wheels_.close(motion_id);
+  if (!kind) return;
+  if (*kind == WheelKind::kAlign) {
     procedure_.alignment_not_started();  // also after a stop interrupted it: nothing turned
   }
   dirty_ = true;
@@ -75,15 +74,8 @@ void EngineImpl::close_unstarted_move(std::uint32_t motion_id, ErrorCode code, b
 }
 
 void EngineImpl::cancel_held_move(ErrorCode code) {
-  if (held_drive_) {  // an update needs nothing more: the stop ends its jog
-    const DriveCommand drive = *held_drive_;
-    held_drive_.reset();
-    if (drive.start) close_unstarted_move(drive.motion_id, code, true);
-  }
-  if (!held_move_) return;
-  const std::uint32_t id = held_move_->motion_id;
-  held_move_.reset();
-  close_unstarted_move(id, code, true);
+  wheels_.cancel_held(
+      [this, code](std::uint32_t motion_id) { close_unstarted_move(motion_id, code, true); });
 }
 
 std::string EngineImpl::reason(ErrorCode code) const {
@@ -92,45 +84,20 @@ std::string EngineImpl::reason(ErrorCode code) const {
 }
 
 void EngineImpl::supervise_arm() {
-  supervise_arm_stop();
-  if (!arm_motion_) return;
-  const drivers::ArmStatus st = arm_->status();
-  if (st.phase == drivers::ArmPhase::kBusy && st.task_id == arm_task_id_) arm_seen_busy_ = true;
-  if (st.phase == drivers::ArmPhase::kDone && st.task_id == arm_task_id_) {
+  const ArmVerdict stop = arm_.supervise_stop(now_ns());
+  if (stop.kind == ArmVerdict::Kind::kFault) latch(stop.code, stop.detail);
+  const ArmVerdict task = arm_.supervise_task(now_ns());
+  if (task.kind == ArmVerdict::Kind::kTaskDone) {
     procedure_.engaging_finished();
     end_arm_motion(EventKind::kMotionFinished, "the arm finished the door task");
     dirty_ = true;
-  } else if (st.phase == drivers::ArmPhase::kFault) {
-    latch(st.last_error == ErrorCode::kOk ? ErrorCode::kArmRejected : st.last_error,
-          "the arm reported a fault");
-  } else if (st.phase == drivers::ArmPhase::kDisconnected) {
-    const bool silent = st.last_error == ErrorCode::kArmTimeout;
-    latch(silent ? ErrorCode::kArmTimeout : ErrorCode::kArmDisconnected,
-          silent ? "the arm controller stopped answering" : "the arm is disconnected");
-  } else if (arm_->state() == drivers::LifecycleState::kFault) {
-    latch(ErrorCode::kDriverError, "the arm driver failed");
-  } else if (arm_seen_busy_ && st.phase != drivers::ArmPhase::kBusy) {
-    latch(ErrorCode::kArmFault, "the arm controller dropped the task (reset mid-task?)");
-  } else if (now_ns() > arm_deadline_ns_) {
-    (void)arm_->stop();
-    latch(ErrorCode::kArmTimeout, "the arm task did not finish within safety.arm_task_timeout_s");
+  } else if (task.kind == ArmVerdict::Kind::kFault) {
+    latch(task.code, task.detail);
   }
 }
 
-void EngineImpl::supervise_arm_stop() {
-  const drivers::ArmStatus st = observe_arm();
-  if (!arm_stop_pending_ || now_ns() <= arm_stop_deadline_ns_) return;
-  arm_stop_pending_ = false;
-  latch(ErrorCode::kArmNotClear,
-        "the arm did not confirm its stop (report idle) within safety.arm_stop_timeout_s (arm " +
-            describe_arm(st) + "): it may still be at the door");
-}
-
 void EngineImpl::end_arm_motion(EventKind kind, const std::string& detail) {
-  if (!arm_motion_) return;
-  arm_motion_ = false;
-  loop_->set_arm_moving(false);
-  emit(kind, ErrorCode::kOk, detail);
+  if (arm_.end_task()) emit(kind, ErrorCode::kOk, detail);
 }
 
 void EngineImpl::reconcile() {
@@ -140,8 +107,7 @@ void EngineImpl::reconcile() {
       snap.fault != ErrorCode::kOk) {
     latch(snap.fault, "control loop");
   }
-  if (wheel_motion_ != 0 && !snap.motion_active && snap.last_motion_id == wheel_motion_) {
-    wheel_motion_ = 0;
+  if (!snap.motion_active && wheels_.close(snap.last_motion_id)) {
     if (procedure_.phase() == Phase::kAligning) procedure_.alignment_interrupted();
     dirty_ = true;
     emit(EventKind::kMotionStopped, ErrorCode::kOk, "wheels at rest");
@@ -171,10 +137,10 @@ void EngineImpl::take_stall() {
 
 void EngineImpl::latch(ErrorCode code, const std::string& detail) {
   const bool was_clear = procedure_.fault() == ErrorCode::kOk;
-  if (wheel_motion_ != 0) wheel_stopping_ = true;  // the loop stops the wheels for a fault
+  wheels_.stopping_asked();  // the loop stops the wheels for a fault
   procedure_.latch_fault(code);
   stop_arm();  // whatever latched, the arm does not go on
-  if (arm_motion_) {
+  if (arm_.task_open()) {
     end_arm_motion(EventKind::kMotionStopped,
                    "arm stopped: " + std::string(to_string(code)) + ": " + detail);
   }

@@ -55,7 +55,12 @@ struct Server::Impl {
         options(std::move(opts)),
         acceptor(io),
         poll_timer(io),
-        hub(eng, SessionHub::Options{options.ledger, options.hello_timeout}) {
+        recordings(options.recordings == nullptr && eng.recorder() != nullptr
+                       ? make_recorder_recordings(*eng.recorder(), io_context)
+                       : nullptr),
+        hub(eng, SessionHub::Options{
+                     options.ledger, options.hello_timeout,
+                     options.recordings != nullptr ? options.recordings : recordings.get()}) {
     if (engine.recorder() != nullptr) {
       options.session.frame_tap = [&eng = engine](std::uint64_t id, std::uint8_t direction,
                                                   std::span<const std::uint8_t> frame) {
@@ -234,6 +239,9 @@ struct Server::Impl {
   tcp::acceptor acceptor;
   asio::steady_timer poll_timer;
   std::unique_ptr<asio::steady_timer> retry_timer;
+  // The engine's recorder over the protocol (ServerOptions::recordings unless given); declared
+  // before the hub, so destroyed after it.
+  std::unique_ptr<Recordings> recordings;
   SessionHub hub;
   std::unique_ptr<TlsAcceptor> tls;  // null: plaintext
   std::map<std::uint64_t, Tracked> tls_sessions;

@@ -90,8 +90,65 @@ void SessionHub::reply(SessionState& s, std::uint32_t request_id, protocol::Mess
   send_reply(s, request_id, std::move(message));
 }
 
+void SessionHub::handle_recordings(SessionState& s, const protocol::Envelope& envelope) {
+  const MessageType type = protocol::type_of(envelope.message);
+  if (options_.recordings == nullptr) {
+    refuse(s, envelope, ErrorCode::kNotSupported, "",
+           "the recorder is off on this daemon (recorder.enabled: false): no recordings");
+    return;
+  }
+  const auto pending = static_cast<std::size_t>(std::count_if(
+      s.held.begin(), s.held.end(), [](const HeldReply& h) { return h.ticket != 0; }));
+  if (pending >= kMaxRecordingsPending) {
+    refuse(s, envelope, ErrorCode::kQueueFull, "",
+           std::to_string(kMaxRecordingsPending) +
+               " black-box requests of this session are still being answered: retry once "
+               "their replies came");
+    return;
+  }
+  const std::uint64_t ticket = next_ticket_++;
+  protocol::ErrorReply placeholder;  // replaced by the answer; its type names the request
+  placeholder.offending_type = type;
+  s.held.push_back(HeldReply{envelope.request_id, placeholder, 0, Clock::now(), ticket});
+  spdlog::debug("{}: {} request {}", describe(s), protocol::to_string(type), envelope.request_id);
+  options_.recordings->handle(envelope.message,
+                              [this, alive = std::weak_ptr<int>(alive_), id = s.link->id(),
+                               ticket](protocol::Message answer) {
+                                if (alive.expired()) return;  // the hub is gone (shutdown)
+                                recordings_answered(id, ticket, std::move(answer));
+                              });
+}
+
+void SessionHub::recordings_answered(std::uint64_t session_id, std::uint64_t ticket,
+                                     protocol::Message answer) {
+  const auto it = sessions_.find(session_id);
+  if (it == sessions_.end()) return;  // the session closed meanwhile
+  SessionState& s = it->second;
+  const auto held = std::find_if(s.held.begin(), s.held.end(),
+                                 [ticket](const HeldReply& h) { return h.ticket == ticket; });
+  if (held == s.held.end()) return;  // answered DRIVER_ERROR already: too late
+  held->message = std::move(answer);
+  held->ticket = 0;
+  release_settled(s, engine_.settled_generation(), Clock::now());
+}
+
 void SessionHub::release_settled(SessionState& s, std::uint64_t settled, Clock::time_point now) {
   while (!s.held.empty()) {
+    if (s.held.front().ticket != 0) {  // a black-box reply still being made
+      if (now - s.held.front().since < kHeldReplyLimit) break;
+      HeldReply r = std::move(s.held.front());
+      s.held.pop_front();
+      const bool shutdown = now == Clock::time_point::max();
+      spdlog::warn("{}: the recorder did not answer request {} within {} s{}", describe(s),
+                   r.request_id, kHeldReplyLimit.count(),
+                   shutdown ? " (shutdown)" : ": refused, its later replies are not held");
+      auto error = std::get<protocol::ErrorReply>(std::move(r.message));
+      error.code = shutdown ? ErrorCode::kShuttingDown : ErrorCode::kDriverError;
+      error.message = shutdown ? "the daemon is shutting down: the recorder did not answer"
+                               : "the recorder did not answer within 2 s (a slow disk?): ask again";
+      send_reply(s, r.request_id, std::move(error));
+      continue;
+    }
     const bool saved = s.held.front().generation <= settled;
     if (!saved && now - s.held.front().since < kHeldReplyLimit) break;
     if (!saved) {
@@ -223,6 +280,11 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
       return;
     case MessageType::kGetRobotModel:
       reply(s, envelope.request_id, engine_.robot_model());
+      return;
+    case MessageType::kListRecordings:
+    case MessageType::kFetchRecording:
+    case MessageType::kSaveRecording:
+      handle_recordings(s, envelope);
       return;
     default:
       break;
@@ -460,7 +522,7 @@ void SessionHub::tick(Clock::time_point now) {
 
 void SessionHub::release_all() {
   for (auto& [id, s] : sessions_)
-    release_settled(s, std::numeric_limits<std::uint64_t>::max());
+    release_settled(s, std::numeric_limits<std::uint64_t>::max(), Clock::time_point::max());
 }
 
 bool SessionHub::make_room() {
@@ -483,7 +545,7 @@ bool SessionHub::make_room() {
   error.code = ErrorCode::kTooManyClients;
   error.offending_type = MessageType::kHello;
   error.message.assign(why);
-  release_settled(s, std::numeric_limits<std::uint64_t>::max());
+  release_settled(s, std::numeric_limits<std::uint64_t>::max(), Clock::time_point::max());
   send_reply(s, 0, error);
   s.link->close_after_flush("evicted: session table full");
   sessions_.erase(victim);

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <array>
 #include <atomic>
 #include <cerrno>
 #include <charconv>
@@ -19,101 +20,151 @@
 #include <sstream>
 #include <vector>
 
-#include <boost/crc.hpp>
-
 #include "ajar/daemon/config.hpp"
+#include "ajar/protocol/codec.hpp"
+#include "state_file.hpp"
 
 namespace ajar::daemon {
 namespace {
 
-constexpr const char* kMagic = "ajar-state";
-
-std::uint32_t crc32(std::string_view bytes) {
-  boost::crc_32_type crc;
-  crc.process_bytes(bytes.data(), bytes.size());
-  return crc.checksum();
-}
-
-void put_number(std::string& out, double v) {
-  char buffer[64];
-  const auto r = std::to_chars(buffer, buffer + sizeof(buffer), v);
-  out.push_back(' ');
-  out.append(buffer, r.ptr);
-}
-
-void put_point(std::string& out, const core::FramedPoint& p) {
-  out += p.frame == core::Frame::kBase ? " base" : " camera";
-  for (int i = 0; i < 3; ++i)
-    put_number(out, p.position_m[i]);
-}
-
-const char* phase_name(Phase p) {
-  switch (p) {
-    case Phase::kAligning:
-      return "aligning";
-    case Phase::kEngaging:
-      return "engaging";
-    case Phase::kEngaged:
-      return "engaged";
-    case Phase::kIdle:
-      break;
-  }
-  return "idle";
-}
+using detail::is_restorable_fault;
+using detail::state_file_error;
 
 Error bad(const std::string& message) {
-  return make_error(ErrorCode::kInternal, "state_file", message);
+  return state_file_error(message);
 }
 
-// Whitespace-separated tokens of one line.
-class Tokens {
- public:
-  explicit Tokens(const std::string& line) {
-    std::istringstream in(line);
-    std::string t;
-    while (in >> t)
-      tokens_.push_back(t);
+// Format 3's header (state_store.hpp): offsets and size.
+constexpr std::size_t kMagicSize = 8;
+constexpr std::size_t kVersionAt = 8;  // u16
+constexpr std::size_t kCleanAt = 10;
+constexpr std::size_t kPhaseAt = 11;
+constexpr std::size_t kAlignedAt = 12;
+constexpr std::size_t kPlaneConsumedAt = 13;
+constexpr std::size_t kFaultAt = 14;  // u16
+constexpr std::size_t kFrameCountAt = 16;
+constexpr std::size_t kReservedAt = 17;
+constexpr std::size_t kHeaderCrcAt = 18;  // u32: CRC-32C of bytes 0..17
+constexpr std::size_t kStateHeaderSize = 22;
+constexpr std::uint8_t kMaxFrames = 4;  // width, handle, plane, contact
+
+void put_u16(std::string& out, std::size_t at, std::uint16_t v) {
+  out[at] = static_cast<char>(v & 0xFF);
+  out[at + 1] = static_cast<char>(v >> 8);
+}
+
+void put_u32(std::string& out, std::size_t at, std::uint32_t v) {
+  for (std::size_t i = 0; i < 4; ++i)
+    out[at + i] = static_cast<char>((v >> (8 * i)) & 0xFF);
+}
+
+std::uint8_t byte_at(const std::string& in, std::size_t at) {
+  return static_cast<std::uint8_t>(in[at]);
+}
+
+std::uint32_t u32_at(const std::string& in, std::size_t at) {
+  std::uint32_t v = 0;
+  for (std::size_t i = 0; i < 4; ++i)
+    v |= static_cast<std::uint32_t>(byte_at(in, at + i)) << (8 * i);
+  return v;
+}
+
+std::uint32_t header_crc(const std::string& bytes) {
+  return protocol::crc32c(std::span<const std::uint8_t>(
+      reinterpret_cast<const std::uint8_t*>(bytes.data()), kHeaderCrcAt));
+}
+
+// Appends `message` as one protocol frame (request id 0, the current minor version).
+void put_frame(std::string& out, const protocol::Message& message) {
+  std::array<std::uint8_t, protocol::kMaxFrameSize> frame{};
+  const std::size_t n = protocol::encode(protocol::Envelope{0, 0, message}, frame);
+  out.append(reinterpret_cast<const char*>(frame.data()), n);
+}
+
+// The phase as the header stores it.
+std::uint8_t phase_byte(Phase p) {
+  switch (p) {
+    case Phase::kIdle:
+      return 0;
+    case Phase::kAligning:
+      return 1;
+    case Phase::kEngaging:
+      return 2;
+    case Phase::kEngaged:
+      return 3;
   }
-  std::size_t size() const { return tokens_.size(); }
-  const std::string& operator[](std::size_t i) const { return tokens_[i]; }
-
- private:
-  std::vector<std::string> tokens_;
-};
-
-// Finite numbers only: "nan", "inf" and out-of-range values are refused.
-bool parse_double(const std::string& s, double& v) {
-  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
-  return r.ec == std::errc() && r.ptr == s.data() + s.size() && std::isfinite(v);
+  return 0;
 }
 
-// A latched fault as the engine latches it: kOk, or a known driver/motion fault (5xx).
-bool is_restorable_fault(long long code) {
-  if (code == 0) return true;
-  if (code < 500 || code > 599) return false;
-  return to_string(static_cast<ErrorCode>(code)) != "UNKNOWN";
-}
-
-bool parse_int(const std::string& s, long long& v) {
-  const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
-  return r.ec == std::errc() && r.ptr == s.data() + s.size();
-}
-
-// Parses "<frame> x y z" starting at token `at`.
-bool parse_point(const Tokens& t, std::size_t at, core::FramedPoint& p) {
-  if (at + 4 > t.size()) return false;
-  if (t[at] == "camera")
-    p.frame = core::Frame::kCamera;
-  else if (t[at] == "base")
-    p.frame = core::Frame::kBase;
-  else
-    return false;
-  for (int i = 0; i < 3; ++i) {
-    double v = 0;
-    if (!parse_double(t[at + 1 + static_cast<std::size_t>(i)], v)) return false;
-    p.position_m[i] = v;
+Result<StateRecord> decode_binary_state(const std::string& in) {
+  if (in.size() < kStateHeaderSize) return bad("shorter than its header (truncated?)");
+  if (u32_at(in, kHeaderCrcAt) != header_crc(in))
+    return bad("header checksum mismatch (corrupt file)");
+  const unsigned version = static_cast<unsigned>(byte_at(in, kVersionAt)) |
+                           static_cast<unsigned>(byte_at(in, kVersionAt + 1)) << 8;
+  if (version != static_cast<unsigned>(kStateFormatVersion)) {
+    return bad("unsupported format version " + std::to_string(version) +
+               " (this daemon reads 1, 2 and " + std::to_string(kStateFormatVersion) + ")");
   }
-  return true;
+  StateRecord state;
+  ProcedureRecord& r = state.procedure;
+  const auto flag = [&](std::size_t at, const char* name, bool& out) -> Outcome {
+    const std::uint8_t b = byte_at(in, at);
+    if (b > 1) return bad(std::string(name) + " is " + std::to_string(b) + ", not 0 or 1");
+    out = b == 1;
+    return Ok{};
+  };
+  if (auto s = flag(kCleanAt, "clean_shutdown", state.clean_shutdown); !s) return s.error();
+  if (auto s = flag(kAlignedAt, "aligned", r.aligned); !s) return s.error();
+  if (auto s = flag(kPlaneConsumedAt, "plane_consumed", r.plane_consumed); !s) return s.error();
+  constexpr Phase kPhases[] = {Phase::kIdle, Phase::kAligning, Phase::kEngaging, Phase::kEngaged};
+  const std::uint8_t phase = byte_at(in, kPhaseAt);
+  if (phase >= std::size(kPhases)) return bad("unknown phase " + std::to_string(phase));
+  r.phase = kPhases[phase];
+  const unsigned fault = static_cast<unsigned>(byte_at(in, kFaultAt)) |
+                         static_cast<unsigned>(byte_at(in, kFaultAt + 1)) << 8;
+  if (!is_restorable_fault(fault)) {
+    return bad("fault code '" + std::to_string(fault) + "' is not a fault the daemon latches");
+  }
+  r.fault = static_cast<ErrorCode>(fault);
+  const std::uint8_t frames = byte_at(in, kFrameCountAt);
+  if (frames > kMaxFrames) return bad("frame count " + std::to_string(frames) + " above 4");
+  if (byte_at(in, kReservedAt) != 0) return bad("reserved header byte is not 0");
+  std::size_t at = kStateHeaderSize;
+  for (std::uint8_t i = 0; i < frames; ++i) {
+    const auto where = "frame " + std::to_string(i + 1) + ": ";
+    if (in.size() - at < protocol::kHeaderSize) return bad(where + "truncated");
+    const auto* bytes = reinterpret_cast<const std::uint8_t*>(in.data()) + at;
+    const protocol::FrameHeader h = protocol::decode_header(
+        std::span<const std::uint8_t, protocol::kHeaderSize>(bytes, protocol::kHeaderSize));
+    if (h.payload_length > protocol::kMaxPayloadSize ||
+        in.size() - at - protocol::kHeaderSize < h.payload_length) {
+      return bad(where + "truncated");
+    }
+    const std::size_t size = protocol::kHeaderSize + h.payload_length;
+    const auto decoded = protocol::decode_frame(std::span<const std::uint8_t>(bytes, size));
+    if (decoded.kind != protocol::StreamDecoder::Kind::kMessage) {
+      return bad(where + protocol::describe(decoded.error));
+    }
+    const protocol::Message& m = decoded.envelope.message;
+    const auto once = [&](auto& slot, const auto& value) -> Outcome {
+      if (slot)
+        return bad(where + std::string(protocol::to_string(protocol::type_of(m))) +
+                   " appears twice");
+      slot = value;
+      return Ok{};
+    };
+    Outcome stored = bad(where + std::string(protocol::to_string(protocol::type_of(m))) +
+                         " is not a measurement the procedure keeps");
+    if (const auto* w = std::get_if<protocol::MeasureDoorWidth>(&m)) stored = once(r.width, *w);
+    if (const auto* h2 = std::get_if<protocol::MeasureHandle>(&m)) stored = once(r.handle, *h2);
+    if (const auto* p = std::get_if<protocol::MeasureDoorPlane>(&m)) stored = once(r.plane, *p);
+    if (const auto* c = std::get_if<protocol::SetContactPoint>(&m)) stored = once(r.contact, *c);
+    if (!stored) return stored.error();
+    at += size;
+  }
+  if (at != in.size()) return bad(std::to_string(in.size() - at) + " bytes after the last frame");
+  return state;
 }
 
 std::string errno_text() {
@@ -124,146 +175,29 @@ std::string errno_text() {
 
 std::string encode_state(const StateRecord& state) {
   const ProcedureRecord& r = state.procedure;
-  std::string out;
-  out += std::string(kMagic) + " " + std::to_string(kStateFormatVersion) + "\n";
-  out += std::string("clean_shutdown ") + (state.clean_shutdown ? "1" : "0") + "\n";
-  out += std::string("phase ") + phase_name(r.phase) + "\n";
-  out += std::string("aligned ") + (r.aligned ? "1" : "0") + "\n";
-  out += std::string("plane_consumed ") + (r.plane_consumed ? "1" : "0") + "\n";
-  out += "fault " + std::to_string(static_cast<unsigned>(r.fault)) + "\n";
-  if (r.width) {
-    out += "width";
-    put_point(out, r.width->p1_hinge);
-    put_point(out, r.width->p2_moving_edge);
-    out += "\n";
-  }
-  if (r.handle) {
-    out += "handle";
-    put_point(out, r.handle->p1_axis);
-    put_point(out, r.handle->p2_free_end);
-    out += "\n";
-  }
-  if (r.plane) {
-    out += "plane " + std::to_string(r.plane->count);
-    for (std::size_t i = 0; i < r.plane->count && i < r.plane->points.size(); ++i) {
-      put_point(out, r.plane->points[i]);
-    }
-    out += "\n";
-  }
-  if (r.contact) {
-    out += "contact";
-    put_point(out, r.contact->contact);
-    out += "\n";
-  }
-  char crc[32];
-  std::snprintf(crc, sizeof(crc), "crc32 %08x\n", crc32(out));
-  out += crc;
+  std::string out(kStateHeaderSize, '\0');
+  out.replace(0, kMagicSize, kStateMagic, kMagicSize);
+  put_u16(out, kVersionAt, static_cast<std::uint16_t>(kStateFormatVersion));
+  out[kCleanAt] = state.clean_shutdown ? 1 : 0;
+  out[kPhaseAt] = static_cast<char>(phase_byte(r.phase));
+  out[kAlignedAt] = r.aligned ? 1 : 0;
+  out[kPlaneConsumedAt] = r.plane_consumed ? 1 : 0;
+  put_u16(out, kFaultAt, static_cast<std::uint16_t>(r.fault));
+  std::uint8_t frames = 0;
+  if (r.width) put_frame(out, *r.width), ++frames;
+  if (r.handle) put_frame(out, *r.handle), ++frames;
+  if (r.plane) put_frame(out, *r.plane), ++frames;
+  if (r.contact) put_frame(out, *r.contact), ++frames;
+  out[kFrameCountAt] = static_cast<char>(frames);
+  put_u32(out, kHeaderCrcAt, header_crc(out));
   return out;
 }
 
-Result<StateRecord> decode_state(const std::string& text) {
-  const auto crc_at = text.rfind("crc32 ");
-  if (crc_at == std::string::npos || (crc_at > 0 && text[crc_at - 1] != '\n')) {
-    return bad("no checksum line (truncated?)");
-  }
-  const std::string body = text.substr(0, crc_at);
-  const Tokens crc_line(text.substr(crc_at));
-  unsigned long expected = 0;
-  if (crc_line.size() != 2 ||
-      std::from_chars(crc_line[1].data(), crc_line[1].data() + crc_line[1].size(), expected, 16)
-              .ec != std::errc() ||
-      expected != crc32(body)) {
-    return bad("checksum mismatch (corrupt file)");
-  }
-
-  StateRecord state;
-  ProcedureRecord& r = state.procedure;
-  std::istringstream in(body);
-  std::string line;
-  int line_number = 0;
-  bool have_header = false;
-  std::set<std::string> seen;
-  while (std::getline(in, line)) {
-    ++line_number;
-    const Tokens t(line);
-    if (t.size() == 0) continue;
-    const auto fail = [&](const std::string& what) {
-      return bad("line " + std::to_string(line_number) + ": " + what);
-    };
-    if (!have_header) {
-      if (t.size() != 2 || t[0] != kMagic) return fail("not an ajar state file");
-      if (t[1] != "1" && t[1] != std::to_string(kStateFormatVersion)) {
-        return fail("unsupported format version " + t[1] + " (this daemon reads 1 and " +
-                    std::to_string(kStateFormatVersion) + ")");
-      }
-      state.format_version = t[1] == "1" ? 1 : kStateFormatVersion;
-      have_header = true;
-      continue;
-    }
-    const std::string& key = t[0];
-    if (!seen.insert(key).second) return fail("'" + key + "' appears twice");
-    if (key == "clean_shutdown" && state.format_version >= 2 && t.size() == 2 &&
-        (t[1] == "0" || t[1] == "1")) {
-      state.clean_shutdown = t[1] == "1";
-    } else if (key == "phase" && t.size() == 2) {
-      if (t[1] == "idle")
-        r.phase = Phase::kIdle;
-      else if (t[1] == "aligning")
-        r.phase = Phase::kAligning;
-      else if (t[1] == "engaging")
-        r.phase = Phase::kEngaging;
-      else if (t[1] == "engaged")
-        r.phase = Phase::kEngaged;
-      else
-        return fail("unknown phase '" + t[1] + "'");
-    } else if ((key == "aligned" || key == "plane_consumed") && t.size() == 2 &&
-               (t[1] == "0" || t[1] == "1")) {
-      (key == "aligned" ? r.aligned : r.plane_consumed) = t[1] == "1";
-    } else if (key == "fault" && t.size() == 2) {
-      long long code = 0;
-      if (!parse_int(t[1], code) || !is_restorable_fault(code)) {
-        return fail("fault code '" + t[1] + "' is not a fault the daemon latches");
-      }
-      r.fault = static_cast<ErrorCode>(code);
-    } else if (key == "width" && t.size() == 9) {
-      protocol::MeasureDoorWidth m;
-      if (!parse_point(t, 1, m.p1_hinge) || !parse_point(t, 5, m.p2_moving_edge)) {
-        return fail("bad width points");
-      }
-      r.width = m;
-    } else if (key == "handle" && t.size() == 9) {
-      protocol::MeasureHandle m;
-      if (!parse_point(t, 1, m.p1_axis) || !parse_point(t, 5, m.p2_free_end)) {
-        return fail("bad handle points");
-      }
-      r.handle = m;
-    } else if (key == "plane" && t.size() >= 2) {
-      long long n = 0;
-      if (!parse_int(t[1], n) || n < static_cast<long long>(protocol::kMinPlanePoints) ||
-          n > static_cast<long long>(protocol::kMaxPlanePoints) ||
-          t.size() != 2 + 4 * static_cast<std::size_t>(n)) {
-        return fail("bad plane point count");
-      }
-      protocol::MeasureDoorPlane m;
-      m.count = static_cast<std::uint8_t>(n);
-      for (std::size_t i = 0; i < m.count; ++i) {
-        if (!parse_point(t, 2 + 4 * i, m.points[i])) return fail("bad plane point");
-      }
-      r.plane = m;
-    } else if (key == "contact" && t.size() == 5) {
-      protocol::SetContactPoint m;
-      if (!parse_point(t, 1, m.contact)) return fail("bad contact point");
-      r.contact = m;
-    } else {
-      return fail("unexpected '" + line + "'");
-    }
-  }
-  if (!have_header) return bad("empty file");
-  for (const char* required : {"clean_shutdown", "phase", "aligned", "plane_consumed", "fault"}) {
-    if (state.format_version < 2 && std::string_view(required) == "clean_shutdown") continue;
-    if (seen.count(required) == 0) return bad(std::string("line '") + required + "' missing");
-  }
-  return state;
+Result<StateRecord> decode_state(const std::string& bytes) {
+  if (bytes.compare(0, kMagicSize, kStateMagic, kMagicSize) == 0) return decode_binary_state(bytes);
+  if (bytes.rfind("ajar-state ", 0) == 0) return detail::decode_text_state(bytes);
+  if (bytes.empty()) return bad("empty file");
+  return bad("not an ajar state file");
 }
 
 // The writer thread's side, shared with it: a writer abandoned by stop() (a hung disk) keeps it.
@@ -289,7 +223,7 @@ namespace {
 
 Outcome save_file(const std::string& directory, const std::string& path,
                   const StateStore::Options& options, const StateRecord& record) {
-  const std::string text = encode_state(record);
+  const std::string text = encode_state(record);  // bytes
   const std::string tmp = path + ".tmp";
   // Every failure after the open removes the temporary file: no stray .tmp is left behind.
   const auto fail = [&](const std::string& what, int fd) {

@@ -37,11 +37,12 @@ template <typename T>
   walk<Text("")>(w, m);
 }
 
-// Decodes the payload of a known type (the message table); false for an unknown type.
-bool decode_payload(std::uint16_t type, Reader& r, Message& m) noexcept {
-  return with_message_type(static_cast<MessageType>(type),
-                           [&]<typename T>(Alternative<T>) { decode_as<T>(r, m); });
+// decode_as<T> of every Message alternative, by row of the message table.
+constexpr auto kDecoders = []<std::size_t... I>(std::index_sequence<I...>) {
+  return std::array<void (*)(Reader&, Message&) noexcept, sizeof...(I)>{
+      &decode_as<std::variant_alternative_t<I, Message>>...};
 }
+(std::make_index_sequence<std::variant_size_v<Message>>{});
 
 // Encodes the payload of `m` into `out`; returns its size, or nullopt-like 0 with ok=false.
 bool encode_payload(const Message& m, std::span<std::uint8_t> out, std::size_t& size,
@@ -133,13 +134,14 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
   // The layout is the frame's minor version's (a newer minor: ours, extra bytes ignored).
   const std::uint8_t minor = std::min(h[kOffsetVersionMinor], kVersionMinor);
   Reader r(payload, minor);
-  if (minor_of(static_cast<MessageType>(e.type)) > minor ||
-      !decode_payload(e.type, r, out.envelope.message)) {
+  const MessageInfo* row = find_message(static_cast<MessageType>(e.type));
+  if (row == nullptr || row->since > minor) {
     e.code = ErrorCode::kUnknownMessageType;
     e.field = "header.type";
     e.value = e.type;
     return;
   }
+  kDecoders[static_cast<std::size_t>(row - kMessageTable.data())](r, out.envelope.message);
   if (!r.finish(h[kOffsetVersionMinor] > kVersionMinor, e)) return;
   out.kind = StreamDecoder::Kind::kMessage;
   out.envelope.request_id = e.request_id;

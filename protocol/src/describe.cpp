@@ -90,6 +90,12 @@ std::string sentence(const DecodeError& e) {
       return field + ": " + (e.reason == nullptr ? "bad string" : reason) + " (length " +
              dec(e.value) + ", capacity " + dec(e.limit) + ")";
     case ErrorCode::kBadCount:
+      if (reason == "entries")
+        return field + " is " + dec(e.value) + ": allowed 0.." + dec(e.limit);
+      if (!reason.empty()) {  // bytes<N>
+        return field + ": " + reason + " (length " + dec(e.value) + ", capacity " + dec(e.limit) +
+               ")";
+      }
       return field + " is " + dec(e.value) + ": allowed " + dec(kMinPlanePoints) + ".." +
              dec(kMaxPlanePoints);
     default:

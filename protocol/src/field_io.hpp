@@ -40,6 +40,15 @@ class Writer {
     std::memcpy(q + 1, s.bytes.data(), n);
     std::memset(q + 1 + n, 0, N - n);
   }
+  template <std::size_t N>
+  void bytes(const FixedBytes<N>& b, const char*) noexcept {
+    std::uint8_t* q = take(2 + N);
+    if (q == nullptr) return;
+    const std::size_t n = std::min<std::size_t>(b.length, N);
+    store(q, static_cast<std::uint16_t>(n));
+    std::memcpy(q + 2, b.bytes.data(), n);
+    std::memset(q + 2 + n, 0, N - n);
+  }
   // A field that sizes the payload (count, acknowledged): the writer refuses what the reader would.
   bool sizes(bool valid, ErrorCode, const char*, std::uint64_t, const char*) noexcept {
     if (!valid) ok_ = false;
@@ -114,6 +123,24 @@ class Reader {
     } else if (!plain_ascii && !is_wire_string(s.view())) {
       fail(ErrorCode::kBadString, f, n, N, "invalid UTF-8 or a control character");
     }
+  }
+  // bytes<N> (1.2): a u16 length L (0..N, else BAD_COUNT), then N bytes whose last N - L are zero
+  // (else BAD_COUNT).
+  template <std::size_t N>
+  void bytes(FixedBytes<N>& b, const char* f) noexcept {
+    const std::uint8_t* q = take_block(2 + N);
+    if (q == nullptr) return;
+    const std::uint16_t n = load<std::uint16_t>(q);
+    if (n > N) {
+      fail(ErrorCode::kBadCount, f, n, N, "length above capacity");
+      return;
+    }
+    std::memcpy(b.bytes.data(), q + 2, N);
+    b.length = n;
+    std::uint8_t padding = 0;
+    for (std::size_t i = n; i < N; ++i)
+      padding |= q[2 + i];
+    if (padding != 0) fail(ErrorCode::kBadCount, f, n, N, "non-zero padding");
   }
   // A field that sizes the payload: a wrong value is reported before the length check (it decides
   // the length) and stops the walk.

@@ -37,6 +37,11 @@ class Lister : Scratch, public Writer {
     add(1 + N, kStrName<N>.view(), f);
     Writer::str(s, f);
   }
+  template <std::size_t N>
+  void bytes(const FixedBytes<N>& b, const char* f) noexcept {
+    add(2 + N, kBytesName<N>.view(), f);
+    Writer::bytes(b, f);
+  }
   std::vector<FieldLayout> rows() && {
     if (!ok()) rows_.clear();
     return std::move(rows_);
@@ -45,6 +50,8 @@ class Lister : Scratch, public Writer {
  private:
   template <std::size_t N>
   static constexpr auto kStrName = Text("str<") + decimal_text<N>() + Text(">");
+  template <std::size_t N>
+  static constexpr auto kBytesName = Text("bytes<") + decimal_text<N>() + Text(">");
   void add(std::size_t size, std::string_view type, const char* name) noexcept {
     if (rows_.size() < rows_.capacity())
       rows_.push_back({Writer::size(), size, type, name, since_});

@@ -5,7 +5,9 @@
 // test of docs/protocol.md's layout tables) all read these tables; nothing else lists a field.
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cstdint>
 #include <string_view>
 #include <utility>
 #include <variant>
@@ -60,6 +62,14 @@ struct Schema<ApproachAck> {  // ApproachBody (1.1)
                         Field<"start_distance_m", &ApproachAck::start_distance_m>,
                         Field<"left_counts", &ApproachAck::left_counts>,
                         Field<"right_counts", &ApproachAck::right_counts>>;
+};
+template <>
+struct Schema<RecordingInfo> {  // RecordingBody (1.2)
+  using fields =
+      Fields<Field<"name", &RecordingInfo::name>, Field<"size_bytes", &RecordingInfo::size_bytes>,
+             Field<"start_unix_ns", &RecordingInfo::start_unix_ns>,
+             Field<"end_unix_ns", &RecordingInfo::end_unix_ns>,
+             Field<"writing", &RecordingInfo::writing>, Field<"saved", &RecordingInfo::saved>>;
 };
 template <>
 struct Schema<EmptyAck> {
@@ -217,6 +227,24 @@ struct Schema<ResetLoopStatistics>
   using fields = Fields<>;
 };
 
+template <>
+struct Schema<ListRecordings>
+    : MessageRow<MessageType::kListRecordings, "ListRecordings", kHostToDaemon, 2> {
+  using fields = Fields<Field<"first", &ListRecordings::first>>;
+};
+template <>
+struct Schema<FetchRecording>
+    : MessageRow<MessageType::kFetchRecording, "FetchRecording", kHostToDaemon, 2> {
+  using fields =
+      Fields<Field<"name", &FetchRecording::name>, Field<"offset", &FetchRecording::offset>,
+             Field<"max_length", &FetchRecording::max_length>>;
+};
+template <>
+struct Schema<SaveRecording>
+    : MessageRow<MessageType::kSaveRecording, "SaveRecording", kHostToDaemon, 2> {
+  using fields = Fields<Field<"last_s", &SaveRecording::last_s>>;
+};
+
 // ---- daemon -> host -------------------------------------------------------------------------
 
 template <>
@@ -322,6 +350,22 @@ struct Schema<RobotModel> : MessageRow<MessageType::kRobotModel, "RobotModel", k
       Field<"max_door_tilt_rad", &R::max_door_tilt_rad>>;
 };
 
+template <>
+struct Schema<RecordingList>
+    : MessageRow<MessageType::kRecordingList, "RecordingList", kDaemonToHost, 2> {
+  using fields =
+      Fields<Field<"total", &RecordingList::total>, Field<"first", &RecordingList::first>,
+             Field<"count", &RecordingList::count, 0, ListCount>,
+             Field<"entries", &RecordingList::entries>>;
+};
+template <>
+struct Schema<RecordingChunk>
+    : MessageRow<MessageType::kRecordingChunk, "RecordingChunk", kDaemonToHost, 2> {
+  using fields = Fields<Field<"offset", &RecordingChunk::offset>,
+                        Field<"size_bytes", &RecordingChunk::size_bytes>,
+                        Field<"data", &RecordingChunk::data>>;
+};
+
 // ---- the message table, in the order of the Message variant ---------------------------------
 
 struct MessageInfo {
@@ -355,24 +399,45 @@ constexpr bool types_are_unique() {
 }
 static_assert(types_are_unique(), "one message type per Message alternative");
 
+// Type -> row index in one load (the decoder looks a type up in every frame; a search through
+// the table was a sixth of its time): kRowOfType[t - kLowestType], kNoRow for a gap.
+inline constexpr std::uint8_t kNoRow = 0xFF;
+inline constexpr std::size_t kLowestType =
+    static_cast<std::size_t>(std::ranges::min(kMessageTable, {}, &MessageInfo::type).type);
+inline constexpr std::size_t kHighestType =
+    static_cast<std::size_t>(std::ranges::max(kMessageTable, {}, &MessageInfo::type).type);
+inline constexpr auto kRowOfType = [] {
+  std::array<std::uint8_t, kHighestType - kLowestType + 1> rows{};
+  rows.fill(kNoRow);
+  for (std::size_t i = 0; i < kMessageTable.size(); ++i)
+    rows[static_cast<std::size_t>(kMessageTable[i].type) - kLowestType] =
+        static_cast<std::uint8_t>(i);
+  return rows;
+}();
+static_assert(kMessageTable.size() < kNoRow);
+
 // The row of `t`, or nullptr for a type this version does not know.
 constexpr const MessageInfo* find_message(MessageType t) noexcept {
-  for (const MessageInfo& m : kMessageTable) {
-    if (m.type == t) return &m;
-  }
-  return nullptr;
+  const auto type = static_cast<std::size_t>(t);
+  if (type < kLowestType || type > kHighestType) return nullptr;
+  const std::uint8_t row = kRowOfType[type - kLowestType];
+  return row == kNoRow ? nullptr : &kMessageTable[row];
 }
 
-// Calls f(std::type_identity<T>{}) with the message struct T of type `t`; false when `t` is
-// unknown.
+// Calls f(std::type_identity<T>{}) with the message struct T of type `t` (one indirect call
+// through a table, not a comparison per type); false when `t` is unknown.
 template <typename F>
 bool with_message_type(MessageType t, F&& f) {
-  return [&]<std::size_t... I>(std::index_sequence<I...>) {
-    return ((kMessageTable[I].type == t &&
-             (f(Alternative<std::variant_alternative_t<I, Message>>{}), true)) ||
-            ...);
+  const MessageInfo* row = find_message(t);
+  if (row == nullptr) return false;
+  using G = std::remove_reference_t<F>;
+  [&]<std::size_t... I>(std::index_sequence<I...>) {
+    static constexpr void (*kCall[])(G&) = {
+        [](G& g) { g(Alternative<std::variant_alternative_t<I, Message>>{}); }...};
+    kCall[static_cast<std::size_t>(row - kMessageTable.data())](f);
   }
   (std::make_index_sequence<std::variant_size_v<Message>>{});
+  return true;
 }
 
 }  // namespace ajar::protocol::detail

@@ -176,6 +176,12 @@ template <typename Float, typename Raw>
              : Problem{ErrorCode::kNonFiniteNumber, sizeof(Raw)};
 }
 
+[[gnu::always_inline]] constexpr Problem list_count(std::uint64_t raw) noexcept {
+  return raw <= kRecordingListEntries
+             ? Problem{}
+             : Problem{ErrorCode::kBadCount, kRecordingListEntries, "entries"};
+}
+
 // A value to its raw bits and back: floats bit for bit, integers, bools and enums by value.
 template <typename To, typename From>
 [[gnu::always_inline]] constexpr To convert(From v) noexcept {
@@ -218,6 +224,10 @@ constexpr auto decimal_text() {
 
 // A WheelModel polarity: +1 or -1 as a signed byte.
 using Polarity = Wire<std::uint8_t, "i8", &plus_or_minus_one>;
+
+// RecordingList.count (1.2): 0..kRecordingListEntries, else BAD_COUNT (not a size field: the list
+// always has all its entries).
+using ListCount = Wire<std::uint8_t, "u8", &list_count>;
 
 // The wire type of a C++ field type (void: not a scalar).
 template <typename T>

@@ -1,6 +1,7 @@
 // Walks a value along its Schema (message_schema.hpp) and hands every wire field, with its
 // composed name, to an IO: the Writer (encode), the Reader (decode and check), the layout lister.
-// IO provides since(minor) and minor(), scalar<WireType>(value, name), str(value, name), and for
+// IO provides since(minor) and minor(), scalar<WireType>(value, name), str(value, name),
+// bytes(value, name), and for
 // the fields that size a payload sizes(valid, code, name, value, reason) (false: stop) and
 // body<T>(variant) (nullptr: stop). S is `const T` when encoding and `T` when decoding. A walk
 // returns false where it stopped early: at the first field a minor version appended that the
@@ -29,6 +30,10 @@ struct IsFixedString : std::false_type {};
 template <std::size_t N>
 struct IsFixedString<FixedString<N>> : std::true_type {};
 template <typename T>
+struct IsFixedBytes : std::false_type {};
+template <std::size_t N>
+struct IsFixedBytes<FixedBytes<N>> : std::true_type {};
+template <typename T>
 struct KindArgument;
 template <template <auto> typename K, auto M>
 struct KindArgument<K<M>> {
@@ -52,6 +57,8 @@ AJAR_WALK_INLINE bool walk_value(IO& io, V& v) noexcept {
     io.template scalar<WireOf<T>>(v, n);
   } else if constexpr (IsFixedString<T>::value) {
     io.str(v, n);
+  } else if constexpr (IsFixedBytes<T>::value) {
+    io.bytes(v, n);
   } else if constexpr (std::is_same_v<T, core::Vec3>) {
     walk_value<Name + Text(".x")>(io, v.x());
     walk_value<Name + Text(".y")>(io, v.y());

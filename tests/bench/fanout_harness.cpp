@@ -1,18 +1,23 @@
-// Fan-out and footprint. 256 observers subscribed to telemetry at 100 Hz while a controller runs
-// the procedure and AlignBase over and over: the loop's timing under that load vs the same daemon
-// configuration idle (two daemons started in this run: one idle, one loaded, so that each one's
-// since-start LoopTiming from Status covers exactly its phase), the telemetry inter-arrival at the
-// observers vs a bare fan-out server (one thread writing the same Telemetry frame to 256 sockets
-// every 10 ms), sessions dropped, the daemon's CPU. Footprint: RSS idle, after one procedure, with
-// 256 sessions; exec -> serving (spawn until a Hello is answered), median of several starts. With
-// --fifo the daemons run with control.realtime (SCHED_FIFO) and lock_memory; with
-// --no-controller the controller stays connected but idle (to tell its commands' cost apart).
+// Fan-out: 256 observers subscribed to telemetry at 100 Hz while a controller runs the procedure
+// and AlignBase over and over, in blocks within one run (harness.hpp; one daemon, one bare
+// fan-out server, both started once, pinned the same way): idle (ajard with its sessions but
+// nobody subscribed, the controller paused; the bare server paused), loaded (every observer
+// subscribed, the controller aligning), bare (the bare server writing the same Telemetry frame to
+// 256 sockets every 10 ms, ajard idle). Per cycle: the loop's wake-up latency loaded vs idle
+// (ResetLoopStatistics at each block's start, Status at its end), the telemetry inter-arrival at
+// the observers loaded vs bare; sessions dropped, the daemon's CPU in the loaded blocks. With
+// --fifo the daemon runs with control.realtime (SCHED_FIFO) and lock_memory; with
+// --no-controller the controller stays paused (to tell its commands' cost apart). The footprint
+// (RSS, exec -> serving) is footprint_harness.cpp.
 #include <netinet/in.h>
 #include <sys/epoll.h>
 #include <sys/socket.h>
 
 #include <atomic>
 #include <map>
+#include <memory>
+#include <mutex>
+#include <utility>
 
 #include "harness.hpp"
 
@@ -68,11 +73,14 @@ protocol::TimingWindow loop_timing(Conn& c) {
   fail("GetStatus not answered with Status");
 }
 
-// Reads telemetry on many connections at once and records each connection's inter-arrival times.
+// Reads telemetry on many connections at once and records each connection's inter-arrival times,
+// per block: take_block() hands over the gaps since the previous call and restarts every
+// connection's clock (a gap never spans two blocks).
 class Observers {
  public:
   void add(Conn c) { conns_.push_back(std::move(c)); }
   std::size_t size() const { return conns_.size(); }
+  std::vector<Conn>& conns() { return conns_; }
 
   void start() {
     thread_ = std::thread([this] { run(); });
@@ -81,7 +89,11 @@ class Observers {
     stop_ = true;
     if (thread_.joinable()) thread_.join();
   }
-  std::vector<std::int64_t>& gaps() { return gaps_; }
+  std::vector<std::int64_t> take_block() {
+    std::lock_guard lock(mutex_);
+    ++block_;
+    return std::exchange(gaps_, {});
+  }
   int dropped() const { return dropped_; }
   std::uint64_t frames() const { return frames_; }
 
@@ -96,10 +108,16 @@ class Observers {
     }
     std::vector<std::int64_t> last(conns_.size(), -1);
     std::vector<bool> closed(conns_.size(), false);
+    std::uint64_t block = 0;
     epoll_event events[64];
     while (!stop_) {
       const int n = ::epoll_wait(ep, events, 64, 50);
       const std::int64_t t = now_ns();
+      std::lock_guard lock(mutex_);
+      if (block != block_) {
+        block = block_;
+        std::fill(last.begin(), last.end(), -1);
+      }
       for (int k = 0; k < n; ++k) {
         const auto i = static_cast<std::size_t>(events[k].data.u64);
         if (!conns_[i].read_some()) {
@@ -109,7 +127,7 @@ class Observers {
           continue;
         }
         while (auto e = conns_[i].next_buffered()) {
-          if (!std::holds_alternative<Telemetry>(e->message)) continue;
+          if (!std::holds_alternative<Telemetry>(e->message)) continue;  // e.g. Subscribe's Ack
           ++frames_;
           if (last[i] >= 0) gaps_.push_back(t - last[i]);
           last[i] = t;
@@ -122,9 +140,11 @@ class Observers {
   std::vector<Conn> conns_;
   std::thread thread_;
   std::atomic<bool> stop_{false};
+  std::mutex mutex_;
+  std::uint64_t block_ = 0;  // under mutex_
   std::vector<std::int64_t> gaps_;
-  int dropped_ = 0;
-  std::uint64_t frames_ = 0;
+  std::atomic<int> dropped_{0};
+  std::atomic<std::uint64_t> frames_{0};
 };
 
 // The baseline: accepts kObservers connections, then writes one Telemetry frame to each every
@@ -160,6 +180,7 @@ class BareFanout {
       fds_.push_back(fd);
     }
   }
+  void set_active(bool on) { active_ = on; }
   void start() {
     thread_ = std::thread([this] {
       std::uint8_t frame[kMaxFrameSize];
@@ -170,8 +191,9 @@ class BareFanout {
         Telemetry t;
         t.daemon_time_ns = static_cast<std::uint64_t>(now_ns());
         const std::size_t n = encode(Envelope{0, 0, t}, frame);
-        for (int fd : fds_)
-          (void)::send(fd, frame, n, MSG_NOSIGNAL);
+        if (active_.load(std::memory_order_relaxed))
+          for (int fd : fds_)
+            (void)::send(fd, frame, n, MSG_NOSIGNAL);
         deadline += period;
         timespec ts{static_cast<time_t>(deadline / 1'000'000'000),
                     static_cast<long>(deadline % 1'000'000'000)};
@@ -186,7 +208,53 @@ class BareFanout {
   std::uint16_t port_ = 0;
   std::vector<int> fds_;
   std::thread thread_;
-  std::atomic<bool> stop_{false};
+  std::atomic<bool> stop_{false}, active_{false};
+};
+
+// Subscribe (or unsubscribe: 0 Hz) every observer without waiting for the Acks (their reader
+// thread owns the sockets and skips the Acks).
+void subscribe_all(std::vector<Conn>& conns, float hz) {
+  std::uint32_t id = 1'000'000;
+  for (auto& c : conns)
+    c.send(Envelope{++id, 0, Subscribe{hz}});
+}
+
+// The controller: runs the procedure and AlignBase over and over while active; set_active(false)
+// returns once the alignment under way has ended (a block boundary never cuts one).
+class Controller {
+ public:
+  explicit Controller(Conn& c) : c_(c) {
+    thread_ = std::thread([this] { run(); });
+  }
+  ~Controller() {
+    stop_ = true;
+    thread_.join();
+  }
+  void set_active(bool on) {
+    active_ = on;
+    while (!on && busy_.load())
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  int aligns() const { return aligns_.load(); }
+
+ private:
+  void run() {
+    double yaw = 0.05;
+    while (!stop_) {
+      if (!active_) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        continue;
+      }
+      busy_ = true;
+      if (active_ && align_once(c_, yaw)) ++aligns_;
+      busy_ = false;
+      yaw = -yaw;
+    }
+  }
+  Conn& c_;
+  std::thread thread_;
+  std::atomic<bool> stop_{false}, active_{false}, busy_{false};
+  std::atomic<int> aligns_{0};
 };
 
 }  // namespace
@@ -207,7 +275,8 @@ int main(int argc, char** argv) {
   }
   const Options o = Options::parse(static_cast<int>(rest.size()), rest.data());
   if (o.ajard.empty() || o.config.empty()) fail("--ajard and --config are required");
-  const double seconds = o.smoke ? 1.0 : 20.0;
+  const int cycles = o.smoke ? 2 : kMinBlocks;
+  const double block_s = o.smoke ? 0.5 : 2.0;
   const int observers = o.smoke ? 16 : kObservers;
   const std::string mode = fifo ? "SCHED_FIFO" : "SCHED_OTHER";
   std::string config = o.config;
@@ -217,124 +286,106 @@ int main(int argc, char** argv) {
         o.config, config,
         {{"realtime: false", "realtime: true"}, {"lock_memory: false", "lock_memory: true"}});
   }
+  const Placement where = placement();
+  pin_this_thread(where.client);  // this thread, the observers' readers, the controller
   info("fan-out (" + mode + "): load average " + load_average() + " at start; " +
-       std::to_string(observers) + " observers at 100 Hz; " + std::to_string(seconds) +
-       " s per phase");
+       std::to_string(observers) +
+       " observers at 100 Hz on ajard and as many on a bare fan-out "
+       "server; " +
+       std::to_string(cycles) + " cycles of three " + format_number(block_s) +
+       " s blocks: idle (nobody subscribed, controller paused), loaded (observers subscribed, "
+       "controller aligning), bare (the bare server sending, ajard idle); " +
+       where.describe());
 
-  // exec -> serving, and RSS idle / after one procedure, on fresh daemons.
-  std::vector<std::int64_t> starts;
-  long rss_idle = 0, rss_after = 0;
-  for (int i = 0; i < (o.smoke ? 1 : 5); ++i) {
-    Daemon d(o.ajard, config, o.dir + "/fanout-start");
-    starts.push_back(d.exec_to_serving_ns());
-    if (i == 0) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(500));
-      rss_idle = d.rss_kib();
-      Conn c(d.port());
-      (void)c.hello(Role::kController, "bench-procedure");
-      if (!align_once(c, 0.05)) fail("the procedure did not reach Aligned");
-      rss_after = d.rss_kib();
-    }
-  }
-  if (!fifo) {
-    row("exec -> serving (median of " + std::to_string(starts.size()) + ")",
-        quantiles(starts).p50 / 1e6, "ms", std::nullopt, "<= 20 ms", "spawn until Welcome");
-  }
-  row("RSS idle, " + mode, static_cast<double>(rss_idle) / 1024.0, "MiB");
-  row("RSS after the procedure, " + mode, static_cast<double>(rss_after) / 1024.0, "MiB");
-
-  // Idle phase: a fresh daemon, nobody connected but one Status at the end.
-  TimingWindow idle;
-  {
-    Daemon d(o.ajard, config, o.dir + "/fanout-idle");
-    std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+  Daemon d(o.ajard, config, o.dir + "/fanout", where.server);
+  auto bare = created_on(where.server, [] { return std::make_unique<BareFanout>(); });
+  Observers on_daemon, on_bare;
+  for (int i = 0; i < observers; ++i) {
     Conn c(d.port());
-    (void)c.hello(Role::kObserver, "bench-idle");
-    idle = loop_timing(c);
+    (void)c.hello(Role::kObserver, "bench-observer");
+    on_daemon.add(std::move(c));
   }
-
-  // Loaded phase.
-  TimingWindow loaded;
-  long rss_sessions = 0;
-  double cpu = 0;
-  int aligns = 0, dropped = 0;
-  std::vector<std::int64_t> daemon_gaps;
   {
-    Daemon d(o.ajard, config, o.dir + "/fanout-load");
-    Observers obs;
-    for (int i = 0; i < observers; ++i) {
-      Conn c(d.port());
-      (void)c.hello(Role::kObserver, "bench-observer");
-      if (!std::holds_alternative<Ack>(c.request(Subscribe{kTelemetryHz})))
-        fail("Subscribe refused");
-      obs.add(std::move(c));
-    }
-    std::atomic<bool> stop{false};
-    std::atomic<int> aligned{0};
-    Conn controller(d.port());
-    if (controller.hello(Role::kController, "bench-controller").granted_role != Role::kController)
-      fail("controller role not granted");
-    obs.start();
-    const double cpu0 = d.cpu_s();
-    const std::int64_t t0 = now_ns();
-    std::thread ctl([&] {
-      double yaw = 0.05;
-      while (!stop && with_controller) {
-        if (align_once(controller, yaw)) ++aligned;
-        yaw = -yaw;
-      }
-    });
-    std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
-    rss_sessions = d.rss_kib();
-    stop = true;
-    ctl.join();
-    cpu = (d.cpu_s() - cpu0) / (static_cast<double>(now_ns() - t0) * 1e-9);
-    loaded = loop_timing(controller);
-    obs.stop();
-    aligns = aligned;
-    dropped = obs.dropped();
-    daemon_gaps = std::move(obs.gaps());
-  }
-
-  // The bare fan-out server, same observers' code.
-  std::vector<std::int64_t> bare_gaps;
-  {
-    BareFanout bare;
-    Observers obs;
     std::thread connector([&] {
       for (int i = 0; i < kObservers; ++i)
-        obs.add(Conn(bare.port()));
+        on_bare.add(Conn(bare->port()));
     });
-    bare.accept_all();
+    bare->accept_all();
     connector.join();
-    obs.start();
-    bare.start();
-    std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
-    obs.stop();
-    bare_gaps = std::move(obs.gaps());
   }
+  Conn control(d.port());
+  if (control.hello(Role::kController, "bench-controller").granted_role != Role::kController)
+    fail("controller role not granted");
+  on_daemon.start();
+  on_bare.start();
+  created_on(where.server, [&] {
+    bare->start();
+    return 0;
+  });
+  Controller controller(control);  // its thread on the client CPU; uses `control` only when active
 
-  const auto g = quantiles(daemon_gaps);
-  const auto b = quantiles(bare_gaps);
+  const auto block = [&] { std::this_thread::sleep_for(std::chrono::duration<double>(block_s)); };
+  Paired lat_p99, lat_p999, lat_max, period_p99, exec_p99, gap_p999, gap_max;
+  double cpu_s = 0, loaded_s = 0;
+  TimingWindow idle;
+  for (int c = 0; c < cycles; ++c) {
+    // Idle: nobody subscribed, controller paused, bare server paused.
+    (void)control.request(ResetLoopStatistics{});
+    block();
+    idle = loop_timing(control);
+    (void)on_daemon.take_block();
+    (void)on_bare.take_block();
+
+    // Loaded: every observer subscribed, the controller aligning.
+    (void)control.request(ResetLoopStatistics{});
+    subscribe_all(on_daemon.conns(), kTelemetryHz);
+    const double cpu0 = d.cpu_s();
+    const std::int64_t t0 = now_ns();
+    controller.set_active(with_controller);
+    block();
+    controller.set_active(false);  // waits for the alignment under way
+    cpu_s += d.cpu_s() - cpu0;
+    loaded_s += static_cast<double>(now_ns() - t0) * 1e-9;
+    const TimingWindow loaded = loop_timing(control);
+    const auto daemon_gaps = quantiles(on_daemon.take_block());
+    subscribe_all(on_daemon.conns(), 0);
+
+    // Bare: the bare fan-out server alone.
+    (void)on_bare.take_block();
+    bare->set_active(true);
+    block();
+    bare->set_active(false);
+    const auto bare_gaps = quantiles(on_bare.take_block());
+    (void)on_daemon.take_block();
+
+    lat_p99.add(idle.latency.p99_ns / 1e3, loaded.latency.p99_ns / 1e3);
+    lat_p999.add(idle.latency.p999_ns / 1e3, loaded.latency.p999_ns / 1e3);
+    lat_max.add(idle.latency.max_ns / 1e3, loaded.latency.max_ns / 1e3);
+    period_p99.add(idle.period.p99_ns / 1e3, loaded.period.p99_ns / 1e3);
+    exec_p99.add(idle.execution.p99_ns / 1e3, loaded.execution.p99_ns / 1e3);
+    gap_p999.add(bare_gaps.p999 / 1e6, daemon_gaps.p999 / 1e6);
+    gap_max.add(bare_gaps.max / 1e6, daemon_gaps.max / 1e6);
+  }
+  const int aligns = controller.aligns();
+  on_daemon.stop();
+  on_bare.stop();
+  const int dropped = on_daemon.dropped();
+
   const std::string load = std::to_string(observers) + " observers, " + mode;
-  row("loop wake-up latency p99 with " + load, loaded.latency.p99_ns / 1e3, "us",
-      idle.latency.p99_ns / 1e3, fifo ? "<= 1.1x" : "",
-      "vs idle daemon; " + std::to_string(aligns) + " aligns meanwhile");
-  row("loop wake-up latency p99.9 with " + load, loaded.latency.p999_ns / 1e3, "us",
-      idle.latency.p999_ns / 1e3, "", "vs idle daemon");
-  row("loop wake-up latency max with " + load, loaded.latency.max_ns / 1e3, "us",
-      idle.latency.max_ns / 1e3, "", "vs idle daemon");
-  row("loop period p99 with " + load, loaded.period.p99_ns / 1e3, "us", idle.period.p99_ns / 1e3,
-      "", "vs idle daemon");
-  row("loop cycle execution p99 with " + load, loaded.execution.p99_ns / 1e3, "us",
-      idle.execution.p99_ns / 1e3, "", "vs idle daemon");
-  row("telemetry inter-arrival p99.9, " + mode, g.p999 / 1e6, "ms", b.p999 / 1e6, "",
-      "vs bare fan-out server; " + std::to_string(g.n) + " gaps");
-  row("telemetry inter-arrival max, " + mode, g.max / 1e6, "ms", b.max / 1e6, "<= 1.2x",
-      "vs bare fan-out server");
+  compare_row("loop wake-up latency p99 with " + load, lat_p99, "us", fifo ? "<= 1.1x" : "",
+              "vs idle blocks; " + std::to_string(aligns) + " aligns meanwhile");
+  compare_row("loop wake-up latency p99.9 with " + load, lat_p999, "us", "", "vs idle blocks");
+  compare_row("loop wake-up latency max with " + load, lat_max, "us", "", "vs idle blocks",
+              Over::kMax);
+  compare_row("loop period p99 with " + load, period_p99, "us", "", "vs idle blocks");
+  compare_row("loop cycle execution p99 with " + load, exec_p99, "us", "", "vs idle blocks");
+  compare_row("telemetry inter-arrival p99.9, " + mode, gap_p999, "ms", "",
+              "vs bare fan-out server blocks");
+  compare_row("telemetry inter-arrival max, " + mode, gap_max, "ms", "<= 1.2x",
+              "vs bare fan-out server blocks", Over::kMax);
   row("sessions dropped, " + mode, dropped, "", std::nullopt, "0");
-  row("daemon CPU under fan-out, " + mode, cpu * 100, "% of a core");
-  row("RSS with " + std::to_string(observers + 1) + " sessions, " + mode,
-      static_cast<double>(rss_sessions) / 1024.0, "MiB", std::nullopt, "<= 16 MiB");
+  row("daemon CPU under fan-out, " + mode, loaded_s > 0 ? 100 * cpu_s / loaded_s : 0, "% of a core",
+      std::nullopt, "", "loaded blocks only");
+  info("fan-out (" + mode + "): load average " + load_average() + " at the end");
   return dropped == 0 ? 0 : 1;
 }

@@ -1,12 +1,12 @@
-// ajar_bench_ping_under_load: does a controller's persisted commands slow down everybody else?
+// ajar_bench_ping_under_load: do a controller's persisted commands slow down everybody else?
 // (issue 10: persistence off the I/O thread.) In process: the real Server and engine on mock
 // drivers, a state directory in $TMPDIR. An observer measures Ping round trips (one at a time,
-// every
-// `--interval-ms`) twice: alone, and while a controller sends a state-changing command (a door
-// width, saved to disk) every 10 ms. Both with the state store as it is and with every save slowed
-// by `--slow-ms` (the store's test hook: models robot flash). Prints one table; docs/performance.md
-// records the figures. Not a test: nothing is asserted.
-//   ajar_bench_ping_under_load [--samples N] [--interval-ms MS] [--slow-ms MS] [--smoke]
+// every `--interval-ms`) in alternating blocks (harness.hpp): the controller paused, and the
+// controller sending a state-changing command (a door width, saved before its Ack) every 10 ms.
+// With the state store as it is and with every save slowed by `--slow-ms` (the store's test hook:
+// models robot flash). Prints ROW lines for scripts/bench's table. Nothing is asserted.
+//   ajar_bench_ping_under_load [--blocks N] [--per-block N] [--interval-ms MS] [--slow-ms MS]
+//                              [--smoke]
 #include <utility>  // before Asio (asio issue 944)
 
 #include <poll.h>
@@ -33,6 +33,7 @@
 #include "ajar/daemon/server.hpp"
 #include "ajar/protocol/codec.hpp"
 #include "fake_door.hpp"
+#include "harness.hpp"
 
 namespace {
 
@@ -98,29 +99,11 @@ ajar::protocol::Hello hello(ajar::protocol::Role role) {
   return h;
 }
 
-struct Figures {
-  double p50_us = 0, p99_us = 0, max_us = 0;
-  std::size_t samples = 0;
-  std::size_t commands = 0;  // controller commands acknowledged meanwhile
-};
-
-double percentile(std::vector<double>& v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const auto rank = static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5);
-  return v[std::min(rank, v.size() - 1)];
-}
-
-std::string load_average() {
-  std::ifstream in("/proc/loadavg");
-  std::string a, b, c;
-  in >> a >> b >> c;
-  return a + " " + b + " " + c;
-}
-
-// One run: a fresh daemon; the observer pings `samples` times; with `load`, a controller sends a
-// door width every 10 ms meanwhile (alternating two widths: each one is a new accepted state).
-Figures run(int slow_ms, bool load, int samples, int interval_ms) {
+// One disk setting: a fresh daemon; an observer pings in blocks of `per_block` (one every
+// `interval_ms`), alternately with the controller paused (A) and sending a door width every 10 ms
+// (B; alternating two widths: each one is a new accepted state, saved before its Ack).
+void run(int slow_ms, int blocks, int per_block, int interval_ms,
+         const ajar::bench::Placement& where) {
   ajar::testing::TempDir dir;
   ajar::daemon::Config config = ajar::daemon::load_config(AJAR_SOURCE_DIR "/config/ajard.yaml");
   config.drivers.kind = ajar::drivers::DriverKind::kMock;
@@ -130,6 +113,8 @@ Figures run(int slow_ms, bool load, int samples, int interval_ms) {
   config.state.debug_write_delay_ms = slow_ms;
   config.network.bind_address = "127.0.0.1";
   config.network.port = 0;
+  // The daemon's threads (I/O, control, state writer) on the server CPU; the clients on the other.
+  ajar::bench::pin_this_thread(where.server);
   auto engine = ajar::daemon::make_engine(config);
   asio::io_context io{1};
   ajar::daemon::Server server(io, *engine, ajar::daemon::ServerOptions::from(config.network));
@@ -137,75 +122,105 @@ Figures run(int slow_ms, bool load, int samples, int interval_ms) {
   engine->start();
   server.start();
   std::thread io_thread([&] { io.run(); });
+  ajar::bench::pin_this_thread(where.client);
 
-  Figures f;
+  ajar::bench::SampleBlocks b;
+  std::atomic<std::size_t> commands{0};
   {
     Peer observer(port);
     observer.request(hello(ajar::protocol::Role::kObserver));
-    std::atomic<bool> done{false};
-    std::atomic<std::size_t> commands{0};
-    std::thread controller_thread;
-    if (load) {
-      controller_thread = std::thread([&] {
-        Peer controller(port);
-        controller.request(hello(ajar::protocol::Role::kController));
-        auto next = Clock::now();
-        for (int i = 0; !done.load(); ++i) {
+    std::atomic<bool> done{false}, active{false}, busy{false};
+    std::thread controller_thread([&] {
+      Peer controller(port);
+      controller.request(hello(ajar::protocol::Role::kController));
+      auto next = Clock::now();
+      for (int i = 0; !done.load(); ++i) {
+        if (!active) {
+          std::this_thread::sleep_for(1ms);
+          next = Clock::now();
+          continue;
+        }
+        busy = true;
+        if (active) {
           auto width = ajar::testing::good_width();
           width.p2_moving_edge.position_m.y() -= (i % 2) * 0.01;
           ajar::protocol::Message reply;
           if (controller.request(width, &reply) &&
               std::holds_alternative<ajar::protocol::Ack>(reply))
             ++commands;
-          next += 10ms;
-          std::this_thread::sleep_until(next);
-          if (Clock::now() > next + 100ms) next = Clock::now();  // a slow save: no burst after
         }
-      });
-      std::this_thread::sleep_for(200ms);  // the load is running
+        busy = false;
+        next += 10ms;
+        std::this_thread::sleep_until(next);
+        if (Clock::now() > next + 100ms) next = Clock::now();  // a slow save: no burst after
+      }
+    });
+    const auto set_active = [&](bool on) {
+      active = on;
+      while (!on && busy.load())
+        std::this_thread::sleep_for(100us);  // a "controller paused" block starts after its Ack
+    };
+    const auto pings = [&] {
+      std::vector<std::int64_t> out;
+      for (int i = 0; i < per_block; ++i) {
+        const auto sent = Clock::now();
+        if (!observer.request(ajar::protocol::Ping{})) ajar::bench::fail("Ping not answered");
+        out.push_back(
+            std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - sent).count());
+        std::this_thread::sleep_for(std::chrono::milliseconds(interval_ms));
+      }
+      return out;
+    };
+    for (int k = 0; k < blocks; ++k) {
+      set_active(false);
+      auto base = pings();
+      set_active(true);
+      std::this_thread::sleep_for(20ms);  // the controller's commands are flowing
+      auto subject = pings();
+      b.add(base, subject);
     }
-    std::vector<double> rtts_us;
-    for (int i = 0; i < samples; ++i) {
-      const auto sent = Clock::now();
-      if (!observer.request(ajar::protocol::Ping{})) break;
-      rtts_us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - sent).count());
-      std::this_thread::sleep_for(std::chrono::milliseconds(interval_ms));
-    }
+    set_active(false);
     done = true;
-    if (controller_thread.joinable()) controller_thread.join();
-    f.samples = rtts_us.size();
-    f.commands = commands.load();
-    f.p50_us = percentile(rtts_us, 0.50);
-    f.p99_us = percentile(rtts_us, 0.99);
-    f.max_us = rtts_us.empty() ? 0 : rtts_us.back();
+    controller_thread.join();
   }
+  const std::string disk =
+      slow_ms == 0 ? "normal disk" : "fsync +" + std::to_string(slow_ms) + " ms";
+  ajar::bench::latency_rows("another client's Ping, controller commanding (" + disk + ")", b,
+                            "controller paused", "", "<= 1.2x", true);
+  ajar::bench::info("ping under load (" + disk + "): " + std::to_string(commands.load()) +
+                    " controller commands acknowledged (each saved before its Ack)");
   asio::post(io, [&] {
     server.stop_accepting();
     engine->shutdown();
     server.stop();
   });
   io_thread.join();
-  return f;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  int samples = 3000;
+  int blocks = 2 * ajar::bench::kMinBlocks;
+  int per_block = 200;
   int interval_ms = 1;
   int slow_ms = 50;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--smoke") {
-      samples = 200;
-    } else if (a == "--samples" && i + 1 < argc) {
-      samples = std::stoi(argv[++i]);
+      blocks = 3;
+      per_block = 30;
+    } else if (a == "--blocks" && i + 1 < argc) {
+      blocks = std::stoi(argv[++i]);
+    } else if (a == "--per-block" && i + 1 < argc) {
+      per_block = std::stoi(argv[++i]);
     } else if (a == "--interval-ms" && i + 1 < argc) {
       interval_ms = std::stoi(argv[++i]);
     } else if (a == "--slow-ms" && i + 1 < argc) {
       slow_ms = std::stoi(argv[++i]);
     } else {
-      std::fprintf(stderr, "usage: %s [--samples N] [--interval-ms MS] [--slow-ms MS] [--smoke]\n",
+      std::fprintf(stderr,
+                   "usage: %s [--blocks N] [--per-block N] [--interval-ms MS] [--slow-ms MS] "
+                   "[--smoke]\n",
                    argv[0]);
       return 2;
     }
@@ -214,26 +229,15 @@ int main(int argc, char** argv) {
   quiet.level = ajar::daemon::LogLevel::kNone;
   quiet.sink = ajar::daemon::LogSink::kStderr;
   ajar::daemon::init_logging(quiet);
-
-  std::printf(
-      "# Ping RTT of an observer, %d samples every %d ms; load: a controller command "
-      "(persisted) every 10 ms\n",
-      samples, interval_ms);
-  std::printf("# load average before: %s; hardware threads: %u\n", load_average().c_str(),
-              std::thread::hardware_concurrency());
-  std::printf("%-28s %8s %10s %10s %10s %9s %10s\n", "condition", "samples", "p50_us", "p99_us",
-              "max_us", "commands", "p99/alone");
-  for (const int slow : {0, slow_ms}) {
-    const Figures alone = run(slow, false, samples, interval_ms);
-    const Figures loaded = run(slow, true, samples, interval_ms);
-    const std::string disk = slow == 0 ? "normal disk" : "fsync +" + std::to_string(slow) + " ms";
-    std::printf("%-28s %8zu %10.1f %10.1f %10.1f %9s %10s\n", (disk + ", alone").c_str(),
-                alone.samples, alone.p50_us, alone.p99_us, alone.max_us, "-", "1.00");
-    std::printf("%-28s %8zu %10.1f %10.1f %10.1f %9zu %10.2f\n", (disk + ", controller").c_str(),
-                loaded.samples, loaded.p50_us, loaded.p99_us, loaded.max_us, loaded.commands,
-                alone.p99_us > 0 ? loaded.p99_us / alone.p99_us : 0.0);
-  }
-  std::printf("# load average after: %s\n", load_average().c_str());
+  const ajar::bench::Placement where = ajar::bench::placement();
+  ajar::bench::info("ping under load: an observer's Ping, " + std::to_string(blocks) +
+                    " blocks of " + std::to_string(per_block) + " (one every " +
+                    std::to_string(interval_ms) +
+                    " ms) per side: controller paused / a door width every 10 ms; " +
+                    where.describe() + "; load average " + ajar::bench::load_average());
+  for (const int slow : {0, slow_ms})
+    run(slow, blocks, per_block, interval_ms, where);
+  ajar::bench::info("ping under load: load average " + ajar::bench::load_average() + " at the end");
   ajar::daemon::shutdown_logging();
   return 0;
 }

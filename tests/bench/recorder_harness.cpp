@@ -48,11 +48,10 @@ Block run_block(const daemon::Config& config, bool fifo, bool record, double sec
   auto set = drivers::make_drivers(config.drivers, config.base);
   const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
   daemon::ControlLoopSettings s;
-  s.rate_hz = config.control.rate_hz;
-  s.realtime = fifo;
-  s.priority = config.control.priority;
-  s.deadman_timeout_s = config.safety.deadman_timeout_s;
-  s.motion_timeout_margin_s = config.control.motion_timeout_margin_s;
+  s.control = config.control;
+  s.control.realtime = fifo;
+  s.control.lock_memory = false;
+  s.safety = config.safety;
   s.base = config.base;
   drivers::ManagedMotionCard card(std::move(set.card), axes);
   Outcome up = card.configure();
@@ -89,13 +88,17 @@ void run(const daemon::Config& base_config, bool fifo, double seconds, int block
   config.control.lock_memory = false;
   const std::string mode =
       fifo ? "SCHED_FIFO " + std::to_string(config.control.priority) : std::string("SCHED_OTHER");
-  std::vector<double> off_p99, on_p99;
+  Paired p99;  // per block pair: (recorder off, recorder on)
+  double off_block = 0;
   std::uint64_t on_samples = 0, off_samples = 0, on_overruns = 0, off_overruns = 0;
   recorder::RecorderCounters counters, total;
   for (int b = 0; b < 2 * blocks; ++b) {
     const bool record = b % 2 == 1;
     const Block r = run_block(config, fifo, record, seconds / blocks, dir, &counters);
-    (record ? on_p99 : off_p99).push_back(r.p99_ns / 1e3);
+    if (record)
+      p99.add(off_block, r.p99_ns / 1e3);
+    else
+      off_block = r.p99_ns / 1e3;
     (record ? on_samples : off_samples) += r.samples;
     (record ? on_overruns : off_overruns) += r.overruns;
     if (record) {
@@ -104,15 +107,11 @@ void run(const daemon::Config& base_config, bool fifo, double seconds, int block
       total.bytes_written += counters.bytes_written;
     }
   }
-  // The median block p99 of each side (a block disturbed by the machine does not decide it).
-  const auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v.empty() ? 0.0 : v[v.size() / 2];
-  };
-  row("loop wake-up p99, recorder on vs off, " + mode, median(on_p99), "us", median(off_p99),
-      fifo ? "<= 1.1x" : "",
-      "median of " + std::to_string(blocks) + " alternating blocks each; " +
-          std::to_string(on_samples) + "/" + std::to_string(off_samples) + " cycles");
+  // The median of the block ratios (harness.hpp): a block disturbed by the machine does not
+  // decide it.
+  compare_row("loop wake-up p99, recorder on vs off, " + mode, p99, "us", fifo ? "<= 1.1x" : "",
+              std::to_string(blocks) + " alternating blocks each; " + std::to_string(on_samples) +
+                  "/" + std::to_string(off_samples) + " cycles");
   row("loop overruns, recorder on vs off, " + mode, static_cast<double>(on_overruns), "",
       static_cast<double>(off_overruns), "", "deadlines missed");
   row("recorder loop samples dropped, " + mode, static_cast<double>(total.loop_dropped), "",
@@ -133,11 +132,15 @@ int main(int argc, char** argv) {
     fail(e.what());
   }
   const double seconds = o.smoke ? 0.4 : 40.0;
-  const int blocks = o.smoke ? 1 : 8;
+  const int blocks = o.smoke ? 1 : kMinBlocks;
+  // The loop and the recorder's threads on the server CPU, like the loop harness's.
+  const Placement where = placement();
+  pin_this_thread(where.server);
   const std::string dir = o.dir + "/recordings";
   std::filesystem::remove_all(dir);
   info("recorder cost on the loop: load average " + load_average() + " at start; " +
-       std::to_string(seconds) + " s per side and policy in " + std::to_string(blocks) + " blocks");
+       std::to_string(seconds) + " s per side and policy in " + std::to_string(blocks) +
+       " blocks; " + where.describe());
   run(config, false, seconds, blocks, dir);
   if (fifo_permitted(config.control.priority)) {
     run(config, true, seconds, blocks, dir);

@@ -1,9 +1,9 @@
 // TLS cost: one ajar_client's Ping -> Pong round trip through the server over mutual TLS 1.3 vs
-// the same over plaintext, in one run, interleaved in batches (plaintext, TLS, plaintext, ...) so
-// both see the same machine load. Certificates are made by scripts/make-certs in a temporary
-// directory. Prints p50/p99 of each and the TLS/plaintext ratio (target p99 <= 1.3x,
-// docs/performance.md), and the ROW lines scripts/bench puts in its table (harness.hpp).
-// --smoke: a few hundred samples (ctest), --samples N otherwise (default 20000).
+// the same over plaintext, in one run, in alternating blocks (plaintext, TLS, plaintext, ...;
+// harness.hpp: the median of the block ratios, threads pinned the same way for both).
+// Certificates are made by scripts/make-certs in a temporary directory. Prints the ROW lines
+// scripts/bench puts in its table (target p99 <= 1.3x, docs/performance.md).
+// --smoke: 3 blocks of 100 (ctest); --blocks N otherwise (default 20 blocks of 1000 each).
 #include <utility>  // before Asio (asio issue 944)
 
 #include <algorithm>
@@ -32,15 +32,17 @@ int fail(const std::string& what) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int samples = 20000;
+  int blocks = 2 * ajar::bench::kMinBlocks, per_block = 1000;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--smoke") {
-      samples = 400;
-    } else if (a == "--samples" && i + 1 < argc) {
-      samples = std::max(100, std::atoi(argv[++i]));
+      blocks = 3;
+      per_block = 100;
+    } else if (a == "--blocks" && i + 1 < argc) {
+      blocks = std::max(1, std::atoi(argv[++i]));
     }
   }
+  const ajar::bench::Placement where = ajar::bench::placement();
   std::string pattern = (std::filesystem::temp_directory_path() / "ajar-tls-bench-XXXXXX").string();
   if (::mkdtemp(pattern.data()) == nullptr) return fail("mkdtemp");
   const std::string dir = pattern;
@@ -57,8 +59,12 @@ int main(int argc, char** argv) {
   tls_options.tls.certificate = dir + "/ajard.crt";
   tls_options.tls.private_key = dir + "/ajard.key";
   tls_options.tls.ca = dir + "/ca.crt";
+  // Both servers' I/O threads on the server CPU, both clients' I/O threads and this thread on
+  // the client CPU (created while pinned there): the same placement for plaintext and TLS.
+  ajar::bench::pin_this_thread(where.server);
   ajar::test::ServerThread plain_server(plain_engine, ajar::daemon::ServerOptions{});
   ajar::test::ServerThread tls_server(tls_engine, tls_options);
+  ajar::bench::pin_this_thread(where.client);
 
   ajar::client::ClientOptions options;
   options.retries = 0;
@@ -74,43 +80,30 @@ int main(int argc, char** argv) {
       !tls.hello(ajar::protocol::Role::kObserver).ok())
     return fail("Hello refused");
 
-  std::vector<std::int64_t> plain_ns;
-  std::vector<std::int64_t> tls_ns;
-  constexpr int kBatch = 100;
-  auto run = [](ajar::client::Client& c, std::vector<std::int64_t>& out, int n) {
+  auto run = [](ajar::client::Client& c, int n) {
+    std::vector<std::int64_t> out;
     for (int i = 0; i < n; ++i) {
       const auto start = ajar::bench::now_ns();
       const auto r = c.request(ajar::protocol::Ping{static_cast<std::uint64_t>(i)});
       const auto ns = ajar::bench::now_ns() - start;
-      if (!r.ok()) return false;
+      if (!r.ok()) return std::vector<std::int64_t>{};
       out.push_back(ns);
     }
-    return true;
+    return out;
   };
-  run(plain, plain_ns, kBatch);  // warm-up, discarded
-  run(tls, tls_ns, kBatch);
-  plain_ns.clear();
-  tls_ns.clear();
-  for (int done = 0; done < samples; done += kBatch) {
-    if (!run(plain, plain_ns, kBatch) || !run(tls, tls_ns, kBatch)) return fail("Ping failed");
+  (void)run(plain, per_block);  // warm-up, discarded
+  (void)run(tls, per_block);
+  ajar::bench::SampleBlocks b;  // A (plaintext) B (TLS) A B ...
+  for (int i = 0; i < blocks; ++i) {
+    auto base = run(plain, per_block);
+    auto subject = run(tls, per_block);
+    if (base.empty() || subject.empty()) return fail("Ping failed");
+    b.add(base, subject);
   }
-  const auto plain_q = ajar::bench::quantiles(plain_ns);
-  const auto tls_q = ajar::bench::quantiles(tls_ns);
-  const double p50_plain = plain_q.p50 / 1e3;
-  const double p99_plain = plain_q.p99 / 1e3;
-  const double p50_tls = tls_q.p50 / 1e3;
-  const double p99_tls = tls_q.p99 / 1e3;
-  std::printf("# Ping round trip through the server (ajar_client, loopback), %zu samples each\n",
-              plain_ns.size());
-  std::printf("# %-10s %10s %10s\n", "transport", "p50 us", "p99 us");
-  std::printf("# %-10s %10.1f %10.1f\n", "plaintext", p50_plain, p99_plain);
-  std::printf("# %-10s %10.1f %10.1f\n", "TLS 1.3", p50_tls, p99_tls);
-  std::printf("# TLS/plaintext: p50 %.2fx, p99 %.2fx (target p99 <= 1.3x)\n", p50_tls / p50_plain,
-              p99_tls / p99_plain);
-  const std::string note = "vs plaintext, same run (" + std::to_string(plain_ns.size()) +
-                           " Pings each, ajar_client, in-process server)";
-  ajar::bench::row("Ping RTT over mutual TLS 1.3, p50", p50_tls, "us", p50_plain, "", note);
-  ajar::bench::row("Ping RTT over mutual TLS 1.3, p99", p99_tls, "us", p99_plain, "<= 1.3x", note);
+  ajar::bench::info("TLS vs plaintext Ping: " + std::to_string(blocks) + " blocks of " +
+                    std::to_string(per_block) + " per side (ajar_client, in-process server); " +
+                    where.describe() + "; load average " + ajar::bench::load_average());
+  ajar::bench::latency_rows("Ping RTT over mutual TLS 1.3", b, "plaintext", "", "<= 1.3x");
   std::error_code ignored;
   std::filesystem::remove_all(dir, ignored);
   return 0;

@@ -301,7 +301,7 @@ TEST(Client, RecordedHeadersFollowTheFrameBoundaries) {
   for (std::size_t i = 0; i < headers.size(); ++i) {
     EXPECT_EQ(headers[i].type, static_cast<std::uint16_t>(expected[i].first)) << i;
     EXPECT_EQ(headers[i].payload_length, expected[i].second) << i;
-    EXPECT_EQ(headers[i].version_minor, 1) << i;
+    EXPECT_EQ(headers[i].version_minor, protocol::kVersionMinor) << i;
   }
   c.record_headers(false);
   ASSERT_TRUE(c.request(protocol::Ping{3}).ok());

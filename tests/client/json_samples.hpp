@@ -129,6 +129,7 @@ inline protocol::RobotModel robot_model() {
 
 inline protocol::Welcome welcome() {
   protocol::Welcome w;
+  w.version_minor = 1;  // the golden line is a 1.1 daemon's Welcome
   w.granted_role = protocol::Role::kController;
   w.session_id = 9007199254740993u;  // 2^53 + 1: exact only as an integer
   w.daemon_version = "0.1.0 \"dev\" \xc3\xa9";

@@ -13,6 +13,32 @@ namespace {
 
 using test::kPi;
 
+// The one conversion of a wheel rotation to motor counts (wheel_command and straight_command both
+// use it): rounded half away from zero, and refused at 2^53 counts, where doubles stop holding
+// every integer.
+TEST(WheelRadToMotorCounts, RoundsHalfAwayFromZeroAndRefusesBeyondTwoToTheFiftyThree) {
+  BaseGeometry base;
+  base.gear_ratio = 1;
+  base.encoder_counts_per_rev = 1;  // one count per wheel revolution
+  EXPECT_EQ(wheel_rad_to_motor_counts(2 * kPi * 2.4, base), 2);
+  EXPECT_EQ(wheel_rad_to_motor_counts(2 * kPi * 2.6, base), 3);
+  EXPECT_EQ(wheel_rad_to_motor_counts(-2 * kPi * 2.6, base), -3);
+  const double two_to_53 = 9007199254740992.0;  // powers of two: 2 pi times them is exact
+  EXPECT_EQ(wheel_rad_to_motor_counts(2 * kPi * (two_to_53 / 2), base),
+            static_cast<std::int64_t>(two_to_53 / 2));
+  EXPECT_FALSE(wheel_rad_to_motor_counts(2 * kPi * two_to_53, base));
+  EXPECT_FALSE(wheel_rad_to_motor_counts(-2 * kPi * two_to_53, base));
+  EXPECT_FALSE(wheel_rad_to_motor_counts(std::numeric_limits<double>::quiet_NaN(), base));
+  EXPECT_FALSE(wheel_rad_to_motor_counts(std::numeric_limits<double>::infinity(), base));
+}
+
+TEST(YawFromNormal, TurnsTheBaseOntoMinusTheNormal) {
+  EXPECT_DOUBLE_EQ(yaw_from_normal_rad(Vec3(-1, 0, 0)), 0.0);         // the door straight ahead
+  EXPECT_NEAR(yaw_from_normal_rad(Vec3(-1, -1, 0)), kPi / 4, 1e-15);  // door to the left: CCW
+  EXPECT_NEAR(yaw_from_normal_rad(Vec3(-1, 1, 0)), -kPi / 4, 1e-15);
+  EXPECT_DOUBLE_EQ(yaw_from_normal_rad(Vec3(-2, 0, 5)), 0.0);  // only the floor projection counts
+}
+
 TEST(WheelCommand, EquationSevenOppositeWheels) {
   BaseGeometry base;  // R_W 0.1, R_B 0.3
   const WheelCommand ccw = wheel_command(0.1, base);

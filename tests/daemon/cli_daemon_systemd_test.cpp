@@ -57,35 +57,6 @@ class NotifySocket {
   bool bound_ = false;
 };
 
-// FakeEngine, counting the daemon's watchdog checks (control_loop_healthy(), asked once per
-// watchdog tick and nowhere else in run_daemon).
-class CheckCountingEngine final : public daemon::Engine {
- public:
-  explicit CheckCountingEngine(FakeEngine& inner) : inner_(inner) {}
-  int checks() const { return checks_.load(); }
-
-  bool control_loop_healthy() const noexcept override {
-    ++checks_;
-    return inner_.control_loop_healthy();
-  }
-  void set_event_sink(EventSink sink) override { inner_.set_event_sink(std::move(sink)); }
-  void start() override { inner_.start(); }
-  void shutdown() noexcept override { inner_.shutdown(); }
-  protocol::Message handle_command(const protocol::Message& request) override {
-    return inner_.handle_command(request);
-  }
-  void controller_heartbeat() noexcept override { inner_.controller_heartbeat(); }
-  void controller_lost() override { inner_.controller_lost(); }
-  void poll() override { inner_.poll(); }
-  protocol::Status status() const override { return inner_.status(); }
-  protocol::Telemetry telemetry() const override { return inner_.telemetry(); }
-  protocol::Welcome welcome_template() const override { return inner_.welcome_template(); }
-
- private:
-  FakeEngine& inner_;
-  mutable std::atomic<int> checks_{0};
-};
-
 TEST(DaemonUnderSystemd, ReadyAfterServingWatchdogOnlyWhileHealthyStoppingOnSigterm) {
   ajar::testing::TempDir dir;
   NotifySocket notify(dir.path() + "/notify");
@@ -96,8 +67,10 @@ TEST(DaemonUnderSystemd, ReadyAfterServingWatchdogOnlyWhileHealthyStoppingOnSigt
 
   FakeEngine fake_engine;
   FakeEngine* fake = &fake_engine;
-  auto engine = std::make_unique<CheckCountingEngine>(fake_engine);
-  CheckCountingEngine* counter = engine.get();
+  // In front of the fake: counts the daemon's watchdog checks (control_loop_healthy(), asked once
+  // per watchdog tick and nowhere else in run_daemon).
+  auto engine = FakeEngine::in_front_of(fake_engine);
+  FakeEngine* counter = engine.get();
   daemon::Config config;
   config.network.bind_address = "127.0.0.1";
   config.network.port = 0;
@@ -118,12 +91,13 @@ TEST(DaemonUnderSystemd, ReadyAfterServingWatchdogOnlyWhileHealthyStoppingOnSigt
   ASSERT_TRUE(notify.wait_for("STATUS=control loop stalled"));
   // Six more checks while stalled, none of them pets (a pet follows its check at once, so after
   // the count is reached every pet it could have sent is already queued on the socket).
-  const int stalled_at = counter->checks();
+  const int stalled_at = counter->health_checks();
   const auto guard = std::chrono::steady_clock::now() + 20s;  // against hanging only
-  while (counter->checks() < stalled_at + 6 && std::chrono::steady_clock::now() < guard) {
+  while (counter->health_checks() < stalled_at + 6 && std::chrono::steady_clock::now() < guard) {
     EXPECT_EQ(notify.receive(20ms).find("WATCHDOG=1"), std::string::npos) << "petted while stalled";
   }
-  ASSERT_GE(counter->checks(), stalled_at + 6) << "the daemon stopped checking the control loop";
+  ASSERT_GE(counter->health_checks(), stalled_at + 6)
+      << "the daemon stopped checking the control loop";
   for (std::string left = notify.receive(1ms); !left.empty(); left = notify.receive(1ms)) {
     EXPECT_EQ(left.find("WATCHDOG=1"), std::string::npos) << "petted while stalled";
   }

@@ -10,6 +10,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -62,7 +63,23 @@ class AjardLifecycle : public EndToEndOnMock {
     EXPECT_TRUE(
         std::holds_alternative<protocol::Ack>(controller.request(protocol::Drive{0.1, 0.0})));
     controller.request(protocol::Stop{});
-    // At rest before the controller leaves (else its leaving is a DEADMAN).
+    // At rest before the controller leaves (else its leaving is a DEADMAN). A Telemetry frame
+    // already on its way may predate the jog, so first the jog's end must have been reported:
+    // its motion_stopped (or motion_finished) event, which the daemon sends once the loop has
+    // ended the stop.
+    const auto ended = [&controller] {
+      for (const auto& e : controller.events())
+        if (e.kind == protocol::EventKind::kMotionStopped ||
+            e.kind == protocol::EventKind::kMotionFinished)
+          return true;
+      return false;
+    };
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (!ended() && std::chrono::steady_clock::now() < give_up) {
+      controller.request(protocol::Ping{1});
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    EXPECT_TRUE(ended()) << "the jog's end was never reported";
     for (int frames = 0; frames < 1000; ++frames) {
       ASSERT_TRUE(watcher.wait_telemetry(watcher.telemetry_count() + 1));
       controller.request(protocol::Ping{1});

@@ -10,6 +10,8 @@
 #include <sstream>
 
 #include "fake_engine_fixture.hpp"
+#include "ajar/daemon/state_store.hpp"
+#include "ajar/protocol/codec.hpp"
 #include "state_file_checksum.hpp"
 
 namespace ajar::testing {
@@ -24,6 +26,13 @@ std::string read_file(const std::string& path) {
 
 using protocol::EventKind;
 using protocol::ProcedureState;
+
+// The state file as the daemon reads it.
+daemon::StateRecord decoded(const std::string& bytes) {
+  auto r = daemon::decode_state(bytes);
+  EXPECT_TRUE(r.ok()) << r.error().message;
+  return r.ok() ? *r : daemon::StateRecord{};
+}
 
 class EnginePersistence : public EngineTest {
  protected:
@@ -199,10 +208,9 @@ TEST_F(EnginePersistence, ImpossibleStateIsRejectedKeptAndLatched) {
   engine.reset();
   const std::string file = config.state.directory + "/ajard.state";
   std::string text = read_file(file);
-  const auto at = text.find("fault 0");
-  ASSERT_NE(at, std::string::npos) << text;
-  text.replace(at, 7, "fault 65535");
-  text = with_checksum(text.substr(0, text.rfind("crc32 ")));
+  ASSERT_EQ(decoded(text).procedure.fault, ErrorCode::kOk);
+  text[14] = text[15] = '\xff';  // the latched fault: 65535
+  text = with_header_crc(text);
   std::ofstream(file, std::ios::trunc) << text;
   start();
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kStateRejected);
@@ -233,8 +241,7 @@ TEST_F(EnginePersistence, ACrashRightAfterAnEmergencyStopAckComesBackLatched) {
       wait_for([&] { return engine->settled_generation() >= engine->accepted_generation(); }));
   expect_ack(send(protocol::EmergencyStop{}), ProcedureState::kFault);
   const std::string on_disk = read_file(config.state.directory + "/ajard.state");
-  EXPECT_NE(on_disk.find("fault 0\n"), std::string::npos) << "the save landed already:\n"
-                                                          << on_disk;
+  EXPECT_EQ(decoded(on_disk).procedure.fault, ErrorCode::kOk) << "the save landed already";
   crash_and_start(on_disk);
   EXPECT_EQ(engine->status().state, ProcedureState::kFault);
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kUncleanShutdown);
@@ -251,13 +258,11 @@ TEST_F(EnginePersistence, ACrashRightAfterAnEmergencyStopAckComesBackLatched) {
 // A clean shutdown leaves the mark: no fault after the restart. A first start (no file) is clean.
 TEST_F(EnginePersistence, OnlyACleanShutdownOrAFirstStartComesBackWithoutAFault) {
   start();
-  EXPECT_EQ(engine->status().latched_fault, ErrorCode::kOk);  // first start
-  EXPECT_NE(read_file(config.state.directory + "/ajard.state").find("clean_shutdown 0\n"),
-            std::string::npos);  // recorded as running before anything is served
+  EXPECT_EQ(engine->status().latched_fault, ErrorCode::kOk);      // first start
+  EXPECT_FALSE(decoded(read_file(state_file())).clean_shutdown);  // running, before serving
   walk_to(ProcedureState::kAwaitingPlane);
   engine.reset();  // shutdown()
-  EXPECT_NE(read_file(config.state.directory + "/ajard.state").find("clean_shutdown 1\n"),
-            std::string::npos);
+  EXPECT_TRUE(decoded(read_file(state_file())).clean_shutdown);
   start();
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kOk);
   EXPECT_EQ(engine->status().state, ProcedureState::kAwaitingPlane);
@@ -271,16 +276,12 @@ TEST_F(EnginePersistence, AVersionOneStateFileIsRestoredAndNeedsAReset) {
   walk_to(ProcedureState::kAwaitingPlane);
   engine.reset();
   const std::string file = config.state.directory + "/ajard.state";
-  auto as_version_one = [&](const std::string& fault_line) {
-    std::string text = read_file(file);
-    text = text.substr(0, text.rfind("crc32 "));
-    text.replace(0, 12, "ajar-state 1");
-    text.erase(text.find("clean_shutdown "), 17);
-    text.replace(text.find("fault "), text.find('\n', text.find("fault ")) - text.find("fault "),
-                 fault_line);
-    std::ofstream(file, std::ios::trunc) << with_checksum(text);
+  auto as_version_one = [&](ErrorCode fault) {
+    daemon::StateRecord record = decoded(read_file(file));
+    record.procedure.fault = fault;
+    std::ofstream(file, std::ios::trunc) << legacy_text(record, 1);
   };
-  as_version_one("fault 0");
+  as_version_one(ErrorCode::kOk);
   start();
   EXPECT_TRUE(engine->status().restored_from_disk);
   EXPECT_TRUE(engine->status().has_width && engine->status().has_handle);
@@ -289,10 +290,38 @@ TEST_F(EnginePersistence, AVersionOneStateFileIsRestoredAndNeedsAReset) {
   EXPECT_NE(engine->startup_warnings()[0].find("older ajard"), std::string::npos);
   expect_ack(send(protocol::Reset{}), ProcedureState::kAwaitingPlane);
   engine.reset();
-  as_version_one("fault 513");
+  as_version_one(ErrorCode::kEmergencyStopped);
   start();
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kEmergencyStopped);  // never un-latched
   EXPECT_TRUE(engine->status().has_width);
+}
+
+// An upgrade from format 2 (a committed file, as the ajard before format 3 wrote it after a clean
+// shutdown with the door's width and handle measured): read once — its measurements restored, no
+// fault — and rewritten in format 3 by the start's first save, with the same requests.
+TEST_F(EnginePersistence, AFormatTwoStateFileIsReadOnceAndRewrittenInFormatThree) {
+  std::filesystem::create_directories(config.state.directory);
+  const std::string committed = read_file(AJAR_SOURCE_DIR "/tests/daemon/data/ajard.state.format2");
+  ASSERT_EQ(committed.rfind("ajar-state 2\n", 0), 0U) << committed;
+  std::ofstream(state_file()) << committed;
+  start();
+  EXPECT_TRUE(engine->status().restored_from_disk);
+  EXPECT_EQ(engine->status().state, ProcedureState::kAwaitingPlane);
+  EXPECT_EQ(engine->status().latched_fault, ErrorCode::kOk);
+  EXPECT_TRUE(engine->startup_warnings().empty());
+  const std::string rewritten = read_file(state_file());
+  ASSERT_EQ(rewritten.rfind(daemon::kStateMagic, 0), 0U);
+  const daemon::StateRecord now = decoded(rewritten);
+  const daemon::StateRecord before = decoded(committed);
+  EXPECT_EQ(now.format_version, 3);
+  EXPECT_FALSE(now.clean_shutdown);  // running
+  ASSERT_TRUE(now.procedure.width && now.procedure.handle);
+  EXPECT_TRUE(protocol::wire_equal(*now.procedure.width, *before.procedure.width));
+  EXPECT_TRUE(protocol::wire_equal(*now.procedure.handle, *before.procedure.handle));
+  EXPECT_TRUE(protocol::wire_equal(*now.procedure.width, good_width()));
+  restart();  // and format 3 comes back as format 2 did
+  EXPECT_EQ(engine->status().state, ProcedureState::kAwaitingPlane);
+  EXPECT_NEAR(engine->status().width.length_m, 0.85, 1e-12);
 }
 
 // The daemon does not serve when it cannot record that it runs: a crash would go unnoticed.
@@ -320,9 +349,9 @@ TEST_F(EnginePersistence, DuringTheShutdownOnlyStopsAreExecutedAndAnEmergencySto
   engine->seal_state();
   ASSERT_TRUE(
       wait_for([&] { return engine->settled_generation() >= engine->accepted_generation(); }));
-  const std::string on_disk = read_file(config.state.directory + "/ajard.state");
-  EXPECT_NE(on_disk.find("clean_shutdown 1\n"), std::string::npos) << on_disk;
-  EXPECT_NE(on_disk.find("fault 513\n"), std::string::npos) << on_disk;
+  const daemon::StateRecord on_disk = decoded(read_file(state_file()));
+  EXPECT_TRUE(on_disk.clean_shutdown);
+  EXPECT_EQ(on_disk.procedure.fault, ErrorCode::kEmergencyStopped);
   restart();
   EXPECT_EQ(engine->status().latched_fault, ErrorCode::kEmergencyStopped);
 }

@@ -133,7 +133,9 @@ TEST_F(ProtocolVersions, AOneOneSessionOnTheSameDaemonGetsOneOneLayouts) {
   EXPECT_EQ(read_until(old.socket(), MessageType::kWelcome).header.payload_length, 72u);
 
   TestClient c(server_.port());
-  c.send_raw(frame_at(hello_as(Role::kObserver), 1, 1));
+  auto hello_1_1 = hello_as(Role::kObserver);
+  hello_1_1.version_minor = 1;  // a 1.1 client on this 1.2 daemon
+  c.send_raw(frame_at(hello_1_1, 1, 1));
   const RawFrame welcome = read_until(c.socket(), MessageType::kWelcome);
   EXPECT_EQ(welcome.header.version_minor, 1);
   EXPECT_EQ(welcome.header.payload_length, 73u);
@@ -143,6 +145,11 @@ TEST_F(ProtocolVersions, AOneOneSessionOnTheSameDaemonGetsOneOneLayouts) {
   EXPECT_EQ(status.header.payload_length, 464u);
   c.send_raw(frame_at(protocol::GetRobotModel{}, 3, 1));
   EXPECT_EQ(read_until(c.socket(), MessageType::kRobotModel).header.request_id, 3u);
+  // A 1.2 request on the 1.1 session (in a 1.2 frame): refused, the session goes on.
+  c.send_raw(frame_at(protocol::ListRecordings{}, 4, 2));
+  const RawFrame refused = read_until(c.socket(), MessageType::kError);
+  EXPECT_EQ(refused.header.version_minor, 1);
+  EXPECT_EQ(refused.header.request_id, 4u);
 
   // One event, two layouts: each session gets its own minor's header.
   protocol::Event event;

@@ -1,15 +1,19 @@
-// The state file: versioned text with a checksum and the clean-shutdown mark, replaced atomically;
-// the writer thread, whose stop is bounded when the disk hangs.
+// The state file: a versioned header with the clean-shutdown mark and the latched fault, then the
+// accepted requests as protocol frames (format 3); the text formats 1 and 2 older ajard wrote,
+// still read; replaced atomically; the writer thread, whose stop is bounded when the disk hangs.
 #include <sys/stat.h>
 
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
+#include <vector>
 
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/state_store.hpp"
+#include "ajar/protocol/codec.hpp"
 #include "fake_door.hpp"
 #include "state_file_checksum.hpp"
 
@@ -55,14 +59,10 @@ std::string read_all(const std::string& path) {
   return s.str();
 }
 
-TEST(StateFormat, RoundTripsBitIdentically) {
-  const StateRecord state = full_record();
-  const ProcedureRecord& r = state.procedure;
-  auto decoded_state = decode_state(encode_state(state));
-  ASSERT_TRUE(decoded_state.ok()) << decoded_state.error().message;
-  EXPECT_TRUE(decoded_state->clean_shutdown);
-  EXPECT_EQ(decoded_state->format_version, 2);
-  const ProcedureRecord* decoded = &decoded_state->procedure;
+void expect_full(const StateRecord& decoded_state) {
+  const ProcedureRecord& r = full_record().procedure;
+  const ProcedureRecord* decoded = &decoded_state.procedure;
+  ASSERT_TRUE(decoded->width && decoded->handle && decoded->plane && decoded->contact);
   expect_same(decoded->width->p1_hinge, r.width->p1_hinge);
   expect_same(decoded->width->p2_moving_edge, r.width->p2_moving_edge);
   expect_same(decoded->handle->p2_free_end, r.handle->p2_free_end);
@@ -76,6 +76,33 @@ TEST(StateFormat, RoundTripsBitIdentically) {
   EXPECT_EQ(decoded->fault, ErrorCode::kDeadman);
 }
 
+TEST(StateFormat, RoundTripsBitIdentically) {
+  auto decoded_state = decode_state(encode_state(full_record()));
+  ASSERT_TRUE(decoded_state.ok()) << decoded_state.error().message;
+  EXPECT_TRUE(decoded_state->clean_shutdown);
+  EXPECT_EQ(decoded_state->format_version, 3);
+  expect_full(*decoded_state);
+}
+
+// The requests are stored as protocol frames: the header, then exactly the frames the wire format
+// makes of them (request id 0), in the order width, handle, plane, contact.
+TEST(StateFormat, StoresTheAcceptedRequestsAsProtocolFrames) {
+  const StateRecord state = full_record();
+  const std::string bytes = encode_state(state);
+  ASSERT_EQ(bytes.compare(0, 8, "AJARSTAT"), 0);
+  EXPECT_EQ(static_cast<unsigned char>(bytes[8]), 3);  // format version, little-endian
+  EXPECT_EQ(static_cast<unsigned char>(bytes[9]), 0);
+  EXPECT_EQ(static_cast<unsigned char>(bytes[16]), 4);  // four frames
+  std::vector<std::uint8_t> frames;
+  const ProcedureRecord& r = state.procedure;
+  for (const protocol::Message& m :
+       std::vector<protocol::Message>{*r.width, *r.handle, *r.plane, *r.contact}) {
+    ASSERT_TRUE(protocol::encode_append(protocol::Envelope{0, 0, m}, frames));
+  }
+  ASSERT_EQ(bytes.size(), 22 + frames.size());
+  EXPECT_EQ(bytes.substr(22), std::string(frames.begin(), frames.end()));
+}
+
 TEST(StateFormat, EmptyRecordRoundTripsAndSaysRunning) {
   auto decoded = decode_state(encode_state(StateRecord{}));
   ASSERT_TRUE(decoded.ok());
@@ -83,50 +110,130 @@ TEST(StateFormat, EmptyRecordRoundTripsAndSaysRunning) {
   EXPECT_FALSE(r.width || r.handle || r.plane || r.contact);
   EXPECT_EQ(r.phase, Phase::kIdle);
   EXPECT_FALSE(decoded->clean_shutdown);
+  EXPECT_EQ(encode_state(StateRecord{}).size(), 22U);  // the header alone
 }
 
-// Files of format 1 (an older ajard) are read, with their fault and measurements; they have no
-// clean-shutdown mark, so they read as not clean (the engine latches UNCLEAN_SHUTDOWN).
-TEST(StateFormat, ReadsVersionOneFilesAsNotCleanAndRefusesTheMarkInThem) {
-  std::string body = encode_state(full_record());
+// What older ajard wrote is read (once: the engine's first save rewrites it in format 3): format 2
+// with its clean-shutdown mark, format 1 without one, so it reads as not clean (the engine latches
+// UNCLEAN_SHUTDOWN); a mark in a format 1 file is refused.
+TEST(StateFormat, ReadsTheTextFormatsOneAndTwo) {
+  auto v2 = decode_state(legacy_text(full_record(), 2));
+  ASSERT_TRUE(v2.ok()) << v2.error().message;
+  EXPECT_EQ(v2->format_version, 2);
+  EXPECT_TRUE(v2->clean_shutdown);
+  expect_full(*v2);
+
+  std::string body = legacy_text(full_record(), 2);
   body = body.substr(0, body.rfind("crc32 "));
   body.replace(0, 12, "ajar-state 1");
-  const auto mark = body.find("clean_shutdown 1\n");
-  ASSERT_NE(mark, std::string::npos) << body;
   auto with_mark = decode_state(with_checksum(body));
   ASSERT_FALSE(with_mark.ok());  // version 1 never had the line
   EXPECT_NE(with_mark.error().message.find("unexpected"), std::string::npos);
-  body.erase(mark, 17);
-  auto v1 = decode_state(with_checksum(body));
+  auto v1 = decode_state(legacy_text(full_record(), 1));
   ASSERT_TRUE(v1.ok()) << v1.error().message;
   EXPECT_EQ(v1->format_version, 1);
   EXPECT_FALSE(v1->clean_shutdown);
-  EXPECT_EQ(v1->procedure.fault, ErrorCode::kDeadman);
-  EXPECT_TRUE(v1->procedure.width && v1->procedure.plane);
+  expect_full(*v1);
 }
 
 TEST(StateFormat, RefusesCorruptTruncatedAndForeignFiles) {
   const std::string good = encode_state(full_record());
-  std::string flipped = good;
-  flipped[good.find("width") + 7] ^= 0x01;
-  EXPECT_FALSE(decode_state(flipped).ok());
-  EXPECT_FALSE(decode_state(good.substr(0, good.size() / 2)).ok());
-  EXPECT_FALSE(decode_state("").ok());
-  EXPECT_FALSE(decode_state("\x00\xff garbage").ok());
+  std::string in_a_frame = good;
+  in_a_frame[good.size() - 3] ^= 0x01;  // the contact point: the frame's CRC-32C
+  auto refused = decode_state(in_a_frame);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("frame 4"), std::string::npos) << refused.error().message;
+  std::string in_the_header = good;
+  in_the_header[14] ^= 0x01;  // the fault
+  refused = decode_state(in_the_header);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().message.find("header checksum"), std::string::npos)
+      << refused.error().message;
+  for (std::size_t size :
+       {std::size_t{0}, std::size_t{10}, std::size_t{21}, good.size() / 2, good.size() - 1}) {
+    EXPECT_FALSE(decode_state(good.substr(0, size)).ok()) << size;
+  }
+  EXPECT_FALSE(decode_state(std::string("\x00\xff garbage", 10)).ok());
+  std::string text_flipped = legacy_text(full_record(), 2);
+  text_flipped[text_flipped.find("width") + 7] ^= 0x01;
+  EXPECT_FALSE(decode_state(text_flipped).ok());
 
   // A future version with a valid checksum is refused by version, not by checksum.
-  std::string v3 = encode_state(StateRecord{});
-  v3 = v3.substr(0, v3.rfind("crc32")).replace(0, 12, "ajar-state 3");
-  auto refused = decode_state(with_checksum(v3));
+  std::string v4 = encode_state(StateRecord{});
+  v4[8] = 4;
+  refused = decode_state(with_header_crc(v4));
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().field, "state_file");
-  EXPECT_NE(refused.error().message.find("version 3"), std::string::npos)
+  EXPECT_NE(refused.error().message.find("version 4"), std::string::npos)
       << refused.error().message;
 }
 
-// The body of a good file with `from` replaced by `to`, signed again: checksum-valid nonsense.
-std::string edited(const std::string& from, const std::string& to) {
-  std::string body = encode_state(full_record());
+// A good file with header byte `at` set to `value`, its header signed again: checksum-valid
+// nonsense.
+std::string header_edited(std::size_t at, std::uint8_t value) {
+  std::string bytes = encode_state(full_record());
+  bytes[at] = static_cast<char>(value);
+  return with_header_crc(bytes);
+}
+
+std::string frame_of(const protocol::Message& m) {
+  std::vector<std::uint8_t> frame;
+  EXPECT_TRUE(protocol::encode_append(protocol::Envelope{0, 0, m}, frame));
+  return {frame.begin(), frame.end()};
+}
+
+TEST(StateFormat, RefusesImpossibleContentWithAValidChecksum) {
+  ASSERT_TRUE(decode_state(header_edited(10, 1)).ok());  // the editor itself is fine
+  const struct {
+    std::string bytes;
+    const char* says;
+  } cases[] = {
+      {header_edited(14, 0xFF), "fault code '"},  // 0x..FF: not a code
+      {header_edited(15, 0xFF), "fault code '"},
+      {with_header_crc(header_edited(14, 0x31).replace(15, 1, 1, '\x01')),
+       "fault code '305'"},  // 0x0131: a validation code is never latched
+      {header_edited(11, 4), "unknown phase 4"},
+      {header_edited(12, 2), "aligned is 2"},
+      {header_edited(10, 2), "clean_shutdown is 2"},
+      {header_edited(13, 7), "plane_consumed is 7"},
+      {header_edited(16, 5), "frame count 5"},
+      {header_edited(16, 3), "after the last frame"},
+      {header_edited(17, 1), "reserved"},
+      {encode_state(full_record()) + "x", "1 bytes after the last frame"},
+  };
+  for (const auto& c : cases) {
+    const auto r = decode_state(c.bytes);
+    ASSERT_FALSE(r.ok()) << c.says;
+    EXPECT_EQ(r.error().field, "state_file");
+    EXPECT_NE(r.error().message.find(c.says), std::string::npos)
+        << c.says << ": " << r.error().message;
+  }
+  // Frames the protocol's decoder accepts, but not as a state: a Ping, the width twice, a NaN.
+  std::string header = encode_state(StateRecord{});
+  header[16] = 2;
+  header = with_header_crc(header);
+  const auto width = *full_record().procedure.width;
+  auto nan_width = width;
+  nan_width.p1_hinge.position_m.y() = std::numeric_limits<double>::quiet_NaN();
+  const struct {
+    std::string frames;
+    const char* says;
+  } frame_cases[] = {
+      {frame_of(width) + frame_of(protocol::Ping{7}), "frame 2: Ping is not a measurement"},
+      {frame_of(width) + frame_of(width), "frame 2: MeasureDoorWidth appears twice"},
+      {frame_of(nan_width) + frame_of(width), "frame 1: "},
+  };
+  for (const auto& c : frame_cases) {
+    const auto r = decode_state(header + c.frames);
+    ASSERT_FALSE(r.ok()) << c.says;
+    EXPECT_NE(r.error().message.find(c.says), std::string::npos)
+        << c.says << ": " << r.error().message;
+  }
+}
+
+// The body of an older ajard's good file with `from` replaced by `to`, signed again.
+std::string text_edited(const std::string& from, const std::string& to) {
+  std::string body = legacy_text(full_record(), 2);
   body = body.substr(0, body.rfind("crc32 "));
   const auto at = body.find(from);
   EXPECT_NE(at, std::string::npos) << "test bug: no '" << from << "' in\n" << body;
@@ -134,8 +241,8 @@ std::string edited(const std::string& from, const std::string& to) {
   return with_checksum(body);
 }
 
-TEST(StateFormat, RefusesImpossibleContentWithAValidChecksum) {
-  ASSERT_TRUE(decode_state(edited("fault 512", "fault 512")).ok());  // the editor itself is fine
+TEST(StateFormat, RefusesImpossibleContentInTheTextFormats) {
+  ASSERT_TRUE(decode_state(text_edited("fault 512", "fault 512")).ok());  // the editor is fine
   const struct {
     const char* from;
     const char* to;
@@ -156,9 +263,10 @@ TEST(StateFormat, RefusesImpossibleContentWithAValidChecksum) {
       {"fault 512\n", "", "'fault' missing"},
       {"clean_shutdown 1\n", "", "'clean_shutdown' missing"},
       {"clean_shutdown 1", "clean_shutdown yes", "unexpected"},
+      {"ajar-state 2", "ajar-state 3", "version 3"},
   };
   for (const auto& c : cases) {
-    const auto r = decode_state(edited(c.from, c.to));
+    const auto r = decode_state(text_edited(c.from, c.to));
     ASSERT_FALSE(r.ok()) << c.to;
     EXPECT_EQ(r.error().field, "state_file");
     EXPECT_NE(r.error().message.find(c.says), std::string::npos)

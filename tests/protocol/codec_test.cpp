@@ -105,7 +105,7 @@ TEST(HandWritten, Drive11) {
   const auto& m = std::get<Drive>(out.envelope.message);
   EXPECT_EQ(m.linear_m_s, 0.25);
   EXPECT_EQ(m.angular_rad_s, -0.125);
-  EXPECT_EQ(encode_bytes(Envelope{16, 0, Drive{0.25, -0.125}}), b);
+  EXPECT_EQ(encode_bytes(Envelope{16, 0, Drive{0.25, -0.125}}, 1), b);
   // The same type in a frame that says 1.0: 1.0 has no Drive.
   b[kOffsetVersionMinor] = 0;
   refresh_crc(b);
@@ -117,7 +117,7 @@ TEST(HandWritten, Drive11) {
   // And this library refuses to encode it as 1.0.
   std::array<std::uint8_t, kMaxFrameSize> buffer{};
   EXPECT_EQ(encode(Envelope{16, 0, Drive{}}, buffer, 0), 0u);
-  EXPECT_EQ(encode(Envelope{16, 0, Ping{}}, buffer, 2), 0u);  // no such minor here
+  EXPECT_EQ(encode(Envelope{16, 0, Ping{}}, buffer, 3), 0u);  // no such minor here
 }
 
 // A 1.0 peer's Status, Telemetry and Welcome have the 1.0 lengths; the 1.1 fields read as 0.
@@ -212,12 +212,12 @@ TEST(Describe, SentencesNameTheFieldAndWhy) {
   b[kOffsetType] = 0x99;
   refresh_crc(b);
   EXPECT_EQ(describe(decode_frame(b).error),
-            "header.type 0x0199 is not a message type of protocol 1.1: not executed");
+            "header.type 0x0199 is not a message type of protocol 1.2: not executed");
   b = encode_bytes(Envelope{3, 0, Ping{}});
   b.pop_back();
   set_length(b);
   EXPECT_EQ(describe(decode_frame(b).error),
-            "header.payload_length is 7: Ping in protocol 1.1 has 8 bytes");
+            "header.payload_length is 7: Ping in protocol 1.2 has 8 bytes");
   Hello hello;
   hello.client_name = "abc";
   b = encode_bytes(Envelope{3, 0, hello});

@@ -87,6 +87,7 @@ std::optional<std::size_t> primitive_size(const std::string& type) {
   if (const auto it = sizes.find(type); it != sizes.end()) return it->second;
   std::smatch m;
   if (std::regex_match(type, m, std::regex(R"(str<(\d+)>)"))) return 1 + std::stoul(m[1]);
+  if (std::regex_match(type, m, std::regex(R"(bytes<(\d+)>)"))) return 2 + std::stoul(m[1]);
   return std::nullopt;
 }
 
@@ -134,35 +135,47 @@ class Doc {
     }
   }
 
-  // The wire fields of `rows` at `base`, names prefixed, `i` substituted in array rows.
+  // The wire fields of `rows` at `base`, names prefixed, `i` substituted in array rows; a row
+  // "9 + 67·i" whose meaning says "i = 0..7" is a fixed array: every element.
   void expand(const std::vector<DocRow>& rows, std::size_t base, const std::string& prefix,
               bool since_1_1, std::vector<Leaf>& out, std::size_t i = 0) const {
     for (const DocRow& r : rows) {
-      const std::string index = std::string("[").append(std::to_string(i)).append("]");
-      const std::string field = std::regex_replace(r.field, std::regex(R"(\[i\])"), index);
-      const bool appended = since_1_1 || r.meaning.starts_with("1.1") || r.field == "(1.1)";
-      std::size_t offset = 0;
-      std::smatch m;
-      if (std::regex_match(r.offset, m, std::regex(R"((\d+) \+ (\d+)·i)"))) {
-        offset = std::stoul(m[1]) + std::stoul(m[2]) * i;
+      std::smatch fixed;
+      if (r.offset.ends_with("·i") &&
+          std::regex_search(r.meaning, fixed, std::regex(R"(i = 0\.\.(\d+))"))) {
+        for (std::size_t k = 0; k <= std::stoul(fixed[1]); ++k)
+          expand_row(r, base, prefix, since_1_1, out, k);
       } else {
-        offset = std::stoul(r.offset);
+        expand_row(r, base, prefix, since_1_1, out, i);
       }
-      if (std::regex_match(r.type, m, std::regex(R"((\d+) × (\w+))"))) {  // 12 × f64 name[0..11]
-        const std::string name = field.substr(0, field.find('['));
-        for (std::size_t k = 0; k < std::stoul(m[1]); ++k) {
-          out.push_back({base + offset + k * *primitive_size(m[2]), m[2],
-                         prefix + name + "[" + std::to_string(k) + "]", appended});
-        }
-      } else if (const auto size = primitive_size(r.type)) {
-        out.push_back({base + offset, r.type, prefix + field, appended});
-      } else {
-        const auto s = structures_.find(r.type);
-        EXPECT_NE(s, structures_.end()) << "no structure " << r.type;
-        if (s == structures_.end()) continue;
-        expand(s->second, base + offset, field.starts_with("(") ? prefix : prefix + field + ".",
-               appended, out);
+    }
+  }
+  void expand_row(const DocRow& r, std::size_t base, const std::string& prefix, bool since_1_1,
+                  std::vector<Leaf>& out, std::size_t i) const {
+    const std::string index = std::string("[").append(std::to_string(i)).append("]");
+    const std::string field = std::regex_replace(r.field, std::regex(R"(\[i\])"), index);
+    const bool appended = since_1_1 || r.meaning.starts_with("1.1") || r.field == "(1.1)";
+    std::size_t offset = 0;
+    std::smatch m;
+    if (std::regex_match(r.offset, m, std::regex(R"((\d+) \+ (\d+)·i)"))) {
+      offset = std::stoul(m[1]) + std::stoul(m[2]) * i;
+    } else {
+      offset = std::stoul(r.offset);
+    }
+    if (std::regex_match(r.type, m, std::regex(R"((\d+) × (\w+))"))) {  // 12 × f64 name[0..11]
+      const std::string name = field.substr(0, field.find('['));
+      for (std::size_t k = 0; k < std::stoul(m[1]); ++k) {
+        out.push_back({base + offset + k * *primitive_size(m[2]), m[2],
+                       prefix + name + "[" + std::to_string(k) + "]", appended});
       }
+    } else if (const auto size = primitive_size(r.type)) {
+      out.push_back({base + offset, r.type, prefix + field, appended});
+    } else {
+      const auto s = structures_.find(r.type);
+      EXPECT_NE(s, structures_.end()) << "no structure " << r.type;
+      if (s == structures_.end()) return;
+      expand(s->second, base + offset, field.starts_with("(") ? prefix : prefix + field + ".",
+             appended, out);
     }
   }
   const std::vector<DocTable>& tables() const { return tables_; }
@@ -241,13 +254,13 @@ TEST(ProtocolDoc, MessageTypeTableIsTheCodecs) {
     std::smatch m;
     if (!std::regex_match(
             line, m,
-            std::regex(R"(\| `0x([0-9A-F]{4})` \| (\w+)( \(1\.1\))? \| (host|daemon) → .*)")))
+            std::regex(R"(\| `0x([0-9A-F]{4})` \| (\w+)( \(1\.(\d)\))? \| (host|daemon) → .*)")))
       continue;
     const auto t = static_cast<MessageType>(std::stoul(m[1], nullptr, 16));
     SCOPED_TRACE(line);
     EXPECT_EQ(to_string(t), m[2].str());
-    EXPECT_EQ(minor_of(t), m[3].matched ? 1 : 0);
-    EXPECT_EQ(is_request(t), m[4] == "host");
+    EXPECT_EQ(minor_of(t), m[3].matched ? std::stoi(m[4]) : 0);
+    EXPECT_EQ(is_request(t), m[5] == "host");
     seen.insert(t);
   }
   EXPECT_EQ(seen.size(), all_types().size());
@@ -355,7 +368,7 @@ TEST(ProtocolDoc, AckBodiesAreTheCodecs) {
     if (m[1] == "any other request type") {
       acknowledged = {MessageType::kStop, MessageType::kAlignBase, MessageType::kDrive};
     } else {
-      std::stringstream names(std::regex_replace(m[1].str(), std::regex(R"( \(1\.1\))"), ""));
+      std::stringstream names(std::regex_replace(m[1].str(), std::regex(R"( \(1\.\d\))"), ""));
       for (std::string name; std::getline(names >> std::ws, name, ',');)
         acknowledged.push_back(by_name.at(name));
     }

@@ -19,6 +19,15 @@ struct Sample {
   Envelope envelope;
 };
 
+// The minor version a sample's vector is written in: the oldest that has its type (and, for an
+// Ack, the acknowledged type), but at least 1.1, so that the vectors of 1.1 stay byte for byte
+// what they were before 1.2 (the proof that 1.0/1.1 sessions did not change).
+inline std::uint8_t vector_minor(const Message& m) {
+  std::uint8_t minor = std::max<std::uint8_t>(1, minor_of(type_of(m)));
+  if (const auto* ack = std::get_if<Ack>(&m)) minor = std::max(minor, minor_of(ack->acknowledged));
+  return minor;
+}
+
 inline core::FramedPoint camera_point(double x, double y, double z) {
   return {core::Frame::kCamera, core::Vec3(x, y, z)};
 }
@@ -165,12 +174,15 @@ inline std::vector<Sample> all() {
     s.push_back({std::move(name), Envelope{id, flags, std::move(m)}});
   };
   // host -> daemon
+  // Hello and Welcome as 1.1 peers send them (their vectors are 1.1 frames, unchanged by 1.2).
   Hello hello;
+  hello.version_minor = 1;
   hello.requested_role = Role::kController;
   hello.client_instance_id = 0x0123456789ABCDEFull;
   hello.client_name = "door-gui 2.3";
   add("hello_controller", 1, hello);
   Hello observer;
+  observer.version_minor = 1;
   observer.requested_role = Role::kObserver;
   observer.client_instance_id = 0x1122334455667788ull;
   observer.client_name = "Türöffner-Monitor";  // UTF-8 multi-byte characters
@@ -204,9 +216,17 @@ inline std::vector<Sample> all() {
   add("approach", 17, Approach{0.75});
   add("get_robot_model", 18, GetRobotModel{});
   add("reset_loop_statistics", 19, ResetLoopStatistics{});
+  add("list_recordings", 20, ListRecordings{8});
+  FetchRecording fetch;
+  fetch.name = "ajard-20261126T130502Z-0007.mcap";
+  fetch.offset = 1048576;
+  fetch.max_length = 960;
+  add("fetch_recording", 21, fetch);
+  add("save_recording", 22, SaveRecording{300.0f});
 
   // daemon -> host
   Welcome welcome;
+  welcome.version_minor = 1;
   welcome.granted_role = Role::kController;
   welcome.session_id = 0xA1B2C3D4E5F60718ull;
   welcome.daemon_version = "0.1.0";
@@ -235,6 +255,40 @@ inline std::vector<Sample> all() {
       Ack{MessageType::kApproach, ProcedureState::kAwaitingHandle,
           ApproachAck{0.25, 1.0, 198944, -198944}});
   add("robot_model", 18, robot_model());
+  RecordingList list;  // the 9th to 11th newest of 11 recordings
+  list.total = 11;
+  list.first = 8;
+  list.count = 3;
+  for (std::uint8_t i = 0; i < 3; ++i) {
+    RecordingInfo& e = list.entries[i];
+    e.name.assign("ajard-20261126T0" + std::to_string(9 - i) + "0000000Z.mcap");
+    e.size_bytes = 67108864u - 4096u * i;
+    e.start_unix_ns = 1795683600000000000ull - 3600000000000ull * i;
+    e.end_unix_ns = e.start_unix_ns + 600000000000ull;
+  }
+  add("recording_list", 20, list);
+  RecordingList saved;  // the reply to SaveRecording
+  saved.total = 2;
+  saved.count = 2;
+  saved.entries[0].name = "saved/ajard-20261126T131000000Z.mcap";
+  saved.entries[0].size_bytes = 5242880;
+  saved.entries[0].start_unix_ns = 1795698600000000000ull;
+  saved.entries[0].end_unix_ns = 1795698845500000000ull;
+  saved.entries[0].saved = true;
+  saved.entries[1].name = "saved/ajard-20261126T130000000Z.mcap";
+  saved.entries[1].size_bytes = 67108001;
+  saved.entries[1].start_unix_ns = 1795698000000000000ull;
+  saved.entries[1].end_unix_ns = 1795698600000000000ull;
+  saved.entries[1].saved = true;
+  add("recording_list_saved", 22, saved);
+  RecordingChunk chunk;
+  chunk.offset = 1048576;
+  chunk.size_bytes = 1049000;
+  std::array<std::uint8_t, 424> tail{};
+  for (std::size_t i = 0; i < tail.size(); ++i)
+    tail[i] = static_cast<std::uint8_t>(i * 37 + 11);
+  chunk.data.assign(tail.data(), tail.size());  // the last 424 bytes of the file
+  add("recording_chunk", 21, chunk);
   ErrorReply error;
   error.code = ErrorCode::kPointsCollinear;
   error.offending_type = MessageType::kMeasureDoorPlane;

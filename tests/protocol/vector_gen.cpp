@@ -30,9 +30,12 @@ const samples::Sample& sample(const std::string& name) {
   throw std::runtime_error("no sample " + name);
 }
 
-Bytes encode_sample(const std::string& name, std::uint8_t minor = kVersionMinor) {
+// In the sample's vector minor (samples::vector_minor) unless told otherwise.
+Bytes encode_sample(const std::string& name, int minor = -1) {
   Bytes out;
-  if (!encode_append(sample(name).envelope, out, minor)) {
+  const Message& m = sample(name).envelope.message;
+  if (!encode_append(sample(name).envelope, out,
+                     minor < 0 ? samples::vector_minor(m) : static_cast<std::uint8_t>(minor))) {
     throw std::runtime_error("cannot encode " + name);
   }
   return out;
@@ -308,6 +311,51 @@ int main(int argc, char** argv) {
         refresh(b);
       },
       "Drive (0x0122) in a frame that says 1.0: 1.0 has no such type.");
+  // 1.2: the black box.
+  bad(
+      "v1_1_fetch_recording", "fetch_recording", ErrorCode::kUnknownMessageType, false,
+      "header.type",
+      [](Bytes& b, std::size_t) {
+        b[5] = 1;
+        refresh(b);
+      },
+      "FetchRecording (0x0151) in a frame that says 1.1: 1.1 has no such type.");
+  bad(
+      "bad_bytes_length", "recording_chunk", ErrorCode::kBadCount, false, "data",
+      [](Bytes& b, std::size_t at) {
+        put_u16(b, at, 961);
+        refresh(b);
+      },
+      "RecordingChunk whose data length is 961 (capacity 960).");
+  bad(
+      "bad_bytes_padding", "recording_chunk", ErrorCode::kBadCount, false, "data",
+      [](Bytes& b, std::size_t at) {
+        b[at + 2 + 959] = 0x01;  // the last of the 960 bytes, past the 424 of data
+        refresh(b);
+      },
+      "Bytes after RecordingChunk's data length must be zero.");
+  bad(
+      "bad_count_recording_list", "recording_list", ErrorCode::kBadCount, false, "count",
+      [](Bytes& b, std::size_t at) {
+        b[at] = 9;
+        refresh(b);
+      },
+      "RecordingList announcing 9 entries (it has 8).");
+  bad(
+      "bad_string_recording_name", "fetch_recording", ErrorCode::kBadString, false, "name",
+      [](Bytes& b, std::size_t at) {
+        b[at + 1] = '/';  // allowed by the codec: the daemon refuses it (a file name, no path)
+        b[at + 1 + 2] = 0x7F;
+        refresh(b);
+      },
+      "FetchRecording whose name holds a control character (U+007F).");
+  bad(
+      "non_finite_save_recording", "save_recording", ErrorCode::kNonFiniteNumber, false, "last_s",
+      [](Bytes& b, std::size_t at) {
+        put_u32(b, at, 0x7FC00000);
+        refresh(b);
+      },
+      "SaveRecording of the last NaN seconds.");
   bad(
       "invalid_polarity", "robot_model", ErrorCode::kInvalidEnumValue, false, "left.polarity",
       [](Bytes& b, std::size_t at) {

@@ -15,6 +15,7 @@
 
 #include "ajar/daemon/engine.hpp"
 #include "ajar/daemon/session_hub.hpp"
+#include "../fake_engine.hpp"
 
 namespace ajar::testing::interleaving {
 
@@ -42,47 +43,9 @@ struct Coverage {
   }
 };
 
-// The engine as the hub sees it, recording what reaches it (exactly-once is checked against it).
-class RecordingEngine final : public daemon::Engine {
- public:
-  explicit RecordingEngine(daemon::Engine& inner) : inner_(inner) {}
-  int executions = 0;                 // handle_command calls
-  protocol::Message last_reply;       // of the last one
-  std::function<void()> before_lost;  // called before the engine hears of a controller loss
-
-  void set_event_sink(EventSink sink) override { inner_.set_event_sink(std::move(sink)); }
-  void start() override { inner_.start(); }
-  void shutdown() noexcept override { inner_.shutdown(); }
-  protocol::Message handle_command(const protocol::Message& request) override {
-    ++executions;
-    last_reply = inner_.handle_command(request);
-    return last_reply;
-  }
-  void controller_heartbeat() noexcept override { inner_.controller_heartbeat(); }
-  void controller_lost() override {
-    if (before_lost) before_lost();
-    inner_.controller_lost();
-  }
-  void begin_read_batch() override { inner_.begin_read_batch(); }
-  void end_read_batch() override { inner_.end_read_batch(); }
-  void poll() override { inner_.poll(); }
-  void catch_up() override { inner_.catch_up(); }
-  std::uint64_t accepted_generation() const noexcept override {
-    return inner_.accepted_generation();
-  }
-  std::uint64_t settled_generation() const noexcept override { return inner_.settled_generation(); }
-  protocol::Status status() const override { return inner_.status(); }
-  protocol::Telemetry telemetry() const override { return inner_.telemetry(); }
-  protocol::Welcome welcome_template() const override { return inner_.welcome_template(); }
-  protocol::RobotModel robot_model() const override { return inner_.robot_model(); }
-  bool control_loop_healthy() const noexcept override { return inner_.control_loop_healthy(); }
-  std::uint64_t daemon_time_ns() const noexcept override { return inner_.daemon_time_ns(); }
-  void run_loop_cycle() noexcept override { inner_.run_loop_cycle(); }
-  std::vector<std::string> take_warnings() override { return inner_.take_warnings(); }
-
- private:
-  daemon::Engine& inner_;
-};
+// The engine as the hub sees it, recording what reaches it (exactly-once is checked against it):
+// the tests' one engine double in front of the real engine.
+using RecordingEngine = ajar::test::FakeEngine;
 
 // One client connection as the hub sees it; the frames it was sent are decoded by the test.
 class FakeLink final : public daemon::SessionLink {

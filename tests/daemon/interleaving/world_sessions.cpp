@@ -62,11 +62,11 @@ void World::deliver(FakeLink& link, const Frame& f) {
   const std::uint32_t rid = repeat ? f.request_id : next_request_++;
   const Sent first = repeat ? original->second : Sent{};
   const auto before = engine_->status();
-  const int executions = recorder_->executions;
+  const int executions = recorder_->executions();
   const bool nothing_pending = link.expected.empty();
   link.expected.push_back({rid, std::nullopt, true});
   hub_->on_message(link, protocol::Envelope{rid, 0, f.message});
-  const bool executed = recorder_->executions != executions;
+  const bool executed = recorder_->executions() != executions;
   if (nothing_pending && (type == MessageType::kStop || type == MessageType::kEmergencyStop) &&
       !has_reply(link, rid)) {
     return fail("a Stop/EmergencyStop Ack was held (only a save-changing reply may wait)");
@@ -104,7 +104,7 @@ void World::deliver(FakeLink& link, const Frame& f) {
     return fail(std::string("a ") + std::string(protocol::to_string(type)) +
                 " from a session that is not the controller reached the engine");
   }
-  const protocol::Message reply = recorder_->last_reply;
+  const protocol::Message reply = recorder_->last_reply();
   link.expected.back().reply = reply;
   sent_[rid] = {link.instance, f.message, reply};
   last_request_ = rid;

@@ -60,6 +60,8 @@ struct Command {
     kDrive,     // drive: keys in a terminal (duration_s == 0), or --linear --angular --for S
     kApproach,  // approach STANDOFF_M: request holds the Approach
     kHelp,      // `help [COMMAND]` or `COMMAND --help`: args holds the COMMAND (or nothing)
+    kBlackbox,  // blackbox list|fetch|save|show|export ...: args holds the rest (blackbox_cmd.cpp)
+    kReplay,    // replay FILE [--settle S]: args holds the rest (replay.cpp)
   };
   Kind kind = Kind::kStatus;
   std::string name;           // "measure_width", "contact", "align", ...
@@ -73,7 +75,7 @@ struct Command {
   double rate_hz = 10;          // watch --rate HZ
   double linear_m_s = 0;        // drive --linear V (m/s, + forward)
   double angular_rad_s = 0;     // drive --angular W (rad/s, CCW +)
-  std::vector<std::string> args;  // conformance / simulate / script: their own arguments
+  std::vector<std::string> args;  // conformance / simulate / script / blackbox / replay: theirs
 };
 
 struct CommandParse {

@@ -2,6 +2,8 @@
 // docs/geometry.md explains the frames, the yaw sign convention and the relation to eq. 5.
 #pragma once
 
+#include <cstdint>
+#include <optional>
 #include <span>
 #include <string_view>
 
@@ -87,6 +89,11 @@ Result<Plane> fit_plane(std::span<const Vec3> points_base_m, const Tolerances& t
 // does not face the robot's front half (|yaw| >= pi/2); kNonFinite for a zero or NaN normal.
 Result<double> yaw_deviation_rad(const Plane& plane, const Tolerances& tol);
 
+// The yaw (rad, CCW positive) that turns the base's +x onto -normal projected on the floor (the
+// normal faces the robot): atan2(-n.y, -n.x). The one formula of the door's yaw: the plane's yaw
+// deviation above and the door seen from odometry (driving.hpp) both use it.
+double yaw_from_normal_rad(const Vec3& normal) noexcept;
+
 // ---- Wheel angles (eq. 6-7) --------------------------------------------------------------------
 
 struct WheelCommand {
@@ -108,6 +115,13 @@ struct WheelCommand {
 // non-finite yaw, or one whose counts would exceed 2^53, gives an all-zero command (nothing moves)
 // with residual_yaw_rad = yaw_rad.
 WheelCommand wheel_command(double yaw_rad, const BaseGeometry& base);
+
+// Motor counts (polarity not applied) for a wheel rotation: round-half-away-from-zero of
+// wheel_rad / 2π · gear_ratio · counts_per_rev (so opposite rotations give exact opposite counts).
+// nullopt when that is not finite or not below 2^53 (doubles hold every integer below it exactly):
+// nothing may move then.
+std::optional<std::int64_t> wheel_rad_to_motor_counts(double wheel_rad,
+                                                      const BaseGeometry& base) noexcept;
 
 // Wheel rotation (rad, wheel-forward positive) for a card count on an axis (polarity applied):
 // counts * polarity / (gear_ratio * counts_per_rev) * 2pi. With base_yaw_from_wheels_rad this is

@@ -82,7 +82,7 @@ struct ControlConfig {
   double rate_hz = 500;   // control loop rate
   bool realtime = false;  // try SCHED_FIFO at `priority`; warn and fall back if refused
   int priority = 80;
-  bool lock_memory = false;              // try mlockall(MCL_CURRENT | MCL_FUTURE)
+  bool lock_memory = false;              // try mlockall (realtime.hpp: what is locked)
   double motion_timeout_margin_s = 2.0;  // deadline = planned duration * 1.5 + margin
   double aligned_tolerance_rad = 0.01;   // a re-measured plane within this counts as aligned
   double stall_timeout_s = 0.1;  // no loop cycle for this long -> the supervisor stops the base

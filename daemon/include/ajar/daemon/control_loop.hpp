@@ -71,6 +71,7 @@
 // own latch: belt and braces for races between a report and a new command.
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <string>
@@ -81,6 +82,7 @@
 
 #include "ajar/core/driving.hpp"
 #include "ajar/core/robot_model.hpp"
+#include "ajar/daemon/card_recovery.hpp"
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/loop_statistics.hpp"
 #include "ajar/daemon/seqlock.hpp"
@@ -224,6 +226,85 @@ drivers::JogProfile jog_profile(const core::BaseGeometry& base,
 double planned_duration_s(std::int64_t distance_counts,
                           const drivers::TrapezoidProfile& profile) noexcept;
 
+// The control loop's running jog (ControlLoop, step 4b), on the control thread (noexcept, no
+// allocation). Every cycle step() takes the last Drive velocity while it is younger than
+// drive.command_timeout_s (else zero), lowers a forward target to what the door guard allows from
+// where the base is, clamps speed and acceleration (core::limit_velocity), and says whether the
+// card gets new wheel velocities; the loop makes the card call and tells sent(). Also the card's
+// ramp toward what it was told (the velocity check's band) and when the jog, told zero, starts
+// coming to rest.
+class Jog {
+ public:
+  // `counts_per_wheel_rad`: motor counts per wheel radian; `card_scale`: card time per loop time.
+  Jog(const ControlLoopSettings& settings, const drivers::JogProfile& profile,
+      double counts_per_wheel_rad, double card_scale, std::int64_t period_ns) noexcept;
+
+  void start(const DriveCommand& drive, std::int64_t now_ns) noexcept;  // from rest
+  void update(const DriveCommand& drive) noexcept;  // a new target for the running jog
+  void set_guard(const DoorGuard& guard) noexcept { guard_ = guard; }
+  const DoorGuard& guard() const noexcept { return guard_; }
+  const drivers::JogProfile& profile() const noexcept { return profile_; }
+
+  // What this cycle's step found.
+  struct Step {
+    bool guard_limiting = false;  // the door guard lowered the forward speed (to guard_limit_m_s)
+    double guard_limit_m_s = 0;
+    bool send = false;  // the card gets `axes` now (MotionCard::jog with profile())
+    drivers::AxisVelocity axes[2];
+    bool told_zero = false;         // the limited command is zero
+    bool released = false;          // the operator asks for nothing (zero Drive or timeout)
+    bool changed = false;           // the limited command changed this cycle
+    bool ended_by_timeout = false;  // released by the timeout while the last Drive moved
+    double rest_s = -1;             // >= 0: told zero just now; the wheels rest within this
+  };
+  Step step(std::int64_t now_ns, const core::PlanarPose& pose) noexcept;
+  // The card took `axes`: returns the slowest stop of this jog from what it was told (s, at the
+  // card's ramp).
+  double sent(const drivers::AxisVelocity (&axes)[2]) noexcept;
+
+  // The limited velocity last computed (0 once stopped).
+  const core::BodyVelocity& command() const noexcept { return command_; }
+  void zero_command() noexcept { command_ = {}; }
+  void stopping() noexcept {  // a stop takes over: no command, no resting deadline of the jog's
+    command_ = {};
+    resting_ = false;
+  }
+  bool resting() const noexcept { return resting_; }  // told zero: the loop's deadline to rest runs
+
+  // The velocity check's band for wheel `i` (counts/ms): between what the card was told and its
+  // ramp toward it.
+  double band_low(int i) const noexcept {
+    return std::min(told_counts_per_ms_[i], expected_counts_per_ms_[i]);
+  }
+  double band_high(int i) const noexcept {
+    return std::max(told_counts_per_ms_[i], expected_counts_per_ms_[i]);
+  }
+
+  // The forward speed the door guard allows at `pose` (infinity: no limit).
+  double guard_forward_limit_m_s(const core::PlanarPose& pose) const noexcept;
+
+ private:
+  ControlLoopSettings settings_;
+  drivers::JogProfile profile_;
+  double counts_per_wheel_rad_;
+  double card_scale_;
+  std::int64_t period_ns_;
+  std::int64_t timeout_ns_;  // drive.command_timeout_s
+  double guard_accel_m_s2_;  // the door guard's braking: the limiter's and the card's ramp
+  double guard_reaction_s_;  // the door guard's reaction time (three periods)
+  int axes_[2];
+
+  core::BodyVelocity target_;
+  std::int64_t stamp_ns_ = 0;
+  core::BodyVelocity command_;  // limited, last sent to the card
+  std::int64_t last_ns_ = 0;    // the cycle that computed command_
+  bool sent_ = false;           // the card has been given command_
+  bool resting_ = false;        // told zero: the loop's motion deadline is its deadline to rest
+  DoorGuard guard_;             // the last posted door guard
+  double told_counts_per_ms_[2] = {0, 0};      // the jog velocities the card accepted last
+  double expected_counts_per_ms_[2] = {0, 0};  // the card's ramp toward them (profile_)
+};
+
 class ControlLoop {
  public:
   static constexpr std::size_t kCommandQueueCapacity = 32;
@@ -293,7 +374,6 @@ class ControlLoop {
 
  private:
   enum class Motion : std::uint8_t { kIdle, kMoving, kJogging, kStopping };
-  enum class Recovery : std::uint8_t { kNone, kWaitRest, kClear, kEnable, kPoll };
   enum class CommandKind : std::uint8_t { kMove, kRecover, kDriveStart, kDriveUpdate, kDoorGuard };
   // A queued command: the posted MoveCommand or DriveCommand whole (nothing copied field by
   // field), or a recover sequence.
@@ -323,8 +403,6 @@ class ControlLoop {
   void start_jog(const Command& drive, std::int64_t now_ns) noexcept;
   ErrorCode check_can_start() noexcept;  // kOk, or why no motion may start in this cycle
   void advance_jog(std::int64_t now_ns) noexcept;
-  // The forward speed the door guard allows now (infinity: no limit).
-  double guard_forward_limit_m_s() const noexcept;
   // The door guard's hard bound: the base origin more than kDoorStandoffToleranceM past the
   // standoff and the wheels still driving it toward the door (whatever the motion).
   bool past_door_standoff() const noexcept;
@@ -350,18 +428,13 @@ class ControlLoop {
   drivers::MotionCard& card_;
   ControlLoopSettings settings_;
   int axes_[2];
-  drivers::JogProfile jog_profile_;
   double counts_per_wheel_rad_;
   double max_wheel_counts_per_ms_;  // base.max_wheel_speed_rad_s at the card
   double card_scale_;               // card time per loop time (card_time_scale)
-  double guard_accel_m_s2_;         // the door guard's braking: the limiter's and the card's ramp
-  double guard_reaction_s_;         // the door guard's reaction time (three periods)
-  std::int64_t drive_timeout_ns_;
   std::int64_t period_ns_;
   std::int64_t deadman_ns_;
   std::int64_t margin_ns_;  // control.motion_timeout_margin_s
   std::int64_t mismatch_ns_;
-  std::int64_t recovery_timeout_ns_;
 
   // I/O thread -> loop.
   boost::lockfree::spsc_queue<Command, boost::lockfree::capacity<kCommandQueueCapacity>> commands_;
@@ -404,9 +477,7 @@ class ControlLoop {
   ErrorCode read_error_ = ErrorCode::kOk;
   ErrorCode fault_ = ErrorCode::kOk;
   ErrorCode stop_reason_ = ErrorCode::kOk;
-  Recovery recovery_ = Recovery::kNone;
-  std::uint32_t recover_sequence_ = 0;
-  std::int64_t recovery_deadline_ns_ = 0;
+  CardRecovery recovery_;  // step 3: the card's recovery after a Reset
   bool have_origin_ = false;
   std::int64_t origin_counts_[2] = {0, 0};
   // The wheels' measured velocity (counts/ms, encoder deltas between two answered cycles).
@@ -416,16 +487,7 @@ class ControlLoop {
   std::int64_t last_encoder_counts_[2] = {0, 0};
   std::int64_t mismatch_since_ns_[2] = {-1, -1};  // -1: the axis agrees
   double last_wheel_rad_[2] = {0, 0};             // for the odometry deltas
-  // The running jog.
-  core::BodyVelocity jog_target_;
-  std::int64_t jog_stamp_ns_ = 0;
-  core::BodyVelocity jog_command_;         // limited, last sent to the card
-  std::int64_t jog_last_ns_ = 0;           // the cycle that computed jog_command_
-  bool jog_sent_ = false;                  // the card has been given jog_command_
-  bool jog_resting_ = false;               // told zero: motion_deadline_ns_ is its deadline to rest
-  DoorGuard guard_;                        // the last posted door guard
-  double told_counts_per_ms_[2] = {0, 0};  // the jog velocities the card accepted last
-  double expected_counts_per_ms_[2] = {0, 0};  // the card's ramp toward them (jog_profile_)
+  Jog jog_;                                       // step 4b: the running jog (and the door guard)
   std::uint64_t reports_dropped_ = 0;
   LoopStatisticsRecorder statistics_;
   LoopSnapshot snapshot_;

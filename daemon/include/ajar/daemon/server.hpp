@@ -49,6 +49,7 @@ class io_context;
 
 namespace ajar::daemon {
 
+class Recordings;
 class SessionHub;
 
 struct ServerOptions {
@@ -62,6 +63,8 @@ struct ServerOptions {
   std::chrono::steady_clock::duration refused_read_window = std::chrono::seconds(1);
   TlsConfig tls;                    // tls.enabled: mutual TLS 1.3 on every connection
   bool insecure_plaintext = false;  // plaintext off loopback: warned at bind()
+  Recordings* recordings =
+      nullptr;  // the recorder for protocol 1.2 (null: off); outlives the server
 
   static ServerOptions from(const NetworkConfig& network);
 };

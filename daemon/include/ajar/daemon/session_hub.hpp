@@ -49,6 +49,14 @@
 //   (hung, failing) costs the durability of that Ack, never the session's later replies (a
 //   Stop's Ack behind it). The journal says so, once per stall. tick() releases
 //   what has settled; release_all() sends everything (shutdown).
+// - The black box (1.2: ListRecordings, FetchRecording, SaveRecording): any greeted session,
+//   NOT_SUPPORTED without a recorder (Options::recordings null). Handed to the Recordings, which
+//   answers from another thread (never a disk access on the I/O thread); the reply takes its
+//   place in the session's queue at once (a pending held reply): the session's later replies wait
+//   behind it, every other session is served at once. A black box that has not answered within
+//   kHeldReplyLimit gets its request answered DRIVER_ERROR ("the recorder did not answer") and its
+//   late answer is dropped, so a slow disk never holds a Stop's Ack longer than a durable Ack
+//   can be held. At most kMaxRecordingsPending per session (more: QUEUE_FULL, nothing done).
 // - Shutdown (begin_shutdown(), SIGTERM): Stop and EmergencyStop are still executed and
 //   acknowledged from any session; every other request (Hello and GetStatus included) gets ERROR
 //   SHUTTING_DOWN; events, telemetry and held replies still go out until close_all().
@@ -66,10 +74,12 @@
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "ajar/daemon/recordings.hpp"
 #include "ajar/daemon/engine.hpp"
 #include "ajar/daemon/request_ledger.hpp"
 #include "ajar/daemon/session.hpp"
@@ -83,6 +93,7 @@ class SessionHub final : public SessionHandler {
   struct Options {
     RequestLedger::Limits ledger;
     Clock::duration hello_timeout{0};  // 0 = none
+    Recordings* recordings = nullptr;  // the recorder (1.2); null: NOT_SUPPORTED. Outlives the hub
   };
 
   explicit SessionHub(Engine& engine) : SessionHub(engine, Options{}) {}
@@ -127,6 +138,7 @@ class SessionHub final : public SessionHandler {
 
  public:
   static constexpr std::chrono::seconds kHeldReplyLimit{2};
+  static constexpr std::size_t kMaxRecordingsPending = 16;
 
  private:
   struct HeldReply {
@@ -134,6 +146,7 @@ class SessionHub final : public SessionHandler {
     protocol::Message message;
     std::uint64_t generation = 0;  // released once the engine's settled generation reaches it
     Clock::time_point since{};     // ... or once held for kHeldReplyLimit
+    std::uint64_t ticket = 0;      // a black-box reply not there yet (0: `message` is the reply)
   };
   struct SessionState {
     SessionLink* link = nullptr;
@@ -154,6 +167,8 @@ class SessionHub final : public SessionHandler {
   void handle_hello(SessionState& s, const protocol::Envelope& envelope);
   void handle_subscribe(SessionState& s, const protocol::Envelope& envelope);
   void handle_command(SessionState& s, const protocol::Envelope& envelope);
+  void handle_recordings(SessionState& s, const protocol::Envelope& envelope);
+  void recordings_answered(std::uint64_t session_id, std::uint64_t ticket, protocol::Message reply);
   protocol::Message call_engine(const protocol::Message& request);
   // Sends at once unless `generation` is not settled yet or earlier replies are held.
   void reply(SessionState& s, std::uint32_t request_id, protocol::Message message,
@@ -199,6 +214,9 @@ class SessionHub final : public SessionHandler {
   std::map<std::uint64_t, SessionState> sessions_;
   std::optional<std::uint64_t> controller_;
   bool shutting_down_ = false;
+  std::uint64_t next_ticket_ = 1;
+  // Black-box answers check it (on the I/O thread) so that none reaches a destroyed hub.
+  std::shared_ptr<int> alive_ = std::make_shared<int>(0);
   int deferring_ = 0;                      // EventDeferrals alive
   std::vector<protocol::Event> deferred_;  // events emitted meanwhile, in order
 };

@@ -11,27 +11,29 @@
 // is the highest generation whose save has finished — written durably, or failed (take_errors()
 // says why; the next submission tries again).
 //
-// The clean-shutdown mark: every record is written with `clean_shutdown 0` ("running") except the
+// The clean-shutdown mark: every record is written with clean_shutdown 0 ("running") except the
 // last one of a clean shutdown. The engine writes a running record synchronously before the daemon
 // serves, so a file that says 0 at start means the previous run ended any other way (crash, kill,
 // watchdog abort, power loss, a shutdown whose last save did not finish).
 //
-// Format (text, versioned, docs/procedure.md):
-//   ajar-state 2
-//   clean_shutdown 0|1                                   (version 2; absent in version 1)
-//   phase idle|aligning|engaging|engaged
-//   aligned 0|1
-//   plane_consumed 0|1
-//   fault <numeric ErrorCode>
-//   width <frame> <x> <y> <z> <frame> <x> <y> <z>       (optional; frame: camera|base)
-//   handle <frame> <x> <y> <z> <frame> <x> <y> <z>      (optional)
-//   plane <n> then n times <frame> <x> <y> <z>          (optional)
-//   contact <frame> <x> <y> <z>                         (optional)
-//   crc32 <8 hex digits>                                (CRC-32 of every byte before this line)
-// Numbers are written in their shortest round-trip form, so a restored value is bit-identical.
-// The requests are stored, not the derived values: the engine replays them through core's
-// validation on start (Procedure::restore). Version 1 files (older ajard) are read; they carry no
-// clean-shutdown mark, so they read as clean_shutdown false.
+// Format 3 (binary, little-endian, docs/procedure.md): a 22-byte header, then the accepted
+// requests as protocol frames — the wire format's own encoding and CRC-32C (docs/protocol.md),
+// request id 0, in the order width, handle, plane, contact, each at most once:
+//   0  8 bytes  magic "AJARSTAT"
+//   8  u16      format version (3)
+//   10 u8       clean_shutdown 0|1
+//   11 u8       phase: 0 idle, 1 aligning, 2 engaging, 3 engaged
+//   12 u8       aligned 0|1
+//   13 u8       plane_consumed 0|1
+//   14 u16      latched fault (numeric ErrorCode; 0: none)
+//   16 u8       number of frames that follow (0..4)
+//   17 u8       reserved, 0
+//   18 u32      CRC-32C of bytes 0..17
+// The file ends with the last frame. The requests are stored, not the derived values: the engine
+// replays them through core's validation on start (Procedure::restore); the frames keep every
+// number bit for bit. Formats 1 and 2 (text, what older ajard wrote) are still read, once: a start
+// on one restores it and the start's first save rewrites the file in format 3. Format 1 carries
+// no clean-shutdown mark, so it reads as clean_shutdown false.
 #pragma once
 
 #include <chrono>
@@ -46,22 +48,25 @@
 
 namespace ajar::daemon {
 
-inline constexpr int kStateFormatVersion = 2;
+inline constexpr int kStateFormatVersion = 3;
+inline constexpr const char* kStateMagic = "AJARSTAT";  // the first 8 bytes of format 3
 
 // What the file holds: the procedure and how the run that wrote it ended.
 struct StateRecord {
   ProcedureRecord procedure;
   bool clean_shutdown = false;               // true only in the last save of a clean shutdown
-  int format_version = kStateFormatVersion;  // decode_state: the file's; encode_state writes 2
+  int format_version = kStateFormatVersion;  // decode_state: the file's; encode_state writes 3
 };
 
+// The file's bytes in format 3.
 std::string encode_state(const StateRecord& record);
-// As strict as a wire message: every line exactly once (clean_shutdown (version 2), phase,
-// aligned, plane_consumed, fault required; the measurements at most once), finite numbers only,
-// known enum words, a fault code that is kOk or a known driver/motion fault (5xx), 3..16 plane
-// points; version 1 or 2. Errors: kInternal with field "state_file" and a message saying what is
-// wrong (version, line, checksum, value).
-Result<StateRecord> decode_state(const std::string& text);
+// Format 3, or the text formats 1 and 2. As strict as a wire message: the header's checksum and
+// every field in range (flags 0|1, a known phase, a fault code that is kOk or a known driver/motion
+// fault (5xx)), every frame one the protocol's decoder accepts (finite numbers, 3..16 plane points,
+// its CRC-32C) holding a measurement, each kind at most once, nothing after the last; formats 1
+// and 2: every line exactly once, their CRC-32. Errors: kInternal with field "state_file" and a
+// message saying what is wrong (version, checksum, value, frame).
+Result<StateRecord> decode_state(const std::string& bytes);
 
 class StateStore {
  public:

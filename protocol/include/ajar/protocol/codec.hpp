@@ -143,7 +143,7 @@ class StreamDecoder {
   void reset() noexcept;
 
  private:
-  std::array<std::uint8_t, kMaxFrameSize> buffer_{};
+  std::array<std::uint8_t, kMaxFrameSize> buffer_;  // not zeroed: only [0, filled_) is read
   std::size_t filled_ = 0;
   bool failed_ = false;
   DecodeError failure_;

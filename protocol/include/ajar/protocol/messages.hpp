@@ -1,4 +1,4 @@
-// Ajar wire protocol 1.1: the messages, as plain C++ values. Pure: no sockets, threads or logging.
+// Ajar wire protocol 1.2: the messages, as plain C++ values. Pure: no sockets, threads or logging.
 // The byte-level layout of every message is in docs/protocol.md; codec.hpp turns these into bytes
 // and back. Every field has a fixed size on the wire: no message allocates when decoded.
 #pragma once
@@ -17,11 +17,14 @@
 namespace ajar::protocol {
 
 inline constexpr std::uint8_t kVersionMajor = 1;
-// This library speaks 1.0 and 1.1: it encodes and decodes both layouts (docs/protocol.md section
-// 7).
-inline constexpr std::uint8_t kVersionMinor = 1;
+// This library speaks 1.0, 1.1 and 1.2: it encodes and decodes every layout (docs/protocol.md
+// section 7).
+inline constexpr std::uint8_t kVersionMinor = 2;
 inline constexpr std::size_t kMaxPlanePoints = 16;
 inline constexpr std::size_t kMinPlanePoints = 3;
+// 1.2: the most data one RecordingChunk carries, and the entries one RecordingList carries.
+inline constexpr std::size_t kMaxRecordingChunk = 960;
+inline constexpr std::size_t kRecordingListEntries = 8;
 
 // Copies `in` into `out` (capacity `capacity`) so that the result is valid on the wire: at most
 // `capacity` bytes, cut only at a UTF-8 code point boundary, invalid UTF-8 bytes replaced by '?',
@@ -52,6 +55,29 @@ struct FixedString {
   }
 };
 
+// 1.2: binary data with a fixed capacity and an explicit length (wire: u16 length + N bytes, zero
+// padded; docs/protocol.md "bytes<N>").
+template <std::size_t N>
+struct FixedBytes {
+  static_assert(N <= 0xFFFF);
+  std::array<std::uint8_t, N> bytes{};
+  std::uint16_t length = 0;
+
+  // Copies the first min(size, N) bytes of `data`; returns how many.
+  std::size_t assign(const std::uint8_t* data, std::size_t size) noexcept {
+    bytes.fill(0);
+    length = static_cast<std::uint16_t>(std::min(size, N));
+    std::copy(data, data + length, bytes.begin());
+    return length;
+  }
+  const std::uint8_t* data() const noexcept { return bytes.data(); }
+  std::size_t size() const noexcept { return length; }
+  friend bool operator==(const FixedBytes& a, const FixedBytes& b) {
+    return a.length == b.length &&
+           std::equal(a.bytes.begin(), a.bytes.begin() + a.length, b.bytes.begin());
+  }
+};
+
 // The words of a wire enum (ajar::Word rows, core/words.hpp), in value order (the values are
 // 0..words.size()-1); `last` is its last enumerator, so that an enumerator added without its word
 // fails to compile (to_string below).
@@ -78,6 +104,10 @@ enum class MessageType : std::uint16_t {
   kApproach = 0x0123,
   kGetRobotModel = 0x0142,
   kResetLoopStatistics = 0x0143,
+  // host -> daemon, protocol 1.2 (the black box: docs/blackbox.md)
+  kListRecordings = 0x0150,
+  kFetchRecording = 0x0151,
+  kSaveRecording = 0x0152,
   // daemon -> host
   kWelcome = 0x0201,
   kPong = 0x0202,
@@ -88,6 +118,9 @@ enum class MessageType : std::uint16_t {
   kTelemetry = 0x0207,
   // daemon -> host, protocol 1.1
   kRobotModel = 0x0208,
+  // daemon -> host, protocol 1.2
+  kRecordingList = 0x0209,
+  kRecordingChunk = 0x020A,
 };
 
 enum class Role : std::uint8_t { kController = 0, kObserver = 1 };
@@ -259,6 +292,23 @@ struct Approach {
 };
 struct GetRobotModel {};        // 1.1: reply is RobotModel
 struct ResetLoopStatistics {};  // 1.1: restart the loop statistics (LoopStatistics, LoopTiming)
+
+// 1.2: the recordings on the daemon, newest first, from index `first` (reply: RecordingList).
+struct ListRecordings {
+  std::uint32_t first = 0;
+};
+// 1.2: up to `max_length` bytes (1..kMaxRecordingChunk) of recording `name` from byte `offset`
+// (reply: RecordingChunk). offset == the file's size is the end: a chunk with no data.
+struct FetchRecording {
+  FixedString<48> name;
+  std::uint64_t offset = 0;
+  std::uint16_t max_length = kMaxRecordingChunk;
+};
+// 1.2: keep the recordings that overlap the last `last_s` seconds where rotation never removes
+// them (reply: RecordingList of the recordings saved).
+struct SaveRecording {
+  float last_s = 0;
+};
 
 // ---- daemon -> host -----------------------------------------------------------------------------
 
@@ -468,16 +518,43 @@ struct RobotModel {
   double max_plane_rms_m = 0, max_door_tilt_rad = 0;
 };
 
+// 1.2: one recording file (the entries of RecordingList).
+struct RecordingInfo {
+  FixedString<48> name;             // as the daemon names it ("saved/..." for a saved one)
+  std::uint64_t size_bytes = 0;     // its size when listed
+  std::uint64_t start_unix_ns = 0;  // when its recording started, wall clock (ns since 1970 UTC)
+  std::uint64_t end_unix_ns = 0;    // when it was last written, wall clock
+  bool writing = false;             // the recorder is still appending to it
+  bool saved = false;               // kept by SaveRecording: rotation never removes it
+};
+// 1.2: reply to ListRecordings (and to SaveRecording: the recordings it saved): entries [first,
+// first + count) of the `total` recordings, newest first; entries past `count` are empty.
+struct RecordingList {
+  std::uint32_t total = 0;
+  std::uint32_t first = 0;
+  std::uint8_t count = 0;  // 0..kRecordingListEntries
+  std::array<RecordingInfo, kRecordingListEntries> entries{};
+};
+// 1.2: reply to FetchRecording: the bytes of the file from `offset` (as many as asked, fewer at the
+// end of the file); `size_bytes` is the file's size when they were read.
+struct RecordingChunk {
+  std::uint64_t offset = 0;
+  std::uint64_t size_bytes = 0;
+  FixedBytes<kMaxRecordingChunk> data;
+};
+
 using Message =
     std::variant<Hello, Ping, MeasureDoorWidth, MeasureHandle, MeasureDoorPlane, SetContactPoint,
                  AlignBase, Engage, Stop, EmergencyStop, Reset, GetStatus, Subscribe, Welcome, Pong,
                  Ack, ErrorReply, Event, Status, Telemetry, Drive, Approach, GetRobotModel,
-                 ResetLoopStatistics, RobotModel>;
+                 ResetLoopStatistics, RobotModel, ListRecordings, FetchRecording, SaveRecording,
+                 RecordingList, RecordingChunk>;
 
 // The message type of a value, and whether it travels host -> daemon.
 MessageType type_of(const Message& m) noexcept;
 bool is_request(MessageType t) noexcept;
-// The minor version that defined `t` (0 for the 1.0 types, 1 for the 1.1 ones); 255 when unknown.
+// The minor version that defined `t` (0 for the 1.0 types, 1 for the 1.1 ones, 2 for the 1.2
+// ones); 255 when unknown.
 std::uint8_t minor_of(MessageType t) noexcept;
 std::string_view to_string(MessageType t) noexcept;  // "MeasureDoorWidth", ...; "Unknown"
 // The word of a wire enum value ("awaiting_width", "controller", "sim", "rr", ...); "unknown" for a

@@ -1,0 +1,136 @@
+// Protocol 1.2, the black box (docs/protocol.md 5.23-5.27): a 1.1 session has none of it; the
+// list pages; a fetch is a chunk of the file at its offset (a recording starts with the MCAP
+// magic), refused naming the field when the name, offset or length is wrong; SaveRecording's
+// range. A daemon whose recorder is off answers NOT_SUPPORTED: the checks that need a recording
+// are skipped then.
+#include "suite.hpp"
+
+namespace ajar::conformance {
+
+namespace {
+
+constexpr std::array<std::uint8_t, 8> kMcapMagic = {0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'};
+
+protocol::FetchRecording fetch_of(std::string_view name, std::uint64_t offset,
+                                  std::uint16_t max_length) {
+  protocol::FetchRecording f;
+  f.name.assign(name);
+  f.offset = offset;
+  f.max_length = max_length;
+  return f;
+}
+
+}  // namespace
+
+void Suite::recordings() {
+  // The newest recording, once listed (empty: none, or the recorder is off).
+  std::optional<protocol::RecordingInfo> newest;
+  std::string off;  // why the recording checks are skipped
+  check("1.2: a 1.1 session gets UNKNOWN_MESSAGE_TYPE for ListRecordings", [&] {
+    auto c = open();
+    if (!c) return std::string("cannot connect");
+    protocol::Hello hello;
+    hello.version_minor = 1;
+    hello.requested_role = Role::kObserver;
+    hello.client_name = "ajarctl conformance 1.1";
+    std::uint32_t id = c->next_request_id();
+    auto welcome = raw(*c, frame_bytes(protocol::Envelope{id, 0, hello}, 1), id);
+    if (!welcome || !std::holds_alternative<protocol::Welcome>(welcome->message)) {
+      return "Hello 1.1: " + describe(welcome);
+    }
+    id = c->next_request_id();
+    auto reply = raw(*c, frame_bytes(protocol::Envelope{id, 0, protocol::ListRecordings{}}), id);
+    if (auto e = want_error(reply, ErrorCode::kUnknownMessageType, "header.type", id); !e.empty())
+      return e;
+    return still_usable(*c);
+  });
+  check("1.2: ListRecordings (observer) pages the recordings, newest first", [&] {
+    auto c = greeted(Role::kObserver);
+    if (!c) return std::string("cannot connect");
+    if (c->welcome() && c->welcome()->version_minor < 2) {
+      off = "the daemon speaks 1." + std::to_string(c->welcome()->version_minor);
+      return skip(off);
+    }
+    const Response r = c->request(protocol::ListRecordings{0});
+    if (r.outcome == CallOutcome::kRefused && r.error.code == ErrorCode::kNotSupported) {
+      off = "the recorder is off: " + std::string(r.error.message.view());
+      return skip(off);
+    }
+    const auto* list = r.get<protocol::RecordingList>();
+    if (!list) return "ListRecordings: " + describe(r);
+    if (list->first != 0) return "first is " + std::to_string(list->first) + ", asked 0";
+    if (list->count > list->total || list->count > list->entries.size())
+      return "count " + std::to_string(list->count) + " of " + std::to_string(list->total);
+    for (std::size_t i = 1; i < list->count; ++i) {
+      if (list->entries[i].start_unix_ns > list->entries[i - 1].start_unix_ns)
+        return std::string("not newest first at entry ") + std::to_string(i);
+    }
+    if (list->count > 0) newest = list->entries[0];
+    const Response past = c->request(protocol::ListRecordings{list->total});
+    const auto* empty = past.get<protocol::RecordingList>();
+    if (!empty || empty->count != 0) return "a list from `total` on: " + describe(past);
+    return std::string{};
+  });
+  const auto needs_recorder = [&]() -> std::string { return off.empty() ? "" : skip(off); };
+  check("1.2: FetchRecording of a name that is no recording: NO_SUCH_RECORDING (name)", [&] {
+    if (auto s = needs_recorder(); !s.empty()) return s;
+    auto c = greeted(Role::kObserver);
+    if (!c) return std::string("cannot connect");
+    for (const char* name : {"../ajard.state", "no-such-recording.mcap", "/etc/passwd"}) {
+      if (auto e =
+              want_error(c->request(fetch_of(name, 0, 16)), ErrorCode::kNoSuchRecording, "name");
+          !e.empty())
+        return std::string(name) + ": " + e;
+    }
+    return still_usable(*c);
+  });
+  check("1.2: FetchRecording max_length 0 or 961: REQUEST_OUT_OF_RANGE (max_length)", [&] {
+    if (auto s = needs_recorder(); !s.empty()) return s;
+    auto c = greeted(Role::kObserver);
+    if (!c) return std::string("cannot connect");
+    const std::string name = newest ? std::string(newest->name.view()) : "ajard-x.mcap";
+    for (const std::uint16_t n :
+         {std::uint16_t{0}, std::uint16_t{protocol::kMaxRecordingChunk + 1}}) {
+      if (auto e = want_error(c->request(fetch_of(name, 0, n)), ErrorCode::kRequestOutOfRange,
+                              "max_length");
+          !e.empty())
+        return "max_length " + std::to_string(n) + ": " + e;
+    }
+    return std::string{};
+  });
+  check("1.2: FetchRecording from offset 0 is the file's start (the MCAP magic)", [&] {
+    if (auto s = needs_recorder(); !s.empty()) return s;
+    if (!newest) return skip("the daemon has no recording yet");
+    auto c = greeted(Role::kObserver);
+    if (!c) return std::string("cannot connect");
+    const Response r = c->request(fetch_of(newest->name.view(), 0, 16));
+    const auto* chunk = r.get<protocol::RecordingChunk>();
+    if (!chunk) return "FetchRecording: " + describe(r);
+    if (chunk->offset != 0 || chunk->data.size() != 16)
+      return "chunk at " + std::to_string(chunk->offset) + " with " +
+             std::to_string(chunk->data.size()) + " bytes, asked 16 at 0";
+    if (!std::equal(kMcapMagic.begin(), kMcapMagic.end(), chunk->data.data()))
+      return std::string("the recording does not start with the MCAP magic");
+    // Past the end: refused naming the offset; at the end: a chunk with no data.
+    const std::uint64_t size = chunk->size_bytes;
+    if (auto e = want_error(c->request(fetch_of(newest->name.view(), size + 1, 16)),
+                            ErrorCode::kRequestOutOfRange, "offset");
+        !e.empty() && !newest->writing)
+      return "offset size + 1: " + e;
+    return std::string{};
+  });
+  check("1.2: SaveRecording of 0 or -1 s: REQUEST_OUT_OF_RANGE (last_s)", [&] {
+    if (auto s = needs_recorder(); !s.empty()) return s;
+    auto c = greeted(Role::kObserver);
+    if (!c) return std::string("cannot connect");
+    for (const float s : {0.0f, -1.0f}) {
+      if (auto e = want_error(c->request(protocol::SaveRecording{s}), ErrorCode::kRequestOutOfRange,
+                              "last_s");
+          !e.empty())
+        return "last_s " + std::to_string(s) + ": " + e;
+    }
+    return still_usable(*c);
+  });
+}
+
+}  // namespace ajar::conformance
