@@ -81,12 +81,12 @@
     "1.1: this daemon (or its drivers) cannot do the request yet",                                 \
     "show the message; do not retry")                                                              \
   X(kNoSuchRecording, 208, NO_SUCH_RECORDING,                                                      \
-    "1.2: FetchRecording names no recording of the daemon (field `name`: unknown, removed by "     \
+    "1.2: FetchRecording names no recording of the daemon (field name: unknown, removed by "       \
     "rotation since it was listed, or a path)",                                                    \
     "list the recordings again (ListRecordings)")                                                  \
   X(kRequestOutOfRange, 209, REQUEST_OUT_OF_RANGE,                                                 \
-    "1.2: a request parameter is outside its range; the field names it: FetchRecording `offset` "  \
-    "beyond the file's size or `max_length` outside 1..960, SaveRecording `last_s` not above 0 "   \
+    "1.2: a request parameter is outside its range; the field names it: FetchRecording offset "    \
+    "beyond the file's size or max_length outside 1..960, SaveRecording last_s not above 0 "       \
     "or above 86400",                                                                              \
     "fix the field named")                                                                         \
   /* 3xx: geometry and validation (core/) */                                                       \
