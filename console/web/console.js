@@ -548,10 +548,12 @@ function updateHeader() {
   $('state-box').dataset.motion = motion;
   $('state-box').title = $('state').textContent + ' ' + $('motion').textContent;
   $('hud-motion').textContent = motion ? motion.toUpperCase() : '';
-  // Commands need the controller role: an observer's buttons are disabled (Stop never is).
-  ['btn-align', 'btn-engage', 'btn-send', 'btn-reset', 'btn-reset-clear'].forEach((id) => { $(id).disabled = observer; });
-  $('btn-approach').disabled = observer || !(state && state.features.drive);
-  document.querySelectorAll('[data-jog]').forEach((b) => { b.disabled = observer || !(state && state.features.drive); });
+  // An observer's buttons are disabled for the ops whose request needs the controller role (the
+  // message table's, in state.controller_only; Stop never does).
+  const off = (op) => observer && !!(state && state.controller_only && state.controller_only[op]);
+  document.querySelectorAll('[data-op]').forEach((b) => { b.disabled = off(b.dataset.op); });
+  $('btn-approach').disabled = off('approach') || !(state && state.features.drive);
+  document.querySelectorAll('[data-jog]').forEach((b) => { b.disabled = off('drive') || !(state && state.features.drive); });
   $('drive-box').classList.toggle('off', !(state && state.features.drive));
 }
 

@@ -17,6 +17,7 @@
 
 #include "ajar/protocol/codec.hpp"
 #include "ajar/protocol/layout.hpp"
+#include "ajar/protocol/message_table.hpp"
 
 namespace ajar::protocol {
 namespace {
@@ -505,6 +506,62 @@ TEST(ProtocolDoc, EveryTypeHasItsSection) {
   }
   for (const auto& [t, m] : all_types())
     EXPECT_TRUE(documented.count(t)) << to_string(t) << " has no section 5.x";
+}
+
+// Section 4.2 is the message table's policy columns (message_table.hpp), row by row: who may send
+// each request, whether a repeat is executed again, whether its Ack waits for the save, whether it
+// starts a motion, whether it waits for the wheels to be at rest; every request once.
+TEST(ProtocolDoc, PolicyTableIsTheMessageTables) {
+  const Doc& doc = the_doc();
+  const auto yes_no = [](bool b) { return std::string(b ? "yes" : "no"); };
+  std::map<std::string, std::vector<std::string>> documented;
+  bool in_section = false;
+  for (const auto& line : doc.lines()) {
+    if (line.starts_with("### ") || line.starts_with("## ")) {
+      in_section = line.starts_with("### 4.2 ");
+    }
+    if (!in_section || !line.starts_with("| ") || line.starts_with("| message") ||
+        line.starts_with("| ---")) {
+      continue;
+    }
+    const auto c = cells(line);
+    ASSERT_EQ(c.size(), 6u) << line;
+    // "Drive (1.1)": the name; the minor is section 4's.
+    const std::string name = c[0].substr(0, c[0].find(' '));
+    EXPECT_TRUE(documented.emplace(name, c).second) << "twice: " << line;
+  }
+  for (const auto& [type, message] : all_types()) {
+    if (!is_request(type)) {
+      EXPECT_EQ(policy_of(type).sender, Sender::kDaemon) << to_string(type);
+      continue;
+    }
+    const MessagePolicy& p = policy_of(type);
+    const std::string expected =
+        "| " + std::string(to_string(type)) + " | " + std::string(word_of(kSenderWords, p.sender)) +
+        " | " + yes_no(p.deduplicated) + " | " + yes_no(p.durable_ack) + " | " +
+        yes_no(p.starts_motion) + " | " + yes_no(p.needs_wheels_at_rest) + " |";
+    const auto it = documented.find(std::string(to_string(type)));
+    if (it == documented.end()) {
+      ADD_FAILURE() << "section 4.2 lacks " << to_string(type) << "; expected the row\n"
+                    << expected;
+      continue;
+    }
+    const auto& c = it->second;
+    EXPECT_EQ(c[1], word_of(kSenderWords, p.sender)) << "expected\n" << expected;
+    EXPECT_EQ(c[2], yes_no(p.deduplicated)) << "expected\n" << expected;
+    EXPECT_EQ(c[3], yes_no(p.durable_ack)) << "expected\n" << expected;
+    EXPECT_EQ(c[4], yes_no(p.starts_motion)) << "expected\n" << expected;
+    EXPECT_EQ(c[5], yes_no(p.needs_wheels_at_rest)) << "expected\n" << expected;
+    documented.erase(it);
+  }
+  for (const auto& [name, c] : documented)
+    ADD_FAILURE() << "section 4.2 lists " << name << ", which is not a host -> daemon message";
+  // The readers' shorthands say what the rows say.
+  EXPECT_TRUE(needs_controller(MessageType::kMeasureDoorWidth));
+  EXPECT_FALSE(needs_controller(MessageType::kStop));
+  EXPECT_TRUE(is_stop(MessageType::kEmergencyStop));
+  EXPECT_FALSE(is_stop(MessageType::kGetStatus));
+  EXPECT_EQ(policy_of(static_cast<MessageType>(0x01FF)).sender, Sender::kDaemon);
 }
 
 }  // namespace
