@@ -130,6 +130,9 @@ function watchdog() {
   $('estop-text').textContent = ok ? 'EMERGENCY STOP' : 'NO LINK — use the robot\u2019s hardware e-stop';
   $('estop-key').textContent = ok ? 'Esc' : '';
   es.dataset.link = ok ? 'up' : 'down';
+  // A jog held while ajard stops answering ends here (zero sent): its buttons are disabled below and
+  // a disabled button may never see its release.
+  if (!answering && jogHeld) jogStop();
   updateConn();
   updateHeader();
   updateHud();
@@ -436,6 +439,7 @@ let jogHeld = null;
 function jogStart(dir) {
   if (!state || !state.features.drive || jogHeld === dir) return;
   if (!linkUp() || !live.daemon) { imageMessage('jog: NO LINK to ajard: nothing sent'); return; }
+  if (!live.answering) { imageMessage('jog: ajard is not answering: nothing sent'); return; }
   jogHeld = dir;
   document.querySelectorAll('[data-jog]').forEach((b) => b.classList.toggle('held', b.dataset.jog === dir));
   jogSend();
@@ -522,13 +526,14 @@ function updateConn() {
 function updateHeader() {
   const role = state && live.link ? state.role : '';
   const observer = role === 'observer';
-  $('role').textContent = !live.link ? 'unknown' : role || '—';
-  $('role-box').classList.toggle('observer', observer);
-  $('role-box').title = state && state.controller ? state.controller : '';
+  // Like the state and the fault: what ajard last said is not shown as current while it is silent.
+  $('role').textContent = !live.answering ? 'unknown' : role || '—';
+  $('role-box').classList.toggle('observer', observer && live.answering);
+  $('role-box').title = !live.answering && role ? `last known: ${role}` : state && state.controller ? state.controller : '';
   $('btn-take-over').hidden = !(live.link && live.daemon && observer);
   $('deadman').hidden = !$('btn-take-over').hidden;  // an observer feeds no deadman: Take over there
   const fed = live.link && live.answering && role === 'controller' && state.connection.heartbeat;
-  $('deadman-text').textContent = !live.link ? 'NOT fed (no link)' : !live.answering ? 'unknown (ajard not answering)' : observer ? 'not ours (observer)' : fed ? 'fed by this page' : 'NOT fed';
+  $('deadman-text').textContent = !live.link ? 'NOT fed (no link)' : !live.answering ? 'unknown' : observer ? 'not ours (observer)' : fed ? 'fed by this page' : 'NOT fed';
   $('deadman').classList.toggle('unfed', !fed);
   const fault = state && state.status ? state.status.latched_fault : 'OK';
   $('fault').textContent = !live.answering ? 'unknown' : fault === 'OK' ? 'none' : fault;
@@ -548,9 +553,10 @@ function updateHeader() {
   $('state-box').dataset.motion = motion;
   $('state-box').title = $('state').textContent + ' ' + $('motion').textContent;
   $('hud-motion').textContent = motion ? motion.toUpperCase() : '';
-  // An observer's buttons are disabled for the ops whose request needs the controller role (the
-  // message table's, in state.controller_only; Stop never does).
-  const off = (op) => observer && !!(state && state.controller_only && state.controller_only[op]);
+  // Commands need an ajard that answers (a click would act later on a state nobody sees) and, for an
+  // observer, a request the message table lets observers send (state.controller_only, the table's
+  // sender column): else their buttons are disabled. STOP and EMERGENCY STOP never are.
+  const off = (op) => !live.answering || (observer && !!(state && state.controller_only && state.controller_only[op]));
   document.querySelectorAll('[data-op]').forEach((b) => { b.disabled = off(b.dataset.op); });
   $('btn-approach').disabled = off('approach') || !(state && state.features.drive);
   document.querySelectorAll('[data-jog]').forEach((b) => { b.disabled = off('drive') || !(state && state.features.drive); });

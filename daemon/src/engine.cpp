@@ -224,7 +224,22 @@ protocol::Status EngineImpl::status() const {
   s.loop = loop_->statistics().summary();
   s.timing = loop_->statistics().timing(monotonic_now_ns());
   s.realtime = to_wire(realtime_granted());
+  s.base_motion = base_motion();
   return s;
+}
+
+protocol::BaseMotion EngineImpl::base_motion() const {
+  if (wheels_.current() == 0) return protocol::BaseMotion::kNone;
+  if (wheels_.stopping()) return protocol::BaseMotion::kStopping;
+  switch (wheels_.kind()) {
+    case WheelKind::kAlign:
+      return protocol::BaseMotion::kAligning;
+    case WheelKind::kApproach:
+      return protocol::BaseMotion::kApproaching;
+    case WheelKind::kJog:
+      return protocol::BaseMotion::kJogging;
+  }
+  return protocol::BaseMotion::kNone;
 }
 
 protocol::Telemetry EngineImpl::telemetry() const {
@@ -245,6 +260,7 @@ protocol::Telemetry EngineImpl::telemetry() const {
   t.arm_state = to_wire(arm_.status().phase);
   t.loop = loop_->statistics().summary();
   t.timing = loop_->statistics().timing(monotonic_now_ns());
+  t.base_motion = base_motion();
   return t;
 }
 

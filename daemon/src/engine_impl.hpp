@@ -228,6 +228,8 @@ class EngineImpl final : public Engine {
   void latch(ErrorCode code, const std::string& detail);
 
   void emit(EventKind kind, ErrorCode fault, const std::string& detail);
+  // What moves the base now (Status, Telemetry, Event; protocol 1.2).
+  protocol::BaseMotion base_motion() const;
 
   void flush();
 

@@ -160,6 +160,7 @@ void EngineImpl::emit(EventKind kind, ErrorCode fault, const std::string& detail
   e.fault = kind == EventKind::kFaultLatched ? fault : ErrorCode::kOk;
   e.daemon_time_ns = daemon_time_ns();
   e.detail.assign(detail);
+  e.base_motion = base_motion();
   if (sink_) sink_(e);
 }
 

@@ -188,7 +188,9 @@ void SessionHub::broadcast(const protocol::Message& message) {
 void SessionHub::announce_controller(std::string_view detail) {
   protocol::Event event;
   event.kind = protocol::EventKind::kControlChanged;
-  event.state = engine_.status().state;
+  const protocol::Status status = engine_.status();
+  event.state = status.state;
+  event.base_motion = status.base_motion;
   event.daemon_time_ns = engine_.daemon_time_ns();  // one clock: since the daemon started
   event.detail = detail;
   spdlog::info("control changed: {}", detail);

@@ -323,7 +323,7 @@ struct Schema<Event> : MessageRow<MessageType::kEvent, "Event", kDaemonToHost, 0
   using fields =
       Fields<Field<"kind", &Event::kind>, Field<"state", &Event::state>,
              Field<"fault", &Event::fault>, Field<"daemon_time_ns", &Event::daemon_time_ns>,
-             Field<"detail", &Event::detail>>;
+             Field<"detail", &Event::detail>, Field<"base_motion", &Event::base_motion, 2>>;
 };
 template <>
 struct Schema<Status> : MessageRow<MessageType::kStatus, "Status", kDaemonToHost, 0> {
@@ -339,7 +339,8 @@ struct Schema<Status> : MessageRow<MessageType::kStatus, "Status", kDaemonToHost
                     Field<"base_yaw_odometry_rad", &Status::base_yaw_odometry_rad>,
                     Field<"card", &Status::card>, Field<"arm", &Status::arm>,
                     Field<"arm_state", &Status::arm_state>, Field<"loop", &Status::loop>>,
-             MotionBlock<Status>, Fields<Field<"realtime", &Status::realtime, 1>>>;
+             MotionBlock<Status>, Fields<Field<"realtime", &Status::realtime, 1>>,
+             Fields<Field<"base_motion", &Status::base_motion, 2>>>;
 };
 template <>
 struct Schema<Telemetry> : MessageRow<MessageType::kTelemetry, "Telemetry", kDaemonToHost, 0> {
@@ -352,7 +353,7 @@ struct Schema<Telemetry> : MessageRow<MessageType::kTelemetry, "Telemetry", kDae
                     Field<"right_counts", &Telemetry::right_counts>,
                     Field<"base_yaw_odometry_rad", &Telemetry::base_yaw_odometry_rad>,
                     Field<"arm_state", &Telemetry::arm_state>, Field<"loop", &Telemetry::loop>>,
-             MotionBlock<Telemetry>>;
+             MotionBlock<Telemetry>, Fields<Field<"base_motion", &Telemetry::base_motion, 2>>>;
 };
 template <>
 struct Schema<RobotModel> : MessageRow<MessageType::kRobotModel, "RobotModel", kDaemonToHost, 1> {

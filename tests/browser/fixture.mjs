@@ -232,6 +232,19 @@ export async function openPage(stack, viewport = VIEWPORTS[0]) {
     const r = e.getBoundingClientRect();
     return r.width > 0 && r.height > 0 && r.top >= 0 && r.left >= 0 && r.bottom <= window.innerHeight + 0.5 && r.right <= window.innerWidth + 0.5;
   });
+  // The header pills whose text is cut off (shown with an ellipsis): none may be. `widest` also
+  // tries the longest values a pill can hold (the state with a motion, a latched fault) in the same
+  // layout, restored before the next watchdog round redraws them.
+  P.truncatedPills = async (widest = {}) => page.evaluate((widest) => {
+    const saved = Object.keys(widest).map((id) => [id, document.getElementById(id).textContent]);
+    for (const [id, text] of Object.entries(widest)) document.getElementById(id).textContent = text;
+    const pills = [...document.querySelectorAll('header .pill')].filter((e) => !e.hidden);
+    if (pills.length < 4) return [`only ${pills.length} pills in the header`];
+    const cut = pills.filter((e) => e.scrollWidth > e.clientWidth + 0.5)
+      .map((e) => `${e.id} "${e.textContent.trim().replace(/\s+/g, ' ')}" needs ${e.scrollWidth} px, has ${e.clientWidth}`);
+    for (const [id, text] of saved) document.getElementById(id).textContent = text;
+    return cut;
+  }, widest);
   P.close = async () => { pages.delete(P); await context.close().catch(() => {}); };
   return P;
 }

@@ -27,6 +27,14 @@ test('issue 23 item 5: FROZEN within 1 s when the console or ajard stops; NO LIN
     };
     const atEach = (name, check) => P.atEachViewport(name, check);
 
+    // The header's pills are never cut off: live, and with the longest values they can hold.
+    const widest = { state: 'ready_to_engage', motion: '· APPROACHING', fault: 'CARD_COMMUNICATION', role: 'controller' };
+    await atEach('item5-live', async (vp) => {
+      assert.deepEqual(await P.truncatedPills(), [], `live at ${vp.name}`);
+      assert.deepEqual(await P.truncatedPills(widest), [], `the widest values at ${vp.name}`);
+      assert.equal(await page.isDisabled('#btn-align'), false, 'a controller that ajard answers may command');
+    });
+
     // ajard stops (SIGSTOP): the camera still renders, but the daemon's telemetry is frozen.
     process.kill(stack.ajard.pid, 'SIGSTOP');
     assert.ok(await frozenWithin('ajard', 1000) <= 1000);
@@ -37,7 +45,7 @@ test('issue 23 item 5: FROZEN within 1 s when the console or ajard stops; NO LIN
     await P.clickAt(L.points.leaf_low_left);
     await page.waitForFunction(() => /FROZEN/.test(document.getElementById('image-msg').textContent));
     assert.equal(await page.$$eval('#pick-list li', (l) => l.length), 0);
-    await atEach('item5-ajard-frozen', async () => {
+    await atEach('item5-ajard-frozen', async (vp) => {
       assert.match(await page.textContent('#live-badge'), /^FROZEN [0-9.]+ m?s — no telemetry from ajard/);
       assert.match(await page.textContent('#estop'), /NO LINK — use the robot’s hardware e-stop/);
       assert.ok(await P.inViewport('#live-badge'));
@@ -47,6 +55,15 @@ test('issue 23 item 5: FROZEN within 1 s when the console or ajard stops; NO LIN
       assert.equal(await page.textContent('#fault'), 'unknown');
       assert.match(await page.textContent('#deadman-text'), /unknown/);
       assert.match(await page.textContent('#hud-door'), /unknown/);
+      assert.equal(await page.textContent('#role'), 'unknown', 'the role ajard gave is not shown as current');
+      assert.deepEqual(await P.truncatedPills(), [], `frozen at ${vp.name}`);
+      // Nothing can be commanded while ajard is silent (it would act later on a state nobody sees);
+      // STOP and EMERGENCY STOP can always be pressed.
+      for (const id of ['#btn-align', '#btn-engage', '#btn-send', '#btn-approach', '#btn-reset', '[data-jog="fwd"]']) {
+        assert.equal(await page.isDisabled(id), true, `${id} disabled while ajard is not answering`);
+      }
+      assert.equal(await page.isDisabled('#btn-stop-top'), false);
+      assert.equal(await page.isDisabled('#estop'), false);
     });
     process.kill(stack.ajard.pid, 'SIGCONT');
     await page.waitForFunction(() => document.getElementById('live-badge').dataset.state === 'live', null, { timeout: 10000 });
@@ -74,8 +91,9 @@ test('issue 23 item 5: FROZEN within 1 s when the console or ajard stops; NO LIN
     await page.waitForFunction(() => document.getElementById('estop').dataset.link === 'down', null, { timeout: 2000 });
     await page.click('#estop');
     await page.waitForFunction(() => /EMERGENCY STOP: NO LINK.*not sent.*hardware e-stop/.test(document.getElementById('image-msg').textContent));
-    await atEach('item5-console-killed', async () => {
+    await atEach('item5-console-killed', async (vp) => {
       assert.match(await page.textContent('#estop'), /NO LINK — use the robot’s hardware e-stop/);
+      assert.deepEqual(await P.truncatedPills(), [], `no link at ${vp.name}`);
       assert.match(await page.textContent('#deadman-text'), /NOT fed/);
       assert.match(await page.textContent('#conn-text'), /console unreachable/);
       assert.match(await page.textContent('#live-badge'), /^FROZEN/);

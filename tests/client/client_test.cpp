@@ -293,11 +293,19 @@ TEST(Client, RecordedHeadersFollowTheFrameBoundaries) {
   ASSERT_TRUE(c.request(protocol::GetStatus{}).ok());  // after the pushed frames
   const auto headers = c.recorded_headers();
   ASSERT_EQ(headers.size(), 5u);
-  const std::pair<MessageType, std::uint32_t> expected[] = {{MessageType::kStatus, 464},
-                                                            {MessageType::kPong, 16},
-                                                            {MessageType::kTelemetry, 263},
-                                                            {MessageType::kEvent, 133},
-                                                            {MessageType::kStatus, 464}};
+  // This version's payload lengths (1.2 appended fields to Status, Telemetry and Event): what
+  // the codec writes.
+  const auto length = [](const protocol::Message& m) {
+    std::vector<std::uint8_t> bytes;
+    EXPECT_TRUE(protocol::encode_append(protocol::Envelope{0, 0, m}, bytes));
+    return static_cast<std::uint32_t>(bytes.size() - protocol::kHeaderSize);
+  };
+  const std::pair<MessageType, std::uint32_t> expected[] = {
+      {MessageType::kStatus, length(protocol::Status{})},
+      {MessageType::kPong, 16},
+      {MessageType::kTelemetry, length(protocol::Telemetry{})},
+      {MessageType::kEvent, length(protocol::Event{})},
+      {MessageType::kStatus, length(protocol::Status{})}};
   for (std::size_t i = 0; i < headers.size(); ++i) {
     EXPECT_EQ(headers[i].type, static_cast<std::uint16_t>(expected[i].first)) << i;
     EXPECT_EQ(headers[i].payload_length, expected[i].second) << i;

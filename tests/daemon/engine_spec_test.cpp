@@ -66,3 +66,42 @@ TEST_F(EngineSpec, TelemetryIsStampedWithTheCycleThatSampledTheWheels) {
 
 }  // namespace
 }  // namespace ajar::testing
+
+namespace ajar::testing {
+namespace {
+
+// Protocol 1.2's base_motion: the procedure state stays at its step during a jog or an Approach
+// (issue 24: both said awaiting_handle, only Telemetry.moving revealed the motion).
+TEST_F(EngineSpec, BaseMotionSaysWhatMovesTheBaseWhileTheStateStaysAtTheStep) {
+  using protocol::BaseMotion;
+  cycles(3);
+  expect_ack(send(good_width()), ProcedureState::kAwaitingHandle);
+  EXPECT_EQ(engine->status().base_motion, BaseMotion::kNone);
+  const auto door = engine->status().door;
+  events.clear();
+  ASSERT_TRUE(
+      std::holds_alternative<protocol::Ack>(send(protocol::Approach{door.distance_m - 0.05})));
+  ASSERT_FALSE(events.empty());
+  EXPECT_EQ(events.front().kind, EventKind::kMotionStarted);
+  EXPECT_EQ(events.front().base_motion, BaseMotion::kApproaching);
+  EXPECT_EQ(events.front().state, ProcedureState::kAwaitingHandle);
+  EXPECT_EQ(engine->telemetry().base_motion, BaseMotion::kApproaching);
+  EXPECT_EQ(engine->status().state, ProcedureState::kAwaitingHandle);
+  for (int i = 0; i < 3000 && count(EventKind::kMotionFinished) == 0; ++i)
+    cycles(1);
+  ASSERT_EQ(count(EventKind::kMotionFinished), 1);
+  EXPECT_EQ(events.back().base_motion, BaseMotion::kNone);
+  EXPECT_EQ(engine->telemetry().base_motion, BaseMotion::kNone);
+
+  ASSERT_TRUE(std::holds_alternative<protocol::Ack>(send(protocol::Drive{-0.05, 0.0})));
+  EXPECT_EQ(engine->status().base_motion, BaseMotion::kJogging);
+  cycles(20);
+  ASSERT_TRUE(std::holds_alternative<protocol::Ack>(send(protocol::Stop{})));
+  EXPECT_EQ(engine->telemetry().base_motion, BaseMotion::kStopping);
+  for (int i = 0; i < 3000 && count(EventKind::kMotionStopped) == 0; ++i)
+    cycles(1);
+  EXPECT_EQ(engine->telemetry().base_motion, BaseMotion::kNone);
+}
+
+}  // namespace
+}  // namespace ajar::testing

@@ -151,12 +151,27 @@ TEST_F(ProtocolVersions, AOneOneSessionOnTheSameDaemonGetsOneOneLayouts) {
   EXPECT_EQ(refused.header.version_minor, 1);
   EXPECT_EQ(refused.header.request_id, 4u);
 
-  // One event, two layouts: each session gets its own minor's header.
+  TestClient now(server_.port());  // a 1.2 client: Status and Event carry base_motion (1.2)
+  now.send_raw(frame_at(hello_as(Role::kObserver), 1, 2));
+  EXPECT_EQ(read_until(now.socket(), MessageType::kWelcome).header.version_minor, 2);
+  now.send_raw(frame_at(protocol::GetStatus{}, 2, 2));
+  EXPECT_EQ(read_until(now.socket(), MessageType::kStatus).header.payload_length, 465u);
+
+  // One event, three layouts: each session gets its own minor's header and length.
   protocol::Event event;
   event.kind = protocol::EventKind::kStateChanged;
+  event.base_motion = protocol::BaseMotion::kJogging;
   engine_.emit(event);
-  EXPECT_EQ(read_until(old.socket(), MessageType::kEvent).header.version_minor, 0);
-  EXPECT_EQ(read_until(c.socket(), MessageType::kEvent).header.version_minor, 1);
+  const RawFrame old_event = read_until(old.socket(), MessageType::kEvent);
+  EXPECT_EQ(old_event.header.version_minor, 0);
+  EXPECT_EQ(old_event.header.payload_length, 133u);
+  const RawFrame event_1_1 = read_until(c.socket(), MessageType::kEvent);
+  EXPECT_EQ(event_1_1.header.version_minor, 1);
+  EXPECT_EQ(event_1_1.header.payload_length, 133u);
+  const RawFrame event_1_2 = read_until(now.socket(), MessageType::kEvent);
+  EXPECT_EQ(event_1_2.header.version_minor, 2);
+  EXPECT_EQ(event_1_2.header.payload_length, 134u);
+  EXPECT_EQ(event_1_2.bytes.back(), 3);  // base_motion: jogging
 }
 
 TEST_F(ProtocolVersions, DecodeErrorsCarryASentenceNamingTheFieldAndWhy) {

@@ -175,7 +175,7 @@ TEST(Compatibility, OneZeroLayoutsRoundTrip) {
   ASSERT_EQ(e.kind, StreamDecoder::Kind::kError);
   EXPECT_EQ(e.error.code, ErrorCode::kBadPayloadLength);
   EXPECT_EQ(describe(e.error),
-            "header.payload_length is 464: Status in protocol 1.0 has 285 bytes");
+            "header.payload_length is 465: Status in protocol 1.0 has 285 bytes");
   b = encode_bytes(Envelope{3, 0, Status{}}, 0);
   b[kOffsetVersionMinor] = 1;
   refresh_crc(b);
@@ -290,9 +290,9 @@ TEST(Encode, SizesFollowTheSpec) {
   EXPECT_EQ(size_of(Welcome{}), kHeaderSize + 73);
   EXPECT_EQ(size_of(Pong{}), kHeaderSize + 16);
   EXPECT_EQ(size_of(ErrorReply{}), kHeaderSize + 238);
-  EXPECT_EQ(size_of(Event{}), kHeaderSize + 133);
-  EXPECT_EQ(size_of(Status{}), kHeaderSize + 464);
-  EXPECT_EQ(size_of(Telemetry{}), kHeaderSize + 263);
+  EXPECT_EQ(size_of(Event{}), kHeaderSize + 134);      // 1.2: base_motion appended
+  EXPECT_EQ(size_of(Status{}), kHeaderSize + 465);     // 464 in 1.1
+  EXPECT_EQ(size_of(Telemetry{}), kHeaderSize + 264);  // 263 in 1.1
   EXPECT_EQ(size_of(Drive{}), kHeaderSize + 16);
   EXPECT_EQ(size_of(Approach{}), kHeaderSize + 8);
   EXPECT_EQ(size_of(GetRobotModel{}), kHeaderSize);

@@ -155,7 +155,8 @@ class Doc {
                   std::vector<Leaf>& out, std::size_t i) const {
     const std::string index = std::string("[").append(std::to_string(i)).append("]");
     const std::string field = std::regex_replace(r.field, std::regex(R"(\[i\])"), index);
-    const bool appended = since_1_1 || r.meaning.starts_with("1.1") || r.field == "(1.1)";
+    const bool appended = since_1_1 || r.meaning.starts_with("1.1") ||
+                          r.meaning.starts_with("1.2") || r.field == "(1.1)";
     std::size_t offset = 0;
     std::smatch m;
     if (std::regex_match(r.offset, m, std::regex(R"((\d+) \+ (\d+)·i)"))) {
@@ -243,8 +244,10 @@ TEST(Layout, OffsetsFollowTheMinorAndTheValue) {
   EXPECT_EQ(offset_of(plane, "points[15].z"), 1 + 15 * 25 + 17);
   const auto status = payload_layout(Status{});
   ASSERT_FALSE(status.empty());
-  EXPECT_EQ(status.back().name, "realtime.memory_locked");
-  EXPECT_EQ(status.back().since, 1);
+  EXPECT_EQ(status.back().name, "base_motion");
+  EXPECT_EQ(status.back().since, 2);
+  EXPECT_EQ(payload_layout(Status{}, 1).back().name, "realtime.memory_locked");
+  EXPECT_EQ(payload_layout(Status{}, 1).back().since, 1);
   EXPECT_EQ(status.front().since, 0);
 }
 
@@ -271,7 +274,7 @@ template <typename E>
 void expect_words(const Doc& doc, const std::string& name) {
   for (const auto& line : doc.lines()) {
     std::smatch m;
-    if (!std::regex_match(line, m, std::regex("\\| " + name + R"(( \(1\.1\))? \| (.*) \|)")))
+    if (!std::regex_match(line, m, std::regex("\\| " + name + R"(( \(1\.\d\))? \| (.*) \|)")))
       continue;
     // "0 sim (simulated hardware), 1 mock (...), 2 real (...)": the words, parentheses dropped.
     const std::string values = std::regex_replace(m[2].str(), std::regex(R"( \([^)]*\))"), "");
@@ -301,6 +304,7 @@ TEST(ProtocolDoc, EnumWordsAreTheCodecs) {
   expect_words<DriverState>(doc, "DriverState");
   expect_words<DriverKind>(doc, "DriverKind");
   expect_words<SchedulingPolicy>(doc, "SchedulingPolicy");
+  expect_words<BaseMotion>(doc, "BaseMotion");
 }
 
 // "### 5.10 Welcome `0x0201` (73 bytes; 72 in 1.0)": the table, expanded, is payload_layout() in

@@ -225,6 +225,25 @@ struct EnumWords<DriverKind> {
   static constexpr auto last = DriverKind::kReal;
 };
 
+// What moves the base now (Status, Telemetry, Event; 1.2): the procedure state says the step, this
+// says the motion — a jog or an Approach leave the state at the step they were accepted in.
+enum class BaseMotion : std::uint8_t {
+  kNone = 0,         // no motion owns the wheels
+  kAligning = 1,     // AlignBase turns the base
+  kApproaching = 2,  // an Approach drives it
+  kJogging = 3,      // a jog (Drive) is open: from its motion_started to its motion_finished
+  kStopping = 4,     // a stop, fault or lost controller ended a motion; the wheels are not at rest
+};
+template <>
+struct EnumWords<BaseMotion> {
+  static constexpr std::array<Word<BaseMotion>, 5> words{{{BaseMotion::kNone, "none"},
+                                                          {BaseMotion::kAligning, "aligning"},
+                                                          {BaseMotion::kApproaching, "approaching"},
+                                                          {BaseMotion::kJogging, "jogging"},
+                                                          {BaseMotion::kStopping, "stopping"}}};
+  static constexpr auto last = BaseMotion::kStopping;
+};
+
 // The control thread's scheduling policy (Status.realtime, 1.1).
 enum class SchedulingPolicy : std::uint8_t { kOther = 0, kFifo = 1, kRoundRobin = 2 };
 template <>
@@ -380,6 +399,7 @@ struct Event {
   ErrorCode fault = ErrorCode::kOk;  // for kFaultLatched; kOk otherwise
   std::uint64_t daemon_time_ns = 0;
   FixedString<120> detail;
+  BaseMotion base_motion = BaseMotion::kNone;  // 1.2: what moves the base after the event
 };
 
 struct LoopStatistics {
@@ -457,6 +477,7 @@ struct Status {
   double commanded_angular_rad_s = 0;
   LoopTiming timing;
   RealtimeState realtime;
+  BaseMotion base_motion = BaseMotion::kNone;  // 1.2
 };
 
 struct Telemetry {
@@ -476,6 +497,7 @@ struct Telemetry {
   double commanded_linear_m_s = 0;
   double commanded_angular_rad_s = 0;
   LoopTiming timing;
+  BaseMotion base_motion = BaseMotion::kNone;  // 1.2
 };
 
 // 1.1: one driving wheel.
