@@ -351,7 +351,10 @@ void control_fields(Io& io, C& c) {
               "run the loop with SCHED_FIFO at `priority`; refused → a warning, normal scheduling"},
              c.realtime);
   io.integer({"priority", "SCHED_FIFO priority"}, c.priority, 1, 99);
-  io.boolean({"lock_memory", "`mlockall(MCL_CURRENT | MCL_FUTURE)`; refused → a warning"},
+  io.boolean({"lock_memory",
+              "`mlockall(MCL_CURRENT | MCL_FUTURE | MCL_ONFAULT)` (what is resident and whatever "
+              "is touched later stays resident) and the code the loop may run (executable, C/C++ "
+              "runtime, card library) locked in full; refused → a warning"},
              c.lock_memory);
   io.number(
       {"motion_timeout_margin_s", "a motion must finish within 1.5 × its planned duration + this"},
