@@ -46,7 +46,8 @@ try:
     obs.call(SUBSCRIBE, struct.pack("<f", 100.0), minor=2)
     c.call(RESET, b"\x01")
     time.sleep(1.0)
-    lst = obs.call(LIST, struct.pack("<I", 0), minor=2)
+    rid = obs.cmd(LIST, struct.pack("<I", 0), minor=2)
+    lst = obs.wait(lambda m: m.rid == rid, 5)
     assert lst is not None and lst.type == RLIST, lst
     count = lst.p[8]
     name = lst.p[9 + 1:9 + 1 + lst.p[9]].decode()
