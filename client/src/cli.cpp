@@ -286,6 +286,127 @@ ParsedArgs parse_global_options(std::span<const std::string> args) {
   return parsed;
 }
 
+namespace {
+
+// `help [COMMAND]`.
+CommandParse parse_help(Command c, std::span<const std::string> rest) {
+  if (rest.size() > 1) return fail("help takes at most one COMMAND");
+  if (rest.size() == 1 && (rest[0] == "--help" || rest[0] == "-h")) {
+    c.kind = Command::Kind::kHelp;
+    c.args = {"help"};
+    return {c, {}};
+  }
+  if (rest.size() == 1 && detail::find_command(rest[0]) == nullptr) {
+    return fail(unknown_command_message(rest[0]));
+  }
+  c.kind = Command::Kind::kHelp;
+  c.args.assign(rest.begin(), rest.end());
+  return {c, {}};
+}
+
+// conformance, simulate, script: their words go on to the command's own parser.
+CommandParse parse_passthrough(Command c, std::span<const std::string> rest) {
+  c.kind = c.name == "conformance" ? Command::Kind::kConformance
+           : c.name == "simulate"  ? Command::Kind::kSimulate
+                                   : Command::Kind::kScript;
+  c.args.assign(rest.begin(), rest.end());
+  if (c.kind == Command::Kind::kSimulate && c.args.empty()) {
+    return fail("simulate wants SCENARIO.yaml");
+  }
+  if (c.kind == Command::Kind::kScript && c.args.size() > 1) {
+    return fail("script takes at most one FILE");
+  }
+  return {c, {}};
+}
+
+// `measure width|handle|plane X Y Z ...`: the request, in `frame`.
+CommandParse parse_measure(Command c, const std::vector<std::string>& args, core::Frame frame) {
+  if (args.empty()) return fail("measure wants width, handle or plane");
+  const std::string& what = args[0];
+  std::vector<protocol::FramedPoint> points;
+  if (auto e = parse_points(std::span(args).subspan(1), frame, points); !e.empty()) {
+    return fail("measure " + what + ": " + e);
+  }
+  c.kind = Command::Kind::kRequest;
+  c.needs_controller = true;
+  if (what == "width" || what == "handle") {
+    if (points.size() != 2) {
+      return fail("measure " + what + " wants two points: X1 Y1 Z1 X2 Y2 Z2");
+    }
+    if (what == "width") {
+      c.name = "measure_width";
+      c.request = protocol::MeasureDoorWidth{points[0], points[1]};
+    } else {
+      c.name = "measure_handle";
+      c.request = protocol::MeasureHandle{points[0], points[1]};
+    }
+    return {c, {}};
+  }
+  if (what == "plane") {
+    if (points.size() < protocol::kMinPlanePoints || points.size() > protocol::kMaxPlanePoints) {
+      return fail("measure plane wants 3 to 16 points (X Y Z each), got " +
+                  std::to_string(points.size()));
+    }
+    protocol::MeasureDoorPlane plane;
+    plane.count = static_cast<std::uint8_t>(points.size());
+    std::copy(points.begin(), points.end(), plane.points.begin());
+    c.name = "measure_plane";
+    c.request = plane;
+    return {c, {}};
+  }
+  return fail("measure wants width, handle or plane, got '" + what + "'");
+}
+
+// The commands whose words are read after CLI11 (contact, drive, approach, reset, sleep).
+CommandParse parse_arguments(Command c, const detail::CommandArgs& a, core::Frame frame) {
+  const std::string& name = c.name;
+  const std::vector<std::string>& args = a.words;
+  if (name == "contact") {
+    std::vector<protocol::FramedPoint> points;
+    if (auto e = parse_points(args, frame, points); !e.empty()) return fail("contact: " + e);
+    if (points.size() != 1) return fail("contact wants one point: X Y Z");
+    c.kind = Command::Kind::kRequest;
+    c.needs_controller = true;
+    c.request = protocol::SetContactPoint{points[0]};
+    return {c, {}};
+  }
+  if (name == "drive") {
+    c.kind = Command::Kind::kDrive;
+    c.needs_controller = true;
+    if (a.velocity && c.duration_s <= 0) return fail("drive --linear/--angular needs --for S");
+    if (!a.velocity && c.duration_s > 0) return fail("drive --for needs --linear and/or --angular");
+    return {c, {}};
+  }
+  if (name == "approach") {
+    double standoff_m = 0;
+    if (args.size() != 1 || !parse_double(args[0], standoff_m)) {
+      return fail("approach wants STANDOFF_M: the distance to the door plane in metres");
+    }
+    c.kind = Command::Kind::kApproach;
+    c.needs_controller = true;
+    c.request = protocol::Approach{standoff_m};
+    return {c, {}};
+  }
+  if (name == "reset") {
+    protocol::Reset reset;
+    reset.clear_parameters = a.clear;
+    c.request = reset;
+    c.kind = Command::Kind::kRequest;
+    c.needs_controller = true;
+    return {c, {}};
+  }
+  if (name == "sleep") {
+    if (args.size() != 1 || !parse_seconds(args[0], c.duration_s)) {
+      return fail("sleep wants SECONDS (0..1000000)");
+    }
+    c.kind = Command::Kind::kSleep;
+    return {c, {}};
+  }
+  return fail(unknown_command_message(name) + " (try --help)");
+}
+
+}  // namespace
+
 CommandParse parse_command(std::span<const std::string> words, core::Frame frame) {
   if (words.empty()) return fail("no command given (try --help)");
   const std::string& name = words[0];
@@ -294,20 +415,7 @@ CommandParse parse_command(std::span<const std::string> words, core::Frame frame
   c.name = name;
 
   // `help [COMMAND]` and `COMMAND --help` (or -h) anywhere after a known command.
-  if (name == "help") {
-    if (rest.size() > 1) return fail("help takes at most one COMMAND");
-    if (rest.size() == 1 && (rest[0] == "--help" || rest[0] == "-h")) {
-      c.kind = Command::Kind::kHelp;
-      c.args = {"help"};
-      return {c, {}};
-    }
-    if (rest.size() == 1 && detail::find_command(rest[0]) == nullptr) {
-      return fail(unknown_command_message(rest[0]));
-    }
-    c.kind = Command::Kind::kHelp;
-    c.args.assign(rest.begin(), rest.end());
-    return {c, {}};
-  }
+  if (name == "help") return parse_help(c, rest);
   const detail::CommandInfo* info = detail::find_command(name);
   if (info == nullptr) return fail(unknown_command_message(name) + " (try --help)");
   if (std::any_of(rest.begin(), rest.end(),
@@ -317,17 +425,7 @@ CommandParse parse_command(std::span<const std::string> words, core::Frame frame
     return {c, {}};
   }
   if (name == "conformance" || name == "simulate" || name == "script") {
-    c.kind = name == "conformance" ? Command::Kind::kConformance
-             : name == "simulate"  ? Command::Kind::kSimulate
-                                   : Command::Kind::kScript;
-    c.args.assign(rest.begin(), rest.end());
-    if (c.kind == Command::Kind::kSimulate && c.args.empty()) {
-      return fail("simulate wants SCENARIO.yaml");
-    }
-    if (c.kind == Command::Kind::kScript && c.args.size() > 1) {
-      return fail("script takes at most one FILE");
-    }
-    return {c, {}};
+    return parse_passthrough(c, rest);  // their own parsers read the words
   }
   if (name == "blackbox" || name == "replay") {  // their own parsers (blackbox_cmd.cpp, replay.cpp)
     c.kind = name == "blackbox" ? Command::Kind::kBlackbox : Command::Kind::kReplay;
@@ -377,84 +475,8 @@ CommandParse parse_command(std::span<const std::string> words, core::Frame frame
     c.kind = Command::Kind::kWatch;
     return {c, {}};
   }
-  if (name == "measure") {
-    if (args.empty()) return fail("measure wants width, handle or plane");
-    const std::string& what = args[0];
-    std::vector<protocol::FramedPoint> points;
-    if (auto e = parse_points(std::span(args).subspan(1), frame, points); !e.empty()) {
-      return fail("measure " + what + ": " + e);
-    }
-    c.kind = Command::Kind::kRequest;
-    c.needs_controller = true;
-    if (what == "width" || what == "handle") {
-      if (points.size() != 2) {
-        return fail("measure " + what + " wants two points: X1 Y1 Z1 X2 Y2 Z2");
-      }
-      if (what == "width") {
-        c.name = "measure_width";
-        c.request = protocol::MeasureDoorWidth{points[0], points[1]};
-      } else {
-        c.name = "measure_handle";
-        c.request = protocol::MeasureHandle{points[0], points[1]};
-      }
-      return {c, {}};
-    }
-    if (what == "plane") {
-      if (points.size() < protocol::kMinPlanePoints || points.size() > protocol::kMaxPlanePoints) {
-        return fail("measure plane wants 3 to 16 points (X Y Z each), got " +
-                    std::to_string(points.size()));
-      }
-      protocol::MeasureDoorPlane plane;
-      plane.count = static_cast<std::uint8_t>(points.size());
-      std::copy(points.begin(), points.end(), plane.points.begin());
-      c.name = "measure_plane";
-      c.request = plane;
-      return {c, {}};
-    }
-    return fail("measure wants width, handle or plane, got '" + what + "'");
-  }
-  if (name == "contact") {
-    std::vector<protocol::FramedPoint> points;
-    if (auto e = parse_points(args, frame, points); !e.empty()) return fail("contact: " + e);
-    if (points.size() != 1) return fail("contact wants one point: X Y Z");
-    c.kind = Command::Kind::kRequest;
-    c.needs_controller = true;
-    c.request = protocol::SetContactPoint{points[0]};
-    return {c, {}};
-  }
-  if (name == "drive") {
-    c.kind = Command::Kind::kDrive;
-    c.needs_controller = true;
-    if (a.velocity && c.duration_s <= 0) return fail("drive --linear/--angular needs --for S");
-    if (!a.velocity && c.duration_s > 0) return fail("drive --for needs --linear and/or --angular");
-    return {c, {}};
-  }
-  if (name == "approach") {
-    double standoff_m = 0;
-    if (args.size() != 1 || !parse_double(args[0], standoff_m)) {
-      return fail("approach wants STANDOFF_M: the distance to the door plane in metres");
-    }
-    c.kind = Command::Kind::kApproach;
-    c.needs_controller = true;
-    c.request = protocol::Approach{standoff_m};
-    return {c, {}};
-  }
-  if (name == "reset") {
-    protocol::Reset reset;
-    reset.clear_parameters = a.clear;
-    c.request = reset;
-    c.kind = Command::Kind::kRequest;
-    c.needs_controller = true;
-    return {c, {}};
-  }
-  if (name == "sleep") {
-    if (args.size() != 1 || !parse_seconds(args[0], c.duration_s)) {
-      return fail("sleep wants SECONDS (0..1000000)");
-    }
-    c.kind = Command::Kind::kSleep;
-    return {c, {}};
-  }
-  return fail(unknown_command_message(name) + " (try --help)");
+  if (name == "measure") return parse_measure(c, args, frame);
+  return parse_arguments(c, a, frame);
 }
 
 }  // namespace ajar::client

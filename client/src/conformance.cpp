@@ -1,6 +1,10 @@
 #include "ajar/client/conformance.hpp"
 
 #include <ostream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
 
 #include "ajar/client/cli.hpp"
 #include "ajar/conformance/conformance.hpp"
@@ -14,16 +18,18 @@ int run_conformance(const Command& command, const GlobalOptions& options, std::o
   o.tls = options.tls;
   o.timeout_s = options.timeout_s;
   o.vectors_dir = default_vectors_dir();
-  for (std::size_t i = 0; i < command.args.size(); ++i) {
-    if (command.args[i] == "--vectors" && i + 1 < command.args.size()) {
-      o.vectors_dir = command.args[++i];
-    } else if (command.args[i] == "--allow-motion-on-real-robot") {
-      o.allow_motion_on_real_robot = true;
-    } else {
-      err << "ajarctl: conformance takes [--vectors DIR] [--allow-motion-on-real-robot], got '"
-          << command.args[i] << "'\n";
-      return kExitUsage;
-    }
+  CLI::App app("", "conformance");
+  app.set_help_flag();  // `conformance --help` is answered before (cli_help.cpp)
+  app.add_option("--vectors", o.vectors_dir, "the golden vectors' folder")->type_name("DIR");
+  app.add_flag("--allow-motion-on-real-robot", o.allow_motion_on_real_robot,
+               "run the motion checks against a daemon on real hardware");
+  std::vector<std::string> reversed(command.args.rbegin(), command.args.rend());
+  try {
+    app.parse(reversed);  // CLI11 takes them reversed
+  } catch (const CLI::ParseError& e) {
+    err << "ajarctl: conformance takes [--vectors DIR] [--allow-motion-on-real-robot]: " << e.what()
+        << "\n";
+    return kExitUsage;
   }
   switch (conformance::run(o, out)) {
     case conformance::Result::kAllPassed:

@@ -1,12 +1,13 @@
 #include "ajar/client/simulate.hpp"
 
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <optional>
 #include <ostream>
 #include <stdexcept>
+
+#include <CLI/CLI.hpp>
 
 #include "ajar/client/cli.hpp"
 #include "ajar/client/output.hpp"
@@ -145,88 +146,68 @@ std::string report_text(const Scenario& s, const RunResult& r) {
 
 }  // namespace
 
-int run_simulate(const Command& command, const GlobalOptions& options, std::ostream& out,
-                 std::ostream& err) {
+namespace {
+
+// `ajarctl simulate SCENARIO.yaml [--seeds N] [--seed S] [--plane-points N] [--trace FILE]
+// [--config FILE]` (docs/ajarctl.md).
+struct SimulateArgs {
   std::string scenario_path, trace_path, config_path;
   int seeds = 1;
   int plane_points = 0;  // 0: the scenario's
   std::optional<std::uint64_t> seed;
-  for (std::size_t i = 0; i < command.args.size(); ++i) {
-    const std::string& a = command.args[i];
-    auto value = [&]() -> const std::string* {
-      return i + 1 < command.args.size() ? &command.args[++i] : nullptr;
-    };
-    if (a == "--trace" || a == "--config" || a == "--seeds" || a == "--seed" ||
-        a == "--plane-points") {
-      const std::string* v = value();
-      if (!v) {
-        err << "ajarctl: simulate: " << a << " needs a value\n";
-        return kExitUsage;
-      }
-      if (a == "--trace") {
-        trace_path = *v;
-      } else if (a == "--config") {
-        config_path = *v;
-      } else {
-        unsigned long long n = 0;
-        const auto [p, ec] = std::from_chars(v->data(), v->data() + v->size(), n);
-        if (ec != std::errc{} || p != v->data() + v->size() ||
-            (a == "--seeds" && (n < 1 || n > 100000))) {
-          err << "ajarctl: simulate: " << a << " wants a whole number, got '" << *v << "'\n";
-          return kExitUsage;
-        }
-        if (a == "--plane-points" && (n < 3 || n > 16)) {
-          err << "ajarctl: simulate: --plane-points wants 3..16, got '" << *v << "'\n";
-          return kExitUsage;
-        }
-        if (a == "--plane-points") {
-          plane_points = static_cast<int>(n);
-        } else if (a == "--seeds") {
-          seeds = static_cast<int>(n);
-        } else {
-          seed = n;
-        }
-      }
-    } else if (!a.empty() && a[0] != '-' && scenario_path.empty()) {
-      scenario_path = a;
-    } else {
-      err << "ajarctl: simulate: unexpected argument '" << a << "'\n";
-      return kExitUsage;
-    }
-  }
-  if (scenario_path.empty()) {
-    err << "ajarctl: simulate wants SCENARIO.yaml\n";
-    return kExitUsage;
-  }
-  Scenario scenario;
-  Eigen::Matrix4d camera_to_base;
-  try {
-    scenario = load_scenario(scenario_path);
-    camera_to_base = config_path.empty() ? core::paper_camera_to_base_m()
-                                         : daemon::load_config(config_path).camera_to_base_m;
-  } catch (const std::exception& e) {
-    err << "ajarctl: simulate: " << e.what() << '\n';
-    return kExitUsage;
-  }
-  if (seed) scenario.seed = *seed;
-  if (plane_points != 0) scenario.plane_points = plane_points;
+};
 
-  std::vector<TraceRow> trace;
-  std::vector<double> yaw_before_error, yaw_after;
+// Empty, or what is wrong with `args` (the words after `simulate`).
+std::string parse_simulate_args(const std::vector<std::string>& args, SimulateArgs& a) {
+  CLI::App app("", "simulate");
+  app.set_help_flag();  // `simulate --help` is answered before (cli_help.cpp)
+  app.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+  app.add_option("scenario", a.scenario_path)->type_name("SCENARIO.yaml");
+  app.add_option("--trace", a.trace_path)->type_name("FILE");
+  app.add_option("--config", a.config_path)->type_name("FILE");
+  app.add_option("--seeds", a.seeds, "runs, seeds S, S+1, ...")->check(CLI::Range(1, 100000));
+  app.add_option("--plane-points", a.plane_points)->check(CLI::Range(3, 16));
+  app.add_option_function<std::uint64_t>(
+         "--seed", [&a](const std::uint64_t& seed) { a.seed = seed; }, "the first seed")
+      ->check(CLI::Validator(  // CLI11 2.1 reads "-3" as 2^64 - 3
+          [](std::string& v) -> std::string {
+            return v.find('-') == std::string::npos ? "" : "wants a whole number, got '" + v + "'";
+          },
+          "S"));
+  std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them reversed
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    return e.what();
+  }
+  if (a.scenario_path.empty()) return "simulate wants SCENARIO.yaml";
+  return {};
+}
+
+// What the runs of one `simulate` found: its statistics over the seeds.
+struct SimulateRuns {
   int passed = 0;
   bool connection_failed = false;
+  std::vector<double> yaw_before_error, yaw_after;
+};
+
+// The scenario's seeds rehearsed against ajard, one report each (stops at a lost connection).
+SimulateRuns rehearse_seeds(const Scenario& scenario, const Eigen::Matrix4d& camera_to_base,
+                            int seeds, const GlobalOptions& options, std::vector<TraceRow>& trace,
+                            std::ostream& out) {
+  SimulateRuns runs;
   for (int i = 0; i < seeds; ++i) {
     Scenario run_scenario = scenario;
     run_scenario.seed = scenario.seed + static_cast<std::uint64_t>(i);
     bool lost = false;
     const RunResult result =
         simulation::rehearse(run_scenario, camera_to_base, options, trace, lost);
-    if (result.ok()) ++passed;
+    if (result.ok()) ++runs.passed;
     // Every run that got as far as an alignment counts in the statistics (also one that the
     // daemon never accepted as aligned).
     if (result.align_iterations > 0) {
-      yaw_before_error.push_back(result.yaw_before_measured_rad - result.yaw_before_true_rad);
-      yaw_after.push_back(result.yaw_after_true_rad);
+      runs.yaw_before_error.push_back(result.yaw_before_measured_rad - result.yaw_before_true_rad);
+      runs.yaw_after.push_back(result.yaw_after_true_rad);
     }
     if (options.json) {
       out << report_json(run_scenario, result).str() << '\n';
@@ -241,42 +222,75 @@ int run_simulate(const Command& command, const GlobalOptions& options, std::ostr
     }
     out.flush();
     if (lost) {
-      connection_failed = true;
+      runs.connection_failed = true;
       break;
     }
   }
-  if (seeds > 1) {
+  return runs;
+}
+
+// The summary of several seeds (JSON or text).
+void print_summary(const Scenario& scenario, int seeds, const SimulateRuns& runs, bool json,
+                   std::ostream& out) {
+  const auto& before = runs.yaw_before_error;
+  const auto& after = runs.yaw_after;
+  if (json) {
     JsonObject o;
-    o.add("type", "simulate_summary").add("command", "simulate").add("ok", passed == seeds);
+    o.add("type", "simulate_summary").add("command", "simulate").add("ok", runs.passed == seeds);
     o.add("scenario", scenario.name).add("plane_points", scenario.plane_points);
-    o.add("runs", seeds).add("passed", passed);
-    o.add("yaw_error_before_rms_rad", rms(yaw_before_error))
-        .add("yaw_error_before_max_abs_rad", max_abs(yaw_before_error));
-    o.add("residual_yaw_rms_rad", rms(yaw_after))
-        .add("residual_yaw_mean_abs_rad", mean_abs(yaw_after))
-        .add("residual_yaw_max_abs_rad", max_abs(yaw_after));
-    if (options.json) {
-      out << o.str() << '\n';
-    } else {
-      out << scenario.name << ": " << passed << "/" << seeds << " runs passed, "
-          << scenario.plane_points << " plane points\n"
-          << "  first plane yaw error (measured - true): rms " << fixed(rms(yaw_before_error), 5)
-          << " rad, max |.| " << fixed(max_abs(yaw_before_error), 5) << " rad\n"
-          << "  residual yaw after alignment (true):     rms " << fixed(rms(yaw_after), 5)
-          << " rad, mean |.| " << fixed(mean_abs(yaw_after), 5) << " rad, max |.| "
-          << fixed(max_abs(yaw_after), 5) << " rad\n";
-    }
+    o.add("runs", seeds).add("passed", runs.passed);
+    o.add("yaw_error_before_rms_rad", rms(before))
+        .add("yaw_error_before_max_abs_rad", max_abs(before));
+    o.add("residual_yaw_rms_rad", rms(after))
+        .add("residual_yaw_mean_abs_rad", mean_abs(after))
+        .add("residual_yaw_max_abs_rad", max_abs(after));
+    out << o.str() << '\n';
+    return;
   }
-  if (!trace_path.empty()) {
+  out << scenario.name << ": " << runs.passed << "/" << seeds << " runs passed, "
+      << scenario.plane_points << " plane points\n"
+      << "  first plane yaw error (measured - true): rms " << fixed(rms(before), 5)
+      << " rad, max |.| " << fixed(max_abs(before), 5) << " rad\n"
+      << "  residual yaw after alignment (true):     rms " << fixed(rms(after), 5)
+      << " rad, mean |.| " << fixed(mean_abs(after), 5) << " rad, max |.| "
+      << fixed(max_abs(after), 5) << " rad\n";
+}
+
+}  // namespace
+
+int run_simulate(const Command& command, const GlobalOptions& options, std::ostream& out,
+                 std::ostream& err) {
+  SimulateArgs a;
+  if (const std::string problem = parse_simulate_args(command.args, a); !problem.empty()) {
+    err << "ajarctl: simulate: " << problem << '\n';
+    return kExitUsage;
+  }
+  Scenario scenario;
+  Eigen::Matrix4d camera_to_base;
+  try {
+    scenario = load_scenario(a.scenario_path);
+    camera_to_base = a.config_path.empty() ? core::paper_camera_to_base_m()
+                                           : daemon::load_config(a.config_path).camera_to_base_m;
+  } catch (const std::exception& e) {
+    err << "ajarctl: simulate: " << e.what() << '\n';
+    return kExitUsage;
+  }
+  if (a.seed) scenario.seed = *a.seed;
+  if (a.plane_points != 0) scenario.plane_points = a.plane_points;
+
+  std::vector<TraceRow> trace;
+  const SimulateRuns runs = rehearse_seeds(scenario, camera_to_base, a.seeds, options, trace, out);
+  if (a.seeds > 1) print_summary(scenario, a.seeds, runs, options.json, out);
+  if (!a.trace_path.empty()) {
     try {
-      write_trace(trace_path, trace);
+      write_trace(a.trace_path, trace);
     } catch (const std::exception& e) {
       err << "ajarctl: simulate: " << e.what() << '\n';
       return kExitUsage;
     }
   }
-  if (connection_failed) return kExitConnection;
-  return passed == seeds ? kExitOk : kExitRefused;
+  if (runs.connection_failed) return kExitConnection;
+  return runs.passed == a.seeds ? kExitOk : kExitRefused;
 }
 
 }  // namespace ajar::client

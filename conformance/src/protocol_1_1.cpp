@@ -24,6 +24,14 @@ std::string Suite::hello_1_0(Client& c) {
 }
 
 void Suite::protocol_1_1() {
+  protocol_1_1_sessions();
+  protocol_1_1_new_types();
+  protocol_1_1_requests();
+  protocol_1_1_values();
+}
+
+// Welcome's minor and driver kind; a 1.0 session gets 1.0 frames.
+void Suite::protocol_1_1_sessions() {
   check("1.1: Welcome says minor 1 and a defined driver_kind", [&] {
     auto c = open();
     if (!c) return std::string("cannot connect");
@@ -94,6 +102,10 @@ void Suite::protocol_1_1() {
         }
         return std::string{};
       });
+}
+
+// The types 1.1 added: unknown in a 1.0 session; GetRobotModel's answer.
+void Suite::protocol_1_1_new_types() {
   check(
       "1.1: in a 1.0 session Drive, Approach, GetRobotModel, ResetLoopStatistics are "
       "UNKNOWN_MESSAGE_TYPE (header.type), in 1.0 and in 1.1 frames",
@@ -137,6 +149,10 @@ void Suite::protocol_1_1() {
         model_ = *m;
         return robot_model_problems(*m, *w);
       });
+}
+
+// ResetLoopStatistics and Drive's refusals.
+void Suite::protocol_1_1_requests() {
   check("1.1: ResetLoopStatistics needs the controller role and restarts the statistics", [&] {
     auto obs = greeted(Role::kObserver);
     auto ctl = greeted(Role::kController, true);
@@ -190,6 +206,10 @@ void Suite::protocol_1_1() {
     }
     return still_usable(*c);
   });
+}
+
+// Absent structures are zero; one clock for every stamp.
+void Suite::protocol_1_1_values() {
   check("1.1: absent structures are all zero (after Reset{clear} the plane's normal is (0, 0, 0))",
         [&] {
           auto c = greeted(Role::kController, true);

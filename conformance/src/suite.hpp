@@ -336,6 +336,9 @@ class Suite {
   std::string send_vector(const protocol::GoldenVector& v);
   // ---- decode errors built here (independent of the vector files) ----
   void decode_errors();
+  void decode_header_errors();  // its parts (decode.cpp)
+  void decode_payload_errors();
+  void decode_framing();
   // ---- session rules ----
   void session_rules();
   void roles();
@@ -344,16 +347,33 @@ class Suite {
   void ordering();
   // ---- the procedure, with every refusal on the way ----
   void procedure();
+  // Its parts (procedure.cpp), on the controller `c`.
+  void procedure_width_and_handle(Client& c);
+  void procedure_plane(Client& c);
+  void procedure_motion(Client& c);
+  void refuse_keeping_state(Client& c, const std::string& name, const protocol::Message& m,
+                            ErrorCode code, const char* field = nullptr);
   // ---- protocol 1.1: versions, the robot model, loop statistics ----
   // Says Hello 1.0 (header and payload minor 0) on `c` as an observer; "" when welcomed.
   std::string hello_1_0(Client& c);
   void protocol_1_1();
   void recordings();  // 1.2: the black box (recordings.cpp)
+  void protocol_1_1_sessions();  // its parts (protocol_1_1.cpp)
+  void protocol_1_1_new_types();
+  void protocol_1_1_requests();
+  void protocol_1_1_values();
   // "" when the model is plausible, else what is not.
   static std::string robot_model_problems(const protocol::RobotModel& m,
                                           const protocol::Welcome& w);
   // ---- driving (1.1): Drive and Approach ----
   void driving();
+  // Its longer checks' bodies, on the controller `k` (driving.cpp).
+  std::string drive_then_rest(Client& k, double timeout_s);
+  std::string drive_times_out(Client& k, double timeout_s);
+  std::string approach_to_standoff(Client& k, double min_standoff_m);
+  std::string approach_ack_problem(const protocol::ApproachAck& ack, double start,
+                                   double standoff) const;
+  static std::optional<protocol::EventKind> wait_motion_end(EventWatch& events, double seconds);
   // ---- exactly-once execution ----
   void duplicates();
   // ---- latched faults ----

@@ -1,4 +1,5 @@
 // ajar-console: the operator console (docs/console.md).
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -7,6 +8,8 @@
 #include <memory>
 #include <string>
 #include <vector>
+
+#include <CLI/CLI.hpp>
 
 #include "ajar/client/cli.hpp"
 #include "ajar/client/simulate.hpp"
@@ -20,33 +23,40 @@
 
 namespace {
 
-constexpr const char* kUsage = R"(usage: ajar-console [options]
-  Serves the operator console (the paper's point-at-the-RGBD-image GUI) to a browser and speaks
-  the Ajar protocol to ajard. Open the printed URL.
+constexpr const char* kDescription =
+    R"(Serves the operator console (the paper's point-at-the-RGBD-image GUI) to a browser and speaks
+the Ajar protocol to ajard. Open the printed URL.)";
 
-  --connect HOST:PORT   ajard to connect to (default 127.0.0.1:7450)
-  --listen HOST:PORT    address of the page (default 127.0.0.1:8080; port 0 = any free port)
-  --source KIND         camera: sim (default), recorded, live (OpenNI2)
-  --scenario FILE       sim: the door scene (default config/scenarios/console-door.yaml)
-  --recorded DIR        recorded: a folder in the TUM RGB-D layout (docs/console.md)
-  --device URI          live: the OpenNI2 device URI (default: the first sensor)
-  --fps HZ              sim: frame rate (default 15)
-  --foxglove HOST:PORT  also serve Foxglove live (foxglove.websocket.v1) on this loopback
-                        address, e.g. 127.0.0.1:8765 (port 0 = any free port; default off)
-  --web DIR             the page's files (default: the installed/source web folder)
-  --ca FILE             mutual TLS to ajard: the CA that signed ajard's certificate (PEM)
-  --cert FILE           with --ca: this console's certificate (PEM), made by scripts/make-certs
-  --key FILE            with --ca: its private key (mode 0600: refused when group/world readable)
-  --server-name NAME    with --ca: the name in ajard's certificate (default: the --connect host)
-  --client-config FILE  connect and tls from ajarctl's client config file (docs/ajarctl.md);
-                        options after it override it
-  --observer            connect as an observer (default: controller)
-  --take-over           take control from the current controller
-  --record DIR          sim: write --frames rendered frames in the TUM layout to DIR and exit
-  --frames N            with --record (default 3)
-  --scale S             with --record: image size divided by S (default 1)
-  --help, --version
-)";
+// CLI11's help in ajar-console's own layout (as before CLI11): the usage line, the description
+// indented, then one option a line, NAME TYPE in a column of 24 and its help after it (a "\n" in
+// the help continues under it); --help and --version last, on one line.
+class HelpFormatter : public CLI::Formatter {
+ public:
+  std::string make_help(const CLI::App* app, std::string, CLI::AppFormatMode) const override {
+    constexpr std::size_t kColumn = 24;
+    std::string out = "usage: ajar-console [options]\n";
+    out += indented("  ", app->get_description()) + "\n";
+    for (const CLI::Option* o : app->get_options()) {
+      const std::string& name = o->get_lnames().front();
+      if (name == "help" || name == "version") continue;
+      std::string left = "  --" + name;
+      if (!o->get_type_name().empty()) left += " " + o->get_type_name();
+      left.resize(std::max(kColumn, left.size() + 2), ' ');
+      out += left + indented(std::string(kColumn, ' '), o->get_description()).substr(kColumn);
+    }
+    return out + "  --help, --version\n";
+  }
+
+ private:
+  // Each line of `text` after `indent`, each ended by a newline.
+  static std::string indented(const std::string& indent, const std::string& text) {
+    std::string out;
+    std::size_t from = 0;
+    for (std::size_t end; (end = text.find('\n', from)) != std::string::npos; from = end + 1)
+      out += indent + text.substr(from, end - from) + "\n";
+    return out + indent + text.substr(from) + "\n";
+  }
+};
 
 struct Args {
   ajar::console::ConsoleOptions options;
@@ -60,8 +70,10 @@ struct Args {
   int scale = 1;
 };
 
+std::string usage_text();
+
 [[noreturn]] void usage_error(const std::string& what) {
-  std::cerr << "ajar-console: " << what << "\n" << kUsage;
+  std::cerr << "ajar-console: " << what << "\n" << usage_text();
   std::exit(2);
 }
 
@@ -78,84 +90,127 @@ std::string default_path(const char* relative) {
   return relative;
 }
 
+// The one description of ajar-console's options: parse() parses with it, --help prints it. Every
+// option acts when it is read (trigger_on_parse), in the order of the command line: options after
+// --client-config override it.
+std::unique_ptr<CLI::App> make_parser(Args& a, bool& version) {
+  auto app = std::make_unique<CLI::App>(kDescription, "ajar-console");
+  app->formatter(std::make_shared<HelpFormatter>());
+  app->set_help_flag("-h,--help", "print this help and exit");
+  const auto text = [&](const char* name, const char* type, const char* help, auto apply) {
+    app->add_option_function<std::string>(name, apply, help)->type_name(type)->trigger_on_parse();
+  };
+  text("--connect", "HOST:PORT", "ajard to connect to (default 127.0.0.1:7450)",
+       [&a](const std::string& v) {
+         const auto e = ajar::client::parse_endpoint(v);
+         if (!e) usage_error("--connect: expected HOST:PORT");
+         a.options.daemon = *e;
+       });
+  text("--listen", "HOST:PORT",
+       "address of the page (default 127.0.0.1:8080; port 0 = any free port)",
+       [&a](const std::string& v) {
+         auto e = ajar::protocol::parse_host_port(v, ajar::protocol::PortZero::kAllowed);
+         if (!e) usage_error("--listen: expected HOST:PORT (port 0..65535; IPv6 as [::1]:8080)");
+         a.options.listen_host = std::move(e->host);
+         a.options.listen_port = e->port;
+       });
+  text("--source", "KIND", "camera: sim (default), recorded, live (OpenNI2)",
+       [&a](const std::string& v) {
+         if (v != "sim" && v != "recorded" && v != "live") {
+           usage_error("--source: sim, recorded or live");
+         }
+         a.source = v;
+       });
+  text("--scenario", "FILE", "sim: the door scene (default config/scenarios/console-door.yaml)",
+       [&a](const std::string& v) { a.scenario = v; });
+  text("--recorded", "DIR", "recorded: a folder in the TUM RGB-D layout (docs/console.md)",
+       [&a](const std::string& v) {
+         a.recorded = v;
+         a.source = "recorded";
+       });
+  text("--device", "URI", "live: the OpenNI2 device URI (default: the first sensor)",
+       [&a](const std::string& v) { a.device = v; });
+  text("--fps", "HZ", "sim: frame rate (default 15)", [&a](const std::string& v) {
+    a.fps = std::atof(v.c_str());
+    if (!(a.fps >= 0.5 && a.fps <= 60)) usage_error("--fps: 0.5..60");
+  });
+  text("--foxglove", "HOST:PORT",
+       "also serve Foxglove live (foxglove.websocket.v1) on this loopback\n"
+       "address, e.g. 127.0.0.1:8765 (port 0 = any free port; default off)",
+       [&a](const std::string& v) {
+         auto e = ajar::protocol::parse_host_port(v, ajar::protocol::PortZero::kAllowed);
+         if (!e) usage_error("--foxglove: expected HOST:PORT (e.g. 127.0.0.1:8765)");
+         a.options.foxglove = true;
+         a.options.foxglove_host = std::move(e->host);
+         a.options.foxglove_port = e->port;
+       });
+  text("--web", "DIR", "the page's files (default: the installed/source web folder)",
+       [&a](const std::string& v) { a.options.web_dir = v; });
+  text("--ca", "FILE", "mutual TLS to ajard: the CA that signed ajard's certificate (PEM)",
+       [&a](const std::string& v) { a.options.tls.ca = v; });
+  text("--cert", "FILE", "with --ca: this console's certificate (PEM), made by scripts/make-certs",
+       [&a](const std::string& v) { a.options.tls.certificate = v; });
+  text("--key", "FILE", "with --ca: its private key (mode 0600: refused when group/world readable)",
+       [&a](const std::string& v) { a.options.tls.private_key = v; });
+  text("--server-name", "NAME",
+       "with --ca: the name in ajard's certificate (default: the --connect host)",
+       [&a](const std::string& v) { a.options.tls.server_name = v; });
+  text("--client-config", "FILE",
+       "connect and tls from ajarctl's client config file (docs/ajarctl.md);\n"
+       "options after it override it",
+       [&a](const std::string& v) {
+         // ajarctl's loader: one file format for every host-side program.
+         const std::vector<std::string> words{"--client-config", v};
+         const auto parsed = ajar::client::parse_global_options(words);
+         if (!parsed.error.empty()) usage_error(parsed.error);
+         a.options.daemon = parsed.options.endpoint;
+         a.options.tls = parsed.options.tls;
+       });
+  app->add_flag_callback(
+         "--observer", [&a] { a.options.role = ajar::protocol::Role::kObserver; },
+         "connect as an observer (default: controller)")
+      ->trigger_on_parse();
+  app->add_flag_callback(
+         "--take-over", [&a] { a.options.take_over = true; },
+         "take control from the current controller")
+      ->trigger_on_parse();
+  text("--record", "DIR", "sim: write --frames rendered frames in the TUM layout to DIR and exit",
+       [&a](const std::string& v) { a.record = v; });
+  text("--frames", "N", "with --record (default 3)", [&a](const std::string& v) {
+    a.frames = std::atoi(v.c_str());
+    if (a.frames < 1 || a.frames > 1000) usage_error("--frames: 1..1000");
+  });
+  text("--scale", "S", "with --record: image size divided by S (default 1)",
+       [&a](const std::string& v) {
+         a.scale = std::atoi(v.c_str());
+         if (a.scale < 1 || a.scale > 16) usage_error("--scale: 1..16");
+       });
+  app->add_flag("--version", version, "print the version and exit");
+  return app;
+}
+
+std::string usage_text() {
+  Args ignored;
+  bool version = false;
+  return make_parser(ignored, version)->help();
+}
+
 Args parse(int argc, char** argv) {
   Args a;
   a.options.web_dir = AJAR_CONSOLE_DEFAULT_WEB_DIR;
-  std::vector<std::string> v(argv + 1, argv + argc);
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    const std::string& o = v[i];
-    const auto value = [&]() -> std::string {
-      if (i + 1 >= v.size()) usage_error(o + " needs a value");
-      return v[++i];
-    };
-    if (o == "--help" || o == "-h") {
-      std::cout << kUsage;
-      std::exit(0);
-    } else if (o == "--version") {
-      std::cout << "ajar-console " << ajar::kVersion << "\n";
-      std::exit(0);
-    } else if (o == "--connect") {
-      const auto e = ajar::client::parse_endpoint(value());
-      if (!e) usage_error("--connect: expected HOST:PORT");
-      a.options.daemon = *e;
-    } else if (o == "--listen") {
-      auto e = ajar::protocol::parse_host_port(value(), ajar::protocol::PortZero::kAllowed);
-      if (!e) usage_error("--listen: expected HOST:PORT (port 0..65535; IPv6 as [::1]:8080)");
-      a.options.listen_host = std::move(e->host);
-      a.options.listen_port = e->port;
-    } else if (o == "--foxglove") {
-      auto e = ajar::protocol::parse_host_port(value(), ajar::protocol::PortZero::kAllowed);
-      if (!e) usage_error("--foxglove: expected HOST:PORT (e.g. 127.0.0.1:8765)");
-      a.options.foxglove = true;
-      a.options.foxglove_host = std::move(e->host);
-      a.options.foxglove_port = e->port;
-    } else if (o == "--source") {
-      a.source = value();
-      if (a.source != "sim" && a.source != "recorded" && a.source != "live") {
-        usage_error("--source: sim, recorded or live");
-      }
-    } else if (o == "--scenario") {
-      a.scenario = value();
-    } else if (o == "--recorded") {
-      a.recorded = value();
-      a.source = "recorded";
-    } else if (o == "--device") {
-      a.device = value();
-    } else if (o == "--fps") {
-      a.fps = std::atof(value().c_str());
-      if (!(a.fps >= 0.5 && a.fps <= 60)) usage_error("--fps: 0.5..60");
-    } else if (o == "--web") {
-      a.options.web_dir = value();
-    } else if (o == "--ca") {
-      a.options.tls.ca = value();
-    } else if (o == "--cert") {
-      a.options.tls.certificate = value();
-    } else if (o == "--key") {
-      a.options.tls.private_key = value();
-    } else if (o == "--server-name") {
-      a.options.tls.server_name = value();
-    } else if (o == "--client-config") {
-      // ajarctl's loader: one file format for every host-side program.
-      const std::vector<std::string> words{o, value()};
-      const auto parsed = ajar::client::parse_global_options(words);
-      if (!parsed.error.empty()) usage_error(parsed.error);
-      a.options.daemon = parsed.options.endpoint;
-      a.options.tls = parsed.options.tls;
-    } else if (o == "--observer") {
-      a.options.role = ajar::protocol::Role::kObserver;
-    } else if (o == "--take-over") {
-      a.options.take_over = true;
-    } else if (o == "--record") {
-      a.record = value();
-    } else if (o == "--frames") {
-      a.frames = std::atoi(value().c_str());
-      if (a.frames < 1 || a.frames > 1000) usage_error("--frames: 1..1000");
-    } else if (o == "--scale") {
-      a.scale = std::atoi(value().c_str());
-      if (a.scale < 1 || a.scale > 16) usage_error("--scale: 1..16");
-    } else {
-      usage_error("unknown option " + o);
-    }
+  bool version = false;
+  const auto app = make_parser(a, version);
+  try {
+    app->parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    std::cout << app->help();
+    std::exit(0);
+  } catch (const CLI::ParseError& e) {
+    usage_error(e.what());
+  }
+  if (version) {
+    std::cout << "ajar-console " << ajar::kVersion << "\n";
+    std::exit(0);
   }
   if (a.scenario.empty()) {
     a.scenario = default_path("config/scenarios/console-door.yaml");

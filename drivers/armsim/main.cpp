@@ -6,7 +6,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <map>
 #include <string>
+
+#include <CLI/CLI.hpp>
 
 #include "ajar/drivers/arm_simulator.hpp"
 #include "ajar/version.hpp"
@@ -38,14 +41,18 @@ constexpr const char* kHelp =
     "  --version             print the version and exit\n"
     "  --help, -h            print this help and exit\n";
 
-int parse_ms(const char* text, const char* flag) {
-  char* end = nullptr;
-  const long v = std::strtol(text, &end, 10);
-  if (end == text || *end != '\0' || v < 0 || v > 3'600'000) {
-    std::fprintf(stderr, "ajar-armsim: %s wants milliseconds 0..3600000, not '%s'\n", flag, text);
-    std::exit(2);
-  }
-  return static_cast<int>(v);
+// Milliseconds 0..3600000 (CLI11 names the flag before the message; main exits 2).
+CLI::Validator milliseconds() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        char* end = nullptr;
+        const long v = std::strtol(text.c_str(), &end, 10);
+        if (end == text.c_str() || *end != '\0' || v < 0 || v > 3'600'000) {
+          return "wants milliseconds 0..3600000, not '" + text + "'";
+        }
+        return {};
+      },
+      "MS");
 }
 
 }  // namespace
@@ -53,48 +60,47 @@ int parse_ms(const char* text, const char* flag) {
 int main(int argc, char** argv) {
   ajar::drivers::ArmSimulatorSettings settings;
   bool refuse = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--task-ms" && i + 1 < argc) {
-      settings.task_duration_ms = parse_ms(argv[++i], "--task-ms");
-    } else if (arg == "--reply-delay-ms" && i + 1 < argc) {
-      settings.reply_delay_ms = parse_ms(argv[++i], "--reply-delay-ms");
-    } else if (arg == "--silent-ms" && i + 1 < argc) {
-      settings.silent_ms = parse_ms(argv[++i], "--silent-ms");
-    } else if (arg == "--fault" && i + 1 < argc) {
-      const std::string word = argv[++i];
-      using ajar::drivers::ArmSimFault;
-      if (word == "none") {
-        settings.fault = ArmSimFault::kNone;
-      } else if (word == "silent-mid-task") {
-        settings.fault = ArmSimFault::kSilentMidTask;
-      } else if (word == "silent-mid-stop") {
-        settings.fault = ArmSimFault::kSilentMidStop;
-      } else if (word == "reset-mid-task") {
-        settings.fault = ArmSimFault::kResetMidTask;
-      } else if (word == "stop-ignored") {
-        settings.fault = ArmSimFault::kStopIgnored;
-      } else {
-        std::fprintf(stderr,
-                     "ajar-armsim: --fault wants none, silent-mid-task, silent-mid-stop, "
-                     "reset-mid-task or stop-ignored, not '%s'\n",
-                     word.c_str());
-        return 2;
-      }
-    } else if (arg == "--refuse") {
-      refuse = true;
-    } else if (arg == "--help" || arg == "-h") {
-      std::fputs(kHelp, stdout);
-      return 0;
-    } else if (arg == "--version") {
-      std::printf("ajar-armsim %s\n", ajar::kVersion);
-      return 0;
-    } else {
-      std::fprintf(stderr, "ajar-armsim: unknown argument '%s' (see ajar-armsim --help)\n",
-                   arg.c_str());
-      return 2;
-    }
+  bool help = false;
+  bool version = false;
+  std::string fault = "none";
+  using ajar::drivers::ArmSimFault;
+  const std::map<std::string, ArmSimFault> faults{{"none", ArmSimFault::kNone},
+                                                  {"silent-mid-task", ArmSimFault::kSilentMidTask},
+                                                  {"silent-mid-stop", ArmSimFault::kSilentMidStop},
+                                                  {"reset-mid-task", ArmSimFault::kResetMidTask},
+                                                  {"stop-ignored", ArmSimFault::kStopIgnored}};
+  CLI::App app("", "ajar-armsim");
+  app.set_help_flag();  // --help prints kHelp (the man page's source), not CLI11's
+  app.add_option("--task-ms", settings.task_duration_ms)->check(milliseconds());
+  app.add_option("--reply-delay-ms", settings.reply_delay_ms)->check(milliseconds());
+  app.add_option("--silent-ms", settings.silent_ms)->check(milliseconds());
+  app.add_option("--fault", fault)
+      ->check(CLI::Validator(
+          [&faults](std::string& word) -> std::string {
+            if (faults.count(word) != 0) return {};
+            return "wants none, silent-mid-task, silent-mid-stop, reset-mid-task or stop-ignored, "
+                   "not '" +
+                   word + "'";
+          },
+          "WORD"));
+  app.add_flag("--refuse", refuse);
+  app.add_flag("-h,--help", help);
+  app.add_flag("--version", version);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "ajar-armsim: %s (see ajar-armsim --help)\n", e.what());
+    return 2;
   }
+  if (help) {
+    std::fputs(kHelp, stdout);
+    return 0;
+  }
+  if (version) {
+    std::printf("ajar-armsim %s\n", ajar::kVersion);
+    return 0;
+  }
+  settings.fault = faults.at(fault);
 
   sigset_t signals;
   sigemptyset(&signals);

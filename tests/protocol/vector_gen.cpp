@@ -67,16 +67,36 @@ struct Written {
   std::string comment;
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  if (argc != 2) {
-    std::cerr << "usage: ajar_protocol_vector_gen OUTPUT_DIR\n";
-    return 2;
+// A refused frame: the sample `base` with `patch` applied. `at` is the frame offset of `field`
+// in the sample (payload_layout(), the codec's own tables), so the field a vector corrupts and
+// the field the decoder must name are one fact; header fields are patched at fixed offsets.
+struct BadVector {
+  std::vector<Written>& out;
+  void operator()(std::string name, std::string base, ErrorCode code, bool framing_lost,
+                  std::string field, const std::function<void(Bytes&, std::size_t at)>& patch,
+                  std::string comment) const {
+    GoldenVector v;
+    v.name = std::move(name);
+    v.expect_ok = false;
+    v.expected_error = code;
+    v.framing_lost = framing_lost;
+    v.bytes = encode_sample(base);
+    const Message& m = sample(base).envelope.message;
+    v.direction = is_request(type_of(m)) ? GoldenVector::Direction::kHostToDaemon
+                                         : GoldenVector::Direction::kDaemonToHost;
+    const std::ptrdiff_t offset = offset_of(m, field);
+    if (!field.starts_with("header.") && offset < 0) {
+      throw std::runtime_error(base + " has no field " + field);
+    }
+    patch(v.bytes, offset < 0 ? 0 : kHeaderSize + static_cast<std::size_t>(offset));
+    v.field = std::move(field);
+    out.push_back({v, std::move(comment)});
   }
-  const std::string dir = argv[1];
-  std::vector<Written> out;
+};
+constexpr std::size_t P = kHeaderSize;  // payload offset
 
+// Every sample, byte-exact; the 1.0 layouts; a newer minor's appended field.
+void good_vectors(std::vector<Written>& out) {
   for (const auto& s : samples::all()) {
     GoldenVector v;
     v.name = s.name;
@@ -123,33 +143,11 @@ int main(int argc, char** argv) {
                    "Ping sent by a v1.3 peer with 4 appended payload bytes: accepted, tail "
                    "ignored.\nRe-encoding gives the v1.1 frame (roundtrip: no)."});
   }
+}
 
-  // A refused frame: the sample `base` with `patch` applied. `at` is the frame offset of `field`
-  // in the sample (payload_layout(), the codec's own tables), so the field a vector corrupts and
-  // the field the decoder must name are one fact; header fields are patched at fixed offsets.
-  const auto bad = [&out](std::string name, std::string base, ErrorCode code, bool framing_lost,
-                          std::string field,
-                          const std::function<void(Bytes&, std::size_t at)>& patch,
-                          std::string comment) {
-    GoldenVector v;
-    v.name = std::move(name);
-    v.expect_ok = false;
-    v.expected_error = code;
-    v.framing_lost = framing_lost;
-    v.bytes = encode_sample(base);
-    const Message& m = sample(base).envelope.message;
-    v.direction = is_request(type_of(m)) ? GoldenVector::Direction::kHostToDaemon
-                                         : GoldenVector::Direction::kDaemonToHost;
-    const std::ptrdiff_t offset = offset_of(m, field);
-    if (!field.starts_with("header.") && offset < 0) {
-      throw std::runtime_error(base + " has no field " + field);
-    }
-    patch(v.bytes, offset < 0 ? 0 : kHeaderSize + static_cast<std::size_t>(offset));
-    v.field = std::move(field);
-    out.push_back({v, std::move(comment)});
-  };
-  constexpr std::size_t P = kHeaderSize;  // payload offset
-
+// Refused headers: framing lost (magic, version, size) or one frame skipped.
+void header_vectors(std::vector<Written>& out) {
+  const BadVector bad{out};
   bad(
       "bad_magic", "ping", ErrorCode::kBadMagic, true, "header.magic",
       [](Bytes& b, std::size_t) { b[3] = 'X'; },
@@ -215,6 +213,11 @@ int main(int argc, char** argv) {
         refresh(b);
       },
       "Reserved flag bit 15 set: refused with UNKNOWN_FLAGS, not executed, session continues.");
+}
+
+// Refused payloads: enum values.
+void enum_vectors(std::vector<Written>& out) {
+  const BadVector bad{out};
   bad(
       "invalid_enum_plane_frame", "measure_door_plane_3", ErrorCode::kInvalidEnumValue, false,
       "points[2].frame",
@@ -246,6 +249,11 @@ int main(int argc, char** argv) {
         refresh(b);
       },
       "Ack acknowledging a Welcome (not a request type).");
+}
+
+// Refused payloads: numbers, counts, strings.
+void value_vectors(std::vector<Written>& out) {
+  const BadVector bad{out};
   bad(
       "non_finite_nan", "measure_door_width", ErrorCode::kNonFiniteNumber, false, "p2.z",
       [](Bytes& b, std::size_t at) {
@@ -304,7 +312,11 @@ int main(int argc, char** argv) {
         refresh(b);
       },
       "Control characters (U+0000..U+001F, U+007F) are not allowed in strings.");
+}
 
+// Refused by version: 1.0 layouts and types, and 1.1 fields.
+void version_vectors(std::vector<Written>& out) {
+  const BadVector bad{out};
   bad(
       "v1_0_status_with_1_1_length", "status", ErrorCode::kBadPayloadLength, false,
       "header.payload_length",
@@ -395,7 +407,10 @@ int main(int argc, char** argv) {
         refresh(b);
       },
       "Approach with a 4-byte payload (needs 8).");
+}
 
+// Each vector self-checked, then written as DIR/NAME.vec. The exit code of main.
+int write_vectors(const std::string& dir, const std::vector<Written>& out) {
   int failures = 0;
   for (const auto& w : out) {
     const auto check = check_vector(w.vector);
@@ -413,4 +428,20 @@ int main(int argc, char** argv) {
   }
   std::cout << "wrote " << out.size() << " vectors to " << dir << "\n";
   return failures == 0 ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::cerr << "usage: ajar_protocol_vector_gen OUTPUT_DIR\n";
+    return 2;
+  }
+  std::vector<Written> out;
+  good_vectors(out);
+  header_vectors(out);
+  enum_vectors(out);
+  value_vectors(out);
+  version_vectors(out);
+  return write_vectors(argv[1], out);
 }
