@@ -140,6 +140,7 @@ Response Client::request(const protocol::Message& message, Milliseconds timeout,
       }
       response.round_trip = std::chrono::duration_cast<Milliseconds>(Clock::now() - sent);
       response.reply = std::move(reply->message);
+      if (const auto w = welcome()) response.session_minor = w->version_minor;
       if (const auto* error = std::get_if<protocol::ErrorReply>(&response.reply)) {
         response.outcome = CallOutcome::kRefused;
         response.error = *error;

@@ -638,7 +638,16 @@ function updateRecorder() {
   on.title = on.textContent;  // the cell is one line: the whole reason on hover
   $('rec-file').textContent = r.known && r.file ? r.file : r.known ? '—' : 'unknown';
   $('rec-size').textContent = r.known && r.size_bytes !== undefined && r.size_bytes !== null ? bytes(r.size_bytes) : r.known ? '—' : 'unknown';
-  $('rec-drops').textContent = r.known && r.drops !== undefined && r.drops !== null ? String(r.drops) : 'unknown';
+  // The counts are Status.recorder's (protocol 1.2), as ajard sent them: data-count for tests.
+  const c = r.known && r.recorder ? r.recorder : null;
+  const drops = $('rec-drops'), written = $('rec-written'), disk = $('rec-disk');
+  drops.textContent = c ? `${r.drops} (loop ${c.loop_dropped} of ${c.loop_samples}, I/O ${c.io_dropped} of ${c.io_records})` : r.known ? '—' : 'unknown';
+  drops.dataset.count = c ? String(r.drops) : '';
+  drops.className = c && r.drops > 0 ? 'bad' : '';
+  written.textContent = c ? `${c.records_written} records` + (c.records_lost ? `, ${c.records_lost} lost to the disk (${c.disk_refusals} refusals)` : '') : r.known ? '—' : 'unknown';
+  written.dataset.count = c ? String(c.records_written) : '';
+  written.dataset.lost = c ? String(c.records_lost) : '';
+  disk.textContent = c ? `${bytes(c.directory_bytes)} of the ${bytes(c.max_bytes)} budget, ${bytes(c.saved_bytes)} saved, ${bytes(c.disk_free_bytes)} free` : r.known ? '—' : 'unknown';
   const a = state.recorder_save;
   const el = $('recorder-result');
   if (!a) { el.className = 'result one'; el.textContent = ''; el.dataset.ok = ''; return; }

@@ -239,6 +239,7 @@ protocol::Status EngineImpl::status() const {
   s.timing = loop_->statistics().timing(monotonic_now_ns());
   s.realtime = to_wire(realtime_granted());
   s.base_motion = base_motion();
+  s.recorder = recorder_state(recorder_.get());
   return s;
 }
 

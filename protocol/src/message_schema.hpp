@@ -120,6 +120,19 @@ struct Schema<RealtimeState> {
              Field<"memory_locked", &RealtimeState::memory_locked>>;
 };
 template <>
+struct Schema<RecorderState> {
+  using R = RecorderState;
+  using fields =
+      Fields<Field<"enabled", &R::enabled>, Field<"mode", &R::mode>, Field<"file", &R::file>,
+             Field<"file_bytes", &R::file_bytes>, Field<"directory_bytes", &R::directory_bytes>,
+             Field<"max_bytes", &R::max_bytes>, Field<"saved_bytes", &R::saved_bytes>,
+             Field<"disk_free_bytes", &R::disk_free_bytes>,
+             Field<"records_written", &R::records_written>, Field<"loop_samples", &R::loop_samples>,
+             Field<"loop_dropped", &R::loop_dropped>, Field<"io_records", &R::io_records>,
+             Field<"io_dropped", &R::io_dropped>, Field<"records_lost", &R::records_lost>,
+             Field<"disk_refusals", &R::disk_refusals>, Field<"last_write_ns", &R::last_write_ns>>;
+};
+template <>
 struct Schema<WheelModel> {
   using fields = Fields<Field<"card_axis", &WheelModel::card_axis>,
                         Field<"polarity", &WheelModel::polarity, 0, Polarity>>;
@@ -340,7 +353,8 @@ struct Schema<Status> : MessageRow<MessageType::kStatus, "Status", kDaemonToHost
                     Field<"card", &Status::card>, Field<"arm", &Status::arm>,
                     Field<"arm_state", &Status::arm_state>, Field<"loop", &Status::loop>>,
              MotionBlock<Status>, Fields<Field<"realtime", &Status::realtime, 1>>,
-             Fields<Field<"base_motion", &Status::base_motion, 2>>>;
+             Fields<Field<"base_motion", &Status::base_motion, 2>,
+                    Field<"recorder", &Status::recorder, 2>>>;
 };
 template <>
 struct Schema<Telemetry> : MessageRow<MessageType::kTelemetry, "Telemetry", kDaemonToHost, 0> {

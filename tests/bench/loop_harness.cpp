@@ -24,17 +24,6 @@ namespace {
 using namespace ajar;
 using namespace ajar::bench;
 
-bool fifo_permitted(int priority) {
-  std::atomic<bool> ok{false};
-  std::thread t([&] {
-    sched_param p{};
-    p.sched_priority = priority;
-    ok = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
-  });
-  t.join();
-  return ok;
-}
-
 void run(const daemon::Config& base_config, bool fifo, double seconds, int blocks,
          const Placement& where) {
   daemon::Config config = base_config;

@@ -26,17 +26,6 @@ namespace {
 using namespace ajar;
 using namespace ajar::bench;
 
-bool fifo_permitted(int priority) {
-  std::atomic<bool> ok{false};
-  std::thread t([&] {
-    sched_param p{};
-    p.sched_priority = priority;
-    ok = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
-  });
-  t.join();
-  return ok;
-}
-
 struct Block {
   std::uint32_t p99_ns = 0, max_ns = 0;
   std::uint64_t samples = 0, overruns = 0;

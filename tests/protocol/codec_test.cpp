@@ -175,7 +175,7 @@ TEST(Compatibility, OneZeroLayoutsRoundTrip) {
   ASSERT_EQ(e.kind, StreamDecoder::Kind::kError);
   EXPECT_EQ(e.error.code, ErrorCode::kBadPayloadLength);
   EXPECT_EQ(describe(e.error),
-            "header.payload_length is 465: Status in protocol 1.0 has 285 bytes");
+            "header.payload_length is 616: Status in protocol 1.0 has 285 bytes");
   b = encode_bytes(Envelope{3, 0, Status{}}, 0);
   b[kOffsetVersionMinor] = 1;
   refresh_crc(b);
@@ -291,7 +291,7 @@ TEST(Encode, SizesFollowTheSpec) {
   EXPECT_EQ(size_of(Pong{}), kHeaderSize + 16);
   EXPECT_EQ(size_of(ErrorReply{}), kHeaderSize + 238);
   EXPECT_EQ(size_of(Event{}), kHeaderSize + 134);      // 1.2: base_motion appended
-  EXPECT_EQ(size_of(Status{}), kHeaderSize + 465);     // 464 in 1.1
+  EXPECT_EQ(size_of(Status{}), kHeaderSize + 616);     // 464 in 1.1, 465 + RecorderState
   EXPECT_EQ(size_of(Telemetry{}), kHeaderSize + 264);  // 263 in 1.1
   EXPECT_EQ(size_of(Drive{}), kHeaderSize + 16);
   EXPECT_EQ(size_of(Approach{}), kHeaderSize + 8);

@@ -244,8 +244,11 @@ TEST(Layout, OffsetsFollowTheMinorAndTheValue) {
   EXPECT_EQ(offset_of(plane, "points[15].z"), 1 + 15 * 25 + 17);
   const auto status = payload_layout(Status{});
   ASSERT_FALSE(status.empty());
-  EXPECT_EQ(status.back().name, "base_motion");
+  EXPECT_EQ(status.back().name, "recorder.last_write_ns");
   EXPECT_EQ(status.back().since, 2);
+  EXPECT_EQ(offset_of(Status{}, "base_motion"), 464);
+  EXPECT_EQ(offset_of(Status{}, "recorder.enabled"), 465);
+  EXPECT_EQ(offset_of(Status{}, "recorder.enabled", 1), -1);
   EXPECT_EQ(payload_layout(Status{}, 1).back().name, "realtime.memory_locked");
   EXPECT_EQ(payload_layout(Status{}, 1).back().since, 1);
   EXPECT_EQ(status.front().since, 0);

@@ -119,6 +119,16 @@ void good_vectors(std::vector<Written>& out) {
                           "the fields 1.1 appended are absent). Decodes; 1.1 fields read as 0."});
   }
 
+  // 1.2's Status: base_motion and the recorder's state appended.
+  {
+    GoldenVector v;
+    v.name = "v1_2_status";
+    v.direction = GoldenVector::Direction::kDaemonToHost;
+    v.bytes = encode_sample("status", 2);
+    out.push_back({v, "The status sample as protocol 1.2 sends it (header minor 2): base_motion "
+                      "(approaching) and recorder (RecorderState) appended to the 1.1 layout."});
+  }
+
   // A newer minor version may append fields: older decoders ignore the tail.
   {
     GoldenVector v;

@@ -244,6 +244,21 @@ struct EnumWords<BaseMotion> {
   static constexpr auto last = BaseMotion::kStopping;
 };
 
+// What the black box does now (Status.recorder, 1.2; docs/blackbox.md).
+enum class RecorderMode : std::uint8_t {
+  kOff = 0,          // recorder.enabled is false
+  kRecording = 1,    // a file is open and written
+  kDiskFull = 2,     // the disk refused a write for lack of space: paused, retried every 5 s
+  kDiskError = 3,    // the disk refused a write or a new file otherwise: paused, retried every 5 s
+  kNoDirectory = 4,  // its directory could not be made or written at start: off until a restart
+};
+template <>
+struct EnumWords<RecorderMode> {
+  static constexpr std::array<std::string_view, 5> words = {"off", "recording", "disk_full",
+                                                            "disk_error", "no_directory"};
+  static constexpr auto last = RecorderMode::kNoDirectory;
+};
+
 // The control thread's scheduling policy (Status.realtime, 1.1).
 enum class SchedulingPolicy : std::uint8_t { kOther = 0, kFifo = 1, kRoundRobin = 2 };
 template <>
@@ -448,6 +463,29 @@ struct RealtimeState {
   bool memory_locked = false;  // mlockall succeeded
 };
 
+// 1.2: the black box (Status only): the recorder's counters since the daemon started. Loop samples
+// and I/O records either reach a file (records_written), are dropped at a full ring/queue
+// (loop_dropped, io_dropped: the recorder thread fell behind) or are lost to the disk
+// (records_lost: a refused write, or taken while no file was open).
+struct RecorderState {
+  bool enabled = false;  // recorder.enabled
+  RecorderMode mode = RecorderMode::kOff;
+  FixedString<48> file;               // the file being written ("" when none)
+  std::uint64_t file_bytes = 0;       // its bytes on disk
+  std::uint64_t directory_bytes = 0;  // every recording but the saved ones (the budget's count)
+  std::uint64_t max_bytes = 0;        // the budget, recorder.max_bytes
+  std::uint64_t saved_bytes = 0;      // the saved recordings (outside the budget)
+  std::uint64_t disk_free_bytes = 0;  // free on its file system, for the daemon's user
+  std::uint64_t records_written = 0;  // messages in the files
+  std::uint64_t loop_samples = 0;     // loop samples taken (every loop_decimation-th cycle)
+  std::uint64_t loop_dropped = 0;     // ... dropped: the lock-free ring was full
+  std::uint64_t io_records = 0;       // frames, events, sessions, config, telemetry queued
+  std::uint64_t io_dropped = 0;       // ... dropped: the queue was full
+  std::uint64_t records_lost = 0;     // lost to a refused write or while no file was open
+  std::uint32_t disk_refusals = 0;    // times the disk refused (each logged once)
+  std::uint64_t last_write_ns = 0;    // daemon clock of the last write to a file; 0: none yet
+};
+
 struct Status {
   ProcedureState state = ProcedureState::kAwaitingWidth;
   ErrorCode latched_fault = ErrorCode::kOk;
@@ -478,6 +516,7 @@ struct Status {
   LoopTiming timing;
   RealtimeState realtime;
   BaseMotion base_motion = BaseMotion::kNone;  // 1.2
+  RecorderState recorder;                      // 1.2
 };
 
 struct Telemetry {
