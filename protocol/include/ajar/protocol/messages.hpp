@@ -254,8 +254,12 @@ enum class RecorderMode : std::uint8_t {
 };
 template <>
 struct EnumWords<RecorderMode> {
-  static constexpr std::array<std::string_view, 5> words = {"off", "recording", "disk_full",
-                                                            "disk_error", "no_directory"};
+  static constexpr std::array<Word<RecorderMode>, 5> words{
+      {{RecorderMode::kOff, "off"},
+       {RecorderMode::kRecording, "recording"},
+       {RecorderMode::kDiskFull, "disk_full"},
+       {RecorderMode::kDiskError, "disk_error"},
+       {RecorderMode::kNoDirectory, "no_directory"}}};
   static constexpr auto last = RecorderMode::kNoDirectory;
 };
 
