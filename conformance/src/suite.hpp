@@ -357,7 +357,7 @@ class Suite {
   // Says Hello 1.0 (header and payload minor 0) on `c` as an observer; "" when welcomed.
   std::string hello_1_0(Client& c);
   void protocol_1_1();
-  void recordings();  // 1.2: the black box (recordings.cpp)
+  void recordings();             // 1.2: the black box (recordings.cpp)
   void protocol_1_1_sessions();  // its parts (protocol_1_1.cpp)
   void protocol_1_1_new_types();
   void protocol_1_1_requests();

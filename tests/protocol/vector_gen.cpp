@@ -125,8 +125,9 @@ void good_vectors(std::vector<Written>& out) {
     v.name = "v1_2_status";
     v.direction = GoldenVector::Direction::kDaemonToHost;
     v.bytes = encode_sample("status", 2);
-    out.push_back({v, "The status sample as protocol 1.2 sends it (header minor 2): base_motion "
-                      "(approaching) and recorder (RecorderState) appended to the 1.1 layout."});
+    out.push_back({v,
+                   "The status sample as protocol 1.2 sends it (header minor 2): base_motion "
+                   "(approaching) and recorder (RecorderState) appended to the 1.1 layout."});
   }
 
   // A newer minor version may append fields: older decoders ignore the tail.
