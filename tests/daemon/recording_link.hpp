@@ -32,6 +32,9 @@ class RecordingLink : public daemon::SessionLink {
   std::string peer_;
   bool closed = false;
   std::vector<daemon::SharedFrame> frames;
+
+ protected:
+  ~RecordingLink() = default;  // owned as the test's own link type, as SessionLink
 };
 
 }  // namespace ajar::testing
