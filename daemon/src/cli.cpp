@@ -53,7 +53,9 @@ Exit status:
   1  start-up failed (drivers, card library, serial device, socket, state directory or state
      file not writable, port file); the message names what failed
   2  bad command line, or the config file is invalid (the message names file, key, value and
-     what is allowed))";
+     what is allowed)
+  3  shutdown (SIGTERM/SIGINT) with a motion-card call that never returned: the base was
+     emergency-stopped out of band and the state persisted; the card was not brought down)";
 
 // CLI11's help with ajard's usage lines and description first.
 class HelpFormatter : public CLI::Formatter {

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <future>
 #include <limits>
@@ -118,6 +119,7 @@ ControlLoop::~ControlLoop() {
 std::vector<std::string> ControlLoop::start_thread() {
   if (thread_.joinable()) return {};
   exit_requested_.store(false);
+  thread_ended_.store(false);
   std::promise<std::vector<std::string>> warnings;
   auto ready = warnings.get_future();
   const RealtimeRequest request{settings_.realtime, settings_.priority, settings_.lock_memory};
@@ -128,6 +130,7 @@ std::vector<std::string> ControlLoop::start_thread() {
     const std::int64_t first = monotonic_now_ns() + period_ns_;
     promise.set_value(std::move(refused));
     thread_main(first);
+    thread_ended_.store(true, std::memory_order_release);
   });
   auto result = ready.get();
   thread_running_.store(true, std::memory_order_release);
@@ -138,6 +141,19 @@ void ControlLoop::stop_thread() noexcept {
   thread_running_.store(false, std::memory_order_release);
   exit_requested_.store(true);
   if (thread_.joinable()) thread_.join();
+}
+
+bool ControlLoop::stop_thread(std::int64_t limit_ns) noexcept {
+  thread_running_.store(false, std::memory_order_release);
+  exit_requested_.store(true);
+  if (!thread_.joinable()) return true;
+  const std::int64_t give_up = monotonic_now_ns() + limit_ns;
+  while (!thread_ended_.load(std::memory_order_acquire)) {
+    if (monotonic_now_ns() >= give_up) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  thread_.join();
+  return true;
 }
 
 void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {

@@ -61,8 +61,12 @@ void ControlLoop::end_recovery(ErrorCode code) noexcept {
 
 void ControlLoop::advance_recovery(std::int64_t now_ns) noexcept {
   using Kind = CardRecovery::Step::Kind;
+  // The wheels rest before the servos come back on: no motion supervised, no axis reporting
+  // profile motion, and the encoders still (a card whose profile runs on, servo off or not).
+  const bool resting = !answered_ || (!status_[0].moving && !status_[1].moving &&
+                                      (!measured_valid_ || encoders_at_rest()));
   const CardRecovery::Step step =
-      recovery_.next(now_ns, motion_ == Motion::kIdle, answered_, status_);
+      recovery_.next(now_ns, motion_ == Motion::kIdle && resting, answered_, status_);
   switch (step.kind) {
     case Kind::kWait:
       return;
@@ -119,7 +123,7 @@ void ControlLoop::start_move(const Command& c, std::int64_t now_ns) noexcept {
   if (const ErrorCode e = (card_.move_relative(moves, profile)); e != ErrorCode::kOk) {
     // The card may have taken the move before it failed: nothing may run on unsupervised.
     latch(e, 0);
-    (void)card_.emergency_stop(axes_);
+    (void)send_emergency_stop(now_ns);
     return refuse(e, 0);
   }
   motion_id_ = move.motion_id;

@@ -33,6 +33,17 @@ void ControlLoop::finish(LoopReportKind kind, ErrorCode code, bool command_timeo
 }
 
 void ControlLoop::enter_stopping(std::int64_t now_ns) noexcept {
+  if (motion_ != Motion::kStopping) {  // the running motion's deceleration, its wheels' speed now
+    stop_dec_counts_per_ms2_ = motion_ == Motion::kJogging
+                                   ? jog_.profile().deceleration_counts_per_ms2
+                                   : move_profile_.deceleration_counts_per_ms2;
+    for (int i = 0; i < 2; ++i) {
+      stop_from_counts_per_ms_[i] =
+          measured_valid_ ? std::fabs(measured_counts_per_ms_[i]) : max_wheel_counts_per_ms_;
+    }
+  }
+  stop_begin_ns_ = now_ns;
+  smooth_stop_ = false;  // begin_stop() says when it is one
   jog_.stopping();
   motion_ = Motion::kStopping;
   // From the running motion's top speed at its deceleration, as the card was told.
@@ -41,14 +52,45 @@ void ControlLoop::enter_stopping(std::int64_t now_ns) noexcept {
 }
 
 void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
-  stop_sent_ =
-      card_.smooth_stop(axes_) == ErrorCode::kOk || card_.emergency_stop(axes_) == ErrorCode::kOk;
+  const bool smooth = card_.smooth_stop(axes_) == ErrorCode::kOk;
+  stop_sent_ = smooth || send_emergency_stop(now_ns);
   enter_stopping(now_ns);
+  smooth_stop_ = smooth;
+  mismatch_since_ns_[0] = mismatch_since_ns_[1] = -1;
+}
+
+bool ControlLoop::send_emergency_stop(std::int64_t now_ns) noexcept {
+  const bool taken = card_.emergency_stop(axes_) == ErrorCode::kOk;
+  if (taken && estop_taken_ns_ < 0) estop_taken_ns_ = now_ns;
+  return taken;
+}
+
+bool ControlLoop::encoders_at_rest() const noexcept {
+  if (!answered_ || !measured_valid_) return false;
+  const double dt_ms = static_cast<double>(period_ns_) / 1e6 * card_scale_;
+  const double tolerance = settings_.velocity_tolerance * max_wheel_counts_per_ms_ + 2.0 / dt_ms;
+  return std::fabs(measured_counts_per_ms_[0]) <= tolerance &&
+         std::fabs(measured_counts_per_ms_[1]) <= tolerance;
+}
+
+void ControlLoop::check_stopped_wheels(std::int64_t now_ns) noexcept {
+  if (estop_taken_ns_ < 0 || !answered_ || !measured_valid_) return;
+  if (encoders_at_rest()) {
+    estop_taken_ns_ = -1;
+    snapshot_.unstopped = false;
+    return;
+  }
+  if (now_ns - estop_taken_ns_ < mismatch_ns_) return;
+  // The card took an emergency stop and the wheels still turn: their servos off, the strongest
+  // the card allows (the drives stop powering the motors), every cycle until they rest.
+  snapshot_.unstopped = true;
+  (void)card_.disable_axes(axes_);
+  latch(ErrorCode::kVelocityMismatch, 0);
 }
 
 void ControlLoop::emergency_fault(ErrorCode code, int axis, std::int64_t now_ns) noexcept {
   latch(code, axis);
-  stop_sent_ = card_.emergency_stop(axes_) == ErrorCode::kOk;
+  stop_sent_ = send_emergency_stop(now_ns);
   if (motion_ == Motion::kIdle) return;  // the idle check keeps stopping wheels that move
   stop_reason_ = code;
   enter_stopping(now_ns);
@@ -56,12 +98,12 @@ void ControlLoop::emergency_fault(ErrorCode code, int axis, std::int64_t now_ns)
 
 void ControlLoop::handle_stops(std::int64_t now_ns) noexcept {
   // An emergency stop the card did not take (it did not answer) is sent again every cycle.
-  if (estop_pending_) estop_pending_ = card_.emergency_stop(axes_) != ErrorCode::kOk;
+  if (estop_pending_) estop_pending_ = !send_emergency_stop(now_ns);
   // Latch generation first: every emergency or fault stop it counts is visible below.
   const std::uint32_t latches = latch_generation_.load();
   if (const std::uint32_t e = emergency_generation_.load(); e != handled_emergency_) {
     handled_emergency_ = e;
-    const bool sent = card_.emergency_stop(axes_) == ErrorCode::kOk;
+    const bool sent = send_emergency_stop(now_ns);
     estop_pending_ = !sent;
     jog_.zero_command();
     if (motion_ != Motion::kIdle) {
@@ -166,8 +208,16 @@ int ControlLoop::check_velocity(std::int64_t now_ns) noexcept {
       low = -high;
       ramp = move_profile_.acceleration_counts_per_ms2;
     } else if (motion_ == Motion::kStopping) {
-      mismatch_since_ns_[i] = -1;  // the stop's deadline supervises it
-      continue;
+      // A smooth stop: the wheel's speed along the deceleration from where it was when the stop
+      // began. An emergency stop: check_stopped_wheels() supervises it.
+      if (!smooth_stop_) {
+        mismatch_since_ns_[i] = -1;
+        continue;
+      }
+      const double elapsed_ms = static_cast<double>(now_ns - stop_begin_ns_) / 1e6 * card_scale_;
+      high = std::max(0.0, stop_from_counts_per_ms_[i] - stop_dec_counts_per_ms2_ * elapsed_ms);
+      low = -high;
+      ramp = stop_dec_counts_per_ms2_;
     }
     const double tolerance = settings_.velocity_tolerance * max_wheel_counts_per_ms_ +
                              ramp * settings_.velocity_lag_s * 1e3 + 2.0 / dt_ms;
@@ -200,6 +250,11 @@ bool ControlLoop::past_door_standoff() const noexcept {
 }
 
 void ControlLoop::supervise(std::int64_t now_ns) noexcept {
+  supervise_motion(now_ns);
+  check_stopped_wheels(now_ns);
+}
+
+void ControlLoop::supervise_motion(std::int64_t now_ns) noexcept {
   const drivers::AxisStatus* status = status_;
   const bool answered = answered_;
   const ErrorCode read_error = read_error_;
@@ -250,19 +305,31 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
       break;
     }
     case Motion::kStopping:
-      if (!stop_sent_) stop_sent_ = card_.emergency_stop(axes_) == ErrorCode::kOk;  // again
+      if (!stop_sent_) {  // again, as an emergency stop
+        stop_sent_ = send_emergency_stop(now_ns);
+        smooth_stop_ = false;
+      }
+      // A smooth stop the wheels do not follow (a card that took it and did not apply it):
+      // emergency stop now rather than at the stop's deadline.
+      if (const int off = check_velocity(now_ns); off != 0) {
+        emergency_fault(ErrorCode::kVelocityMismatch, off, now_ns);
+        break;
+      }
       // A stop that does not stop the base before the door's standoff (a card that did not apply
       // it): emergency stop now rather than at the stop's deadline.
       if (past_door_standoff()) {
-        stop_sent_ = card_.emergency_stop(axes_) == ErrorCode::kOk;
+        stop_sent_ = send_emergency_stop(now_ns);
+        smooth_stop_ = false;
         latch(ErrorCode::kVelocityMismatch, 0);
       }
       if (answered && !status[0].moving && !status[1].moving) {
         finish(LoopReportKind::kMotionStopped, stop_reason_);
       } else if (now_ns > motion_deadline_ns_) {
         // The stop overran its deadline: emergency stop. Ended once the card took it (a card
-        // that keeps its wheels moving after that is stopped again by the idle check).
-        stop_sent_ = card_.emergency_stop(axes_) == ErrorCode::kOk;
+        // that keeps its wheels moving after that is stopped again by the idle check, and
+        // check_stopped_wheels() switches their servos off).
+        stop_sent_ = send_emergency_stop(now_ns);
+        smooth_stop_ = false;
         latch(ErrorCode::kMotionTimeout, 0);
         if (stop_sent_) finish(LoopReportKind::kMotionStopped, ErrorCode::kMotionTimeout);
       }

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <cstdlib>
 #include <csignal>
 #include <cstring>
 #include <filesystem>
@@ -178,6 +179,14 @@ class Runner {
     }
     engine_->shutdown();  // joins the control thread, brings the drivers down
     log_engine_warnings();
+    if (engine_->wedged()) {
+      // Its destructor would wait for the stuck control thread forever: exit without it.
+      spdlog::critical(
+          "exiting with the control thread stuck in a motion-card call (exit status {})",
+          kExitWedged);
+      spdlog::shutdown();
+      std::_Exit(kExitWedged);
+    }
     boost::system::error_code ignored;
     signals_.cancel(ignored);
     watchdog_timer_.cancel();

@@ -91,7 +91,9 @@ void EngineImpl::start() {
 namespace {
 constexpr std::int64_t kWheelsRestLimitNs = 5'000'000'000;  // shutdown(): the wheels' smooth stop
 constexpr auto kStateFlushLimit = std::chrono::seconds(5);  // shutdown(): the last save
-constexpr int kManualShutdownCycles = 100;                  // ... with EngineOptions::manual_loop
+constexpr int kManualShutdownCycles = 100;
+constexpr std::int64_t kLoopEndLimitNs = 1'000'000'000;  // shutdown(): the control thread ends //
+                                                         // ... with EngineOptions::manual_loop
 }  // namespace
 
 void EngineImpl::begin_shutdown() {
@@ -155,7 +157,19 @@ void EngineImpl::shutdown() noexcept {
   if (!store_.stop(std::chrono::milliseconds(100))) {
     warnings_.push_back("state writer abandoned: a save has not returned (a hung disk?)");
   }
-  loop_->stop_thread();
+  if (!loop_->stop_thread(kLoopEndLimitNs)) {
+    // A cycle stuck in a card call that does not return: the supervisor stopped the base out of
+    // band (LOOP_STALLED, persisted above). The vendor library is wedged: bringing the card down
+    // would hang too, and so would anything that waits for the loop. The arm goes to rest; the
+    // process must exit (wedged()).
+    wedged_ = true;
+    warnings_.push_back(
+        "the control thread did not end within 1 s (a motion-card call has not returned): the "
+        "base stays as the out-of-band emergency stop left it; the card is not brought down");
+    recorder_->stop();
+    arm_.bring_down();
+    return;
+  }
   recorder_->stop();  // after the loop: its last samples are in the file, which gets its footer
   supervisor_->stop_thread();  // before the card goes down: no out-of-band call into a closing card
   bring_down_card();

@@ -313,6 +313,14 @@ protocol::Message EngineImpl::reset(MessageType type, const protocol::Reset& r) 
   } else if (arm_.at_door()) {
     stop_arm();  // e.g. a done task (the next door): the arm returns to rest
   }
+  if (procedure_.fault() != ErrorCode::kOk && loop_->snapshot().unstopped) {
+    // The card took an emergency stop and the wheels still turn: nothing to recover into.
+    return refuse(type, make_error(ErrorCode::kMotionInProgress, "",
+                                   "the wheels still turn after an emergency stop the motion card "
+                                   "accepted (their servos are being switched off): the fault "
+                                   "stays latched; use the robot's hardware emergency stop, Reset "
+                                   "once they rest"));
+  }
   if (procedure_.fault() != ErrorCode::kOk) {
     if (auto s = arm_.recover(); !s) {
       Error e = s.error();

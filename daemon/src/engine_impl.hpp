@@ -98,6 +98,7 @@ class EngineImpl final : public Engine {
   bool wheels_at_rest() override;
   void seal_state() override;
   void shutdown() noexcept override;
+  bool wedged() const noexcept override { return wedged_; }
 
   protocol::Message handle_command(const protocol::Message& request) override;
 
@@ -293,8 +294,10 @@ class EngineImpl final : public Engine {
   bool shutting_down_ = false;  // begin_shutdown(): only stops are executed
   bool sealed_ = false;         // seal_state(): records carry the clean-shutdown mark
   bool stopped_ = false;
+  bool wedged_ = false;  // shutdown(): the control thread did not end (a card call hung)
   bool restored_ = false;
   bool dirty_ = false;
+  bool unstopped_told_ = false;  // the loop's LoopSnapshot::unstopped, as last told the journal
   std::uint32_t recover_sequence_ = 0;  // the last recover request sent to the loop
   std::string stop_reason_;             // why every motion is stopping (shutdown), else empty
   ProcedureState last_state_ = ProcedureState::kAwaitingWidth;

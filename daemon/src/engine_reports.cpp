@@ -7,6 +7,14 @@ namespace ajar::daemon::detail {
 void EngineImpl::drain_reports() {
   take_stall();
   const LoopSnapshot snap = loop_->snapshot();
+  if (snap.unstopped != unstopped_told_) {  // the journal says so, once per episode
+    unstopped_told_ = snap.unstopped;
+    warnings_.push_back(snap.unstopped
+                            ? "the wheels still turn after an emergency stop the motion card "
+                              "accepted: their servos are being switched off (the card does not "
+                              "apply its stops; use the robot's hardware emergency stop)"
+                            : "the wheels are at rest again after their servos were switched off");
+  }
   if (procedure_.observe_pose(snap.pose)) dirty_ = true;
   LoopReport r;
   while (loop_->pop_report(r)) {

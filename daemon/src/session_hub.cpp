@@ -311,6 +311,7 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
            "this daemon speaks protocol version " + std::to_string(protocol::kVersionMajor) + ".x");
     return;
   }
+  engine_.catch_up();  // what happened before this Hello goes out before it (not to this session)
   const EventDeferral after_welcome(*this);  // the old controller's stop: after the Welcome
   std::optional<std::uint64_t> demoted;
   if (hello.requested_role == protocol::Role::kController) {

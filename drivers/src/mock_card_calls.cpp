@@ -81,6 +81,7 @@ ErrorCode MockMotionCard::enable_axes(std::span<const int> axes) noexcept {
 ErrorCode MockMotionCard::disable_axes(std::span<const int> axes) noexcept {
   return axes_call(CardCall::kDisableAxes, "disable_axes", axes, [&]() noexcept {
     AJAR_MOCK_TRY(check_axes(axes, "disable_axes"));
+    if (take_drop(CardCall::kDisableAxes)) return ErrorCode::kOk;  // accepted, not applied
     for (const int n : axes) {
       Axis& a = axis(n);
       halt(a);
@@ -217,6 +218,7 @@ ErrorCode MockMotionCard::smooth_stop(std::span<const int> axes) noexcept {
 ErrorCode MockMotionCard::emergency_stop(std::span<const int> axes) noexcept {
   return axes_call(CardCall::kEmergencyStop, "emergency_stop", axes, [&]() noexcept {
     AJAR_MOCK_TRY(check_open("emergency_stop"));
+    if (take_drop(CardCall::kEmergencyStop)) return check_axes(axes, "emergency_stop");
     for (const int n : axes) {
       if (!valid(n)) continue;
       Axis& a = axis(n);

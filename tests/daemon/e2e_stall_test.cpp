@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "ajar/daemon/cli.hpp"
 #include "ajard_process.hpp"
 #include "e2e_fixture.hpp"
 
@@ -104,6 +105,49 @@ TEST_F(AjardStall, AVendorCallThatHangsMidJogIsCaughtTheBaseStoppedAndResetNeede
   controller.request(protocol::Stop{});
   ajard.signal(SIGTERM);
   EXPECT_EQ(ajard.wait_exit(), 0) << ajard.err();
+}
+
+// SIGTERM while the vendor call still hangs (it never returns): ajard used to wait for the control
+// thread forever. Now the shutdown waits for it at most 1 s, then exits with status 3 (kExitWedged)
+// without bringing the card down; the base stayed as the out-of-band emergency stop left it, and
+// the restart keeps LOOP_STALLED latched (persisted before the exit) with nothing moving.
+TEST_F(AjardStall, SigtermWhileAVendorCallNeverReturnsStillExits) {
+  const std::string config = path("ajard.yaml");
+  std::ofstream(config) << daemon::to_yaml(e2e_config(drivers::DriverKind::kSim, dir_.path(), 10));
+  const std::string hang = path("hang");
+  const std::vector<std::string> args{"--config",    config,       "--listen",    "127.0.0.1:0",
+                                      "--port-file", path("port"), "--state-dir", path("state")};
+  {
+    AjardProcess ajard(args, dir_.path(), "stall-term", {"AJAR_SIM_BLOCK_FILE=" + hang});
+    const auto port = wait_for_port_file(path("port"), ajard);
+    ASSERT_TRUE(port) << ajard.err();
+    TestClient controller(*port);
+    ASSERT_EQ(controller.hello(Role::kController, 0x52).granted_role, Role::kController);
+    controller.request_as<protocol::Ack>(protocol::Subscribe{50});
+    ASSERT_TRUE(drive_until_moving(controller)) << ajard.err();
+    std::ofstream(hang) << "hang\n";  // never removed: the call never returns
+    const auto fault = controller.wait_event(EventKind::kFaultLatched);
+    ASSERT_TRUE(fault) << ajard.err();
+    EXPECT_EQ(fault->fault, ErrorCode::kLoopStalled);
+    ajard.signal(SIGTERM);
+    const auto code = ajard.wait_exit(std::chrono::seconds(60));
+    ASSERT_TRUE(code) << "ajard never exited with a card call hung\n" << ajard.err();
+    EXPECT_EQ(*code, daemon::kExitWedged) << ajard.err();
+    EXPECT_NE(ajard.err().find("the card is not brought down"), std::string::npos) << ajard.err();
+  }
+  ASSERT_EQ(std::remove(hang.c_str()), 0);
+  ASSERT_EQ(std::remove(path("port").c_str()), 0);
+  AjardProcess again(args, dir_.path(), "stall-term-2");
+  const auto port = wait_for_port_file(path("port"), again);
+  ASSERT_TRUE(port) << again.err();
+  TestClient controller(*port);
+  ASSERT_EQ(controller.hello(Role::kController, 0x53).granted_role, Role::kController);
+  EXPECT_EQ(controller.request_as<protocol::Status>(protocol::GetStatus{}).latched_fault,
+            ErrorCode::kLoopStalled);
+  EXPECT_EQ(error_code_of(controller.request(protocol::Drive{0.05, 0.0})),
+            ErrorCode::kFaultLatched);
+  again.signal(SIGTERM);
+  EXPECT_EQ(again.wait_exit(), 0) << again.err();
 }
 
 }  // namespace

@@ -93,6 +93,7 @@ class FakeEngine final : public daemon::Engine {
   void shutdown() noexcept override {
     if (inner_) inner_->shutdown();
   }
+  bool wedged() const noexcept override { return inner_ ? inner_->wedged() : false; }
   protocol::Message handle_command(const protocol::Message& request) override {
     ++executions_;
     protocol::Message reply = inner_ ? inner_->handle_command(request) : scripted_reply(request);

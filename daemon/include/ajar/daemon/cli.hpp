@@ -18,6 +18,8 @@ struct Config;
 inline constexpr int kExitOk = 0;       // clean shutdown (SIGTERM/SIGINT), --check-config OK
 inline constexpr int kExitStartup = 1;  // start-up failed (drivers, socket, state directory)
 inline constexpr int kExitUsage = 2;    // bad command line or config
+inline constexpr int kExitWedged =
+    3;  // SIGTERM/SIGINT found a motion-card call that never returned
 
 struct ListenAddress {
   std::string address;

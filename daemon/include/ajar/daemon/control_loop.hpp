@@ -206,6 +206,10 @@ struct LoopSnapshot {
   // latched, kActive while both wheel axes report servo on, else kInactive.
   drivers::LifecycleState card_state = drivers::LifecycleState::kInactive;
   std::uint64_t reports_dropped = 0;
+  // The wheels still turn (encoders) velocity_mismatch_s after an emergency stop the card took:
+  // the loop switches their servos off every cycle (MotionCard::disable_axes) until they rest, and
+  // a Reset is refused meanwhile. The robot's hardware emergency stop is the backstop.
+  bool unstopped = false;
 };
 
 // Trapezoid profile for the wheels from the base's wheel speed/acceleration limits (rad/s,
@@ -324,6 +328,10 @@ class ControlLoop {
   // Starts the control thread; returns the realtime warnings (refused SCHED_FIFO / mlockall).
   std::vector<std::string> start_thread();
   void stop_thread() noexcept;  // asks the thread to exit and joins it. Idempotent.
+  // The same, waiting at most `limit_ns` for the thread to end (a cycle stuck in a card call that
+  // never returns): false when it did not; it is then not joined (and the loop must never be
+  // destroyed: the process exits).
+  bool stop_thread(std::int64_t limit_ns) noexcept;
 
   // ---- I/O thread (the single producer) ----
   bool post_move(const MoveCommand& move) noexcept;     // false: queue full (nothing queued)
@@ -416,6 +424,16 @@ class ControlLoop {
   // The card did not do what it was told (or answered an error to a command it may have taken):
   // latch `code`, emergency stop, supervise the wheels to rest.
   void emergency_fault(ErrorCode code, int axis, std::int64_t now_ns) noexcept;
+  // The card's emergency stop; true when the card took it. From then on the wheels must come to
+  // rest (their encoders) within velocity_mismatch_s, else check_stopped_wheels() switches their
+  // servos off.
+  bool send_emergency_stop(std::int64_t now_ns) noexcept;
+  // Every cycle: wheels that still turn velocity_mismatch_s after an emergency stop the card took
+  // (a card that accepts GT_Stop and does not apply it) get their servos switched off, every cycle
+  // until they rest, and kVelocityMismatch latches.
+  void check_stopped_wheels(std::int64_t now_ns) noexcept;
+  // The wheels' measured velocity (encoders) is within the idle tolerance (unknown: false).
+  bool encoders_at_rest() const noexcept;
   void enter_stopping(std::int64_t now_ns) noexcept;
   // kOk, or the axis whose measured velocity has been outside what the card was told for longer
   // than velocity_mismatch_s (or that moves while no motion runs).
@@ -425,7 +443,8 @@ class ControlLoop {
   bool moving() const noexcept { return motion_ == Motion::kMoving || motion_ == Motion::kJogging; }
   void report(const LoopReport& r) noexcept;
   void read_axes(std::int64_t now_ns) noexcept;
-  void supervise(std::int64_t now_ns) noexcept;
+  void supervise(std::int64_t now_ns) noexcept;  // supervise_motion(), check_stopped_wheels()
+  void supervise_motion(std::int64_t now_ns) noexcept;
   drivers::LifecycleState card_state() const noexcept;
 
   drivers::MotionCard& card_;
@@ -459,6 +478,7 @@ class ControlLoop {
   std::atomic<std::int64_t> last_cycle_end_ns_{0};
   std::atomic<int> thread_tid_{0};
   std::atomic<bool> thread_running_{false};
+  std::atomic<bool> thread_ended_{false};  // thread_main() returned
 
   // Loop-private state.
   std::uint32_t handled_stop_ = 0, handled_latch_ = 0, handled_emergency_ = 0;
@@ -471,6 +491,13 @@ class ControlLoop {
   drivers::TrapezoidProfile move_profile_;
   double stop_time_s_ = 0;  // the running motion's time to rest from its top speed, at the card
   bool stop_sent_ = false;  // kStopping: the card accepted the stop (else re-sent every cycle)
+  // kStopping by a smooth stop the card took: each wheel's speed must follow its deceleration
+  // from where it was when the stop began (check_velocity), else emergency stop.
+  bool smooth_stop_ = false;
+  std::int64_t stop_begin_ns_ = 0;
+  double stop_from_counts_per_ms_[2] = {0, 0};  // |measured velocity| when the stop began
+  double stop_dec_counts_per_ms2_ = 0;          // the stopping motion's deceleration at the card
+  std::int64_t estop_taken_ns_ = -1;  // the card took an emergency stop the wheels have not obeyed
   std::int64_t target_counts_[2] = {0, 0};
   std::int64_t snapshot_profile_counts_[2] = {0, 0};  // last profile positions read
   bool seen_moving_ = false;

@@ -66,8 +66,13 @@ class Engine {
   virtual void seal_state() = 0;
   // The rest: does what the steps above did not (waiting at most 5 s for the wheels and 5 s for
   // the disk), joins the control thread, abandons a state writer that hangs, brings the drivers
-  // down. Idempotent.
+  // down. Idempotent. A control thread stuck in a motion-card call (a vendor call that never
+  // returns) is waited for at most 1 s; then the card is left as the loop supervisor's out-of-band
+  // emergency stop left it (not brought down: the vendor library is wedged) and wedged() is true.
   virtual void shutdown() noexcept = 0;
+  // shutdown() could not end the control thread: the process must exit without destroying the
+  // engine (its destructor would wait for that thread forever).
+  virtual bool wedged() const noexcept { return false; }
 
   // A command from the controlling session (roles are enforced by the caller). Validates with core,
   // updates the procedure, queues motion to the control loop. Returns the reply: Ack or ErrorReply.

@@ -35,14 +35,15 @@
 //                 blocked_calls() counts the calls hanging now. set_block_status(true/false) =
 //                 every axis_status() hangs until released (block_calls(kAxisStatus, -1)) /
 //                 release_blocked_calls(): a stalled control loop
-//   card faults   (a card that misbehaves, for the control loop's supervision; none touches
-//                 emergency_stop() except the silence) drop_next_calls(kind, n): the next n calls
-//                 of `kind` (move, jog, smooth stop) answer kOk and change nothing (accepted, not
-//                 applied); fail_after_next_call(kind): the next call of `kind` is applied, then
-//                 answers kCardCommunication; set_stale_status_reads(n): the next n axis_status()
-//                 reads of each axis repeat that axis' last answer; stop_answering_for_ns(ns):
-//                 every realtime call (emergency_stop too) fails with kCardCommunication until the
-//                 card's clock has advanced by ns, while the motion it runs goes on
+//   card faults   (a card that misbehaves, for the control loop's supervision)
+//                 drop_next_calls(kind, n): the next n calls of `kind` (move, jog, smooth stop,
+//                 and — a card that does not apply its stops at all — emergency stop and
+//                 disable_axes) answer kOk and change nothing (accepted, not applied);
+//                 fail_after_next_call(kind): the next call of `kind` is applied, then answers
+//                 kCardCommunication; set_stale_status_reads(n): the next n axis_status() reads of
+//                 each axis repeat that axis' last answer; stop_answering_for_ns(ns): every
+//                 realtime call (emergency_stop too) fails with kCardCommunication until the card's
+//                 clock has advanced by ns, while the motion it runs goes on
 //   observation   peek(axis): the axis as axis_status() would report it, without a call;
 //                 velocity(axis): the simulated wheel's velocity now (counts/ms, signed);
 //                 jogging(axis): it moves in velocity mode; motion_call(axis): the log index of
