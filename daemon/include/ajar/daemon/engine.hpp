@@ -72,7 +72,7 @@ class Engine {
   virtual void shutdown() noexcept = 0;
   // shutdown() could not end the control thread: the process must exit without destroying the
   // engine (its destructor would wait for that thread forever).
-  virtual bool wedged() const noexcept { return false; }
+  virtual bool wedged() const noexcept = 0;
 
   // A command from the controlling session (roles are enforced by the caller). Validates with core,
   // updates the procedure, queues motion to the control loop. Returns the reply: Ack or ErrorReply.
