@@ -49,18 +49,6 @@ std::string utc(std::uint64_t unix_ns) {
   return std::string(text) + "Z";
 }
 
-std::string bytes_text(std::uint64_t n) {
-  char text[32];
-  if (n >= 10ULL << 20) {
-    std::snprintf(text, sizeof text, "%.1f MiB", static_cast<double>(n) / 1048576.0);
-  } else if (n >= 10ULL << 10) {
-    std::snprintf(text, sizeof text, "%.1f KiB", static_cast<double>(n) / 1024.0);
-  } else {
-    std::snprintf(text, sizeof text, "%llu B", static_cast<unsigned long long>(n));
-  }
-  return text;
-}
-
 // Connects and says Hello as an observer (the black box needs no control).
 std::optional<int> connect(Client& client, const GlobalOptions& options, std::ostream& err) {
   if (const auto c = client.connect(options.endpoint); !c) {

@@ -8,6 +8,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "ajar/protocol/message_table.hpp"
 #include "cli_detail.hpp"
 
 namespace ajar::client {
@@ -328,7 +329,7 @@ CommandParse parse_measure(Command c, const std::vector<std::string>& args, core
     return fail("measure " + what + ": " + e);
   }
   c.kind = Command::Kind::kRequest;
-  c.needs_controller = true;
+  c.needs_controller = protocol::needs_controller(protocol::MessageType::kMeasureDoorWidth);
   if (what == "width" || what == "handle") {
     if (points.size() != 2) {
       return fail("measure " + what + " wants two points: X1 Y1 Z1 X2 Y2 Z2");
@@ -366,13 +367,13 @@ CommandParse parse_arguments(Command c, const detail::CommandArgs& a, core::Fram
     if (auto e = parse_points(args, frame, points); !e.empty()) return fail("contact: " + e);
     if (points.size() != 1) return fail("contact wants one point: X Y Z");
     c.kind = Command::Kind::kRequest;
-    c.needs_controller = true;
     c.request = protocol::SetContactPoint{points[0]};
+    c.needs_controller = protocol::needs_controller(protocol::type_of(c.request));
     return {c, {}};
   }
   if (name == "drive") {
     c.kind = Command::Kind::kDrive;
-    c.needs_controller = true;
+    c.needs_controller = protocol::needs_controller(protocol::MessageType::kDrive);
     if (a.velocity && c.duration_s <= 0) return fail("drive --linear/--angular needs --for S");
     if (!a.velocity && c.duration_s > 0) return fail("drive --for needs --linear and/or --angular");
     return {c, {}};
@@ -383,8 +384,8 @@ CommandParse parse_arguments(Command c, const detail::CommandArgs& a, core::Fram
       return fail("approach wants STANDOFF_M: the distance to the door plane in metres");
     }
     c.kind = Command::Kind::kApproach;
-    c.needs_controller = true;
     c.request = protocol::Approach{standoff_m};
+    c.needs_controller = protocol::needs_controller(protocol::type_of(c.request));
     return {c, {}};
   }
   if (name == "reset") {
@@ -392,7 +393,7 @@ CommandParse parse_arguments(Command c, const detail::CommandArgs& a, core::Fram
     reset.clear_parameters = a.clear;
     c.request = reset;
     c.kind = Command::Kind::kRequest;
-    c.needs_controller = true;
+    c.needs_controller = protocol::needs_controller(protocol::type_of(c.request));
     return {c, {}};
   }
   if (name == "sleep") {
@@ -452,22 +453,23 @@ CommandParse parse_command(std::span<const std::string> words, core::Frame frame
   c.wait = !a.no_wait;
   const std::vector<std::string>& args = a.words;
 
-  // The commands that are one request with nothing more to read: kind, request, role.
+  // The commands that are one request with nothing more to read: kind, request. Whether a command
+  // connects as the controller is its request's row in the message table (message_table.hpp).
   using Kind = Command::Kind;
-  static const std::tuple<std::string_view, Kind, protocol::Message, bool> kFixed[] = {
-      {"ping", Kind::kPing, protocol::Ping{}, false},
-      {"status", Kind::kStatus, protocol::GetStatus{}, false},
-      {"model", Kind::kRequest, protocol::GetRobotModel{}, false},
-      {"align", Kind::kAlign, protocol::AlignBase{}, true},
-      {"engage", Kind::kEngage, protocol::Engage{}, true},
-      {"stop", Kind::kRequest, protocol::Stop{}, false},  // any role may stop
-      {"estop", Kind::kRequest, protocol::EmergencyStop{}, false},
+  static const std::tuple<std::string_view, Kind, protocol::Message> kFixed[] = {
+      {"ping", Kind::kPing, protocol::Ping{}},
+      {"status", Kind::kStatus, protocol::GetStatus{}},
+      {"model", Kind::kRequest, protocol::GetRobotModel{}},
+      {"align", Kind::kAlign, protocol::AlignBase{}},
+      {"engage", Kind::kEngage, protocol::Engage{}},
+      {"stop", Kind::kRequest, protocol::Stop{}},
+      {"estop", Kind::kRequest, protocol::EmergencyStop{}},
   };
-  for (const auto& [fixed, kind, request, controller] : kFixed) {
+  for (const auto& [fixed, kind, request] : kFixed) {
     if (fixed == name) {
       c.kind = kind;
       c.request = request;
-      c.needs_controller = controller;
+      c.needs_controller = protocol::needs_controller(protocol::type_of(request));
       return {c, {}};
     }
   }

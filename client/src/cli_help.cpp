@@ -18,8 +18,9 @@ constexpr CommandInfo kCommands[] = {
      "", ""},
     {"status", "status", "procedure state, stored parameters, drivers, odometry",
      "Prints the procedure state, a latched fault, the stored measurements with their derived\n"
-     "values, the base's odometry yaw, the drivers' states and the control loop statistics.\n"
-     "Observer role.",
+     "values, the base's odometry yaw, the drivers' states and the control loop statistics;\n"
+     "from a 1.2 daemon also what moves the base and the black box (mode, file, bytes, records\n"
+     "written, dropped and lost to the disk). Observer role.",
      "", ""},
     {"watch", "watch [--rate HZ] [--duration S]", "telemetry and events until interrupted (Ctrl-C)",
      "Subscribes to telemetry at HZ (default 10; 0 = events only) and prints telemetry and events\n"

@@ -3,6 +3,8 @@
 #include <future>
 #include <random>
 
+#include "ajar/core/words.hpp"
+
 namespace ajar::client {
 
 std::optional<Endpoint> parse_endpoint(std::string_view text) {
@@ -12,17 +14,11 @@ std::optional<Endpoint> parse_endpoint(std::string_view text) {
 }
 
 std::string_view to_string(CallOutcome outcome) noexcept {
-  switch (outcome) {
-    case CallOutcome::kReply:
-      return "reply";
-    case CallOutcome::kRefused:
-      return "refused";
-    case CallOutcome::kTimeout:
-      return "timeout";
-    case CallOutcome::kDisconnected:
-      return "disconnected";
-  }
-  return "unknown";
+  constexpr Word<CallOutcome> kWords[] = {{CallOutcome::kReply, "reply"},
+                                          {CallOutcome::kRefused, "refused"},
+                                          {CallOutcome::kTimeout, "timeout"},
+                                          {CallOutcome::kDisconnected, "disconnected"}};
+  return word_of(kWords, outcome);
 }
 
 protocol::FramedPoint framed(core::Frame frame, double x_m, double y_m, double z_m) {
@@ -144,6 +140,7 @@ Response Client::request(const protocol::Message& message, Milliseconds timeout,
       }
       response.round_trip = std::chrono::duration_cast<Milliseconds>(Clock::now() - sent);
       response.reply = std::move(reply->message);
+      if (const auto w = welcome()) response.session_minor = w->version_minor;
       if (const auto* error = std::get_if<protocol::ErrorReply>(&response.reply)) {
         response.outcome = CallOutcome::kRefused;
         response.error = *error;

@@ -131,7 +131,28 @@ void add_approach_fields(JsonObject& o, const protocol::ApproachAck& approach) {
       .add("wheel_counts", left_right(approach.left_counts, approach.right_counts));
 }
 
-JsonObject status_object(const protocol::Status& s) {
+JsonObject recorder_object(const protocol::RecorderState& r) {
+  JsonObject o;
+  o.add("enabled", r.enabled)
+      .add("mode", protocol::to_string(r.mode))
+      .add("file", r.file.view())
+      .add("file_bytes", r.file_bytes)
+      .add("directory_bytes", r.directory_bytes)
+      .add("max_bytes", r.max_bytes)
+      .add("saved_bytes", r.saved_bytes)
+      .add("disk_free_bytes", r.disk_free_bytes)
+      .add("records_written", r.records_written)
+      .add("loop_samples", r.loop_samples)
+      .add("loop_dropped", r.loop_dropped)
+      .add("io_records", r.io_records)
+      .add("io_dropped", r.io_dropped)
+      .add("records_lost", r.records_lost)
+      .add("disk_refusals", r.disk_refusals)
+      .add("last_write_ns", r.last_write_ns);
+  return o;
+}
+
+JsonObject status_object(const protocol::Status& s, std::uint8_t session_minor) {
   JsonObject o;
   o.add("state", state_name(s.state))
       .add("latched_fault", ajar::to_string(s.latched_fault))
@@ -169,6 +190,10 @@ JsonObject status_object(const protocol::Status& s) {
       .add("priority", static_cast<unsigned>(s.realtime.priority))
       .add("memory_locked", s.realtime.memory_locked);
   o.add("realtime", rt);
+  if (session_minor >= 2) {
+    o.add("base_motion", protocol::to_string(s.base_motion));
+    o.add("recorder", recorder_object(s.recorder));
+  }
   return o;
 }
 
@@ -243,7 +268,7 @@ JsonObject response_object(std::string_view command, const Response& r) {
     o.add("robot_model", robot_model_object(*model));
   } else if (const auto* status = r.get<protocol::Status>()) {
     o.add("type", "status").add("command", command).add("ok", true);
-    o.add("status", status_object(*status));
+    o.add("status", status_object(*status, r.session_minor));
   } else if (const auto* pong = r.get<protocol::Pong>()) {
     o.add("type", "pong").add("command", command).add("ok", true);
     o.add("daemon_time_ns", pong->daemon_time_ns);

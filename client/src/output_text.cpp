@@ -19,9 +19,40 @@ std::string fixed(double value, int digits, bool sign) {
   return buffer;
 }
 
+std::string bytes_text(std::uint64_t n) {
+  char text[32];
+  if (n >= 10ULL << 30) {
+    std::snprintf(text, sizeof text, "%.1f GiB", static_cast<double>(n) / 1073741824.0);
+  } else if (n >= 10ULL << 20) {
+    std::snprintf(text, sizeof text, "%.1f MiB", static_cast<double>(n) / 1048576.0);
+  } else if (n >= 10ULL << 10) {
+    std::snprintf(text, sizeof text, "%.1f KiB", static_cast<double>(n) / 1024.0);
+  } else {
+    std::snprintf(text, sizeof text, "%llu B", static_cast<unsigned long long>(n));
+  }
+  return text;
+}
+
 namespace {
 
 using output::state_name;
+
+// Status.recorder (1.2), two lines: what it writes where, and where every record went.
+std::string recorder_text(const protocol::RecorderState& r) {
+  std::string t = "black box:        " + std::string(protocol::to_string(r.mode));
+  if (!r.enabled) t += " (recorder.enabled: false)";
+  if (r.file.length > 0) t += ", " + std::string(r.file.view()) + " " + bytes_text(r.file_bytes);
+  t += "; " + bytes_text(r.directory_bytes) + " of the " + bytes_text(r.max_bytes) + " budget, " +
+       bytes_text(r.saved_bytes) + " saved, " + bytes_text(r.disk_free_bytes) + " free\n";
+  t += "black box counts: " + std::to_string(r.records_written) + " written; loop " +
+       std::to_string(r.loop_samples) + " samples, " + std::to_string(r.loop_dropped) +
+       " dropped; I/O " + std::to_string(r.io_records) + " records, " +
+       std::to_string(r.io_dropped) + " dropped; " + std::to_string(r.records_lost) +
+       " lost to the disk (" + std::to_string(r.disk_refusals) + " refusals)";
+  if (r.last_write_ns > 0)
+    t += "; last write at " + fixed(static_cast<double>(r.last_write_ns) * 1e-9, 3) + " s";
+  return t + "\n";
+}
 
 std::string m_text(double v) {
   return fixed(v, 4) + " m";
@@ -102,7 +133,7 @@ std::string robot_model_text(const protocol::RobotModel& model) {
   return t;
 }
 
-std::string status_text(const protocol::Status& s) {
+std::string status_text(const protocol::Status& s, std::uint8_t session_minor) {
   std::string t;
   t += "state:            " + state_name(s.state) + "\n";
   t += "latched fault:    " + std::string(ajar::to_string(s.latched_fault)) + "\n";
@@ -140,6 +171,10 @@ std::string status_text(const protocol::Status& s) {
        (s.realtime.memory_locked ? ", memory locked" : ", memory not locked") + "\n";
   t += "timing, recent:   (last " + fixed(static_cast<double>(s.timing.window_s), 1) + " s) " +
        window_text(s.timing.recent) + "\n";
+  if (session_minor >= 2) {
+    t += "base motion:      " + std::string(protocol::to_string(s.base_motion)) + "\n";
+    t += recorder_text(s.recorder);
+  }
   t += "timing, all:      " + window_text(s.timing.all);
   if (s.restored_from_disk) t += "\nparameters restored from disk";
   return t;
@@ -188,7 +223,7 @@ std::string response_text(std::string_view command, const Response& r) {
     return t;
   }
   if (const auto* model = r.get<protocol::RobotModel>()) return robot_model_text(*model);
-  if (const auto* status = r.get<protocol::Status>()) return status_text(*status);
+  if (const auto* status = r.get<protocol::Status>()) return status_text(*status, r.session_minor);
   if (r.get<protocol::Pong>()) return cmd + ": pong";
   if (const auto* w = r.get<protocol::Welcome>()) {
     return cmd + ": welcome, role " + std::string(protocol::to_string(w->granted_role)) +

@@ -34,7 +34,7 @@ void Suite::decode_header_errors() {
     auto c = greeted(Role::kObserver);
     if (!c) return std::string("cannot connect");
     auto f = ping_frame(9002);
-    put_u16(f, 6, 0x01ff);
+    put_u16(f, protocol::kOffsetType, 0x01ff);
     fix_crc(f);
     if (auto e = want_error(raw(*c, f, 9002), ErrorCode::kUnknownMessageType, nullptr, 9002);
         !e.empty()) {
@@ -53,7 +53,7 @@ void Suite::decode_header_errors() {
     auto c = greeted(Role::kObserver);
     if (!c) return std::string("cannot connect");
     auto f = ping_frame(9004);
-    put_u16(f, 8, 0x0004);
+    put_u16(f, protocol::kOffsetFlags, 0x0004);
     fix_crc(f);
     if (auto e = want_error(raw(*c, f, 9004), ErrorCode::kUnknownFlags, "header.flags", 9004);
         !e.empty()) {
@@ -70,7 +70,7 @@ void Suite::decode_payload_errors() {
     if (!c) return std::string("cannot connect");
     auto f = ping_frame(9005);
     f.pop_back();
-    put_u32(f, 14, 7);
+    put_u32(f, protocol::kOffsetPayloadLength, 7);
     fix_crc(f);
     if (auto e = want_error(raw(*c, f, 9005), ErrorCode::kBadPayloadLength, nullptr, 9005);
         !e.empty()) {
@@ -101,7 +101,7 @@ void Suite::decode_payload_errors() {
     auto c = greeted(Role::kObserver);
     if (!c) return std::string("cannot connect");
     auto f = frame_bytes(protocol::Envelope{9007, 0, door_plane(0.1)});
-    f[22 + 1 + 25] = 7;
+    f[protocol::kHeaderSize + 1 + 25] = 7;
     fix_crc(f);
     if (auto e = want_error(raw(*c, f, 9007), ErrorCode::kInvalidEnumValue, "points[1].frame");
         !e.empty()) {
@@ -113,7 +113,7 @@ void Suite::decode_payload_errors() {
     auto c = greeted(Role::kObserver);
     if (!c) return std::string("cannot connect");
     auto f = frame_bytes(protocol::Envelope{9008, 0, door_plane(0.1)});
-    f[22] = 2;
+    f[protocol::kHeaderSize] = 2;
     fix_crc(f);
     if (auto e = want_error(raw(*c, f, 9008), ErrorCode::kBadCount, "count"); !e.empty()) return e;
     return still_usable(*c);
@@ -124,7 +124,7 @@ void Suite::decode_payload_errors() {
     protocol::Hello hello;
     hello.client_name = "abc";
     auto f = frame_bytes(protocol::Envelope{9009, 0, hello});
-    f[22 + 12 + 2] = 0x07;
+    f[protocol::kHeaderSize + 12 + 2] = 0x07;
     fix_crc(f);
     if (auto e = want_error(raw(*c, f, 9009), ErrorCode::kBadString, "client_name"); !e.empty()) {
       return e;
@@ -144,7 +144,7 @@ void Suite::decode_framing() {
     auto c = greeted(Role::kObserver);
     if (!c) return std::string("cannot connect");
     auto f = ping_frame(9010);
-    f[4] = 2;
+    f[protocol::kOffsetVersionMajor] = 2;
     fix_crc(f);
     if (auto e = want_error(raw(*c, f, std::nullopt), ErrorCode::kUnsupportedVersion); !e.empty()) {
       return e;
@@ -155,7 +155,7 @@ void Suite::decode_framing() {
     auto c = greeted(Role::kObserver);
     if (!c) return std::string("cannot connect");
     auto f = ping_frame(9011);
-    put_u32(f, 14, 1025);
+    put_u32(f, protocol::kOffsetPayloadLength, 1025);
     if (auto e = want_error(raw(*c, f, std::nullopt), ErrorCode::kPayloadTooLarge); !e.empty()) {
       return e;
     }

@@ -121,7 +121,7 @@ void Suite::protocol_1_1_new_types() {
             const std::uint32_t id = c->next_request_id();
             auto f = frame_bytes(protocol::Envelope{id, 0, m});
             if (minor == 0) {
-              f[5] = 0;
+              f[protocol::kOffsetVersionMinor] = 0;
               fix_crc(f);
             }
             if (auto e =

@@ -72,6 +72,62 @@ void Suite::recordings() {
     return std::string{};
   });
   const auto needs_recorder = [&]() -> std::string { return off.empty() ? "" : skip(off); };
+  check("1.2: Status.recorder agrees with ListRecordings (mode, the file being written, counts)",
+        [&] {
+          auto c = greeted(Role::kObserver);
+          if (!c) return std::string("cannot connect");
+          if (c->welcome() && c->welcome()->version_minor < 2) return skip("the daemon speaks 1.1");
+          std::string wrong;
+          // A rotation between the reads moves the file: three tries.
+          for (int attempt = 0; attempt < 3; ++attempt) {
+            const auto s1 = status(*c);
+            const Response r = c->request(protocol::ListRecordings{0});
+            const auto s2 = status(*c);
+            if (!s1 || !s2) return std::string("GetStatus failed");
+            const protocol::RecorderState &a = s1->recorder, &b = s2->recorder;
+            if (r.outcome == CallOutcome::kRefused && r.error.code == ErrorCode::kNotSupported) {
+              if (a.enabled || a.mode != protocol::RecorderMode::kOff || a.file.length > 0)
+                return std::string(
+                           "ListRecordings says the recorder is off; Status.recorder has "
+                           "enabled/mode/file ") +
+                       (a.enabled ? "true" : "false") + "/" + std::string(to_string(a.mode)) + "/" +
+                       std::string(a.file.view());
+              return std::string{};
+            }
+            const auto* list = r.get<protocol::RecordingList>();
+            if (!list) return "ListRecordings: " + describe(r);
+            if (!a.enabled) return std::string("recordings listed; Status.recorder.enabled false");
+            if (a.max_bytes == 0) return std::string("Status.recorder.max_bytes is 0");
+            for (const auto* x : {&a, &b}) {
+              if (x->loop_dropped > x->loop_samples || x->io_dropped > x->io_records)
+                return std::string("more dropped than taken");
+              if (x->directory_bytes < x->file_bytes)
+                return std::string("directory_bytes below the open file's bytes");
+            }
+            if (b.loop_samples < a.loop_samples || b.io_records < a.io_records ||
+                b.records_written < a.records_written || b.loop_dropped < a.loop_dropped ||
+                b.io_dropped < a.io_dropped || b.records_lost < a.records_lost)
+              return std::string("a Status.recorder counter went down");
+            if (a.mode != protocol::RecorderMode::kRecording) return std::string{};
+            const protocol::RecordingInfo* writing = nullptr;
+            for (std::size_t i = 0; i < list->count; ++i) {
+              if (list->entries[i].writing) writing = &list->entries[i];
+            }
+            if (writing == nullptr || writing->name.view() != a.file.view() ||
+                a.file.view() != b.file.view()) {
+              wrong = "Status.recorder.file " + std::string(a.file.view()) +
+                      " is not the recording ListRecordings says is being written";
+              continue;
+            }
+            // The listed size is the file's on disk between the two Status reads.
+            if (writing->size_bytes < a.file_bytes || writing->size_bytes > b.file_bytes)
+              return "listed size " + std::to_string(writing->size_bytes) +
+                     " outside Status.recorder.file_bytes " + std::to_string(a.file_bytes) + ".." +
+                     std::to_string(b.file_bytes);
+            return std::string{};
+          }
+          return wrong;
+        });
   check("1.2: FetchRecording of a name that is no recording: NO_SUCH_RECORDING (name)", [&] {
     if (auto s = needs_recorder(); !s.empty()) return s;
     auto c = greeted(Role::kObserver);

@@ -152,7 +152,7 @@ void Suite::garbage() {
         }
         case 2: {  // a valid header announcing a huge payload
           auto f = frame_bytes(protocol::Envelope{7, 0, protocol::Ping{}});
-          put_u32(f, 14, 0xFFFFFFFFu);
+          put_u32(f, protocol::kOffsetPayloadLength, 0xFFFFFFFFu);
           g->send_raw(f);
           if (!g->wait_closed(timeout())) why = "an oversize header did not close the connection";
           break;

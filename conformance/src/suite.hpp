@@ -58,11 +58,11 @@ inline void put_u32(std::vector<std::uint8_t>& f, std::size_t at, std::uint32_t 
     f[at + i] = static_cast<std::uint8_t>(v >> (8 * i));
 }
 
-// Recomputes the CRC (header bytes 0..17, then the payload) after a deliberate change.
+// Recomputes the CRC (the header before the CRC, then the payload) after a deliberate change.
 inline void fix_crc(std::vector<std::uint8_t>& f) {
-  std::vector<std::uint8_t> covered(f.begin(), f.begin() + 18);
-  covered.insert(covered.end(), f.begin() + 22, f.end());
-  put_u32(f, 18, protocol::crc32c(covered));
+  std::vector<std::uint8_t> covered(f.begin(), f.begin() + protocol::kOffsetCrc);
+  covered.insert(covered.end(), f.begin() + protocol::kHeaderSize, f.end());
+  put_u32(f, protocol::kOffsetCrc, protocol::crc32c(covered));
 }
 
 inline void put_f64(std::vector<std::uint8_t>& f, std::size_t at, std::uint64_t bits) {
@@ -357,7 +357,7 @@ class Suite {
   // Says Hello 1.0 (header and payload minor 0) on `c` as an observer; "" when welcomed.
   std::string hello_1_0(Client& c);
   void protocol_1_1();
-  void recordings();  // 1.2: the black box (recordings.cpp)
+  void recordings();             // 1.2: the black box (recordings.cpp)
   void protocol_1_1_sessions();  // its parts (protocol_1_1.cpp)
   void protocol_1_1_new_types();
   void protocol_1_1_requests();

@@ -175,6 +175,7 @@ void ConsoleServer::Impl::worker_idle(bool connected_now) {
 }
 
 void ConsoleServer::Impl::status_received(const protocol::Status& s) {
+  recorder_status(s);
   on_io([this, s] {
     status = s;
     if (foxglove) foxglove->on_status(s);

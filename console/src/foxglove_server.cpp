@@ -1,5 +1,7 @@
 // The Foxglove WebSocket protocol server (ajar/console/foxglove_server.hpp): its own thread and
-// io_context, one coroutine pair (reader, writer) per client, bounded per-client queues.
+// io_context, one coroutine pair (reader, writer) per client, bounded per-client queues. A
+// connection's upgrade runs on a beast::tcp_stream whose expiry (a deadline timer) closes it at
+// upgrade_timeout; it counts toward max_clients from its accept on.
 #include "ajar/console/foxglove_server.hpp"
 
 // <utility> before any Asio header (asio issue 944).
@@ -26,15 +28,10 @@
 #include <stdexcept>
 #include <thread>
 
+#include "net_names.hpp"
+
 namespace ajar::console::foxglove {
 
-namespace asio = boost::asio;
-namespace beast = boost::beast;
-namespace http = beast::http;
-namespace websocket = beast::websocket;
-using tcp = asio::ip::tcp;
-using boost::system::error_code;
-using Clock = std::chrono::steady_clock;
 using Json = nlohmann::json;
 
 std::uint64_t unix_time_ns() {
@@ -58,8 +55,8 @@ struct Data {
 };
 
 struct Client {
-  explicit Client(tcp::socket socket) : ws(std::move(socket)), wake(ws.get_executor()) {}
-  websocket::stream<tcp::socket> ws;
+  explicit Client(beast::tcp_stream stream) : ws(std::move(stream)), wake(ws.get_executor()) {}
+  websocket::stream<beast::tcp_stream> ws;
   asio::steady_timer wake;          // cancelled when a queue gets a message
   std::deque<std::string> control;  // serverInfo, advertise, status: never dropped
   std::deque<Data> data;            // messageData waiting; bounded, oldest dropped
@@ -101,6 +98,24 @@ bool origin_allowed(std::string_view origin) {
          name == "[::1]" || name.rfind("127.", 0) == 0;
 }
 
+// A connection counted in `n` while it lives (or until release()): the upgrades in progress and
+// the refusals being written. Touches nothing but the counter (declared before the io_context,
+// whose destruction may destroy a suspended coroutine holding one).
+class Slot {
+ public:
+  explicit Slot(std::atomic<std::size_t>& n) : n_(&n) { ++n; }
+  ~Slot() { release(); }
+  Slot(const Slot&) = delete;
+  Slot& operator=(const Slot&) = delete;
+  void release() {
+    if (n_ != nullptr) --*n_;
+    n_ = nullptr;
+  }
+
+ private:
+  std::atomic<std::size_t>* n_;
+};
+
 }  // namespace
 
 struct Server::Impl {
@@ -113,6 +128,9 @@ struct Server::Impl {
   ServerOptions options;
   std::vector<Channel> channels;
   std::map<std::uint32_t, std::size_t> index;  // channel id -> position
+  // Server thread writes, stats() reads; before ioc (Slot).
+  std::atomic<std::size_t> upgrades{0};  // connections accepted, not yet clients nor gone
+  std::atomic<std::size_t> refusing{0};  // 503s being written
   asio::io_context ioc{1};
   tcp::acceptor acceptor;
   std::uint16_t port = 0;
@@ -185,8 +203,9 @@ struct Server::Impl {
       --counts[index.at(channel)];
     c->subscriptions.clear();
     error_code ec;
-    c->ws.next_layer().shutdown(tcp::socket::shutdown_both, ec);
-    c->ws.next_layer().close(ec);
+    auto& socket = beast::get_lowest_layer(c->ws).socket();
+    socket.shutdown(tcp::socket::shutdown_both, ec);
+    socket.close(ec);
     c->wake.cancel();
   }
 
@@ -311,14 +330,34 @@ struct Server::Impl {
     close(c);
   }
 
-  asio::awaitable<void> serve(tcp::socket socket) {
+  static http::response<http::string_body> refusal_response(http::status code, unsigned version,
+                                                            const std::string& why) {
+    http::response<http::string_body> res{code, version};
+    res.set(http::field::server, "ajar-console");
+    res.set(http::field::content_type, "text/plain");
+    res.body() = "ajar-console: " + why + "\n";
+    res.keep_alive(false);
+    res.prepare_payload();
+    return res;
+  }
+
+  // One connection from its accept to a client (or its refusal), within upgrade_timeout.
+  asio::awaitable<void> serve(tcp::socket socket, std::unique_ptr<Slot> upgrade) {
+    beast::tcp_stream stream(std::move(socket));
+    stream.expires_after(options.upgrade_timeout);  // the deadline of the whole upgrade
+    const auto timed_out = [this](const error_code& e) {
+      if (e == beast::error::timeout) count([](ServerStats& s) { ++s.upgrades_timed_out; });
+    };
     beast::flat_buffer buffer;
     error_code ec;
     http::request_parser<http::string_body> parser;
     parser.body_limit(4096);
-    co_await http::async_read(socket, buffer, parser,
+    co_await http::async_read(stream, buffer, parser,
                               asio::redirect_error(asio::use_awaitable, ec));
-    if (ec) co_return;
+    if (ec) {
+      timed_out(ec);
+      co_return;
+    }
     const auto req = parser.release();
     std::string refusal;
     http::status code = http::status::bad_request;
@@ -338,30 +377,28 @@ struct Server::Impl {
     } else if (!origin_allowed(origin)) {
       refusal = "a web page from " + origin + " may not read this port (docs/console.md, Foxglove)";
       code = http::status::forbidden;
-    } else if (clients.size() >= options.max_clients) {
-      refusal = "too many Foxglove clients (" + std::to_string(options.max_clients) + ")";
-      code = http::status::service_unavailable;
     }
     if (!refusal.empty()) {
       count([](ServerStats& s) { ++s.clients_refused; });
-      http::response<http::string_body> res{code, req.version()};
-      res.set(http::field::server, "ajar-console");
-      res.set(http::field::content_type, "text/plain");
-      res.body() = "ajar-console: " + refusal + "\n";
-      res.keep_alive(false);
-      res.prepare_payload();
-      co_await http::async_write(socket, res, asio::redirect_error(asio::use_awaitable, ec));
+      auto res = refusal_response(code, req.version(), refusal);
+      co_await http::async_write(stream, res, asio::redirect_error(asio::use_awaitable, ec));
       co_return;
     }
-    auto c = std::make_shared<Client>(std::move(socket));
+    auto c = std::make_shared<Client>(std::move(stream));
     c->ws.read_message_max(65536);
     c->ws.set_option(websocket::stream_base::decorator([](websocket::response_type& res) {
       res.set(http::field::sec_websocket_protocol, kSubprotocol);
       res.set(http::field::server, "ajar-console");
     }));
     co_await c->ws.async_accept(req, asio::redirect_error(asio::use_awaitable, ec));
-    if (ec) co_return;
+    if (ec) {
+      timed_out(ec);
+      co_return;
+    }
+    // A client now: no deadline on its reads (it may only listen); the watchdog bounds its writes.
+    beast::get_lowest_layer(c->ws).expires_never();
     clients.insert(c);
+    upgrade->release();
     count([this](ServerStats& s) {
       s.clients = clients.size();
       ++s.clients_total;
@@ -387,6 +424,28 @@ struct Server::Impl {
     count([this](ServerStats& s) { s.clients = clients.size(); });
   }
 
+  // A connection beyond max_clients: HTTP 503 at once (its request unread), then what it sends is
+  // read and dropped until it closes (so that it gets the 503, not a reset), within the deadline.
+  asio::awaitable<void> refuse_busy(tcp::socket socket,
+                                    [[maybe_unused]] std::unique_ptr<Slot> refusal) {
+    beast::tcp_stream stream(std::move(socket));
+    stream.expires_after(options.upgrade_timeout);
+    error_code ec;
+    auto res =
+        refusal_response(http::status::service_unavailable, 11,
+                         "too many Foxglove clients (" + std::to_string(options.max_clients) + ")");
+    co_await http::async_write(stream, res, asio::redirect_error(asio::use_awaitable, ec));
+    if (ec) co_return;
+    stream.socket().shutdown(tcp::socket::shutdown_send, ec);
+    stream.expires_after(
+        std::min<std::chrono::milliseconds>(options.upgrade_timeout, std::chrono::seconds(2)));
+    std::array<char, 4096> sink{};
+    while (!ec) {
+      co_await stream.async_read_some(asio::buffer(sink),
+                                      asio::redirect_error(asio::use_awaitable, ec));
+    }
+  }
+
   asio::awaitable<void> accept_loop() {
     for (;;) {
       error_code ec;
@@ -397,7 +456,18 @@ struct Server::Impl {
         continue;
       }
       socket.set_option(tcp::no_delay(true), ec);
-      asio::co_spawn(ioc, serve(std::move(socket)), asio::detached);
+      // Clients and upgrades in progress count alike: connections that never upgrade cannot
+      // hold more than max_clients places, and only until upgrade_timeout.
+      if (clients.size() + upgrades >= options.max_clients) {
+        count([](ServerStats& s) { ++s.clients_refused; });
+        if (refusing < options.max_clients) {
+          auto slot = std::make_unique<Slot>(refusing);
+          asio::co_spawn(ioc, refuse_busy(std::move(socket), std::move(slot)), asio::detached);
+        }  // else closed unanswered
+        continue;
+      }
+      auto slot = std::make_unique<Slot>(upgrades);  // counted now, before the next accept
+      asio::co_spawn(ioc, serve(std::move(socket), std::move(slot)), asio::detached);
     }
   }
 
@@ -484,7 +554,9 @@ void Server::publish(std::uint32_t channel_id, std::uint64_t log_time_ns,
 
 ServerStats Server::stats() const {
   const std::lock_guard lock(impl_->stats_mutex);
-  return impl_->stats;
+  ServerStats s = impl_->stats;
+  s.upgrades = impl_->upgrades.load();
+  return s;
 }
 
 }  // namespace ajar::console::foxglove

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "ajar/client/client.hpp"
+#include "ajar/core/words.hpp"
 
 namespace ajar::console {
 
@@ -24,16 +25,12 @@ std::string point_field(Step step, std::size_t i) {
   }
 }
 
-const char* place_name(PickPlace p) {
-  switch (p) {
-    case PickPlace::kHere:
-      return "here";
-    case PickPlace::kMoved:
-      return "moved";
-    case PickPlace::kStale:
-      return "stale";
-  }
-  return "stale";
+// The pages' word for where a pick stands.
+constexpr Word<PickPlace> kPlaceWords[] = {
+    {PickPlace::kHere, "here"}, {PickPlace::kMoved, "moved"}, {PickPlace::kStale, "stale"}};
+
+std::string_view place_name(PickPlace p) {
+  return word_of(kPlaceWords, p, "stale");
 }
 
 const char* missing_picks(Step step) {

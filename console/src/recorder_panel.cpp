@@ -1,9 +1,12 @@
 // The page's black-box panel (docs/console.md, "The black box"): the recorder's state as ajard
-// reports it (protocol 1.2: the recording being written, from ListRecordings) and "save the last 5
-// minutes" (SaveRecording through ajar_client's black-box API). Worker thread: refresh_recorder
-// and the save's request; the state the page draws: the Asio thread. What ajard has not said is
-// "unknown" with the reason (an older daemon, no link, a console without the 1.2 client).
+// reports it (protocol 1.2: Status.recorder — mode, file, bytes, records written, dropped, lost)
+// and "save the last 5 minutes" (SaveRecording through ajar_client's black-box API). Worker
+// thread: refresh_recorder (a GetStatus every 2 s), status_received and the save's request; the
+// state the page draws: the Asio thread. What ajard has not said is "unknown" with the reason (an
+// older daemon, no link, a console without the 1.2 client).
 #include "server_impl.hpp"
+
+#include "ajar/client/output.hpp"
 
 #if __has_include("ajar/client/blackbox.hpp")
 #include "ajar/client/blackbox.hpp"
@@ -38,37 +41,56 @@ std::string unavailable(client::Client& c) {
   return "";
 }
 
+// Why a recorder that is not recording is not, in the operator's words.
+std::string_view not_recording(const protocol::RecorderState& r) {
+  switch (r.mode) {
+    case protocol::RecorderMode::kRecording:
+      return "";
+    case protocol::RecorderMode::kDiskFull:
+      return "the disk is full: recording paused, retried every 5 s";
+    case protocol::RecorderMode::kDiskError:
+      return "the disk refused a write: recording paused, retried every 5 s";
+    case protocol::RecorderMode::kNoDirectory:
+      return "its directory cannot be written: off until ajard restarts";
+    case protocol::RecorderMode::kOff:
+      break;
+  }
+  return r.enabled ? "not started" : "the recorder is off on this daemon (recorder.enabled: false)";
+}
+
+// The page's recorder object from Status.recorder: every number as ajard sent it.
+client::JsonObject panel_state(const protocol::RecorderState& r) {
+  client::JsonObject o;
+  o.add("known", true)
+      .add("on", r.mode == protocol::RecorderMode::kRecording)
+      .add("mode", protocol::to_string(r.mode));
+  if (const auto why = not_recording(r); !why.empty()) o.add("why", why);
+  if (r.file.length > 0) o.add("file", r.file.view()).add("size_bytes", r.file_bytes);
+  o.add("drops", r.loop_dropped + r.io_dropped)
+      .add("recorder", client::recorder_object(r));  // the whole block, wire names
+  return o;
+}
+
 }  // namespace
 
+// Asks for a Status (status_received below makes the panel's state of its recorder block).
 void ConsoleServer::Impl::refresh_recorder() {
   next_recorder_poll = Clock::now() + std::chrono::seconds(2);
-  client::JsonObject o;
   if (const auto why = unavailable(link.client()); !why.empty()) {
-    o.add("known", false).add("why", why);
-  } else {
-#if AJAR_CONSOLE_HAVE_BLACKBOX
-    const auto list = client::list_recordings(link.client());
-    if (!list && list.error().code == ErrorCode::kNotSupported) {
-      o.add("known", true).add("on", false).add("why", list.error().message);
-    } else if (!list) {
-      o.add("known", false).add("why", "ListRecordings: " + list.error().message);
-    } else {
-      const protocol::RecordingInfo* writing = nullptr;
-      for (const auto& r : *list) {
-        if (r.writing && writing == nullptr) writing = &r;
-      }
-      o.add("known", true).add("on", writing != nullptr).add("recordings", list->size());
-      if (writing != nullptr) {
-        o.add("file", writing->name.view()).add("size_bytes", writing->size_bytes);
-      } else {
-        o.add("why", "no recording is being written");
-      }
-      // Dropped records come with the recorder's counters in Status; until then: unknown.
-      o.add_null("drops");
-    }
-#endif
+    set_recorder_state(client::JsonObject().add("known", false).add("why", why));
+    return;
   }
-  on_io([this, o] {
+  link.refresh_status();
+}
+
+// Worker thread, with the Status ajard sent on this link.
+void ConsoleServer::Impl::recorder_status(const protocol::Status& s) {
+  if (!unavailable(link.client()).empty()) return;  // refresh_recorder says why
+  set_recorder_state(panel_state(s.recorder));
+}
+
+void ConsoleServer::Impl::set_recorder_state(client::JsonObject o) {
+  on_io([this, o = std::move(o)] {
     if (o.str() == recorder_state.str()) return;
     recorder_state = o;
     mark_dirty();

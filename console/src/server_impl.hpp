@@ -48,18 +48,11 @@
 #include "ajar/core/geometry.hpp"
 #include "daemon_link.hpp"
 #include "foxglove_live.hpp"
+#include "net_names.hpp"
 #include "page_hub.hpp"
 #include "worker.hpp"
 
 namespace ajar::console {
-
-namespace asio = boost::asio;
-namespace beast = boost::beast;
-namespace http = beast::http;
-namespace websocket = beast::websocket;
-using tcp = asio::ip::tcp;
-using boost::system::error_code;
-using Clock = std::chrono::steady_clock;
 
 // A frame with the base pose it was taken at and its WebSocket messages (frames.cpp).
 struct FrameEntry {
@@ -189,6 +182,8 @@ struct ConsoleServer::Impl final : DaemonLink::Listener {
   client::JsonObject recorder_save;   // Asio thread: the last save's answer; empty before one
   Clock::time_point next_recorder_poll{};  // worker thread
   void refresh_recorder();  // worker thread: every 2 s while idle, after a connect and a save
+  void recorder_status(const protocol::Status& s);  // worker thread: Status.recorder (1.2)
+  void set_recorder_state(client::JsonObject o);    // any thread: posted to the Asio thread
   void save_recording(double last_s);  // Asio thread: the page's "save_recording {last_s}"
 };
 

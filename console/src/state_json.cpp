@@ -8,11 +8,41 @@
 #include <cstdio>
 
 #include "ajar/client/json.hpp"
+#include "ajar/protocol/message_table.hpp"
 #include "daemon_json.hpp"
 
 namespace ajar::console {
 
 using client::JsonObject;
+
+namespace {
+// The page's ops that send a request to ajard (docs/console.md), with that request's type: whether
+// an op needs the controller role is that request's row of the message table (message_table.hpp),
+// which the page reads from the state's "controller_only" (an observer's buttons for it are off).
+struct PageOp {
+  std::string_view op;
+  protocol::MessageType request;
+};
+constexpr PageOp kPageOps[] = {
+    {"send", protocol::MessageType::kMeasureDoorWidth},  // and the step's other measurements
+    {"align", protocol::MessageType::kAlignBase},
+    {"engage", protocol::MessageType::kEngage},
+    {"reset", protocol::MessageType::kReset},
+    {"drive", protocol::MessageType::kDrive},
+    {"approach", protocol::MessageType::kApproach},
+    {"stop", protocol::MessageType::kStop},
+    {"estop", protocol::MessageType::kEmergencyStop},
+    {"save_recording", protocol::MessageType::kSaveRecording},
+};
+static_assert(std::size(kPageOps) > 0);
+
+JsonObject controller_only_json() {
+  JsonObject o;
+  for (const PageOp& p : kPageOps)
+    o.add(p.op, protocol::needs_controller(p.request));
+  return o;
+}
+}  // namespace
 
 // One frame's age, pose and the picks' markers on it: each pick seen from the frame's pose (its
 // pixel), and its place by the daemon's staleness rule; "out" when it is not in this image.
@@ -89,6 +119,7 @@ std::string ConsoleServer::Impl::snapshot() const {
   features.add("drive", welcome && welcome->version_minor >= 1 && model &&
                             model->drive_command_timeout_s > 0);
   o.add("features", features);
+  o.add("controller_only", controller_only_json());
   if (model) {
     JsonObject m;
     m.add("max_linear_speed_m_s", model->max_linear_speed_m_s)

@@ -553,13 +553,13 @@ function updateHeader() {
   $('state-box').dataset.motion = motion;
   $('state-box').title = $('state').textContent + ' ' + $('motion').textContent;
   $('hud-motion').textContent = motion ? motion.toUpperCase() : '';
-  // Commands need the controller role and an ajard that answers: an observer's buttons, and every
-  // button while ajard is silent (a click would act later on a state nobody sees), are disabled.
-  // STOP and EMERGENCY STOP never are.
-  const mute = observer || !live.answering;
-  ['btn-align', 'btn-engage', 'btn-send', 'btn-reset', 'btn-reset-clear'].forEach((id) => { $(id).disabled = mute; });
-  $('btn-approach').disabled = mute || !(state && state.features.drive);
-  document.querySelectorAll('[data-jog]').forEach((b) => { b.disabled = mute || !(state && state.features.drive); });
+  // Commands need an ajard that answers (a click would act later on a state nobody sees) and, for an
+  // observer, a request the message table lets observers send (state.controller_only, the table's
+  // sender column): else their buttons are disabled. STOP and EMERGENCY STOP never are.
+  const off = (op) => !live.answering || (observer && !!(state && state.controller_only && state.controller_only[op]));
+  document.querySelectorAll('[data-op]').forEach((b) => { b.disabled = off(b.dataset.op); });
+  $('btn-approach').disabled = off('approach') || !(state && state.features.drive);
+  document.querySelectorAll('[data-jog]').forEach((b) => { b.disabled = off('drive') || !(state && state.features.drive); });
   $('drive-box').classList.toggle('off', !(state && state.features.drive));
 }
 
@@ -638,7 +638,16 @@ function updateRecorder() {
   on.title = on.textContent;  // the cell is one line: the whole reason on hover
   $('rec-file').textContent = r.known && r.file ? r.file : r.known ? '—' : 'unknown';
   $('rec-size').textContent = r.known && r.size_bytes !== undefined && r.size_bytes !== null ? bytes(r.size_bytes) : r.known ? '—' : 'unknown';
-  $('rec-drops').textContent = r.known && r.drops !== undefined && r.drops !== null ? String(r.drops) : 'unknown';
+  // The counts are Status.recorder's (protocol 1.2), as ajard sent them: data-count for tests.
+  const c = r.known && r.recorder ? r.recorder : null;
+  const drops = $('rec-drops'), written = $('rec-written'), disk = $('rec-disk');
+  drops.textContent = c ? `${r.drops} (loop ${c.loop_dropped} of ${c.loop_samples}, I/O ${c.io_dropped} of ${c.io_records})` : r.known ? '—' : 'unknown';
+  drops.dataset.count = c ? String(r.drops) : '';
+  drops.className = c && r.drops > 0 ? 'bad' : '';
+  written.textContent = c ? `${c.records_written} records` + (c.records_lost ? `, ${c.records_lost} lost to the disk (${c.disk_refusals} refusals)` : '') : r.known ? '—' : 'unknown';
+  written.dataset.count = c ? String(c.records_written) : '';
+  written.dataset.lost = c ? String(c.records_lost) : '';
+  disk.textContent = c ? `${bytes(c.directory_bytes)} of the ${bytes(c.max_bytes)} budget, ${bytes(c.saved_bytes)} saved, ${bytes(c.disk_free_bytes)} free` : r.known ? '—' : 'unknown';
   const a = state.recorder_save;
   const el = $('recorder-result');
   if (!a) { el.className = 'result one'; el.textContent = ''; el.dataset.ok = ''; return; }

@@ -1,159 +1,47 @@
 #include "ajar/core/error.hpp"
 
+#include <array>
+
+#include "ajar/core/words.hpp"
+
 namespace ajar {
+namespace {
+
+constexpr std::array kErrorTable{
+#define AJAR_ERROR_ROW(enumerator, code, name, meaning, action) \
+  ErrorInfo{ErrorCode::enumerator, #name, meaning, action},
+    AJAR_ERROR_CODES(AJAR_ERROR_ROW)
+#undef AJAR_ERROR_ROW
+};
+
+constexpr bool in_code_order() noexcept {
+  for (std::size_t i = 1; i < kErrorTable.size(); ++i) {
+    if (kErrorTable[i - 1].value >= kErrorTable[i].value) return false;
+  }
+  return true;
+}
+static_assert(in_code_order(), "the error table lists each code once, in code order");
+static_assert(words_are_unique(kErrorTable), "every error code has its own name");
+
+}  // namespace
+
+std::span<const ErrorInfo> error_table() noexcept {
+  return kErrorTable;
+}
+
+const ErrorInfo* error_info(ErrorCode code) noexcept {
+  for (const auto& row : kErrorTable) {
+    if (row.value == code) return &row;
+  }
+  return nullptr;
+}
 
 std::string_view to_string(ErrorCode code) noexcept {
-  switch (code) {
-    case ErrorCode::kOk:
-      return "OK";
-    case ErrorCode::kBadMagic:
-      return "BAD_MAGIC";
-    case ErrorCode::kUnsupportedVersion:
-      return "UNSUPPORTED_VERSION";
-    case ErrorCode::kPayloadTooLarge:
-      return "PAYLOAD_TOO_LARGE";
-    case ErrorCode::kCrcMismatch:
-      return "CRC_MISMATCH";
-    case ErrorCode::kBadPayloadLength:
-      return "BAD_PAYLOAD_LENGTH";
-    case ErrorCode::kUnknownMessageType:
-      return "UNKNOWN_MESSAGE_TYPE";
-    case ErrorCode::kInvalidEnumValue:
-      return "INVALID_ENUM_VALUE";
-    case ErrorCode::kNonFiniteNumber:
-      return "NON_FINITE_NUMBER";
-    case ErrorCode::kUnknownFlags:
-      return "UNKNOWN_FLAGS";
-    case ErrorCode::kBadString:
-      return "BAD_STRING";
-    case ErrorCode::kBadCount:
-      return "BAD_COUNT";
-    case ErrorCode::kHelloRequired:
-      return "HELLO_REQUIRED";
-    case ErrorCode::kAlreadyGreeted:
-      return "ALREADY_GREETED";
-    case ErrorCode::kNotController:
-      return "NOT_CONTROLLER";
-    case ErrorCode::kControllerBusy:
-      return "CONTROLLER_BUSY";
-    case ErrorCode::kTooManyClients:
-      return "TOO_MANY_CLIENTS";
-    case ErrorCode::kRateLimited:
-      return "RATE_LIMITED";
-    case ErrorCode::kShuttingDown:
-      return "SHUTTING_DOWN";
-    case ErrorCode::kNotSupported:
-      return "NOT_SUPPORTED";
-    case ErrorCode::kNoSuchRecording:
-      return "NO_SUCH_RECORDING";
-    case ErrorCode::kRequestOutOfRange:
-      return "REQUEST_OUT_OF_RANGE";
-    case ErrorCode::kNonFinite:
-      return "NON_FINITE";
-    case ErrorCode::kPointOutOfDepthRange:
-      return "POINT_OUT_OF_DEPTH_RANGE";
-    case ErrorCode::kPointsTooClose:
-      return "POINTS_TOO_CLOSE";
-    case ErrorCode::kAmbiguousDirection:
-      return "AMBIGUOUS_DIRECTION";
-    case ErrorCode::kPointsNotSideBySide:
-      return "POINTS_NOT_SIDE_BY_SIDE";
-    case ErrorCode::kWidthOutOfRange:
-      return "WIDTH_OUT_OF_RANGE";
-    case ErrorCode::kHandleLengthOutOfRange:
-      return "HANDLE_LENGTH_OUT_OF_RANGE";
-    case ErrorCode::kPointsCollinear:
-      return "POINTS_COLLINEAR";
-    case ErrorCode::kPlaneNotVertical:
-      return "PLANE_NOT_VERTICAL";
-    case ErrorCode::kYawOutOfRange:
-      return "YAW_OUT_OF_RANGE";
-    case ErrorCode::kOutOfReach:
-      return "OUT_OF_REACH";
-    case ErrorCode::kPlaneResidualTooLarge:
-      return "PLANE_RESIDUAL_TOO_LARGE";
-    case ErrorCode::kUnknownFrame:
-      return "UNKNOWN_FRAME";
-    case ErrorCode::kTransformNotRigid:
-      return "TRANSFORM_NOT_RIGID";
-    case ErrorCode::kStandoffOutOfRange:
-      return "STANDOFF_OUT_OF_RANGE";
-    case ErrorCode::kWrongState:
-      return "WRONG_STATE";
-    case ErrorCode::kMissingDoorWidth:
-      return "MISSING_DOOR_WIDTH";
-    case ErrorCode::kMissingHandle:
-      return "MISSING_HANDLE";
-    case ErrorCode::kMissingPlane:
-      return "MISSING_PLANE";
-    case ErrorCode::kNotAligned:
-      return "NOT_ALIGNED";
-    case ErrorCode::kMissingContactPoint:
-      return "MISSING_CONTACT_POINT";
-    case ErrorCode::kFaultLatched:
-      return "FAULT_LATCHED";
-    case ErrorCode::kMotionInProgress:
-      return "MOTION_IN_PROGRESS";
-    case ErrorCode::kQueueFull:
-      return "QUEUE_FULL";
-    case ErrorCode::kMeasurementStale:
-      return "MEASUREMENT_STALE";
-    case ErrorCode::kNoDoorDistance:
-      return "NO_DOOR_DISTANCE";
-    case ErrorCode::kNotSquareToDoor:
-      return "NOT_SQUARE_TO_DOOR";
-    case ErrorCode::kApproachTooFar:
-      return "APPROACH_TOO_FAR";
-    case ErrorCode::kDriveNotAllowed:
-      return "DRIVE_NOT_ALLOWED";
-    case ErrorCode::kAtMinimumStandoff:
-      return "AT_MINIMUM_STANDOFF";
-    case ErrorCode::kDriverError:
-      return "DRIVER_ERROR";
-    case ErrorCode::kDriverNotActive:
-      return "DRIVER_NOT_ACTIVE";
-    case ErrorCode::kCardCommunication:
-      return "CARD_COMMUNICATION";
-    case ErrorCode::kCardBusy:
-      return "CARD_BUSY";
-    case ErrorCode::kCardBadParameter:
-      return "CARD_BAD_PARAMETER";
-    case ErrorCode::kAxisAlarm:
-      return "AXIS_ALARM";
-    case ErrorCode::kFollowingError:
-      return "FOLLOWING_ERROR";
-    case ErrorCode::kLimitHit:
-      return "LIMIT_HIT";
-    case ErrorCode::kMotionTimeout:
-      return "MOTION_TIMEOUT";
-    case ErrorCode::kArmTimeout:
-      return "ARM_TIMEOUT";
-    case ErrorCode::kArmDisconnected:
-      return "ARM_DISCONNECTED";
-    case ErrorCode::kArmRejected:
-      return "ARM_REJECTED";
-    case ErrorCode::kDeadman:
-      return "DEADMAN";
-    case ErrorCode::kEmergencyStopped:
-      return "EMERGENCY_STOPPED";
-    case ErrorCode::kCardOpenFailed:
-      return "CARD_OPEN_FAILED";
-    case ErrorCode::kArmFault:
-      return "ARM_FAULT";
-    case ErrorCode::kArmNotClear:
-      return "ARM_NOT_CLEAR";
-    case ErrorCode::kLoopStalled:
-      return "LOOP_STALLED";
-    case ErrorCode::kStateRejected:
-      return "STATE_REJECTED";
-    case ErrorCode::kUncleanShutdown:
-      return "UNCLEAN_SHUTDOWN";
-    case ErrorCode::kVelocityMismatch:
-      return "VELOCITY_MISMATCH";
-    case ErrorCode::kInternal:
-      return "INTERNAL";
-  }
-  return "UNKNOWN";
+  return word_of(kErrorTable, code, "UNKNOWN");
+}
+
+std::optional<ErrorCode> error_code_from_string(std::string_view name) noexcept {
+  return value_of(kErrorTable, name);
 }
 
 }  // namespace ajar

@@ -2,24 +2,14 @@
 
 namespace ajar::core {
 
+static_assert(values_are_indices(kFrameWords) && values_are_indices(kRotationDirectionWords));
+
 const char* to_string(Frame frame) noexcept {
-  switch (frame) {
-    case Frame::kCamera:
-      return "camera";
-    case Frame::kBase:
-      return "base";
-  }
-  return "unknown";
+  return word_of(kFrameWords, frame).data();
 }
 
 const char* to_string(RotationDirection dir) noexcept {
-  switch (dir) {
-    case RotationDirection::kClockwise:
-      return "CW";
-    case RotationDirection::kCounterClockwise:
-      return "CCW";
-  }
-  return "unknown";
+  return word_of(kRotationDirectionWords, dir).data();
 }
 
 }  // namespace ajar::core

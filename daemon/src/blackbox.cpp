@@ -2,9 +2,7 @@
 #include "ajar/daemon/blackbox.hpp"
 
 #include <cmath>
-#include <chrono>
 #include <cstdio>
-#include <thread>
 
 #include "ajar/recorder/channels.hpp"
 
@@ -20,6 +18,18 @@ std::string number(double v) {
   return buf;
 }
 
+// Status.recorder.mode is the recorder's own mode, value for value.
+constexpr bool same_modes() {
+  using P = protocol::RecorderMode;
+  using R = recorder::RecorderMode;
+  return static_cast<int>(P::kOff) == static_cast<int>(R::kOff) &&
+         static_cast<int>(P::kRecording) == static_cast<int>(R::kRecording) &&
+         static_cast<int>(P::kDiskFull) == static_cast<int>(R::kDiskFull) &&
+         static_cast<int>(P::kDiskError) == static_cast<int>(R::kDiskError) &&
+         static_cast<int>(P::kNoDirectory) == static_cast<int>(R::kNoDirectory);
+}
+static_assert(same_modes());
+
 }  // namespace
 
 recorder::RecorderSettings recorder_settings(const Config& config,
@@ -33,11 +43,30 @@ recorder::RecorderSettings recorder_settings(const Config& config,
   s.max_file_s = c.max_file_s;
   s.loop_decimation = static_cast<std::uint32_t>(c.loop_decimation);
   s.monotonic_origin_ns = monotonic_origin_ns;
-  if (c.debug_write_delay_ms > 0) {
-    s.before_write = [ms = c.debug_write_delay_ms] {
-      std::this_thread::sleep_for(std::chrono::milliseconds(ms));
-    };
-  }
+  s.write_delay_ms = c.debug_write_delay_ms;
+  return s;
+}
+
+protocol::RecorderState recorder_state(const recorder::Recorder* r) {
+  protocol::RecorderState s;
+  if (r == nullptr) return s;  // no recorder: disabled, off
+  const recorder::RecorderCounters c = r->counters();
+  s.enabled = c.enabled;
+  s.mode = static_cast<protocol::RecorderMode>(c.mode);  // the same values (recorder.hpp)
+  s.file.assign(c.file);
+  s.file_bytes = c.file_bytes;
+  s.directory_bytes = c.directory_bytes;
+  s.max_bytes = r->settings().max_bytes;
+  s.saved_bytes = c.saved_bytes;
+  s.disk_free_bytes = c.disk_free_bytes;
+  s.records_written = c.messages_written;
+  s.loop_samples = c.loop_samples;
+  s.loop_dropped = c.loop_dropped;
+  s.io_records = c.io_records;
+  s.io_dropped = c.io_dropped;
+  s.records_lost = c.write_failures;
+  s.disk_refusals = c.disk_refusals;
+  s.last_write_ns = c.last_write_ns;
   return s;
 }
 

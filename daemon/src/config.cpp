@@ -70,12 +70,12 @@ class Reader {
     frames_.pop_back();
   }
 
-  void number(std::string_view key, double& out, double min, double max, std::string_view unit) {
+  void number(Key key, double& out, double min, double max, std::string_view unit) {
     if (const YAML::Node n = raw(key); given(n)) out = scalar_number(n, path(key), min, max, unit);
   }
 
   template <typename Int>
-  void integer(std::string_view key, Int& out, long long min, long long max) {
+  void integer(Key key, Int& out, long long min, long long max) {
     const YAML::Node n = raw(key);
     if (!given(n)) return;
     const std::string allowed = std::to_string(min) + ".." + std::to_string(max);
@@ -84,8 +84,7 @@ class Reader {
     out = static_cast<Int>(v);
   }
 
-  void integer_of(std::string_view key, int& out, std::span<const int> set,
-                  std::string_view problem) {
+  void integer_of(Key key, int& out, std::span<const int> set, std::string_view problem) {
     const YAML::Node n = raw(key);
     if (!given(n)) return;
     const std::string allowed = join(set, [](int v) { return std::to_string(v); });
@@ -96,7 +95,7 @@ class Reader {
     out = static_cast<int>(v);
   }
 
-  void boolean(std::string_view key, bool& out) {
+  void boolean(Key key, bool& out) {
     const YAML::Node n = raw(key);
     if (!given(n)) return;
     try {
@@ -107,7 +106,7 @@ class Reader {
     }
   }
 
-  void text(std::string_view key, std::string& out, std::string_view allowed, Text rule) {
+  void text(Key key, std::string& out, std::string_view allowed, Text rule) {
     const YAML::Node n = raw(key);
     if (!given(n)) return;
     if (!n.IsScalar()) fail(n, path(key), "must be a string", describe(n), std::string(allowed));
@@ -118,8 +117,7 @@ class Reader {
   }
 
   template <typename T, typename U, std::size_t N>
-  void choice(std::string_view key, T& out, const Word<U> (&words)[N],
-              Presence presence = Presence::kOptional) {
+  void choice(Key key, T& out, const Word<U> (&words)[N], Presence presence = Presence::kOptional) {
     const YAML::Node n = raw(key);
     const std::string allowed = join(words, [](const auto& w) { return w.word; });
     if (!given(n) && presence == Presence::kRequired) {
@@ -145,8 +143,7 @@ class Reader {
     fail(n, path(key), problem, describe(n), allowed);
   }
 
-  void range(std::string_view key, double& lo, double& hi, double min, double max,
-             std::string_view unit) {
+  void range(Key key, double& lo, double& hi, double min, double max, std::string_view unit) {
     const auto v = numbers(key, 2, min, max, unit);
     if (v.empty()) return;
     if (!(v[0] < v[1])) {
@@ -158,13 +155,12 @@ class Reader {
     hi = v[1];
   }
 
-  void vector3(std::string_view key, core::Vec3& out, double min, double max,
-               std::string_view unit) {
+  void vector3(Key key, core::Vec3& out, double min, double max, std::string_view unit) {
     const auto v = numbers(key, 3, min, max, unit);
     if (!v.empty()) out = core::Vec3(v[0], v[1], v[2]);
   }
 
-  void transform(std::string_view key, Eigen::Matrix4d& out) {
+  void transform(Key key, Eigen::Matrix4d& out) {
     const YAML::Node n = raw(key);
     if (!given(n)) return;
     if (!n.IsSequence() || n.size() != 4) {
@@ -184,7 +180,7 @@ class Reader {
   }
 
   template <typename T, typename Fn>
-  void list(std::string_view key, std::vector<T>& items, std::string_view allowed, Fn&& each) {
+  void list(Key key, std::vector<T>& items, std::string_view allowed, Fn&& each) {
     const YAML::Node n = raw(key);
     if (!given(n)) return;
     if (!n.IsSequence()) fail(n, path(key), "must be a list", describe(n), std::string(allowed));
@@ -451,7 +447,9 @@ YAML::Node load_yaml(const std::string& path) {
 }  // namespace
 
 std::string TlsIdentity::text() const {
-  return std::string(config_detail::word_of(kind, config_detail::kIdentityKinds)) + ":" + value;
+  return std::string(
+             word_of(config_detail::kIdentityKinds, kind, config_detail::kIdentityKinds[0].word)) +
+         ":" + value;
 }
 
 bool is_loopback_address(const std::string& address) {
@@ -463,11 +461,11 @@ bool is_loopback_address(const std::string& address) {
 }
 
 std::string_view to_string(LogLevel level) noexcept {
-  return word_of(kLogLevels, level);
+  return word_of(kLogLevels, level, "?");
 }
 
 std::string_view to_string(LogSink sink) noexcept {
-  return word_of(kLogSinks, sink);
+  return word_of(kLogSinks, sink, "?");
 }
 
 Config default_config() {

@@ -54,29 +54,28 @@ class Writer {
     fn();
     out_ << YAML::EndMap;
   }
-  void number(std::string_view key, double v, double, double, std::string_view) { value(key, v); }
-  void integer(std::string_view key, long long v, long long, long long) { value(key, v); }
-  void integer_of(std::string_view key, long long v, auto, std::string_view) { value(key, v); }
-  void boolean(std::string_view key, bool v) { value(key, v); }
-  void text(std::string_view key, std::string_view v, std::string_view, Text) { value(key, v); }
+  void number(Key key, double v, double, double, std::string_view) { value(key, v); }
+  void integer(Key key, long long v, long long, long long) { value(key, v); }
+  void integer_of(Key key, long long v, auto, std::string_view) { value(key, v); }
+  void boolean(Key key, bool v) { value(key, v); }
+  void text(Key key, std::string_view v, std::string_view, Text) { value(key, v); }
   template <typename T, typename U, std::size_t N>
-  void choice(std::string_view key, const T& v, const Word<U> (&words)[N],
-              Presence = Presence::kOptional) {
-    value(key, word_of(v, words));
+  void choice(Key key, const T& v, const Word<U> (&words)[N], Presence = Presence::kOptional) {
+    value(key, word_of(words, v, words[0].word));
   }
-  void range(std::string_view key, double lo, double hi, double, double, std::string_view) {
+  void range(Key key, double lo, double hi, double, double, std::string_view) {
     value(key, lo, hi);
   }
-  void vector3(std::string_view key, const core::Vec3& v, double, double, std::string_view) {
-    value(key, v);
-  }
-  void transform(std::string_view key, const Eigen::Matrix4d& m) { value(key, m); }
+  void vector3(Key key, const core::Vec3& v, double, double, std::string_view) { value(key, v); }
+  void transform(Key key, const Eigen::Matrix4d& m) { value(key, m); }
   template <typename T, typename Fn>
-  void list(std::string_view key, const std::vector<T>& items, std::string_view, Fn&& each) {
+  void list(Key key, const std::vector<T>& items, std::string_view, Fn&& each) {
     out_ << YAML::Key << std::string(key) << YAML::Value;
     items_of(items, each);
   }
-  void identity(const TlsIdentity& id) { value(word_of(id.kind, kIdentityKinds), id.value); }
+  void identity(const TlsIdentity& id) {
+    value(word_of(kIdentityKinds, id.kind, kIdentityKinds[0].word), id.value);
+  }
 
   // A list of maps, each on one line.
   template <typename T, typename Fn>
@@ -92,7 +91,7 @@ class Writer {
 
  private:
   template <typename... V>
-  void value(std::string_view key, const V&... v) {
+  void value(Key key, const V&... v) {
     out_ << YAML::Key << std::string(key) << YAML::Value;
     put(out_, v...);
   }
@@ -112,52 +111,50 @@ class KeyList {
     fn();
     prefix_.resize(length);
   }
-  void number(std::string_view key, double v, double min, double max, std::string_view unit) {
+  void number(Key key, double v, double min, double max, std::string_view unit) {
     add(key, limits_text(min, max, unit), v);
   }
-  void integer(std::string_view key, long long v, long long min, long long max) {
+  void integer(Key key, long long v, long long min, long long max) {
     add(key, std::to_string(min) + ".." + std::to_string(max), v);
   }
-  void integer_of(std::string_view key, long long v, std::span<const int> set, std::string_view) {
+  void integer_of(Key key, long long v, std::span<const int> set, std::string_view) {
     add(key, join(set, [](int i) { return std::to_string(i); }), v);
   }
-  void boolean(std::string_view key, bool v) { add(key, "true, false", v); }
-  void text(std::string_view key, std::string_view v, std::string_view allowed, Text) {
+  void boolean(Key key, bool v) { add(key, "true, false", v); }
+  void text(Key key, std::string_view v, std::string_view allowed, Text) {
     add(key, std::string(allowed), v);
   }
   template <typename T, typename U, std::size_t N>
-  void choice(std::string_view key, const T& v, const Word<U> (&words)[N],
-              Presence = Presence::kOptional) {
-    add(key, join(words, [](const auto& w) { return w.word; }), word_of(v, words));
+  void choice(Key key, const T& v, const Word<U> (&words)[N], Presence = Presence::kOptional) {
+    add(key, join(words, [](const auto& w) { return w.word; }), word_of(words, v, words[0].word));
   }
-  void range(std::string_view key, double lo, double hi, double min, double max,
-             std::string_view unit) {
+  void range(Key key, double lo, double hi, double min, double max, std::string_view unit) {
     add(key, "[min, max] within " + limits_text(min, max, unit), lo, hi);
   }
-  void vector3(std::string_view key, const core::Vec3& v, double min, double max,
-               std::string_view unit) {
+  void vector3(Key key, const core::Vec3& v, double min, double max, std::string_view unit) {
     add(key, "3 numbers within " + limits_text(min, max, unit), v);
   }
-  void transform(std::string_view key, const Eigen::Matrix4d& m) {
+  void transform(Key key, const Eigen::Matrix4d& m) {
     add(key, "rigid 4x4 transform, translation in m", m);
   }
   template <typename T, typename Fn>
-  void list(std::string_view key, const std::vector<T>& items, std::string_view allowed,
-            Fn&& each) {
+  void list(Key key, const std::vector<T>& items, std::string_view allowed, Fn&& each) {
     YAML::Emitter out;
     out << YAML::Flow;
     Writer(out).items_of(items, each);
-    keys.push_back({prefix_ + std::string(key), out.c_str(), std::string(allowed)});
+    keys.push_back(
+        {prefix_ + std::string(key), out.c_str(), std::string(allowed), std::string(key.meaning)});
   }
 
  private:
   template <typename... V>
-  void add(std::string_view key, std::string allowed, const V&... v) {
+  void add(Key key, std::string allowed, const V&... v) {
     YAML::Emitter out;
     out.SetDoublePrecision(kDoublePrecision);
     out << YAML::Flow;
     put(out, v...);
-    keys.push_back({prefix_ + std::string(key), out.c_str(), std::move(allowed)});
+    keys.push_back(
+        {prefix_ + std::string(key), out.c_str(), std::move(allowed), std::string(key.meaning)});
   }
 
   std::string prefix_;

@@ -103,14 +103,14 @@ ControlLoop::ControlLoop(drivers::MotionCard& card, const ControlLoopSettings& s
       card_scale_(settings.card_time_scale > 0 && std::isfinite(settings.card_time_scale)
                       ? settings.card_time_scale
                       : 1.0),
-      period_ns_(std::max<std::int64_t>(1, std::llround(kNsPerS / settings.rate_hz))),
-      deadman_ns_(seconds_to_ns(settings.deadman_timeout_s)),
-      margin_ns_(seconds_to_ns(settings.motion_timeout_margin_s)),
+      period_ns_(std::max<std::int64_t>(1, std::llround(kNsPerS / settings.control.rate_hz))),
+      deadman_ns_(seconds_to_ns(settings.safety.deadman_timeout_s)),
+      margin_ns_(seconds_to_ns(settings.control.motion_timeout_margin_s)),
       mismatch_ns_(seconds_to_ns(settings.velocity_mismatch_s)),
       recovery_(seconds_to_ns(settings.recovery_timeout_s)),
       jog_(settings, jog_profile(settings.base, settings.drive), counts_per_wheel_rad_, card_scale_,
            period_ns_),
-      statistics_(settings.rate_hz) {}
+      statistics_(settings.control.rate_hz) {}
 
 ControlLoop::~ControlLoop() {
   stop_thread();
@@ -122,7 +122,8 @@ std::vector<std::string> ControlLoop::start_thread() {
   thread_ended_.store(false);
   std::promise<std::vector<std::string>> warnings;
   auto ready = warnings.get_future();
-  const RealtimeRequest request{settings_.realtime, settings_.priority, settings_.lock_memory};
+  const RealtimeRequest request{settings_.control.realtime, settings_.control.priority,
+                                settings_.control.lock_memory};
   last_cycle_end_ns_.store(monotonic_now_ns());
   thread_ = std::thread([this, request, promise = std::move(warnings)]() mutable {
     thread_tid_.store(static_cast<int>(::gettid()), std::memory_order_release);

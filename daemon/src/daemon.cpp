@@ -184,7 +184,7 @@ class Runner {
       spdlog::critical(
           "exiting with the control thread stuck in a motion-card call (exit status {})",
           kExitWedged);
-      spdlog::shutdown();
+      shutdown_logging();  // drains the queue; the logger dies on this thread
       std::_Exit(kExitWedged);
     }
     boost::system::error_code ignored;

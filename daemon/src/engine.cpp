@@ -43,7 +43,7 @@ EngineImpl::EngineImpl(const Config& config, drivers::DriverSet drivers, EngineO
                      [this] { return loop_->last_cycle_end_ns(); },
                      [this] { loop_->latch_stalled(); },
                      [this] { return thread_run_delay_ns(loop_->thread_tid()); }},
-      *card_, axes, supervisor_settings(config));
+      *card_, axes, config.control);
 }
 
 void EngineImpl::start() {
@@ -239,6 +239,7 @@ protocol::Status EngineImpl::status() const {
   s.timing = loop_->statistics().timing(monotonic_now_ns());
   s.realtime = to_wire(realtime_granted());
   s.base_motion = base_motion();
+  s.recorder = recorder_state(recorder_.get());
   return s;
 }
 

@@ -2,6 +2,8 @@
 // control loop (align, drive, approach), engage, the stops and reset.
 #include "engine_impl.hpp"
 
+#include "ajar/protocol/message_table.hpp"
+
 namespace ajar::daemon::detail {
 
 namespace {
@@ -16,13 +18,7 @@ Overloaded(F...) -> Overloaded<F...>;
 
 protocol::Message EngineImpl::dispatch(const protocol::Message& request) {
   const MessageType type = protocol::type_of(request);
-  const bool measures_or_moves = std::holds_alternative<protocol::MeasureDoorWidth>(request) ||
-                                 std::holds_alternative<protocol::MeasureHandle>(request) ||
-                                 std::holds_alternative<protocol::MeasureDoorPlane>(request) ||
-                                 std::holds_alternative<protocol::SetContactPoint>(request) ||
-                                 std::holds_alternative<protocol::AlignBase>(request) ||
-                                 std::holds_alternative<protocol::Engage>(request);
-  if (measures_or_moves && procedure_.fault() == ErrorCode::kOk) {
+  if (protocol::policy_of(type).needs_wheels_at_rest && procedure_.fault() == ErrorCode::kOk) {
     if (auto s = wheels_.check_at_rest(); !s) return refuse(type, s.error());
   }
   return std::visit(Overloaded{

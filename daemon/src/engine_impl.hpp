@@ -50,23 +50,10 @@ inline core::CameraToBase camera_to_base_or_throw(const Config& config) {
   return *t;
 }
 
-inline LoopSupervisorSettings supervisor_settings(const Config& c) {
-  LoopSupervisorSettings s;
-  s.loop_rate_hz = c.control.rate_hz;
-  s.stall_timeout_s = c.control.stall_timeout_s;
-  s.realtime = c.control.realtime;
-  s.priority = c.control.priority;
-  return s;
-}
-
 inline ControlLoopSettings loop_settings(const Config& c) {
   ControlLoopSettings s;
-  s.rate_hz = c.control.rate_hz;
-  s.realtime = c.control.realtime;
-  s.priority = c.control.priority;
-  s.lock_memory = c.control.lock_memory;
-  s.deadman_timeout_s = c.safety.deadman_timeout_s;
-  s.motion_timeout_margin_s = c.control.motion_timeout_margin_s;
+  s.control = c.control;
+  s.safety = c.safety;
   s.recovery_timeout_s = std::max(0.1, c.drivers.card.poll_timeout_ms / 1000.0);
   s.card_time_scale = c.drivers.kind == drivers::DriverKind::kReal ? 1.0 : c.drivers.sim_speedup;
   s.base = c.base;

@@ -22,7 +22,7 @@ Jog::Jog(const ControlLoopSettings& settings, const drivers::JogProfile& profile
       guard_accel_m_s2_(std::min(settings.drive.max_linear_accel_m_s2 / card_scale,
                                  profile.deceleration_counts_per_ms2 * 1e6 / counts_per_wheel_rad *
                                      settings.base.wheel_radius_m)),
-      guard_reaction_s_(3.0 / settings.rate_hz * card_scale),
+      guard_reaction_s_(3.0 / settings.control.rate_hz * card_scale),
       axes_{settings.base.left.card_axis, settings.base.right.card_axis} {}
 
 void Jog::start(const DriveCommand& drive, std::int64_t now_ns) noexcept {

@@ -65,8 +65,8 @@ LoopSupervisor::LoopSupervisor(SupervisedLoop loop, drivers::MotionCard& card,
     : loop_(std::move(loop)),
       card_(card),
       settings_(settings),
-      stall_timeout_ns_(std::max(seconds_to_ns(settings.stall_timeout_s),
-                                 seconds_to_ns(2.0 / settings.loop_rate_hz))),
+      stall_timeout_ns_(
+          std::max(seconds_to_ns(settings.stall_timeout_s), seconds_to_ns(2.0 / settings.rate_hz))),
       check_period_ns_(std::max<std::int64_t>(stall_timeout_ns_ / kChecksPerTimeout, 1)) {
   if (!loop_.running || !loop_.last_cycle_end_ns || !loop_.latch_stalled) {
     throw std::invalid_argument("LoopSupervisor: the loop's hooks are required");

@@ -9,33 +9,16 @@
 #include <spdlog/spdlog.h>
 
 #include "ajar/daemon/blackbox.hpp"
+#include "ajar/protocol/message_table.hpp"
 
 namespace ajar::daemon {
 namespace {
 
 using protocol::MessageType;
-
-bool needs_controller(MessageType t) {
-  switch (t) {
-    case MessageType::kMeasureDoorWidth:
-    case MessageType::kMeasureHandle:
-    case MessageType::kMeasureDoorPlane:
-    case MessageType::kSetContactPoint:
-    case MessageType::kAlignBase:
-    case MessageType::kEngage:
-    case MessageType::kReset:
-    case MessageType::kDrive:
-    case MessageType::kApproach:
-    case MessageType::kResetLoopStatistics:
-      return true;
-    default:
-      return false;
-  }
-}
-
-bool is_stop(MessageType t) {
-  return t == MessageType::kStop || t == MessageType::kEmergencyStop;
-}
+// Who may send what, which requests are deduplicated and whose Ack is durable: the message table's
+// policy columns (protocol/message_table.hpp).
+using protocol::is_stop;
+using protocol::needs_controller;
 
 }  // namespace
 
@@ -413,7 +396,9 @@ void SessionHub::handle_command(SessionState& s, const protocol::Envelope& envel
            "(take_over=true to take control from the current controller)");
     return;
   }
-  const bool deduplicate = s.client_instance_id != 0 && envelope.request_id != 0;
+  const protocol::MessagePolicy& policy = protocol::policy_of(type);
+  const bool deduplicate =
+      policy.deduplicated && s.client_instance_id != 0 && envelope.request_id != 0;
   if (deduplicate) {
     if (const protocol::Message* recorded =
             ledger_.find(s.client_instance_id, envelope.request_id, type)) {
@@ -435,7 +420,8 @@ void SessionHub::handle_command(SessionState& s, const protocol::Envelope& envel
   if (deduplicate && executed_or_refused) {
     ledger_.record(s.client_instance_id, envelope.request_id, type, answer);
   }
-  reply(s, envelope.request_id, std::move(answer), after > before ? after : 0);
+  reply(s, envelope.request_id, std::move(answer),
+        policy.durable_ack && after > before ? after : 0);
 }
 
 void SessionHub::on_decode_error(SessionLink& link, const protocol::DecodeError& error) {

@@ -5,16 +5,12 @@
 #include <cmath>
 #include <vector>
 
+#include "ajar/core/words.hpp"
+
 namespace ajar::drivers::arm {
 namespace {
 
 // One word list per enum of the protocol (docs/manipulator-serial.md): both directions read it.
-template <typename Enum>
-struct Word {
-  Enum value;
-  std::string_view word;
-};
-
 constexpr std::array<Word<Command>, 8> kCommandWords{{{Command::kTask, "TASK"},
                                                       {Command::kStatus, "STAT"},
                                                       {Command::kStop, "STOP"},
@@ -32,24 +28,8 @@ constexpr std::array<Word<RejectReason>, 4> kReasonWords{{{RejectReason::kBusy, 
                                                           {RejectReason::kRefused, "REFUSED"},
                                                           {RejectReason::kBadRequest, "BADREQ"}}};
 
-template <typename Enum, std::size_t N>
-std::optional<Enum> from_word(const std::array<Word<Enum>, N>& words, std::string_view s) {
-  for (const auto& entry : words) {
-    if (entry.word == s) return entry.value;
-  }
-  return std::nullopt;
-}
-
-template <typename Enum, std::size_t N>
-const char* word_of(const std::array<Word<Enum>, N>& words, Enum value) noexcept {
-  for (const auto& entry : words) {
-    if (entry.value == value) return entry.word.data();
-  }
-  return "UNKNOWN";
-}
-
 std::optional<Command> command_from(std::string_view name) {
-  return from_word(kCommandWords, name);
+  return value_of(kCommandWords, name);
 }
 
 bool is_request(Command c) {
@@ -58,11 +38,11 @@ bool is_request(Command c) {
 }
 
 std::optional<ControllerPhase> phase_from(std::string_view s) {
-  return from_word(kPhaseWords, s);
+  return value_of(kPhaseWords, s);
 }
 
 std::optional<RejectReason> reason_from(std::string_view s) {
-  return from_word(kReasonWords, s);
+  return value_of(kReasonWords, s);
 }
 
 std::optional<core::RotationDirection> direction_from(std::string_view s) {
@@ -128,15 +108,15 @@ std::vector<std::string_view> split(std::string_view body) {
 }  // namespace
 
 const char* to_string(Command c) noexcept {
-  return word_of(kCommandWords, c);
+  return word_of(kCommandWords, c, "UNKNOWN").data();
 }
 
 const char* to_string(ControllerPhase p) noexcept {
-  return word_of(kPhaseWords, p);
+  return word_of(kPhaseWords, p, "UNKNOWN").data();
 }
 
 const char* to_string(RejectReason r) noexcept {
-  return word_of(kReasonWords, r);
+  return word_of(kReasonWords, r, "UNKNOWN").data();
 }
 
 std::uint16_t crc16_ccitt(std::string_view bytes) noexcept {

@@ -54,17 +54,7 @@ Outcome shut_down(Managed& driver) {
 }  // namespace
 
 const char* to_string(LifecycleState s) noexcept {
-  switch (s) {
-    case LifecycleState::kUnconfigured:
-      return "unconfigured";
-    case LifecycleState::kInactive:
-      return "inactive";
-    case LifecycleState::kActive:
-      return "active";
-    case LifecycleState::kFault:
-      return "fault";
-  }
-  return "unknown";
+  return word_of(kLifecycleWords, s).data();
 }
 
 // --- ManagedMotionCard ------------------------------------------------------------------------

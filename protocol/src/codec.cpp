@@ -17,9 +17,6 @@ using namespace detail;
 
 namespace {
 
-constexpr std::size_t kOffMagic = 0, kOffMajor = 4, kOffMinor = 5, kOffType = 6, kOffFlags = 8,
-                      kOffRequestId = 10, kOffLength = 14, kOffCrc = 18;
-static_assert(kOffCrc + 4 == kHeaderSize);
 constexpr std::array<std::uint8_t, 4> kMagicBytes = {0x41, 0x4A, 0x41, 0x52};  // "AJAR"
 
 // One function per message type (the walk inlined into it), like hand-written field code.
@@ -59,23 +56,23 @@ bool encode_payload(const Message& m, std::span<std::uint8_t> out, std::size_t& 
 // Checks of the first header bytes that decide whether the stream can continue.
 bool check_header(const std::uint8_t* h, DecodeError& e) noexcept {
   e = DecodeError{};
-  if (std::memcmp(h + kOffMagic, kMagicBytes.data(), kMagicBytes.size()) != 0) {
+  if (std::memcmp(h + kOffsetMagic, kMagicBytes.data(), kMagicBytes.size()) != 0) {
     e.code = ErrorCode::kBadMagic;
     e.framing_lost = true;
     e.field = "header.magic";
     return false;
   }
-  e.type = get_u16(h + kOffType);
-  e.request_id = get_u32(h + kOffRequestId);
-  e.version_minor = h[kOffMinor];
-  if (h[kOffMajor] != kVersionMajor) {
+  e.type = get_u16(h + kOffsetType);
+  e.request_id = get_u32(h + kOffsetRequestId);
+  e.version_minor = h[kOffsetVersionMinor];
+  if (h[kOffsetVersionMajor] != kVersionMajor) {
     e.code = ErrorCode::kUnsupportedVersion;
     e.framing_lost = true;
     e.field = "header.version_major";
-    e.value = h[kOffMajor];
+    e.value = h[kOffsetVersionMajor];
     return false;
   }
-  const std::uint32_t length = get_u32(h + kOffLength);
+  const std::uint32_t length = get_u32(h + kOffsetPayloadLength);
   if (length > kMaxPayloadSize) {
     e.code = ErrorCode::kPayloadTooLarge;
     e.framing_lost = true;
@@ -89,7 +86,7 @@ bool check_header(const std::uint8_t* h, DecodeError& e) noexcept {
 
 std::uint32_t frame_crc(const std::uint8_t* header,
                         std::span<const std::uint8_t> payload) noexcept {
-  const std::uint32_t crc = crc32c_update(kCrc32cInit, header, kOffCrc);
+  const std::uint32_t crc = crc32c_update(kCrc32cInit, header, kOffsetCrc);
   return crc32c_finish(crc32c_update(crc, payload.data(), payload.size()));
 }
 
@@ -108,7 +105,7 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
   }
   const std::uint8_t* h = frame.data();
   if (!header_checked && !check_header(h, e)) return;
-  const std::uint32_t length = get_u32(h + kOffLength);
+  const std::uint32_t length = get_u32(h + kOffsetPayloadLength);
   if (frame.size() != kHeaderSize + length) {
     e.code = ErrorCode::kBadPayloadLength;
     e.framing_lost = true;
@@ -118,15 +115,15 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
   const auto payload = frame.subspan(kHeaderSize);
 #ifndef AJAR_PROTOCOL_FUZZING
   const std::uint32_t crc = frame_crc(h, payload);
-  if (crc != get_u32(h + kOffCrc)) {
+  if (crc != get_u32(h + kOffsetCrc)) {
     e.code = ErrorCode::kCrcMismatch;
     e.field = "header.crc";
-    e.value = get_u32(h + kOffCrc);
+    e.value = get_u32(h + kOffsetCrc);
     e.limit = crc;
     return;
   }
 #endif
-  const std::uint16_t flags = get_u16(h + kOffFlags);
+  const std::uint16_t flags = get_u16(h + kOffsetFlags);
   if ((flags & ~static_cast<std::uint16_t>(kFlagKnownMask)) != 0) {
     e.code = ErrorCode::kUnknownFlags;
     e.field = "header.flags";
@@ -135,7 +132,7 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
     return;
   }
   // The layout is the frame's minor version's (a newer minor: ours, extra bytes ignored).
-  const std::uint8_t minor = std::min(h[kOffMinor], kVersionMinor);
+  const std::uint8_t minor = std::min(h[kOffsetVersionMinor], kVersionMinor);
   Reader r(payload, minor);
   const MessageInfo* row = find_message(static_cast<MessageType>(e.type));
   if (row == nullptr || row->since > minor) {
@@ -145,7 +142,7 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
     return;
   }
   kDecoders[static_cast<std::size_t>(row - kMessageTable.data())](r, out.envelope.message);
-  if (!r.finish(h[kOffMinor] > kVersionMinor, e)) return;
+  if (!r.finish(h[kOffsetVersionMinor] > kVersionMinor, e)) return;
   out.kind = StreamDecoder::Kind::kMessage;
   out.envelope.request_id = e.request_id;
   out.envelope.flags = flags;
@@ -161,14 +158,14 @@ std::size_t encode(const Envelope& envelope, std::span<std::uint8_t> out,
   std::size_t length = 0;
   if (!encode_payload(envelope.message, out.subspan(kHeaderSize), length, minor)) return 0;
   std::uint8_t* h = out.data();
-  std::memcpy(h + kOffMagic, kMagicBytes.data(), kMagicBytes.size());
-  h[kOffMajor] = kVersionMajor;
-  h[kOffMinor] = minor;
-  put_u16(h + kOffType, static_cast<std::uint16_t>(type_of(envelope.message)));
-  put_u16(h + kOffFlags, envelope.flags);
-  put_u32(h + kOffRequestId, envelope.request_id);
-  put_u32(h + kOffLength, static_cast<std::uint32_t>(length));
-  put_u32(h + kOffCrc, frame_crc(h, out.subspan(kHeaderSize, length)));
+  std::memcpy(h + kOffsetMagic, kMagicBytes.data(), kMagicBytes.size());
+  h[kOffsetVersionMajor] = kVersionMajor;
+  h[kOffsetVersionMinor] = minor;
+  put_u16(h + kOffsetType, static_cast<std::uint16_t>(type_of(envelope.message)));
+  put_u16(h + kOffsetFlags, envelope.flags);
+  put_u32(h + kOffsetRequestId, envelope.request_id);
+  put_u32(h + kOffsetPayloadLength, static_cast<std::uint32_t>(length));
+  put_u32(h + kOffsetCrc, frame_crc(h, out.subspan(kHeaderSize, length)));
   return kHeaderSize + length;
 }
 
@@ -192,14 +189,14 @@ bool wire_equal(const Message& a, const Message& b) noexcept {
 FrameHeader decode_header(std::span<const std::uint8_t, kHeaderSize> bytes) noexcept {
   const std::uint8_t* h = bytes.data();
   FrameHeader f;
-  f.magic = get_u32(h + kOffMagic);
-  f.version_major = h[kOffMajor];
-  f.version_minor = h[kOffMinor];
-  f.type = get_u16(h + kOffType);
-  f.flags = get_u16(h + kOffFlags);
-  f.request_id = get_u32(h + kOffRequestId);
-  f.payload_length = get_u32(h + kOffLength);
-  f.crc = get_u32(h + kOffCrc);
+  f.magic = get_u32(h + kOffsetMagic);
+  f.version_major = h[kOffsetVersionMajor];
+  f.version_minor = h[kOffsetVersionMinor];
+  f.type = get_u16(h + kOffsetType);
+  f.flags = get_u16(h + kOffsetFlags);
+  f.request_id = get_u32(h + kOffsetRequestId);
+  f.payload_length = get_u32(h + kOffsetPayloadLength);
+  f.crc = get_u32(h + kOffsetCrc);
   return f;
 }
 
@@ -220,7 +217,7 @@ std::size_t StreamDecoder::feed(std::span<const std::uint8_t> in, Outcome& outco
   if (filled_ == 0 && in.size() >= kHeaderSize) {
     const std::uint8_t* h = in.data();
     if (check_header(h, outcome.error)) {
-      const std::size_t total = kHeaderSize + get_u32(h + kOffLength);
+      const std::size_t total = kHeaderSize + get_u32(h + kOffsetPayloadLength);
       if (in.size() >= total) {
         decode_into(in.first(total), outcome, true);
         return total;
@@ -257,7 +254,7 @@ std::size_t StreamDecoder::feed(std::span<const std::uint8_t> in, Outcome& outco
     DecodeError e;
     if (!check_header(buffer_.data(), e)) return fail(e);
   }
-  const std::size_t total = kHeaderSize + get_u32(buffer_.data() + kOffLength);
+  const std::size_t total = kHeaderSize + get_u32(buffer_.data() + kOffsetPayloadLength);
   const std::size_t n = std::min(total - filled_, in.size() - used);
   if (n > 0) std::memcpy(buffer_.data() + filled_, in.data() + used, n);
   filled_ += n;

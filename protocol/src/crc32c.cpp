@@ -4,6 +4,8 @@
 #include <atomic>
 #include <cstring>
 
+#include "ajar/core/words.hpp"
+
 #if defined(__x86_64__)
 #include <cpuid.h>
 #include <nmmintrin.h>
@@ -159,15 +161,9 @@ std::uint32_t update_first_call(std::uint32_t crc, const std::uint8_t* p, std::s
 }  // namespace
 
 std::string_view to_string(Crc32cPath path) noexcept {
-  switch (path) {
-    case Crc32cPath::kTable:
-      return "table";
-    case Crc32cPath::kSse42:
-      return "sse4.2";
-    case Crc32cPath::kArmv8:
-      return "armv8";
-  }
-  return "?";
+  constexpr Word<Crc32cPath> kWords[] = {
+      {Crc32cPath::kTable, "table"}, {Crc32cPath::kSse42, "sse4.2"}, {Crc32cPath::kArmv8, "armv8"}};
+  return word_of(kWords, path, "?");
 }
 
 bool crc32c_available(Crc32cPath path) noexcept {

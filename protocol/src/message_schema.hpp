@@ -120,6 +120,19 @@ struct Schema<RealtimeState> {
              Field<"memory_locked", &RealtimeState::memory_locked>>;
 };
 template <>
+struct Schema<RecorderState> {
+  using R = RecorderState;
+  using fields =
+      Fields<Field<"enabled", &R::enabled>, Field<"mode", &R::mode>, Field<"file", &R::file>,
+             Field<"file_bytes", &R::file_bytes>, Field<"directory_bytes", &R::directory_bytes>,
+             Field<"max_bytes", &R::max_bytes>, Field<"saved_bytes", &R::saved_bytes>,
+             Field<"disk_free_bytes", &R::disk_free_bytes>,
+             Field<"records_written", &R::records_written>, Field<"loop_samples", &R::loop_samples>,
+             Field<"loop_dropped", &R::loop_dropped>, Field<"io_records", &R::io_records>,
+             Field<"io_dropped", &R::io_dropped>, Field<"records_lost", &R::records_lost>,
+             Field<"disk_refusals", &R::disk_refusals>, Field<"last_write_ns", &R::last_write_ns>>;
+};
+template <>
 struct Schema<WheelModel> {
   using fields = Fields<Field<"card_axis", &WheelModel::card_axis>,
                         Field<"polarity", &WheelModel::polarity, 0, Polarity>>;
@@ -135,9 +148,28 @@ using MotionBlock =
            Field<"timing", &T::timing, 1>>;
 
 // ---- host -> daemon -------------------------------------------------------------------------
+// The policies (message_table.hpp) the commands share: every controller command is deduplicated
+// and its Ack durable; measurements and the motions from rest wait for the wheels to be at rest.
+
+inline constexpr MessagePolicy kCommand{
+    .sender = Sender::kController, .deduplicated = true, .durable_ack = true};
+inline constexpr MessagePolicy kMeasurement{.sender = Sender::kController,
+                                            .deduplicated = true,
+                                            .durable_ack = true,
+                                            .needs_wheels_at_rest = true};
+inline constexpr MessagePolicy kMotionFromRest{.sender = Sender::kController,
+                                               .deduplicated = true,
+                                               .durable_ack = true,
+                                               .starts_motion = true,
+                                               .needs_wheels_at_rest = true};
+inline constexpr MessagePolicy kDriving{.sender = Sender::kController,
+                                        .deduplicated = true,
+                                        .durable_ack = true,
+                                        .starts_motion = true};
 
 template <>
 struct Schema<Hello> : MessageRow<MessageType::kHello, "Hello", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy{.sender = Sender::kAny};
   using fields =
       Fields<Field<"version_major", &Hello::version_major>,
              Field<"version_minor", &Hello::version_minor>,
@@ -147,11 +179,13 @@ struct Schema<Hello> : MessageRow<MessageType::kHello, "Hello", kHostToDaemon, 0
 };
 template <>
 struct Schema<Ping> : MessageRow<MessageType::kPing, "Ping", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy{.sender = Sender::kAny};
   using fields = Fields<Field<"client_time_ns", &Ping::client_time_ns>>;
 };
 template <>
 struct Schema<MeasureDoorWidth>
     : MessageRow<MessageType::kMeasureDoorWidth, "MeasureDoorWidth", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy = kMeasurement;
   using ack_body = SpanAck;
   using fields = Fields<Field<"p1", &MeasureDoorWidth::p1_hinge>,
                         Field<"p2", &MeasureDoorWidth::p2_moving_edge>>;
@@ -159,6 +193,7 @@ struct Schema<MeasureDoorWidth>
 template <>
 struct Schema<MeasureHandle>
     : MessageRow<MessageType::kMeasureHandle, "MeasureHandle", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy = kMeasurement;
   using ack_body = SpanAck;
   using fields =
       Fields<Field<"p1", &MeasureHandle::p1_axis>, Field<"p2", &MeasureHandle::p2_free_end>>;
@@ -166,6 +201,7 @@ struct Schema<MeasureHandle>
 template <>
 struct Schema<MeasureDoorPlane>
     : MessageRow<MessageType::kMeasureDoorPlane, "MeasureDoorPlane", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy = kMeasurement;
   using ack_body = PlaneAck;
   using fields =
       Fields<Field<"count", &MeasureDoorPlane::count, 0, PlaneCount>,
@@ -174,67 +210,81 @@ struct Schema<MeasureDoorPlane>
 template <>
 struct Schema<SetContactPoint>
     : MessageRow<MessageType::kSetContactPoint, "SetContactPoint", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy = kMeasurement;
   using ack_body = ContactAck;
   using fields = Fields<Field<"contact", &SetContactPoint::contact>>;
 };
 template <>
 struct Schema<AlignBase> : MessageRow<MessageType::kAlignBase, "AlignBase", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy = kMotionFromRest;
   using fields = Fields<>;
 };
 template <>
 struct Schema<Engage> : MessageRow<MessageType::kEngage, "Engage", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy = kMotionFromRest;
   using fields = Fields<>;
 };
 template <>
 struct Schema<Stop> : MessageRow<MessageType::kStop, "Stop", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy{.sender = Sender::kStop};
   using fields = Fields<>;
 };
 template <>
 struct Schema<EmergencyStop>
     : MessageRow<MessageType::kEmergencyStop, "EmergencyStop", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy{.sender = Sender::kStop};
   using fields = Fields<>;
 };
 template <>
 struct Schema<Reset> : MessageRow<MessageType::kReset, "Reset", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy = kCommand;
   using fields = Fields<Field<"clear_parameters", &Reset::clear_parameters>>;
 };
 template <>
 struct Schema<GetStatus> : MessageRow<MessageType::kGetStatus, "GetStatus", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy{.sender = Sender::kAny};
   using fields = Fields<>;
 };
 template <>
 struct Schema<Subscribe> : MessageRow<MessageType::kSubscribe, "Subscribe", kHostToDaemon, 0> {
+  static constexpr MessagePolicy policy{.sender = Sender::kAny};
   using fields = Fields<Field<"telemetry_rate_hz", &Subscribe::telemetry_rate_hz>>;
 };
 template <>
 struct Schema<Drive> : MessageRow<MessageType::kDrive, "Drive", kHostToDaemon, 1> {
+  static constexpr MessagePolicy policy = kDriving;
   using fields = Fields<Field<"linear_m_s", &Drive::linear_m_s>,
                         Field<"angular_rad_s", &Drive::angular_rad_s>>;
 };
 template <>
 struct Schema<Approach> : MessageRow<MessageType::kApproach, "Approach", kHostToDaemon, 1> {
+  static constexpr MessagePolicy policy = kDriving;
   using ack_body = ApproachAck;
   using fields = Fields<Field<"standoff_m", &Approach::standoff_m>>;
 };
 template <>
 struct Schema<GetRobotModel>
     : MessageRow<MessageType::kGetRobotModel, "GetRobotModel", kHostToDaemon, 1> {
+  static constexpr MessagePolicy policy{.sender = Sender::kAny};
   using fields = Fields<>;
 };
 template <>
 struct Schema<ResetLoopStatistics>
     : MessageRow<MessageType::kResetLoopStatistics, "ResetLoopStatistics", kHostToDaemon, 1> {
+  static constexpr MessagePolicy policy = kCommand;
   using fields = Fields<>;
 };
 
 template <>
 struct Schema<ListRecordings>
     : MessageRow<MessageType::kListRecordings, "ListRecordings", kHostToDaemon, 2> {
+  static constexpr MessagePolicy policy{.sender = Sender::kAny};
   using fields = Fields<Field<"first", &ListRecordings::first>>;
 };
 template <>
 struct Schema<FetchRecording>
     : MessageRow<MessageType::kFetchRecording, "FetchRecording", kHostToDaemon, 2> {
+  static constexpr MessagePolicy policy{.sender = Sender::kAny};
   using fields =
       Fields<Field<"name", &FetchRecording::name>, Field<"offset", &FetchRecording::offset>,
              Field<"max_length", &FetchRecording::max_length>>;
@@ -242,6 +292,7 @@ struct Schema<FetchRecording>
 template <>
 struct Schema<SaveRecording>
     : MessageRow<MessageType::kSaveRecording, "SaveRecording", kHostToDaemon, 2> {
+  static constexpr MessagePolicy policy{.sender = Sender::kAny};
   using fields = Fields<Field<"last_s", &SaveRecording::last_s>>;
 };
 
@@ -302,7 +353,8 @@ struct Schema<Status> : MessageRow<MessageType::kStatus, "Status", kDaemonToHost
                     Field<"card", &Status::card>, Field<"arm", &Status::arm>,
                     Field<"arm_state", &Status::arm_state>, Field<"loop", &Status::loop>>,
              MotionBlock<Status>, Fields<Field<"realtime", &Status::realtime, 1>>,
-             Fields<Field<"base_motion", &Status::base_motion, 2>>>;
+             Fields<Field<"base_motion", &Status::base_motion, 2>,
+                    Field<"recorder", &Status::recorder, 2>>>;
 };
 template <>
 struct Schema<Telemetry> : MessageRow<MessageType::kTelemetry, "Telemetry", kDaemonToHost, 0> {
@@ -374,6 +426,7 @@ struct MessageInfo {
   std::string_view name;
   Direction direction;
   std::uint8_t since;  // the minor version that defined the type
+  MessagePolicy policy;
 };
 
 template <typename T>
@@ -385,7 +438,8 @@ constexpr auto make_message_table(std::index_sequence<I...>) {
       MessageInfo{Schema<std::variant_alternative_t<I, Message>>::type,
                   Schema<std::variant_alternative_t<I, Message>>::name.view(),
                   Schema<std::variant_alternative_t<I, Message>>::direction,
-                  Schema<std::variant_alternative_t<I, Message>>::since}...};
+                  Schema<std::variant_alternative_t<I, Message>>::since,
+                  Schema<std::variant_alternative_t<I, Message>>::policy}...};
 }
 inline constexpr auto kMessageTable =
     make_message_table(std::make_index_sequence<std::variant_size_v<Message>>{});
@@ -416,6 +470,20 @@ inline constexpr auto kRowOfType = [] {
   return rows;
 }();
 static_assert(kMessageTable.size() < kNoRow);
+
+// A request's row says who may send it; a daemon -> host row keeps the default policy.
+constexpr bool policies_match_directions() {
+  for (const MessageInfo& m : kMessageTable) {
+    const bool request = m.direction == Direction::kHostToDaemon;
+    if (request == (m.policy.sender == Sender::kDaemon)) return false;
+    if (!request && (m.policy.deduplicated || m.policy.durable_ack || m.policy.starts_motion ||
+                     m.policy.needs_wheels_at_rest)) {
+      return false;
+    }
+  }
+  return true;
+}
+static_assert(policies_match_directions(), "every request row has its policy (message_table.hpp)");
 
 // The row of `t`, or nullptr for a type this version does not know.
 constexpr const MessageInfo* find_message(MessageType t) noexcept {

@@ -1,5 +1,7 @@
 #include "ajar/protocol/messages.hpp"
 
+#include "ajar/protocol/message_table.hpp"
+
 #include "message_schema.hpp"
 
 namespace ajar::protocol {
@@ -91,6 +93,12 @@ std::uint8_t minor_of(MessageType t) noexcept {
 std::string_view to_string(MessageType t) noexcept {
   const auto* row = detail::find_message(t);
   return row == nullptr ? "Unknown" : row->name;
+}
+
+const MessagePolicy& policy_of(MessageType t) noexcept {
+  static constexpr MessagePolicy kUnknown{};
+  const auto* row = detail::find_message(t);
+  return row == nullptr ? kUnknown : row->policy;
 }
 
 }  // namespace ajar::protocol

@@ -78,15 +78,6 @@ std::vector<StreamDecoder::Outcome> feed_bytewise(std::span<const std::uint8_t> 
 
 }  // namespace
 
-std::optional<ErrorCode> error_code_from_string(std::string_view name) noexcept {
-  for (unsigned code = 0; code < 1000; ++code) {
-    const auto c = static_cast<ErrorCode>(code);
-    const auto s = to_string(c);
-    if (s == name && s != "UNKNOWN") return c;
-  }
-  return std::nullopt;
-}
-
 Result<GoldenVector> parse_vector(std::string_view text) {
   GoldenVector v;
   bool have_name = false, have_direction = false, have_expect = false, have_hex = false;

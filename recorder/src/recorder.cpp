@@ -3,6 +3,7 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -97,6 +98,22 @@ struct IoRecord {
   std::vector<std::uint8_t> data;
 };
 
+// The counters are written by one thread each (the recorder thread; io_* under the queue's
+// mutex) and read by any: relaxed atomics.
+using Counter = std::atomic<std::uint64_t>;
+void bump(Counter& c, std::uint64_t n = 1) {
+  c.fetch_add(n, std::memory_order_relaxed);
+}
+std::uint64_t get(const Counter& c) {
+  return c.load(std::memory_order_relaxed);
+}
+
+std::uint64_t free_bytes(const fs::path& dir) {
+  struct statvfs st {};
+  if (::statvfs(dir.c_str(), &st) != 0) return 0;
+  return std::uint64_t{st.f_bavail} * std::uint64_t{st.f_frsize};
+}
+
 }  // namespace
 
 std::string json_string(std::string_view text) {
@@ -144,7 +161,7 @@ struct Recorder::Impl {
   mutable std::mutex queue_mutex;
   std::vector<IoRecord> queue;
   std::size_t queue_bytes = 0;
-  std::uint64_t io_records = 0, io_dropped = 0;
+  Counter io_records{0}, io_dropped{0};  // written under queue_mutex
 
   // The thread.
   std::mutex wake_mutex;
@@ -168,11 +185,15 @@ struct Recorder::Impl {
   bool failure_logged = false;
   std::string last_status_text;
 
-  // Counters (read by counters() under counters_mutex).
-  mutable std::mutex counters_mutex;
-  bool recording = false, disk_full = false, started = false;
-  std::string current_file;  // the open file's name (counters())
-  std::uint64_t write_failures = 0, messages_written = 0, bytes_written = 0;
+  // Counters (counters(), any thread). Written by the recorder thread (and start()).
+  std::atomic<RecorderMode> mode{RecorderMode::kOff};
+  Counter write_failures{0}, messages_written{0}, bytes_written{0};
+  Counter file_bytes{0};    // on_disk, for other threads
+  Counter closed_bytes{0};  // the unsaved recordings but the open file, at the last scan
+  Counter saved_bytes{0}, disk_free{0}, last_write_ns{0};
+  std::atomic<std::uint32_t> refusals{0};
+  mutable std::mutex file_mutex;  // held for a copy of the name, never across I/O
+  std::string current_file;       // the open file's name (counters())
 
   Impl(Recorder& r, Log l) : self(r), log(std::move(l)), dir(r.settings_.directory) {}
 
@@ -186,9 +207,12 @@ struct Recorder::Impl {
            daemon_time_ns;
   }
 
-  void set_counters(auto&& fn) {
-    std::lock_guard lock(counters_mutex);
-    fn();
+  void set_file(RecorderMode m, const std::string& name) {
+    {
+      std::lock_guard lock(file_mutex);
+      current_file = name;
+    }
+    mode.store(m, std::memory_order_relaxed);
   }
 
   // ---- files ----
@@ -211,12 +235,9 @@ struct Recorder::Impl {
     unwritten_messages = 0;
     writer = std::make_unique<McapWriter>(kMcapProfile, kMcapLibrary);
     writer->add_ajar_channels();
+    file_bytes.store(0, std::memory_order_relaxed);
     file_start_mono = clock_ns(CLOCK_MONOTONIC);
-    set_counters([&] {
-      recording = true;
-      disk_full = false;
-      current_file = name;
-    });
+    set_file(RecorderMode::kRecording, name);
     failure_logged = false;
     last_status_text.clear();
     status_message(true);
@@ -232,7 +253,11 @@ struct Recorder::Impl {
     unwritten_messages = 0;
     std::size_t done = 0;
     while (done < bytes.size()) {
-      if (self.settings_.before_write) self.settings_.before_write();
+      if (self.settings_.write_delay_ms > 0) {  // tests: a slow disk, cut short by stop()
+        std::unique_lock lock(wake_mutex);
+        wake.wait_for(lock, std::chrono::milliseconds(self.settings_.write_delay_ms),
+                      [&] { return stopping; });
+      }
       const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
       if (n < 0 && errno == EINTR) continue;
       if (n <= 0) {
@@ -241,7 +266,7 @@ struct Recorder::Impl {
         ::close(fd);
         fd = -1;
         writer.reset();
-        set_counters([&] { write_failures += messages; });
+        bump(write_failures, messages);
         failed("writing " + (dir / file).string() + " failed: " + std::strerror(e), e);
         return false;
       }
@@ -249,19 +274,21 @@ struct Recorder::Impl {
     }
     on_disk += bytes.size();
     last_write = clock_ns(CLOCK_MONOTONIC);
-    set_counters([&] {
-      bytes_written += bytes.size();
-      messages_written += messages;
-    });
+    file_bytes.store(on_disk, std::memory_order_relaxed);
+    bump(bytes_written, bytes.size());
+    bump(messages_written, messages);
+    last_write_ns.store(daemon_ns(last_write), std::memory_order_relaxed);
     return true;
   }
 
   void failed(const std::string& what, int error) {
-    set_counters([&] {
-      recording = false;
-      disk_full = error == ENOSPC || error == EDQUOT;
-      current_file.clear();
-    });
+    set_file(
+        error == ENOSPC || error == EDQUOT ? RecorderMode::kDiskFull : RecorderMode::kDiskError,
+        "");
+    refusals.fetch_add(1, std::memory_order_relaxed);
+    closed_bytes.fetch_add(on_disk, std::memory_order_relaxed);  // what the cut file keeps
+    on_disk = 0;
+    file_bytes.store(0, std::memory_order_relaxed);
     file.clear();
     retry_at = clock_ns(CLOCK_MONOTONIC) + kRetryNs;
     if (!failure_logged) {
@@ -283,10 +310,11 @@ struct Recorder::Impl {
     }
     writer.reset();
     file.clear();
-    set_counters([&] {
-      recording = false;
-      current_file.clear();
-    });
+    closed_bytes.fetch_add(on_disk, std::memory_order_relaxed);
+    on_disk = 0;
+    file_bytes.store(0, std::memory_order_relaxed);
+    if (mode.load(std::memory_order_relaxed) == RecorderMode::kRecording)
+      set_file(RecorderMode::kOff, "");  // not after a refusal: its mode stays
   }
 
   // Closes the file (footer), removes the oldest recordings beyond the budget, starts the next.
@@ -301,6 +329,7 @@ struct Recorder::Impl {
 
   // Removes the oldest recordings (not saved, not open) until the rest fit max_bytes.
   // `at_least_one`: remove one even if within budget (to make room on a full disk).
+  // Then counts what stays (closed_bytes, saved_bytes) and the free space.
   void enforce_budget(bool at_least_one) {
     std::vector<std::pair<std::string, std::uint64_t>> files;
     std::uint64_t total = 0;
@@ -314,24 +343,40 @@ struct Recorder::Impl {
       if (name != file) files.emplace_back(name, size);
     }
     std::sort(files.begin(), files.end());  // the name is the start time: oldest first
+    std::uint64_t closed = 0;
+    for (const auto& [name, size] : files)
+      closed += size;
     for (const auto& [name, size] : files) {
       if (total <= self.settings_.max_bytes && !at_least_one) break;
       at_least_one = false;
-      if (fs::remove(dir / name, ec)) total -= size;
+      if (fs::remove(dir / name, ec)) total -= size, closed -= size;
     }
+    closed_bytes.store(closed, std::memory_order_relaxed);
+    count_saved();
+    disk_free.store(free_bytes(dir), std::memory_order_relaxed);
+  }
+  void count_saved() {
+    std::uint64_t saved = 0;
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir / "saved", ec)) {
+      if (start_of(e.path().filename().string()) == 0 || !e.is_regular_file(ec)) continue;
+      const auto size = e.file_size(ec);
+      if (!ec) saved += size;
+    }
+    saved_bytes.store(saved, std::memory_order_relaxed);
   }
 
   // ---- messages ----
   void add(std::uint16_t channel, std::uint64_t daemon_time_ns,
            std::span<const std::uint8_t> data) {
     if (writer == nullptr) {
-      set_counters([&] { ++write_failures; });
+      bump(write_failures);
       return;
     }
     if (writer->offset() >= self.settings_.max_file_bytes && !rotating) {
       rotate();
       if (writer == nullptr) {
-        set_counters([&] { ++write_failures; });
+        bump(write_failures);
         return;
       }
     }
@@ -418,6 +463,7 @@ struct Recorder::Impl {
   void run() {
     std::string text;
     std::vector<IoRecord> batch;
+    open_file();
     for (;;) {
       bool stop_now = false;
       std::deque<SaveRequest> save_now;
@@ -436,7 +482,7 @@ struct Recorder::Impl {
       LoopSample s;
       while (self.ring_.pop(s)) {
         if (writer == nullptr) {
-          set_counters([&] { ++write_failures; });
+          bump(write_failures);
           continue;
         }
         loop_message(s, text);
@@ -450,9 +496,10 @@ struct Recorder::Impl {
       for (const auto& r : batch)
         add(r.channel, r.daemon_time_ns, r.data);
       batch.clear();
-      if (writer != nullptr && now - last_status >= kStatusEveryNs) {
+      if (now - last_status >= kStatusEveryNs) {
         last_status = now;
-        status_message(false);
+        disk_free.store(free_bytes(dir), std::memory_order_relaxed);
+        if (writer != nullptr) status_message(false);
       }
       if (writer != nullptr &&
           (writer->pending().size() >= kWriteAtBytes || now - last_write >= kWriteEveryNs)) {
@@ -473,9 +520,20 @@ struct Recorder::Impl {
     close_file();
   }
 
-  bool disk_full_now() {
-    std::lock_guard lock(counters_mutex);
-    return disk_full;
+  bool disk_full_now() const {
+    return mode.load(std::memory_order_relaxed) == RecorderMode::kDiskFull;
+  }
+
+  // frame() and json(): into the queue, or dropped and counted when it is full.
+  void enqueue(IoRecord r) {
+    std::lock_guard lock(queue_mutex);
+    if (queue.size() >= kIoQueueMaxRecords || queue_bytes + r.data.size() > kIoQueueMaxBytes) {
+      bump(io_dropped);
+      return;
+    }
+    queue_bytes += r.data.size();
+    queue.push_back(std::move(r));
+    bump(io_records);
   }
 
   void save(SaveRequest& request) {
@@ -500,6 +558,7 @@ struct Recorder::Impl {
       result.names.push_back("saved/" + r.name);
     }
     result.ok = result.error.empty();
+    count_saved();
     open_file();
     if (request.done) request.done(std::move(result));
   }
@@ -519,6 +578,7 @@ void Recorder::start() {
   std::error_code ec;
   fs::create_directories(impl_->dir, ec);
   if (ec || ::access(impl_->dir.c_str(), W_OK) != 0) {
+    impl_->set_file(RecorderMode::kNoDirectory, "");
     impl_->log("recorder: cannot use the directory " + impl_->dir.string() + " (" +
                (ec ? ec.message() : std::string(std::strerror(errno))) +
                "); recording is off, the daemon runs on");
@@ -526,10 +586,8 @@ void Recorder::start() {
   }
   ::chmod(impl_->dir.c_str(), 0750);
   impl_->wall_minus_mono_ns = clock_ns(CLOCK_REALTIME) - clock_ns(CLOCK_MONOTONIC);
-  impl_->set_counters([&] { impl_->started = true; });
   impl_->enforce_budget(false);
-  impl_->open_file();
-  impl_->thread = std::thread([this] { impl_->run(); });
+  impl_->thread = std::thread([this] { impl_->run(); });  // it opens the first file
   impl_->accepting.store(true, std::memory_order_release);
 }
 
@@ -567,15 +625,7 @@ void Recorder::frame(std::uint8_t direction, std::uint64_t session_id, std::uint
   for (int i = 0; i < 8; ++i)
     r.data.push_back(static_cast<std::uint8_t>(daemon_time_ns >> (8 * i)));
   r.data.insert(r.data.end(), bytes.begin(), bytes.end());
-  std::lock_guard lock(impl_->queue_mutex);
-  if (impl_->queue.size() >= kIoQueueMaxRecords ||
-      impl_->queue_bytes + r.data.size() > kIoQueueMaxBytes) {
-    ++impl_->io_dropped;
-    return;
-  }
-  impl_->queue_bytes += r.data.size();
-  impl_->queue.push_back(std::move(r));
-  ++impl_->io_records;
+  impl_->enqueue(std::move(r));
 }
 
 void Recorder::json(std::uint16_t channel, std::uint64_t daemon_time_ns, std::string text) {
@@ -584,34 +634,32 @@ void Recorder::json(std::uint16_t channel, std::uint64_t daemon_time_ns, std::st
   r.channel = channel;
   r.daemon_time_ns = daemon_time_ns;
   r.data.assign(text.begin(), text.end());
-  std::lock_guard lock(impl_->queue_mutex);
-  if (impl_->queue.size() >= kIoQueueMaxRecords ||
-      impl_->queue_bytes + r.data.size() > kIoQueueMaxBytes) {
-    ++impl_->io_dropped;
-    return;
-  }
-  impl_->queue_bytes += r.data.size();
-  impl_->queue.push_back(std::move(r));
-  ++impl_->io_records;
+  impl_->enqueue(std::move(r));
 }
 
 RecorderCounters Recorder::counters() const {
+  const Impl& m = *impl_;
   RecorderCounters c;
   c.enabled = settings_.enabled;
+  c.mode = m.mode.load(std::memory_order_relaxed);
+  c.recording = c.mode == RecorderMode::kRecording;
+  c.disk_full = c.mode == RecorderMode::kDiskFull;
+  // Dropped first: a sample counted dropped is then also counted taken (dropped <= samples).
   c.loop_dropped = ring_.dropped();
   c.loop_samples = ring_.pushed() + c.loop_dropped;
-  {
-    std::lock_guard lock(impl_->queue_mutex);
-    c.io_records = impl_->io_records;
-    c.io_dropped = impl_->io_dropped;
-  }
-  std::lock_guard lock(impl_->counters_mutex);
-  c.recording = impl_->recording;
-  c.disk_full = impl_->disk_full;
-  c.write_failures = impl_->write_failures;
-  c.messages_written = impl_->messages_written;
-  c.bytes_written = impl_->bytes_written;
-  c.file = impl_->current_file;
+  c.io_dropped = get(m.io_dropped);
+  c.io_records = get(m.io_records);
+  c.write_failures = get(m.write_failures);
+  c.disk_refusals = m.refusals.load(std::memory_order_relaxed);
+  c.messages_written = get(m.messages_written);
+  c.bytes_written = get(m.bytes_written);
+  c.file_bytes = get(m.file_bytes);
+  c.directory_bytes = get(m.closed_bytes) + c.file_bytes;
+  c.saved_bytes = get(m.saved_bytes);
+  c.disk_free_bytes = get(m.disk_free);
+  c.last_write_ns = get(m.last_write_ns);
+  std::lock_guard lock(m.file_mutex);
+  c.file = m.current_file;
   return c;
 }
 

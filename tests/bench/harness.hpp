@@ -6,6 +6,7 @@
 #pragma once
 
 #include <netinet/in.h>
+#include <pthread.h>
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <sched.h>
@@ -14,6 +15,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <chrono>
@@ -42,6 +44,19 @@ inline std::int64_t now_ns() {
   timespec ts{};
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+// Whether a thread of this process may run under SCHED_FIFO at `priority` (tried on a thread of
+// its own, which ends at once).
+inline bool fifo_permitted(int priority) {
+  std::atomic<bool> ok{false};
+  std::thread t([&] {
+    sched_param p{};
+    p.sched_priority = priority;
+    ok = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
+  });
+  t.join();
+  return ok;
 }
 
 [[noreturn]] inline void fail(const std::string& what) {

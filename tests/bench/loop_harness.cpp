@@ -24,17 +24,6 @@ namespace {
 using namespace ajar;
 using namespace ajar::bench;
 
-bool fifo_permitted(int priority) {
-  std::atomic<bool> ok{false};
-  std::thread t([&] {
-    sched_param p{};
-    p.sched_priority = priority;
-    ok = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;
-  });
-  t.join();
-  return ok;
-}
-
 void run(const daemon::Config& base_config, bool fifo, double seconds, int blocks,
          const Placement& where) {
   daemon::Config config = base_config;
@@ -45,11 +34,9 @@ void run(const daemon::Config& base_config, bool fifo, double seconds, int block
   auto set = drivers::make_drivers(config.drivers, config.base);
   const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
   daemon::ControlLoopSettings s;
-  s.rate_hz = config.control.rate_hz;
-  s.realtime = fifo;
-  s.priority = config.control.priority;
-  s.deadman_timeout_s = config.safety.deadman_timeout_s;
-  s.motion_timeout_margin_s = config.control.motion_timeout_margin_s;
+  s.control = config.control;
+  s.control.realtime = fifo;
+  s.safety = config.safety;
   s.base = config.base;
   drivers::ManagedMotionCard card(std::move(set.card), axes);
   Outcome up = card.configure();

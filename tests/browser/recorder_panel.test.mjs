@@ -38,7 +38,18 @@ const panel = async (P) => ({
   file: await P.page.textContent('#rec-file'),
   size: await P.page.textContent('#rec-size'),
   drops: await P.page.textContent('#rec-drops'),
+  dropCount: Number(await P.page.getAttribute('#rec-drops', 'data-count')),
+  written: Number(await P.page.getAttribute('#rec-written', 'data-count')),
 });
+// Status.recorder as ajarctl reads it from the same ajard (protocol 1.2), independently of the console.
+async function ajardRecorder(stack) {
+  const { code, output } = await stack.ajarctl(['--json', 'status']);
+  assert.equal(code, 0, output);
+  const line = output.split('\n').find((l) => l.startsWith('{') && l.includes('"status"'));
+  const r = JSON.parse(line).status.recorder;
+  assert.ok(r, `ajarctl status --json has a recorder: ${line}`);
+  return { ...r, drops: r.loop_dropped + r.io_dropped };
+}
 
 test('black box panel: the recorder\'s state and "Save the last 5 minutes" with the daemon\'s answer', { timeout: 90000 }, async () => {
   await withStack('recorder-panel', async (stack) => {
@@ -67,7 +78,19 @@ test('black box panel: the recorder\'s state and "Save the last 5 minutes" with 
         assert.equal(before.state, 'on', JSON.stringify(api.recorder));
         assert.ok(before.file.length > 3 && before.file !== '—', before.file);
         assert.match(before.size, /\d+(\.\d)? (B|KiB|MiB|GiB)/);
-        assert.equal(before.drops, 'unknown', 'dropped records: not reported by ajard yet');
+        // Drops and records written are Status.recorder's: bracketed by two reads of ajard's Status
+        // (ajarctl), the panel's numbers between them (they only grow), the file the same.
+        const a = await ajardRecorder(stack);
+        await page.waitForFunction((w) => Number(document.getElementById('rec-written').dataset.count) >= w,
+          a.records_written, { timeout: 15000 });
+        const p = await panel(P);
+        const b = await ajardRecorder(stack);
+        assert.equal(a.mode, 'recording');
+        assert.ok(a.records_written <= p.written && p.written <= b.records_written, JSON.stringify({ a, p, b }));
+        assert.ok(a.drops <= p.dropCount && p.dropCount <= b.drops, JSON.stringify({ a, p, b }));
+        assert.match(p.drops, new RegExp(`^${p.dropCount} \\(loop \\d+ of \\d+, I/O \\d+ of \\d+\\)$`));
+        assert.equal(p.file, b.file);
+        assert.ok(p.written > 0, 'the recorder writes');
         const r = await saveByKeyboard(P);
         assert.equal(r.ok, true, r.text);
         assert.match(r.text, /saved at \d\d:\d\d:\d\d: [1-9]\d* recordings? — \S+/);

@@ -8,19 +8,11 @@
 #   blackbox_replay_test.sh AJARD AJARCTL BASE_CONFIG PROCEDURE
 set -uo pipefail
 ajard=$1 ajarctl=$2 base_config=$3 procedure=$4
+# shellcheck source=ajard_process.sh
+source "$(dirname "${BASH_SOURCE[0]}")/ajard_process.sh"
 dir=$(mktemp -d "${TMPDIR:-/tmp}/ajar-blackbox-test.XXXXXX")
-pid=""
-stop_ajard() {
-  if [[ -n "$pid" ]] && kill -0 "$pid" 2>/dev/null; then
-    kill -TERM "$pid" 2>/dev/null
-    for _ in $(seq 1 200); do kill -0 "$pid" 2>/dev/null || break; sleep 0.05; done
-    kill -KILL "$pid" 2>/dev/null
-    wait "$pid" 2>/dev/null
-  fi
-  pid=""
-}
 cleanup() {
-  stop_ajard
+  ajard_stop
   rm -rf "$dir"
 }
 trap cleanup EXIT
@@ -34,21 +26,14 @@ fail() {
 }
 
 # start_ajard NAME EXTRA_YAML: ajard with the base config plus EXTRA_YAML, recording into
-# $dir/NAME/recordings; sets pid and port.
+# $dir/NAME/recordings; sets port.
 start_ajard() {
   local name=$1 extra=$2
   mkdir -p "$dir/$name"
   { cat "$base_config"; printf '%s\n' "$extra"; } >"$dir/$name/ajard.yaml"
-  "$ajard" --config "$dir/$name/ajard.yaml" --listen 127.0.0.1:0 --port-file "$dir/$name/port" \
-    --state-dir "$dir/$name/state" >"$dir/$name.log" 2>&1 &
-  pid=$!
-  for _ in $(seq 1 400); do
-    [[ -s "$dir/$name/port" ]] && break
-    kill -0 "$pid" 2>/dev/null || break
-    sleep 0.05
-  done
-  [[ -s "$dir/$name/port" ]] || fail "ajard ($name) did not start"
-  port=$(cat "$dir/$name/port")
+  ajard_start "$ajard" "$dir/$name/ajard.yaml" "$dir/$name" "$dir/$name.log" ||
+    fail "ajard ($name) did not start"
+  port=$ajard_port
 }
 recorder_yaml() {
   printf 'recorder:\n  enabled: true\n  directory: %s\n' "$dir/$1/recordings"
@@ -96,7 +81,7 @@ head -c $((size + 10)) /dev/zero >"$dir/longer.mcap"
 ctl blackbox fetch "$name" -o "$dir/longer.mcap" >/dev/null 2>"$dir/bad.err"
 (($? == 1)) || fail "fetch onto a longer file did not exit 1"
 grep -q "REQUEST_OUT_OF_RANGE (offset)" "$dir/bad.err" || fail "fetch beyond the end: $(cat "$dir/bad.err")"
-stop_ajard
+ajard_stop
 
 # 4. Read it: the timeline and the loop trace.
 "$ajarctl" blackbox show "$dir/whole.mcap" >"$dir/show.out" 2>&1 || fail "blackbox show: $(cat "$dir/show.out")"
@@ -114,7 +99,7 @@ ctl replay "$dir/whole.mcap" >"$dir/replay.out" 2>&1
 rc=$?
 ((rc == 0)) || fail "replay against a fresh ajard exited $rc: $(cat "$dir/replay.out")"
 grep -q "^no difference" "$dir/replay.out" || fail "replay: $(cat "$dir/replay.out")"
-stop_ajard
+ajard_stop
 
 # 6. Replay against an ajard whose door width limit is 0.92 m: exactly the first width's refusal.
 sed 's/^  door_width_m: .*/  door_width_m: [0.6, 0.92]/' "$base_config" >"$dir/narrow-base.yaml"

@@ -110,6 +110,28 @@ inline protocol::Status status() {
   return s;
 }
 
+// Status.recorder (1.2): every field a different value.
+inline protocol::RecorderState recorder() {
+  protocol::RecorderState r;
+  r.enabled = true;
+  r.mode = protocol::RecorderMode::kDiskFull;
+  r.file = "ajard-20261126T130501123Z.mcap";
+  r.file_bytes = 123456;
+  r.directory_bytes = 98765432;
+  r.max_bytes = 536870912;
+  r.saved_bytes = 4096;
+  r.disk_free_bytes = 18446744073709551615u;
+  r.records_written = 1000;
+  r.loop_samples = 900;
+  r.loop_dropped = 12;
+  r.io_records = 300;
+  r.io_dropped = 3;
+  r.records_lost = 7;
+  r.disk_refusals = 2;
+  r.last_write_ns = 5000000001;
+  return r;
+}
+
 inline protocol::RobotModel robot_model() {
   protocol::RobotModel m;
   m.camera_to_base = {0, 0, 1, 0.15, -1, 0, 0, 0.015, 0, -1, 0, -0.22};
@@ -220,6 +242,11 @@ inline std::vector<std::pair<std::string, JsonObject>> all() {
   add("telemetry empty", telemetry_object(protocol::Telemetry{}));
   add("welcome object", welcome_object(welcome()));
   add("error object", error_object("SIMULATION_FAILED", "", "x \x7f y"));
+  Response status_1_2 = reply_with(status());  // a 1.2 session: base_motion and the recorder
+  status_1_2.session_minor = 2;
+  std::get<protocol::Status>(status_1_2.reply).base_motion = protocol::BaseMotion::kStopping;
+  std::get<protocol::Status>(status_1_2.reply).recorder = recorder();
+  add("status 1.2", response_object("status", status_1_2));
   return out;
 }
 

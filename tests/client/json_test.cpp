@@ -316,6 +316,34 @@ TEST(Json, EveryRenderingMatchesTheFormerWriter) {
   EXPECT_EQ(n, samples.size()) << "a sample without its golden line";
 }
 
+// Status.recorder (1.2): under the wire names in --json, two lines of text; only when the session
+// speaks 1.2 (a 1.1 daemon's Status has no recorder: zeros would say "off", which it never said).
+TEST(Json, StatusShowsTheRecorderOnlyFromA12Session) {
+  protocol::Status s = json_samples::status();
+  s.recorder = json_samples::recorder();
+  const auto v = parse(status_object(s, 2));
+  const auto& r = v.at("recorder");
+  EXPECT_EQ(r.at("mode").get<std::string>(), "disk_full");
+  EXPECT_EQ(r.at("file").get<std::string>(), "ajard-20261126T130501123Z.mcap");
+  EXPECT_EQ(r.at("loop_dropped").get<std::uint64_t>(), 12u);
+  EXPECT_EQ(r.at("io_dropped").get<std::uint64_t>(), 3u);
+  EXPECT_EQ(r.at("records_lost").get<std::uint64_t>(), 7u);
+  EXPECT_EQ(r.at("disk_free_bytes").get<std::uint64_t>(), 18446744073709551615u);
+  EXPECT_EQ(r.size(), 16u) << "every field of RecorderState";
+  EXPECT_FALSE(parse(status_object(s, 1)).contains("recorder"));
+  const std::string text = status_text(s, 2);
+  EXPECT_NE(text.find("black box:        disk_full, ajard-20261126T130501123Z.mcap 120.6 KiB; "
+                      "94.2 MiB of the 512.0 MiB budget"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("black box counts: 1000 written; loop 900 samples, 12 dropped; I/O 300 "
+                      "records, 3 dropped; 7 lost to the disk (2 refusals); last write at "
+                      "5.000 s"),
+            std::string::npos)
+      << text;
+  EXPECT_EQ(status_text(s, 1).find("black box"), std::string::npos);
+}
+
 // Bytes that are not UTF-8 (a daemon's message is any bytes) still give valid JSON, never a throw.
 TEST(Json, InvalidUtf8IsReplacedNotThrown) {
   JsonObject o;

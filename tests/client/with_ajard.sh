@@ -13,35 +13,23 @@ fi
 ajard=$1 config=$2
 shift 2
 
+# shellcheck source=ajard_process.sh
+source "$(dirname "${BASH_SOURCE[0]}")/ajard_process.sh"
+
 dir=$(mktemp -d "${TMPDIR:-/tmp}/ajar-client-test.XXXXXX")
-pid=""
 cleanup() {
-  if [[ -n "$pid" ]] && kill -0 "$pid" 2>/dev/null; then
-    kill -TERM "$pid" 2>/dev/null
-    for _ in $(seq 1 100); do kill -0 "$pid" 2>/dev/null || break; sleep 0.05; done
-    kill -KILL "$pid" 2>/dev/null
-    wait "$pid" 2>/dev/null
-  fi
+  ajard_stop
   rm -rf "$dir"
 }
 trap cleanup EXIT
 trap 'exit 130' INT TERM
 
-"$ajard" --config "$config" --listen 127.0.0.1:0 --port-file "$dir/port" \
-  --state-dir "$dir/state" >"$dir/ajard.log" 2>&1 &
-pid=$!
-
-for _ in $(seq 1 400); do
-  [[ -s "$dir/port" ]] && break
-  if ! kill -0 "$pid" 2>/dev/null; then break; fi
-  sleep 0.05
-done
-if [[ ! -s "$dir/port" ]]; then
+if ! ajard_start "$ajard" "$config" "$dir" "$dir/ajard.log"; then
   echo "with_ajard.sh: ajard did not start (no port file); its log:" >&2
   cat "$dir/ajard.log" >&2
   exit 99
 fi
-port=$(cat "$dir/port")
+port=$ajard_port
 export AJAR_PORT=$port
 
 args=()

@@ -305,8 +305,9 @@ TEST_F(ConfigTest, ChangedKeysSeeListsAndWords) {
 }
 
 // docs/configuration.md's tables: `| `key` | `default` | allowed | meaning |` under a heading whose
-// first word is the section ("## base", "### network.tls (...)"). Each row's key, default and
-// allowed cells must be what the reader does, and every key must have its row.
+// first word is the section ("## base", "### network.tls (...)"). Each row must be the key's row of
+// config_fields.hpp: its default, what the reader allows and its meaning, and every key must have
+// its row (ajard.yaml(5) is generated from these tables).
 TEST_F(ConfigTest, TheReferenceInDocsConfigurationMdIsTheKeyList) {
   const auto keys = config_keys(default_config());
   auto is_section = [&](const std::string& s) {
@@ -316,7 +317,7 @@ TEST_F(ConfigTest, TheReferenceInDocsConfigurationMdIsTheKeyList) {
     return false;
   };
   struct Row {
-    std::string value, allowed;
+    std::string value, allowed, meaning;
     int line;
   };
   std::map<std::string, Row> rows;
@@ -344,21 +345,32 @@ TEST_F(ConfigTest, TheReferenceInDocsConfigurationMdIsTheKeyList) {
     ASSERT_EQ(cells.size(), 4u) << "docs/configuration.md:" << number << ": " << line;
     const std::string key = section + "." + cells[0].substr(1, cells[0].size() - 2);
     EXPECT_EQ(rows.count(key), 0u) << "docs/configuration.md:" << number << ": " << key << " twice";
-    rows[key] = {cells[1], cells[2], number};
+    rows[key] = {cells[1], cells[2], cells[3], number};
   }
   for (const auto& k : keys) {
     const std::string expected_value = "`" + k.value + "`";
+    std::string meaning = k.meaning;  // a '|' in a cell is written '\|'
+    for (std::size_t at = meaning.find('|'); at != std::string::npos;
+         at = meaning.find('|', at + 2))
+      meaning.insert(at, "\\");
+    const std::string expected_row = "| `" + k.path.substr(k.path.find('.') + 1) + "` | " +
+                                     expected_value + " | " + k.allowed + " | " + meaning + " |";
+    EXPECT_FALSE(k.meaning.empty()) << k.path << " has no meaning in config_fields.hpp";
     const auto row = rows.find(k.path);
     if (row == rows.end()) {
-      ADD_FAILURE() << "docs/configuration.md has no row for " << k.path << ": | `"
-                    << k.path.substr(k.path.find('.') + 1) << "` | " << expected_value << " | "
-                    << k.allowed << " | ... |";
+      ADD_FAILURE() << "docs/configuration.md has no row for " << k.path << ":\n" << expected_row;
       continue;
     }
-    EXPECT_EQ(row->second.value, expected_value)
-        << "docs/configuration.md:" << row->second.line << ": default of " << k.path;
-    EXPECT_EQ(row->second.allowed, k.allowed)
-        << "docs/configuration.md:" << row->second.line << ": allowed values of " << k.path;
+    EXPECT_EQ(row->second.value, expected_value) << "docs/configuration.md:" << row->second.line
+                                                 << ": default of " << k.path << ", expected\n"
+                                                 << expected_row;
+    EXPECT_EQ(row->second.allowed, k.allowed) << "docs/configuration.md:" << row->second.line
+                                              << ": allowed values of " << k.path << ", expected\n"
+                                              << expected_row;
+    EXPECT_EQ(row->second.meaning, k.meaning)
+        << "docs/configuration.md:" << row->second.line << ": meaning of " << k.path
+        << " (config_fields.hpp), expected\n"
+        << expected_row;
     rows.erase(row);
   }
   for (const auto& [key, row] : rows) {

@@ -3,7 +3,9 @@
 // and uint64 log time, little-endian, then the payload) and order; a latched channel's last
 // message to a new subscriber; unsubscribe; refusals (no subprotocol, off loopback); and the
 // bounds: a client that never reads has its oldest messages dropped and is disconnected, counted,
-// while publish() keeps returning and another client keeps receiving.
+// while publish() keeps returning and another client keeps receiving; connections that never
+// finish their upgrade (nothing sent, half a request) hold at most max_clients places and only
+// until upgrade_timeout, then a real client gets in; a client beyond max_clients gets HTTP 503.
 #include "ajar/console/foxglove_server.hpp"
 
 // <utility> before any Asio header (asio issue 944).
@@ -18,9 +20,13 @@
 #include <boost/beast/websocket.hpp>
 #include <nlohmann/json.hpp>
 
+#include <array>
+#include <boost/asio/write.hpp>
 #include <chrono>
+#include <memory>
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
 namespace ajar::console::foxglove {
 namespace {
@@ -228,6 +234,133 @@ TEST(FoxgloveServer, AStalledClientIsDroppedFromThenDisconnectedOthersGoOn) {
     server.publish(1, 2, [i] { return "m" + std::to_string(i); });
   for (int i = 0; i < 5; ++i)
     EXPECT_EQ(reader.binary().substr(13), "m" + std::to_string(i));
+  server.stop();
+}
+
+// A TCP connection to the server that sends `bytes` and then nothing.
+struct Idle {
+  asio::io_context ioc;
+  tcp::socket socket{ioc};
+  bool closed = false;  // the server closed it (a read ended: EOF or a reset)
+  std::string answer;   // what the server sent before (a 503)
+  Idle(std::uint16_t port, const std::string& bytes) {
+    socket.connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), port));
+    if (!bytes.empty()) asio::write(socket, asio::buffer(bytes));
+    socket.non_blocking(true);
+  }
+  void poll() {
+    std::array<char, 512> buf{};
+    for (;;) {
+      if (closed) return;
+      boost::system::error_code ec;
+      const std::size_t n = socket.read_some(asio::buffer(buf), ec);
+      if (ec == asio::error::would_block) return;
+      if (ec) closed = true;
+      answer.append(buf.data(), n);
+    }
+  }
+};
+using Idles = std::vector<std::unique_ptr<Idle>>;
+
+// 20 connections: ten send nothing, ten half a request.
+Idles idle_connections(std::uint16_t port) {
+  const std::string half = "GET / HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) + "\r\n";
+  Idles idle;
+  for (int i = 0; i < 20; ++i)
+    idle.push_back(std::make_unique<Idle>(port, i % 2 == 0 ? "" : half));
+  return idle;
+}
+// Polls them until `n` are closed by the server (a generous bound); how many are.
+std::size_t until_closed(Idles& idle, std::size_t n) {
+  std::size_t closed = 0;
+  eventually([&] {
+    closed = 0;
+    for (auto& c : idle) {
+      c->poll();
+      closed += c->closed ? 1U : 0U;
+    }
+    return closed >= n;
+  });
+  return closed;
+}
+
+// 20 connections that never upgrade against 8 places: 8 wait in their upgrade, 12 are refused at
+// once (a 503, or closed unanswered beyond 8 refusals in flight); while the 8 wait a real client
+// is refused too; closed from the client side, their places come back and a real client gets in.
+TEST(FoxgloveServer, ConnectionsThatNeverUpgradeHoldAtMostMaxClientsPlaces) {
+  ServerOptions o;
+  o.port = 0;
+  o.upgrade_timeout = std::chrono::hours(1);  // only the clients end them here
+  Server server(o, channels());
+  const auto port = server.listen();
+  server.start();
+  Idles idle = idle_connections(port);
+  ASSERT_TRUE(eventually([&] {
+    const auto s = server.stats();
+    return s.upgrades == 8 && s.clients_refused == 12;
+  })) << server.stats().upgrades
+      << " upgrading, " << server.stats().clients_refused << " refused";
+  EXPECT_EQ(until_closed(idle, 12), 12U) << "the 8 in their upgrade stay open";
+  std::size_t got_503 = 0;
+  for (std::size_t i = 0; i < idle.size(); ++i) {
+    EXPECT_EQ(idle[i]->closed, i >= 8) << "connection " << i;
+    got_503 += idle[i]->answer.starts_with("HTTP/1.1 503 ") ? 1U : 0U;
+  }
+  EXPECT_GE(got_503, 8U) << "refused with a 503 (up to 8 refusals at once), not a silent reset";
+  EXPECT_THROW(Client real(port), beast::system_error) << "a real client while 8 upgrades wait";
+  EXPECT_EQ(server.stats().clients, 0U);
+  EXPECT_EQ(server.stats().upgrades, 8U);
+  idle.clear();  // the client side closes them: their places come back
+  ASSERT_TRUE(eventually([&] { return server.stats().upgrades == 0; }));
+  Client real(port);
+  EXPECT_EQ(real.text()["op"], "serverInfo");
+  EXPECT_TRUE(eventually([&] { return server.stats().clients == 1; }));
+  EXPECT_EQ(server.stats().upgrades_timed_out, 0U);
+  server.stop();
+}
+
+// The same connections against a short upgrade deadline: the server closes them itself (counted),
+// then a real client gets in; eight real clients fill the places and a ninth is refused with 503
+// until one of them leaves.
+TEST(FoxgloveServer, AnUpgradeNotDoneInTimeIsClosedAndTheRealClientsGetIn) {
+  ServerOptions o;
+  o.port = 0;
+  o.upgrade_timeout = std::chrono::milliseconds(200);
+  Server server(o, channels());
+  const auto port = server.listen();
+  server.start();
+  Idles idle = idle_connections(port);
+  EXPECT_EQ(until_closed(idle, 20), 20U) << "an upgrade that never ends is closed by the server";
+  ASSERT_TRUE(eventually([&] { return server.stats().upgrades == 0; }));
+  const auto s = server.stats();
+  EXPECT_EQ(s.upgrades_timed_out + s.clients_refused, 20U)
+      << s.upgrades_timed_out << " timed out, " << s.clients_refused << " refused";
+  EXPECT_GE(s.upgrades_timed_out, 1U);
+
+  std::vector<std::unique_ptr<Client>> real;
+  for (int i = 0; i < 8; ++i) {
+    real.push_back(std::make_unique<Client>(port));
+    EXPECT_EQ(real.back()->text()["op"], "serverInfo");
+  }
+  ASSERT_TRUE(eventually([&] { return server.stats().clients == 8; }));
+  {
+    asio::io_context ioc;
+    websocket::stream<tcp::socket> ninth{ioc};
+    ninth.next_layer().connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), port));
+    ninth.set_option(websocket::stream_base::decorator([](websocket::request_type& req) {
+      req.set(http::field::sec_websocket_protocol, kSubprotocol);
+    }));
+    websocket::response_type res;
+    beast::error_code ec;
+    ninth.handshake(res, "127.0.0.1:" + std::to_string(port), "/", ec);
+    // An HTTP answer that is not the upgrade (the 503: Beast 1.74 does not hand its status over).
+    EXPECT_EQ(ec, websocket::error::upgrade_declined) << ec.message() << ": a ninth client got in?";
+  }
+  real.pop_back();  // one leaves: its place comes back
+  ASSERT_TRUE(eventually([&] { return server.stats().clients == 7; }));
+  Client ninth(port);
+  EXPECT_EQ(ninth.text()["op"], "serverInfo");
+  EXPECT_TRUE(eventually([&] { return server.stats().clients == 8; }));
   server.stop();
 }
 

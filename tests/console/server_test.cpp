@@ -132,6 +132,19 @@ TEST_F(Fixture, ServesItsPageOnlyToItsOwnHostAndOnlyItsFiles) {
   EXPECT_NE(state_json().find("\"connected\":false"), std::string::npos);
 }
 
+// The page disables an observer's buttons for the ops whose request the message table says needs
+// the controller (protocol/message_table.hpp); a stop never does.
+TEST_F(Fixture, TellsThePageWhichOpsNeedTheControllerFromTheMessageTable) {
+  const std::string state = state_json();
+  for (const char* op : {"send", "align", "engage", "reset", "drive", "approach"}) {
+    EXPECT_NE(state.find("\"" + std::string(op) + "\":true"), std::string::npos) << op << state;
+  }
+  for (const char* op : {"stop", "estop", "save_recording"}) {
+    EXPECT_NE(state.find("\"" + std::string(op) + "\":false"), std::string::npos) << op << state;
+  }
+  EXPECT_NE(state.find("\"controller_only\":{\"send\":true"), std::string::npos) << state;
+}
+
 TEST_F(Fixture, RefusesAWebSocketFromAnotherSite) {
   EXPECT_THROW(Ws(port, "http://evil.example"), boost::system::system_error);
   Ws ok(port, "http://127.0.0.1:" + std::to_string(port));

@@ -176,7 +176,7 @@ TEST_F(LoopDrive, AJogStartPostedBeforeAStopNeverReachesTheCard) {
 }
 
 TEST_F(LoopDrive, DeadmanStopsAJogAndLatches) {
-  settings.deadman_timeout_s = 0.1;
+  settings.safety.deadman_timeout_s = 0.1;
   make_loop();
   loop->heartbeat(now());
   ASSERT_TRUE(loop->post_drive(drive(5, true, 0.3, 0.0)));

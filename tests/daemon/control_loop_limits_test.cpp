@@ -101,7 +101,7 @@ TEST_F(LoopLimits, TheJogRampAtTheCardStaysWithinTheDriveLimits) {
 class LoopDeadlines : public ajar::testing::DetLoopTest {
  protected:
   void configure(ControlLoopSettings& s) override {
-    s.motion_timeout_margin_s = 0.2;
+    s.control.motion_timeout_margin_s = 0.2;
     s.drive.command_timeout_s = 0.5;
   }
   // Holds a 0.1 m/s jog (the wheels' top speed) for `cycles`, re-sending the Drive.
@@ -137,7 +137,7 @@ class LoopDeadlines : public ajar::testing::DetLoopTest {
     const double ramp_s = 0.1 / d.max_linear_accel_m_s2;
     const double wheel_s =
         settings.base.max_wheel_speed_rad_s / settings.base.max_wheel_accel_rad_s2;
-    const double s = ramp_s + 1.5 * wheel_s + settings.motion_timeout_margin_s;
+    const double s = ramp_s + 1.5 * wheel_s + settings.control.motion_timeout_margin_s;
     return static_cast<int>(s / 0.002) + 2;
   }
 };
@@ -180,7 +180,7 @@ TEST_F(LoopDeadlines, AJogWhoseCardMissesOnlyTheLastUpdateTimesOut) {
   const int cycles = run_until_fault(4000);
   const auto& b = settings.base;
   EXPECT_LE(cycles, static_cast<int>((b.max_wheel_speed_rad_s / b.max_wheel_accel_rad_s2 * 1.5 +
-                                      settings.motion_timeout_margin_s) /
+                                      settings.control.motion_timeout_margin_s) /
                                      0.002) +
                         3);
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kMotionTimeout);
@@ -238,7 +238,7 @@ TEST_F(LoopDeadlines, AMoveTheCardDoesNotApplyMissesItsDeadlineAndIsEmergencySto
   card.drop_next_calls(CardCall::kMoveRelative);
   ASSERT_TRUE(loop->post_move({1, 1000, -1000}));
   const double deadline_s = planned_duration_s(1000, wheel_profile(settings.base)) * 1.5 +
-                            settings.motion_timeout_margin_s;
+                            settings.control.motion_timeout_margin_s;
   const int cycles = run_until_fault(2000);
   EXPECT_LE(cycles, static_cast<int>(deadline_s / 0.002) + 2);
   EXPECT_GE(cycles, static_cast<int>(deadline_s / 0.002) - 1);

@@ -21,9 +21,9 @@ constexpr std::int64_t kMs = 1'000'000;
 class ControlLoopTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    settings.rate_hz = 500;
-    settings.deadman_timeout_s = 0.5;
-    settings.motion_timeout_margin_s = 2.0;
+    settings.control.rate_hz = 500;
+    settings.safety.deadman_timeout_s = 0.5;
+    settings.control.motion_timeout_margin_s = 2.0;
     make_loop();
   }
   // A loop over a new card: on the test's clock, or (real_clock) a plain mock on the steady clock.
@@ -177,7 +177,7 @@ TEST_F(ControlLoopTest, MotionDeadlineStopsAndLatchesTimeout) {
   run(1);
   const auto profile = wheel_profile(settings.base);
   const double deadline_s =
-      planned_duration_s(1000, profile) * 1.5 + settings.motion_timeout_margin_s;
+      planned_duration_s(1000, profile) * 1.5 + settings.control.motion_timeout_margin_s;
   const int cycles = static_cast<int>(deadline_s / 0.002) + 2;
   run(cycles - 3);
   EXPECT_TRUE(reports().empty());  // not before the deadline
@@ -191,7 +191,7 @@ TEST_F(ControlLoopTest, DeadmanStopsASilentControllersMotion) {
   card->stick_next_move();
   loop->heartbeat(now());
   ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
-  const int silent_cycles = static_cast<int>(settings.deadman_timeout_s / 0.002);
+  const int silent_cycles = static_cast<int>(settings.safety.deadman_timeout_s / 0.002);
   run(silent_cycles - 2, /*heartbeat=*/false);
   EXPECT_TRUE(reports().empty());
   run(10, /*heartbeat=*/false);
@@ -212,7 +212,7 @@ TEST_F(ControlLoopTest, FreshHeartbeatsKeepTheMotionGoing) {
 TEST_F(ControlLoopTest, DeadmanAlsoWatchesTheArm) {
   loop->heartbeat(now());
   loop->set_arm_moving(true);
-  run(static_cast<int>(settings.deadman_timeout_s / 0.002) + 2, false);
+  run(static_cast<int>(settings.safety.deadman_timeout_s / 0.002) + 2, false);
   EXPECT_TRUE(has(reports(), LoopReportKind::kFault, ErrorCode::kDeadman));
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kDeadman);
 }
@@ -294,8 +294,8 @@ TEST_F(ControlLoopTest, CardRefusingTheMoveLatchesAndReports) {
 }
 
 TEST_F(ControlLoopTest, ThreadRunsAndHealthFollowsTheLoop) {
-  settings.realtime = true;  // refused without privileges: a warning, and it still runs
-  settings.lock_memory = true;
+  settings.control.realtime = true;  // refused without privileges: a warning, and it still runs
+  settings.control.lock_memory = true;
   make_loop(/*real_clock=*/true);
   EXPECT_FALSE(loop->healthy(monotonic_now_ns()));
   const auto warnings = loop->start_thread();

@@ -19,8 +19,8 @@ class DetLoopTest : public ::testing::Test {
 
  protected:
   void SetUp() override {
-    settings.rate_hz = 500;
-    settings.deadman_timeout_s = 30;
+    settings.control.rate_hz = 500;
+    settings.safety.deadman_timeout_s = 30;
     configure(settings);
     left_axis = settings.base.left.card_axis;
     right_axis = settings.base.right.card_axis;

@@ -136,5 +136,53 @@ TEST(EndToEndRecorder, AFullDiskChangesNothingForTheLoopOrTheSessionsAndIsReport
   EXPECT_GT(c.write_failures, 0U) << "what the full disk cost is counted";
 }
 
+// A recorder thread stalled in its first write (a hung disk; the test hook's wait ends at stop()):
+// the loop's lock-free ring fills and drops, the daemon never waits for it, and Status (protocol
+// 1.2) says so: recording, the file, nothing written yet, the drops — the recorder's own counters.
+TEST(EndToEndRecorder, AStalledWriterDropsAndStatusReportsTheRecordersCounters) {
+  TempDir dir;
+  daemon::Config config = e2e_config(drivers::DriverKind::kMock, dir.path());
+  config.recorder.debug_write_delay_ms = 3'600'000;  // every write waits an hour, or until stop
+  config.recorder.loop_decimation = 1;               // fills the ring in ~8 s at 500 Hz
+  InProcessDaemon d(config);
+  TestClient observer(d.port());
+  ASSERT_EQ(observer.hello(Role::kObserver).version_minor, 2);
+  protocol::Status s;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(90);
+  do {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    s = observer.request_as<protocol::Status>(protocol::GetStatus{});
+  } while (s.recorder.loop_dropped == 0 && std::chrono::steady_clock::now() < until);
+  const auto after = d.engine().recorder()->counters();
+  const protocol::RecorderState& r = s.recorder;
+  EXPECT_TRUE(r.enabled);
+  EXPECT_EQ(r.mode, protocol::RecorderMode::kRecording);
+  EXPECT_TRUE(r.file.view().starts_with("ajard-") && r.file.view().ends_with(".mcap"))
+      << r.file.view();
+  EXPECT_EQ(r.records_written, 0U) << "the writer is stuck in its first write";
+  EXPECT_EQ(r.last_write_ns, 0U) << "recording and no write yet: a stalled disk";
+  EXPECT_EQ(r.max_bytes, static_cast<std::uint64_t>(config.recorder.max_bytes));
+  ASSERT_GT(r.loop_dropped, 0U) << "a full ring drops (and Status says so)";
+  EXPECT_LE(r.loop_dropped, r.loop_samples);
+  EXPECT_EQ(r.loop_samples - r.loop_dropped, recorder::Recorder::kLoopRingCapacity)
+      << "the ring holds exactly its capacity: everything else was dropped";
+  // Status carries the recorder's counters (read before; they only grow).
+  EXPECT_LE(r.loop_dropped, after.loop_dropped);
+  EXPECT_LE(r.loop_samples, after.loop_samples);
+  EXPECT_LE(r.io_records, after.io_records);
+  EXPECT_EQ(std::string(r.file.view()), after.file);
+  // The daemon goes on: the loop cycles, the sessions are served, the procedure is acked.
+  daemon_keeps_serving(d);
+  const auto later = observer.request_as<protocol::Status>(protocol::GetStatus{});
+  EXPECT_GT(later.recorder.loop_dropped, r.loop_dropped) << "the loop kept offering, and dropping";
+  d.stop();  // cuts the hour short: the file is written and closed
+  const auto end = d.engine().recorder()->counters();
+  const auto files = mcap_files(config.recorder.directory);
+  ASSERT_EQ(files.size(), 1U);
+  const auto f = recorder::test::read_mcap(recorder::test::file_bytes(files[0]));
+  EXPECT_EQ(f.counts.at(recorder::kLoopChannel) + end.loop_dropped + end.write_failures,
+            end.loop_samples);
+}
+
 }  // namespace
 }  // namespace ajar::test

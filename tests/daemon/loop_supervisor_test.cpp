@@ -33,7 +33,7 @@ class LoopSupervisorTest : public ::testing::Test {
     ASSERT_EQ(card.enable_axes(kWheels), ErrorCode::kOk);
     const drivers::AxisVelocity jog[2] = {{1, 5.0}, {2, -5.0}};
     ASSERT_EQ(card.jog(jog, {}), ErrorCode::kOk);  // the wheels turn: a jog
-    settings.loop_rate_hz = 500;
+    settings.rate_hz = 500;
     settings.stall_timeout_s = 0.1;
     make();
   }
@@ -228,7 +228,7 @@ TEST_F(LoopSupervisorTest, AStopTheCardRefusesIsReportedAndTheStallStillLatches)
 }
 
 TEST_F(LoopSupervisorTest, TheTimeoutIsAtLeastTwoLoopPeriods) {
-  settings.loop_rate_hz = 10;  // 100 ms periods
+  settings.rate_hz = 10;  // 100 ms periods
   settings.stall_timeout_s = 0.005;
   make();
   EXPECT_EQ(supervisor->stall_timeout_ns(), 200 * kMs);
@@ -274,7 +274,7 @@ TEST(LoopSupervisorWatchdog, TheSupervisorActsBeforeSystemdsWatchdogForEveryAcce
 
   drivers::MockMotionCard card;
   LoopSupervisorSettings settings;
-  settings.loop_rate_hz = 10;  // the slowest loop the config accepts: the longest floor
+  settings.rate_hz = 10;  // the slowest loop the config accepts: the longest floor
   settings.stall_timeout_s = c.control.stall_timeout_s;
   const LoopSupervisor supervisor(SupervisedLoop{[] { return true; }, [] { return 0; }, [] {}, {}},
                                   card, kWheels, settings);

@@ -151,11 +151,12 @@ TEST_F(ProtocolVersions, AOneOneSessionOnTheSameDaemonGetsOneOneLayouts) {
   EXPECT_EQ(refused.header.version_minor, 1);
   EXPECT_EQ(refused.header.request_id, 4u);
 
-  TestClient now(server_.port());  // a 1.2 client: Status and Event carry base_motion (1.2)
+  TestClient now(server_.port());  // a 1.2 client: Status and Event carry base_motion, Status
+                                   // the recorder's state (1.2)
   now.send_raw(frame_at(hello_as(Role::kObserver), 1, 2));
   EXPECT_EQ(read_until(now.socket(), MessageType::kWelcome).header.version_minor, 2);
   now.send_raw(frame_at(protocol::GetStatus{}, 2, 2));
-  EXPECT_EQ(read_until(now.socket(), MessageType::kStatus).header.payload_length, 465u);
+  EXPECT_EQ(read_until(now.socket(), MessageType::kStatus).header.payload_length, 616u);
 
   // One event, three layouts: each session gets its own minor's header and length.
   protocol::Event event;

@@ -59,6 +59,7 @@
 #include "campaign_seeds.hpp"
 #include "det_mock_card.hpp"
 #include "fake_door.hpp"
+#include "recording_link.hpp"
 
 namespace ajar::testing::reply_order {
 namespace {
@@ -143,26 +144,12 @@ struct Item {
   bool is_stop = false;          // 'R': the Ack of a Stop or EmergencyStop
 };
 
-class Link final : public daemon::SessionLink {
+class Link final : public RecordingLink {
  public:
   Link(std::uint64_t id, std::uint64_t client_instance)
-      : id_(id), instance(client_instance), peer_("127.0.0.1:" + std::to_string(50000 + id)) {}
-  std::uint64_t id() const noexcept override { return id_; }
-  const std::string& peer() const noexcept override { return peer_; }
-  bool send(daemon::SharedFrame frame) override {
-    if (closed) return false;
-    frames.push_back(std::move(frame));
-    return true;
-  }
-  void close_after_flush(std::string_view) override { closed = true; }
-  void abort(std::string_view) override { closed = true; }
+      : RecordingLink(id, client_instance, 50000 + id) {}
 
-  std::uint64_t id_;
-  std::uint64_t instance;
-  std::string peer_;
-  bool closed = false;
-  bool greeted = false;  // the model's view
-  std::vector<daemon::SharedFrame> frames;
+  bool greeted = false;     // the model's view
   std::size_t checked = 0;  // frames already matched against `expected`
   std::size_t matched = 0;  // items of `expected` received
   std::vector<Item> expected;

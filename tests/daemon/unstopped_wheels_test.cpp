@@ -33,7 +33,7 @@ class UnstoppedWheels : public ajar::testing::DetLoopTest {
     s.drive.max_angular_speed_rad_s = 0.6;
     s.drive.max_angular_accel_rad_s2 = 1.0;
     s.drive.command_timeout_s = 0.5;
-    s.motion_timeout_margin_s = 2.0;  // the default: a stop's deadline is seconds away
+    s.control.motion_timeout_margin_s = 2.0;  // the default: a stop's deadline is seconds away
   }
   // A jog at 0.3 m/s, the key held.
   void jog_at_speed() {

@@ -23,13 +23,13 @@ namespace {
 TEST(Decode, HeaderErrors) {
   const Bytes ping = encode_bytes(Envelope{0x55, 0, Ping{9}});
   Bytes b = ping;
-  b[0] = 'B';
+  b[kOffsetMagic] = 'B';
   auto e = decode_error(b);
   EXPECT_EQ(e.code, ErrorCode::kBadMagic);
   EXPECT_TRUE(e.framing_lost);
 
   b = ping;
-  b[4] = 0;
+  b[kOffsetVersionMajor] = 0;
   refresh_crc(b);
   e = decode_error(b);
   EXPECT_EQ(e.code, ErrorCode::kUnsupportedVersion);
@@ -38,21 +38,21 @@ TEST(Decode, HeaderErrors) {
   EXPECT_EQ(e.type, 0x0102);
 
   b = ping;
-  b[20] ^= 0xFF;
+  b[kOffsetCrc + 2] ^= 0xFF;
   e = decode_error(b);
   EXPECT_EQ(e.code, ErrorCode::kCrcMismatch);
   EXPECT_FALSE(e.framing_lost);
   EXPECT_EQ(e.request_id, 0x55u);
 
   b = ping;
-  b[9] = 0x40;  // flags 0x4000
+  b[kOffsetFlags + 1] = 0x40;  // flags 0x4000
   refresh_crc(b);
   e = decode_error(b);
   EXPECT_EQ(e.code, ErrorCode::kUnknownFlags);
   EXPECT_FALSE(e.framing_lost);
 
   b = ping;
-  b[8] = kFlagRetransmit;
+  b[kOffsetFlags] = kFlagRetransmit;
   refresh_crc(b);
   const auto ok = decode_frame(b);
   ASSERT_EQ(ok.kind, StreamDecoder::Kind::kMessage);
@@ -87,7 +87,7 @@ TEST(Decode, NewerMinorMayAppendButOlderMayNot) {
   b.push_back(0xAB);
   set_length(b);
   EXPECT_EQ(decode_error(b).code, ErrorCode::kBadPayloadLength);
-  b[5] = kVersionMinor + 1;  // a newer minor
+  b[kOffsetVersionMinor] = kVersionMinor + 1;  // a newer minor
   refresh_crc(b);
   const auto out = decode_frame(b);
   ASSERT_EQ(out.kind, StreamDecoder::Kind::kMessage);
@@ -95,7 +95,7 @@ TEST(Decode, NewerMinorMayAppendButOlderMayNot) {
   // Even a newer minor must not shorten a payload.
   Bytes s = encode_bytes(Envelope{1, 0, Ping{77}});
   s.pop_back();
-  s[5] = kVersionMinor + 1;
+  s[kOffsetVersionMinor] = kVersionMinor + 1;
   set_length(s);
   EXPECT_EQ(decode_error(s).code, ErrorCode::kBadPayloadLength);
 }

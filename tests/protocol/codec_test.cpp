@@ -107,7 +107,7 @@ TEST(HandWritten, Drive11) {
   EXPECT_EQ(m.angular_rad_s, -0.125);
   EXPECT_EQ(encode_bytes(Envelope{16, 0, Drive{0.25, -0.125}}, 1), b);
   // The same type in a frame that says 1.0: 1.0 has no Drive.
-  b[5] = 0;
+  b[kOffsetVersionMinor] = 0;
   refresh_crc(b);
   const auto e = decode_frame(b);
   ASSERT_EQ(e.kind, StreamDecoder::Kind::kError);
@@ -169,15 +169,15 @@ TEST(Compatibility, OneZeroLayoutsRoundTrip) {
 
   // A 1.0 frame with the 1.1 length, and a 1.1 frame with the 1.0 length, are both refused.
   Bytes b = encode_bytes(Envelope{3, 0, Status{}});
-  b[5] = 0;
+  b[kOffsetVersionMinor] = 0;
   refresh_crc(b);
   auto e = decode_frame(b);
   ASSERT_EQ(e.kind, StreamDecoder::Kind::kError);
   EXPECT_EQ(e.error.code, ErrorCode::kBadPayloadLength);
   EXPECT_EQ(describe(e.error),
-            "header.payload_length is 465: Status in protocol 1.0 has 285 bytes");
+            "header.payload_length is 616: Status in protocol 1.0 has 285 bytes");
   b = encode_bytes(Envelope{3, 0, Status{}}, 0);
-  b[5] = 1;
+  b[kOffsetVersionMinor] = 1;
   refresh_crc(b);
   e = decode_frame(b);
   ASSERT_EQ(e.kind, StreamDecoder::Kind::kError);
@@ -204,12 +204,12 @@ TEST(Describe, SentencesNameTheFieldAndWhy) {
   patch(0, 2);
   EXPECT_EQ(describe(decode_frame(b).error), "clear_parameters is 2: a bool is 0 or 1");
   b = encode_bytes(Envelope{3, 0, Ping{}});
-  b[9] = 0x40;
+  b[kOffsetFlags + 1] = 0x40;
   refresh_crc(b);
   EXPECT_EQ(describe(decode_frame(b).error),
             "header.flags is 0x4000: reserved bits set (this version knows 0x0001): not executed");
   b = encode_bytes(Envelope{3, 0, Ping{}});
-  b[6] = 0x99;
+  b[kOffsetType] = 0x99;
   refresh_crc(b);
   EXPECT_EQ(describe(decode_frame(b).error),
             "header.type 0x0199 is not a message type of protocol 1.2: not executed");
@@ -230,7 +230,7 @@ TEST(Describe, SentencesNameTheFieldAndWhy) {
   patch(0, 2);
   EXPECT_EQ(describe(decode_frame(b).error), "count is 2: allowed 3..16");
   b = encode_bytes(Envelope{3, 0, Ping{}});
-  b[4] = 2;
+  b[kOffsetVersionMajor] = 2;
   refresh_crc(b);
   EXPECT_EQ(describe(decode_frame(b).error),
             "header.version_major is 2: this peer speaks protocol 1.x only: closing the "
@@ -291,7 +291,7 @@ TEST(Encode, SizesFollowTheSpec) {
   EXPECT_EQ(size_of(Pong{}), kHeaderSize + 16);
   EXPECT_EQ(size_of(ErrorReply{}), kHeaderSize + 238);
   EXPECT_EQ(size_of(Event{}), kHeaderSize + 134);      // 1.2: base_motion appended
-  EXPECT_EQ(size_of(Status{}), kHeaderSize + 465);     // 464 in 1.1
+  EXPECT_EQ(size_of(Status{}), kHeaderSize + 616);     // 464 in 1.1, 465 + RecorderState
   EXPECT_EQ(size_of(Telemetry{}), kHeaderSize + 264);  // 263 in 1.1
   EXPECT_EQ(size_of(Drive{}), kHeaderSize + 16);
   EXPECT_EQ(size_of(Approach{}), kHeaderSize + 8);

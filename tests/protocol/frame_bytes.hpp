@@ -19,18 +19,18 @@ inline Bytes encode_bytes(const Envelope& e, std::uint8_t minor = kVersionMinor)
   return out;
 }
 
-// Recomputes the CRC after a test patched a frame (header bytes 0..17 + payload).
+// Recomputes the CRC after a test patched a frame (the header before the CRC + payload).
 inline void refresh_crc(Bytes& b) {
-  Bytes covered(b.begin(), b.begin() + 18);
-  covered.insert(covered.end(), b.begin() + 22, b.end());
+  Bytes covered(b.begin(), b.begin() + kOffsetCrc);
+  covered.insert(covered.end(), b.begin() + kHeaderSize, b.end());
   const std::uint32_t crc = crc32c(covered);
   for (std::size_t i = 0; i < 4; ++i)
-    b[18 + i] = static_cast<std::uint8_t>(crc >> (8 * i));
+    b[kOffsetCrc + i] = static_cast<std::uint8_t>(crc >> (8 * i));
 }
 inline void set_length(Bytes& b) {
   const auto n = static_cast<std::uint32_t>(b.size() - kHeaderSize);
   for (std::size_t i = 0; i < 4; ++i)
-    b[14 + i] = static_cast<std::uint8_t>(n >> (8 * i));
+    b[kOffsetPayloadLength + i] = static_cast<std::uint8_t>(n >> (8 * i));
   refresh_crc(b);
 }
 

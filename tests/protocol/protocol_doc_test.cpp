@@ -1,7 +1,8 @@
 // docs/protocol.md against the message tables: the message type table (section 4), the enum words
 // (4.1) and every payload layout table of section 5 (offsets, wire types, field names, the sizes
 // in the headings, what 1.1 appended) must say what the codec encodes. The document is parsed,
-// its structure rows expanded into wire fields, and compared with payload_layout().
+// its structure rows expanded into wire fields, and compared with payload_layout(); the error
+// table (section 8) must be core's error table, row by row.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,7 +15,9 @@
 #include <string>
 #include <vector>
 
+#include "ajar/protocol/codec.hpp"
 #include "ajar/protocol/layout.hpp"
+#include "ajar/protocol/message_table.hpp"
 
 namespace ajar::protocol {
 namespace {
@@ -241,8 +244,11 @@ TEST(Layout, OffsetsFollowTheMinorAndTheValue) {
   EXPECT_EQ(offset_of(plane, "points[15].z"), 1 + 15 * 25 + 17);
   const auto status = payload_layout(Status{});
   ASSERT_FALSE(status.empty());
-  EXPECT_EQ(status.back().name, "base_motion");
+  EXPECT_EQ(status.back().name, "recorder.last_write_ns");
   EXPECT_EQ(status.back().since, 2);
+  EXPECT_EQ(offset_of(Status{}, "base_motion"), 464);
+  EXPECT_EQ(offset_of(Status{}, "recorder.enabled"), 465);
+  EXPECT_EQ(offset_of(Status{}, "recorder.enabled", 1), -1);
   EXPECT_EQ(payload_layout(Status{}, 1).back().name, "realtime.memory_locked");
   EXPECT_EQ(payload_layout(Status{}, 1).back().since, 1);
   EXPECT_EQ(status.front().since, 0);
@@ -418,6 +424,76 @@ TEST(ProtocolDoc, DoorPlaneTableIsTheCodecs) {
   }
 }
 
+// Section 2's header table is kHeaderFields (codec.hpp): each field's offset, size and name, in
+// order, then the payload at kHeaderSize.
+TEST(ProtocolDoc, HeaderTableIsTheCodecsOffsets) {
+  const Doc& doc = the_doc();
+  std::vector<std::vector<std::string>> rows;
+  bool in_table = false;
+  for (const auto& line : doc.lines()) {
+    if (line.starts_with("| offset | size | type | field |")) {
+      in_table = true;
+      continue;
+    }
+    if (in_table && !line.starts_with("|")) break;
+    if (in_table && !line.starts_with("| ---")) rows.push_back(cells(line));
+  }
+  ASSERT_EQ(rows.size(), kHeaderFields.size() + 1) << "section 2: one row per field + payload";
+  for (std::size_t i = 0; i < kHeaderFields.size(); ++i) {
+    const HeaderField& f = kHeaderFields[i];
+    EXPECT_EQ(rows[i].at(0), std::to_string(f.offset)) << f.name;
+    EXPECT_EQ(rows[i].at(1), std::to_string(f.size)) << f.name;
+    EXPECT_EQ(rows[i].at(3), f.name);
+    if (i + 1 < kHeaderFields.size()) {
+      EXPECT_EQ(f.offset + f.size, kHeaderFields[i + 1].offset);
+    }
+  }
+  EXPECT_EQ(rows.back().at(0), std::to_string(kHeaderSize));
+  EXPECT_EQ(rows.back().at(3), "payload");
+}
+
+// Section 8 is the error table (core/include/ajar/core/error.hpp, AJAR_ERROR_CODES) row by row:
+// code, name, meaning and what to do (the doc's `code` marks aside), every code once, both ways.
+TEST(ProtocolDoc, ErrorTableIsTheErrorCodes) {
+  const Doc& doc = the_doc();
+  const auto plain = [](std::string text) {
+    std::erase(text, '`');
+    return text;
+  };
+  std::map<unsigned, std::vector<std::string>> documented;
+  bool in_section = false;
+  for (const auto& line : doc.lines()) {
+    if (line.starts_with("## ")) in_section = line.starts_with("## 8. Error codes");
+    if (!in_section || !std::regex_search(line, std::regex(R"(^\| \d+ \|)"))) continue;
+    const auto c = cells(line);
+    ASSERT_EQ(c.size(), 4u) << line;
+    EXPECT_TRUE(documented.emplace(std::stoul(c[0]), c).second) << "twice: " << line;
+  }
+  for (const ErrorInfo& row : error_table()) {
+    const auto code = static_cast<unsigned>(row.value);
+    const std::string expected = "| " + std::to_string(code) + " | " + std::string(row.word) +
+                                 " | " + std::string(row.meaning) + " | " +
+                                 std::string(row.action) + " |";
+    const auto it = documented.find(code);
+    if (it == documented.end()) {
+      ADD_FAILURE() << "section 8 lacks code " << code << "; expected the row\n" << expected;
+      continue;
+    }
+    const auto& c = it->second;
+    EXPECT_EQ(c[1], row.word) << "code " << code << ", expected\n" << expected;
+    EXPECT_EQ(plain(c[2]), row.meaning) << "code " << code << ", expected\n" << expected;
+    EXPECT_EQ(plain(c[3]), row.action) << "code " << code << ", expected\n" << expected;
+    EXPECT_EQ(error_code_from_string(row.word), row.value);
+    EXPECT_EQ(to_string(row.value), row.word);
+    documented.erase(it);
+  }
+  for (const auto& [code, c] : documented)
+    ADD_FAILURE() << "section 8 lists code " << code << " (" << c[1]
+                  << "), which error.hpp does not have";
+  EXPECT_EQ(to_string(static_cast<ErrorCode>(999)), "UNKNOWN");
+  EXPECT_EQ(error_code_from_string("UNKNOWN"), std::nullopt);
+}
+
 // Every type has its section; those "(0 bytes" have no payload.
 TEST(ProtocolDoc, EveryTypeHasItsSection) {
   const Doc& doc = the_doc();
@@ -437,6 +513,62 @@ TEST(ProtocolDoc, EveryTypeHasItsSection) {
   }
   for (const auto& [t, m] : all_types())
     EXPECT_TRUE(documented.count(t)) << to_string(t) << " has no section 5.x";
+}
+
+// Section 4.2 is the message table's policy columns (message_table.hpp), row by row: who may send
+// each request, whether a repeat is executed again, whether its Ack waits for the save, whether it
+// starts a motion, whether it waits for the wheels to be at rest; every request once.
+TEST(ProtocolDoc, PolicyTableIsTheMessageTables) {
+  const Doc& doc = the_doc();
+  const auto yes_no = [](bool b) { return std::string(b ? "yes" : "no"); };
+  std::map<std::string, std::vector<std::string>> documented;
+  bool in_section = false;
+  for (const auto& line : doc.lines()) {
+    if (line.starts_with("### ") || line.starts_with("## ")) {
+      in_section = line.starts_with("### 4.2 ");
+    }
+    if (!in_section || !line.starts_with("| ") || line.starts_with("| message") ||
+        line.starts_with("| ---")) {
+      continue;
+    }
+    const auto c = cells(line);
+    ASSERT_EQ(c.size(), 6u) << line;
+    // "Drive (1.1)": the name; the minor is section 4's.
+    const std::string name = c[0].substr(0, c[0].find(' '));
+    EXPECT_TRUE(documented.emplace(name, c).second) << "twice: " << line;
+  }
+  for (const auto& [type, message] : all_types()) {
+    if (!is_request(type)) {
+      EXPECT_EQ(policy_of(type).sender, Sender::kDaemon) << to_string(type);
+      continue;
+    }
+    const MessagePolicy& p = policy_of(type);
+    const std::string expected =
+        "| " + std::string(to_string(type)) + " | " + std::string(word_of(kSenderWords, p.sender)) +
+        " | " + yes_no(p.deduplicated) + " | " + yes_no(p.durable_ack) + " | " +
+        yes_no(p.starts_motion) + " | " + yes_no(p.needs_wheels_at_rest) + " |";
+    const auto it = documented.find(std::string(to_string(type)));
+    if (it == documented.end()) {
+      ADD_FAILURE() << "section 4.2 lacks " << to_string(type) << "; expected the row\n"
+                    << expected;
+      continue;
+    }
+    const auto& c = it->second;
+    EXPECT_EQ(c[1], word_of(kSenderWords, p.sender)) << "expected\n" << expected;
+    EXPECT_EQ(c[2], yes_no(p.deduplicated)) << "expected\n" << expected;
+    EXPECT_EQ(c[3], yes_no(p.durable_ack)) << "expected\n" << expected;
+    EXPECT_EQ(c[4], yes_no(p.starts_motion)) << "expected\n" << expected;
+    EXPECT_EQ(c[5], yes_no(p.needs_wheels_at_rest)) << "expected\n" << expected;
+    documented.erase(it);
+  }
+  for (const auto& [name, c] : documented)
+    ADD_FAILURE() << "section 4.2 lists " << name << ", which is not a host -> daemon message";
+  // The readers' shorthands say what the rows say.
+  EXPECT_TRUE(needs_controller(MessageType::kMeasureDoorWidth));
+  EXPECT_FALSE(needs_controller(MessageType::kStop));
+  EXPECT_TRUE(is_stop(MessageType::kEmergencyStop));
+  EXPECT_FALSE(is_stop(MessageType::kGetStatus));
+  EXPECT_EQ(policy_of(static_cast<MessageType>(0x01FF)).sender, Sender::kDaemon);
 }
 
 }  // namespace

@@ -329,6 +329,24 @@ inline std::vector<Sample> all() {
   status.loop = loop_stats();
   fill_motion(status);
   status.realtime = {SchedulingPolicy::kFifo, 80, true};
+  // 1.2 (absent from the `status` vector, which is 1.1; the v1_2_status vector has them)
+  status.base_motion = BaseMotion::kApproaching;
+  status.recorder.enabled = true;
+  status.recorder.mode = RecorderMode::kRecording;
+  status.recorder.file = "ajard-20261126T130501123Z.mcap";
+  status.recorder.file_bytes = 1234567;
+  status.recorder.directory_bytes = 45678901;
+  status.recorder.max_bytes = 536870912;
+  status.recorder.saved_bytes = 2345678;
+  status.recorder.disk_free_bytes = 9876543210;
+  status.recorder.records_written = 456789;
+  status.recorder.loop_samples = 400000;
+  status.recorder.loop_dropped = 17;
+  status.recorder.io_records = 56800;
+  status.recorder.io_dropped = 3;
+  status.recorder.records_lost = 11;
+  status.recorder.disk_refusals = 1;
+  status.recorder.last_write_ns = 4000000123ull;
   add("status", 14, status);
   Telemetry telemetry;
   telemetry.daemon_time_ns = 5500000000ull;

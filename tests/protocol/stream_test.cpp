@@ -156,10 +156,10 @@ TEST(Stream, OversizeIsRefusedFromTheHeaderAlone) {
   Bytes b;
   ASSERT_TRUE(encode_append(Envelope{9, 0, Ping{}}, b));
   b.resize(kHeaderSize);
-  b[14] = 0xFF;
-  b[15] = 0xFF;
-  b[16] = 0xFF;
-  b[17] = 0x7F;  // 2 GiB
+  b[kOffsetPayloadLength] = 0xFF;
+  b[kOffsetPayloadLength + 1] = 0xFF;
+  b[kOffsetPayloadLength + 2] = 0xFF;
+  b[kOffsetPayloadLength + 3] = 0x7F;  // 2 GiB
   StreamDecoder d;
   StreamDecoder::Outcome o;
   EXPECT_EQ(d.feed(b, o), kHeaderSize);

@@ -51,10 +51,10 @@ void put_u32(Bytes& b, std::size_t at, std::uint32_t v) {
 }
 // Sets the payload length from the buffer size and recomputes the CRC.
 void refresh(Bytes& b) {
-  put_u32(b, 14, static_cast<std::uint32_t>(b.size() - kHeaderSize));
-  Bytes covered(b.begin(), b.begin() + 18);
+  put_u32(b, kOffsetPayloadLength, static_cast<std::uint32_t>(b.size() - kHeaderSize));
+  Bytes covered(b.begin(), b.begin() + kOffsetCrc);
   covered.insert(covered.end(), b.begin() + static_cast<std::ptrdiff_t>(kHeaderSize), b.end());
-  put_u32(b, 18, crc32c(covered));
+  put_u32(b, kOffsetCrc, crc32c(covered));
 }
 void put_f64(Bytes& b, std::size_t at, double v) {
   const auto u = std::bit_cast<std::uint64_t>(v);
@@ -119,13 +119,24 @@ void good_vectors(std::vector<Written>& out) {
                           "the fields 1.1 appended are absent). Decodes; 1.1 fields read as 0."});
   }
 
+  // 1.2's Status: base_motion and the recorder's state appended.
+  {
+    GoldenVector v;
+    v.name = "v1_2_status";
+    v.direction = GoldenVector::Direction::kDaemonToHost;
+    v.bytes = encode_sample("status", 2);
+    out.push_back({v,
+                   "The status sample as protocol 1.2 sends it (header minor 2): base_motion "
+                   "(approaching) and recorder (RecorderState) appended to the 1.1 layout."});
+  }
+
   // A newer minor version may append fields: older decoders ignore the tail.
   {
     GoldenVector v;
     v.name = "newer_minor_appended_field";
     v.roundtrip = false;
     v.bytes = encode_sample("ping");
-    v.bytes[5] = 3;  // version 1.3 (newer than this library's 1.1)
+    v.bytes[kOffsetVersionMinor] = 3;  // version 1.3 (newer than this library's 1.1)
     for (const std::uint8_t x : Bytes{0xDE, 0xAD, 0xBE, 0xEF})
       v.bytes.push_back(x);
     refresh(v.bytes);
@@ -140,12 +151,12 @@ void header_vectors(std::vector<Written>& out) {
   const BadVector bad{out};
   bad(
       "bad_magic", "ping", ErrorCode::kBadMagic, true, "header.magic",
-      [](Bytes& b, std::size_t) { b[3] = 'X'; },
+      [](Bytes& b, std::size_t) { b[kOffsetMagic + 3] = 'X'; },
       "Magic \"AJAX\" instead of \"AJAR\": framing lost, close.");
   bad(
       "unsupported_version", "ping", ErrorCode::kUnsupportedVersion, true, "header.version_major",
       [](Bytes& b, std::size_t) {
-        b[4] = 2;
+        b[kOffsetVersionMajor] = 2;
         refresh(b);
       },
       "Major version 2: reply UNSUPPORTED_VERSION, then close.");
@@ -153,7 +164,7 @@ void header_vectors(std::vector<Written>& out) {
       "payload_too_large", "ping", ErrorCode::kPayloadTooLarge, true, "header.payload_length",
       [](Bytes& b, std::size_t) {
         b.resize(kHeaderSize);
-        put_u32(b, 14, 1025);
+        put_u32(b, kOffsetPayloadLength, 1025);
       },
       "Header announces 1025 payload bytes (max 1024): refused before reading the payload;\n"
       "framing lost. The vector is the header only.");
@@ -163,7 +174,7 @@ void header_vectors(std::vector<Written>& out) {
       "One payload bit flipped; the CRC no longer matches.");
   bad(
       "crc_mismatch_header", "ping", ErrorCode::kCrcMismatch, false, "header.crc",
-      [](Bytes& b, std::size_t) { b[10] ^= 0x80; },
+      [](Bytes& b, std::size_t) { b[kOffsetRequestId] ^= 0x80; },
       "Request id bit flipped: the CRC covers the header too.");
   bad(
       "bad_payload_length_short", "ping", ErrorCode::kBadPayloadLength, false,
@@ -192,14 +203,14 @@ void header_vectors(std::vector<Written>& out) {
   bad(
       "unknown_message_type", "stop", ErrorCode::kUnknownMessageType, false, "header.type",
       [](Bytes& b, std::size_t) {
-        put_u16(b, 6, 0x0199);
+        put_u16(b, kOffsetType, 0x0199);
         refresh(b);
       },
       "Type 0x0199 is not defined in v1: reply UNKNOWN_MESSAGE_TYPE, session continues.");
   bad(
       "unknown_flags", "ping", ErrorCode::kUnknownFlags, false, "header.flags",
       [](Bytes& b, std::size_t) {
-        put_u16(b, 8, 0x8001);
+        put_u16(b, kOffsetFlags, 0x8001);
         refresh(b);
       },
       "Reserved flag bit 15 set: refused with UNKNOWN_FLAGS, not executed, session continues.");
@@ -311,7 +322,7 @@ void version_vectors(std::vector<Written>& out) {
       "v1_0_status_with_1_1_length", "status", ErrorCode::kBadPayloadLength, false,
       "header.payload_length",
       [](Bytes& b, std::size_t) {
-        b[5] = 0;
+        b[kOffsetVersionMinor] = 0;
         refresh(b);
       },
       "A Status frame that says 1.0 but carries the 1.1 layout: a 1.0 frame must have the 1.0\n"
@@ -319,7 +330,7 @@ void version_vectors(std::vector<Written>& out) {
   bad(
       "v1_0_drive", "drive", ErrorCode::kUnknownMessageType, false, "header.type",
       [](Bytes& b, std::size_t) {
-        b[5] = 0;
+        b[kOffsetVersionMinor] = 0;
         refresh(b);
       },
       "Drive (0x0122) in a frame that says 1.0: 1.0 has no such type.");

@@ -153,7 +153,7 @@ TEST(Vectors, CheckVectorCatchesAWrongExpectation) {
   v.expect_ok = false;
   v.expected_error = ErrorCode::kCrcMismatch;
   EXPECT_FALSE(check_vector(v).ok());
-  v.bytes[25] ^= 1;
+  v.bytes[kHeaderSize + 3] ^= 1;
   EXPECT_TRUE(check_vector(v).ok());
   v.field = "header.flags";
   EXPECT_FALSE(check_vector(v).ok());

@@ -170,6 +170,10 @@ TEST(Recorder, RotationKeepsTheBudgetAndNeverRemovesASavedRecording) {
   const SaveResult s = saved.get_future().get();
   ASSERT_TRUE(s.ok) << s.error;
   ASSERT_FALSE(s.names.empty());
+  std::uint64_t saved_bytes = 0;
+  for (const auto& name : s.names)
+    saved_bytes += fs::file_size(dir.path / name);
+  EXPECT_EQ(r.counters().saved_bytes, saved_bytes) << "counted when saved";
   feed(4000);
   ASSERT_TRUE(eventually([&] { return r.counters().messages_written >= 6000; }));
   r.stop();
@@ -225,7 +229,7 @@ TEST(Recorder, ASlowDiskNeverBlocksTheInputsAndLosesOnlyWhatItCounts) {
   RecorderSettings settings;
   settings.directory = dir.path.string();
   settings.loop_decimation = 1;
-  settings.before_write = [] { std::this_thread::sleep_for(std::chrono::milliseconds(200)); };
+  settings.write_delay_ms = 200;
   Recorder r(settings, {});
   r.start();
   // Far more than the ring holds while the recorder thread sleeps in write: the inputs return
@@ -246,6 +250,49 @@ TEST(Recorder, ASlowDiskNeverBlocksTheInputsAndLosesOnlyWhatItCounts) {
   EXPECT_TRUE(f.complete);
   EXPECT_EQ(f.counts.at(kLoopChannel) + end.loop_dropped, end.loop_samples);
   EXPECT_EQ(f.counts.at(kWireChannel) + end.io_dropped, 100U);
+}
+
+// A disk that stalls in the first write (the write delay of an hour, cut short by stop()): start()
+// returns at once (the recorder thread opens the file), the counters say what happens meanwhile —
+// recording, nothing written, the ring full and dropping — and stop() returns at once with the file
+// written and closed; then the counters say where every record went and the bytes on disk.
+TEST(Recorder, AStalledDiskDelaysNeitherStartNorStopAndTheCountersSayWhereEveryRecordWent) {
+  TempDir dir;
+  RecorderSettings settings;
+  settings.directory = dir.path.string();
+  settings.loop_decimation = 1;
+  settings.write_delay_ms = 3'600'000;
+  Recorder r(settings, {});
+  auto started = std::async(std::launch::async, [&] { r.start(); });
+  ASSERT_EQ(started.wait_for(std::chrono::seconds(20)), std::future_status::ready)
+      << "start() waited for the disk";
+  ASSERT_TRUE(eventually([&] { return r.counters().recording; }));
+  for (std::uint64_t i = 1; i <= 3 * Recorder::kLoopRingCapacity; ++i)
+    offer(r, sample(i));
+  const auto c = r.counters();
+  EXPECT_EQ(c.mode, RecorderMode::kRecording);
+  EXPECT_TRUE(c.file.starts_with("ajard-") && c.file.ends_with(".mcap")) << c.file;
+  EXPECT_EQ(c.messages_written, 0U);
+  EXPECT_EQ(c.last_write_ns, 0U) << "recording and nothing written yet: a stalled disk";
+  EXPECT_EQ(c.loop_samples, 3 * Recorder::kLoopRingCapacity);
+  EXPECT_EQ(c.loop_dropped, 2 * Recorder::kLoopRingCapacity) << "the ring holds its capacity";
+  EXPECT_GT(c.disk_free_bytes, 0U);
+  auto stopped = std::async(std::launch::async, [&] { r.stop(); });
+  ASSERT_EQ(stopped.wait_for(std::chrono::seconds(20)), std::future_status::ready)
+      << "stop() waited for the disk";
+  const auto end = r.counters();
+  const auto files = recordings(dir.path);
+  ASSERT_EQ(files.size(), 1U);
+  const auto f = test::read_mcap(test::file_bytes(files[0]));
+  EXPECT_TRUE(f.complete);
+  EXPECT_EQ(f.counts.at(kLoopChannel), Recorder::kLoopRingCapacity);
+  EXPECT_EQ(end.messages_written, f.messages.size());
+  EXPECT_GT(end.last_write_ns, 0U);
+  EXPECT_EQ(end.mode, RecorderMode::kOff);
+  EXPECT_TRUE(end.file.empty());
+  EXPECT_EQ(end.file_bytes, 0U) << "no file open";
+  EXPECT_EQ(end.directory_bytes, fs::file_size(files[0]));
+  EXPECT_EQ(end.bytes_written, fs::file_size(files[0]));
 }
 
 // A full disk: a 256 KiB tmpfs (needs root: CI runs as root; skipped otherwise).
@@ -282,6 +329,9 @@ TEST(Recorder, AFullDiskIsLoggedOnceCountedAndTheFileStaysReadable) {
   EXPECT_EQ(log.size(), 1U) << "logged once per episode";
   const auto c = r.counters();
   EXPECT_TRUE(c.disk_full);
+  EXPECT_EQ(c.mode, RecorderMode::kDiskFull) << "the refusal stays said after the stop";
+  EXPECT_GE(c.disk_refusals, 1U);
+  EXPECT_TRUE(c.file.empty());
   EXPECT_EQ(c.loop_samples, cycle);
   // The file the disk refused was cut back to its last whole record: it reads to the end.
   const auto files = recordings(mnt);

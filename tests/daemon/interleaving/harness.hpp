@@ -13,6 +13,7 @@
 
 #include <stdlib.h>
 
+#include "../recording_link.hpp"
 #include "ajar/daemon/engine.hpp"
 #include "ajar/daemon/session_hub.hpp"
 #include "../fake_engine.hpp"
@@ -48,30 +49,16 @@ struct Coverage {
 using ajar::test::FakeEngine;
 
 // One client connection as the hub sees it; the frames it was sent are decoded by the test.
-class FakeLink final : public daemon::SessionLink {
+class FakeLink final : public RecordingLink {
  public:
   FakeLink(std::uint64_t id, std::uint64_t client_instance)
-      : id_(id), instance(client_instance), peer_("127.0.0.1:" + std::to_string(40000 + id)) {}
-  std::uint64_t id() const noexcept override { return id_; }
-  const std::string& peer() const noexcept override { return peer_; }
-  bool send(daemon::SharedFrame frame) override {
-    if (closed) return false;
-    frames.push_back(std::move(frame));
-    return true;
-  }
-  void close_after_flush(std::string_view) override { closed = true; }
-  void abort(std::string_view) override { closed = true; }
+      : RecordingLink(id, client_instance, 40000 + id) {}
 
   struct Expected {
     std::uint32_t request_id = 0;
     std::optional<protocol::Message> reply;  // when known (the engine's or the recorded reply)
     bool immediate = true;                   // false once it was seen held
   };
-  std::uint64_t id_;
-  std::uint64_t instance;  // Hello.client_instance_id
-  std::string peer_;
-  bool closed = false;
-  std::vector<daemon::SharedFrame> frames;
   std::deque<Expected> expected;
 };
 }  // namespace ajar::testing::interleaving

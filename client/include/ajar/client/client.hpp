@@ -68,6 +68,9 @@ struct Response {
   std::uint32_t request_id = 0;  // the id the request travelled with
   int attempts = 0;              // frames sent (1 + retries used)
   Milliseconds round_trip{0};    // send of the last attempt -> reply
+  // The session's protocol minor version (Welcome.version_minor) when the reply came; 0 unknown.
+  // The printers show the fields a later minor appended only when the session has them.
+  std::uint8_t session_minor = 0;
   bool ok() const { return outcome == CallOutcome::kReply; }
   template <typename T>
   const T* get() const {

@@ -29,7 +29,11 @@ void add_approach_fields(JsonObject& o, const protocol::ApproachAck& approach);
 // The loop's statistics (rate_hz, cycles, overruns, period_p50/p99/max_ns, jitter_p99_ns), in
 // Status and Telemetry; the console sends the same object.
 JsonObject loop_object(const protocol::LoopStatistics& loop);
-JsonObject status_object(const protocol::Status& status);
+// `session_minor`: the protocol minor the Status came in (Response::session_minor); the fields a
+// later minor appended (1.2: base_motion, recorder) are shown only when it has them.
+JsonObject status_object(const protocol::Status& status, std::uint8_t session_minor = 0);
+// Status.recorder (protocol 1.2) under its wire names; mode as its word.
+JsonObject recorder_object(const protocol::RecorderState& recorder);
 JsonObject welcome_object(const protocol::Welcome& welcome);
 // GetRobotModel's reply under the wire names of docs/protocol.md 5.22 (camera_to_base as three
 // rows of four).
@@ -45,6 +49,9 @@ JsonObject event_object(const protocol::Event& event);
 std::string event_text(const protocol::Event& event);
 JsonObject telemetry_object(const protocol::Telemetry& telemetry);
 std::string telemetry_text(const protocol::Telemetry& telemetry);
-std::string status_text(const protocol::Status& status);
+std::string status_text(const protocol::Status& status, std::uint8_t session_minor = 0);
+// "512 B", "12.3 KiB", "45.6 MiB" (binary units; KiB from 10 KiB, MiB from 10 MiB, GiB from 10
+// GiB).
+std::string bytes_text(std::uint64_t bytes);
 
 }  // namespace ajar::client

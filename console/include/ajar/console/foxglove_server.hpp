@@ -13,10 +13,14 @@
 // while nobody subscribes to the channel (one atomic load), otherwise it posts the payload's
 // builder to that thread, which builds it once and queues it for each subscriber.
 //
-// Bounds (slow or many clients): at most max_clients at once (more are refused with HTTP 503); per
-// client at most max_queued_messages / max_queued_bytes of data waiting — a new message pushes out
-// the oldest, counted in `messages_dropped`; a client whose write has made no progress for
-// stalled_write_timeout is disconnected, counted in `clients_disconnected_slow`.
+// Bounds (slow or many clients): at most max_clients connections at once, counting those still in
+// their HTTP/WebSocket upgrade — a connection beyond is refused at once with HTTP 503 (its request
+// is not read; at most max_clients such refusals are in flight, more are closed unanswered); an
+// upgrade not done within upgrade_timeout (a client that connects and sends nothing, or half a
+// request) is closed, counted in `upgrades_timed_out`; per client at most max_queued_messages /
+// max_queued_bytes of data waiting — a new message pushes out the oldest, counted in
+// `messages_dropped`; a client whose write has made no progress for stalled_write_timeout is
+// disconnected, counted in `clients_disconnected_slow`.
 #pragma once
 
 #include <atomic>
@@ -49,12 +53,15 @@ struct ServerOptions {
   std::size_t max_queued_messages = 64;      // per client, data waiting to be written
   std::size_t max_queued_bytes = 16u << 20;  // per client
   std::chrono::milliseconds stalled_write_timeout{5000};
+  std::chrono::milliseconds upgrade_timeout{5000};  // connect -> WebSocket open, or closed
 };
 
 struct ServerStats {
-  std::uint64_t clients = 0;  // connected now
+  std::uint64_t clients = 0;   // connected now
+  std::uint64_t upgrades = 0;  // connections in their HTTP/WebSocket upgrade now
   std::uint64_t clients_total = 0;
-  std::uint64_t clients_refused = 0;  // beyond max_clients, a bad Host/Origin, no subprotocol
+  std::uint64_t clients_refused = 0;     // beyond max_clients, a bad Host/Origin, no subprotocol
+  std::uint64_t upgrades_timed_out = 0;  // closed: not upgraded within upgrade_timeout
   std::uint64_t clients_disconnected_slow = 0;
   std::uint64_t messages_sent = 0;
   std::uint64_t messages_dropped = 0;  // pushed out of a full client queue

@@ -6,9 +6,12 @@
 //   base frame B:   mobile base, +x forward, +y left, +z up; origin at the turning centre O.
 #pragma once
 
+#include <array>
 #include <cstdint>
 
 #include <Eigen/Core>
+
+#include "ajar/core/words.hpp"
 
 namespace ajar::core {
 
@@ -25,6 +28,11 @@ struct FramedPoint {
 
 // Direction of rotation of a door or handle (paper, Algorithm 1 and Fig. 5b). Wire values stable.
 enum class RotationDirection : std::uint8_t { kClockwise = 0, kCounterClockwise = 1 };
+
+inline constexpr std::array<Word<Frame>, 2> kFrameWords{
+    {{Frame::kCamera, "camera"}, {Frame::kBase, "base"}}};
+inline constexpr std::array<Word<RotationDirection>, 2> kRotationDirectionWords{
+    {{RotationDirection::kClockwise, "CW"}, {RotationDirection::kCounterClockwise, "CCW"}}};
 
 const char* to_string(Frame frame) noexcept;            // "camera" | "base"
 const char* to_string(RotationDirection dir) noexcept;  // "CW" | "CCW"

@@ -19,6 +19,10 @@ namespace ajar::daemon {
 recorder::RecorderSettings recorder_settings(const Config& config,
                                              std::int64_t monotonic_origin_ns);
 
+// Status.recorder (protocol 1.2) from the recorder's atomics (never waits for its thread or the
+// disk); a null recorder: disabled, mode off, all zero.
+protocol::RecorderState recorder_state(const recorder::Recorder* r);
+
 // /ajar/events, and /ajar/faults for fault_latched / fault_cleared.
 void record_event(recorder::Recorder* r, const protocol::Event& event);
 // /ajar/faults: a fault latched (or cleared) without an event, e.g. restored at start.

@@ -155,11 +155,13 @@ Config load_config(const std::string& path);
 std::string to_yaml(const Config& config);
 
 // One key of the file: its dotted path ("drivers.arm.baud"), its value as flow YAML ("115200",
-// "[0.5, 2]", "\"\""), and what is allowed ("0.1..3600 s", "sim, mock, real", "PEM file").
+// "[0.5, 2]", "\"\""), what is allowed ("0.1..3600 s", "sim, mock, real", "PEM file") and what it
+// means (docs/configuration.md's meaning column, markdown).
 struct ConfigKey {
   std::string path;
   std::string value;
   std::string allowed;
+  std::string meaning;
 };
 
 // Every key in file order with its value in `config`. A list value (a range, the transform, the

@@ -83,6 +83,7 @@
 #include "ajar/core/driving.hpp"
 #include "ajar/core/robot_model.hpp"
 #include "ajar/daemon/card_recovery.hpp"
+#include "ajar/daemon/config.hpp"
 #include "ajar/daemon/loop_statistics.hpp"
 #include "ajar/daemon/seqlock.hpp"
 #include "ajar/drivers/lifecycle.hpp"
@@ -95,12 +96,8 @@ class Recorder;
 namespace ajar::daemon {
 
 struct ControlLoopSettings {
-  double rate_hz = 500;
-  bool realtime = false;
-  int priority = 80;
-  bool lock_memory = false;
-  double deadman_timeout_s = 0.5;
-  double motion_timeout_margin_s = 2.0;
+  ControlConfig control;  // rate_hz, realtime, priority, lock_memory, motion_timeout_margin_s
+  SafetyConfig safety;    // deadman_timeout_s
   double recovery_timeout_s = 2.0;  // a recovery must see the servo on within this
   // A card that does not do what it was told: a wheel's measured velocity (encoder deltas) outside
   // what the card was told, by more than velocity_tolerance (a fraction of the wheel speed limit,

@@ -43,6 +43,7 @@
 #include <vector>
 
 #include "ajar/core/error.hpp"
+#include "ajar/daemon/config.hpp"
 #include "ajar/drivers/motion_card.hpp"
 
 namespace ajar::daemon {
@@ -62,12 +63,9 @@ struct SupervisedLoop {
 // kernel's schedstat run_delay), or -1 when unknown (tid <= 0, no schedstat). No allocation.
 std::int64_t thread_run_delay_ns(int tid) noexcept;
 
-struct LoopSupervisorSettings {
-  double loop_rate_hz = 500;     // control.rate_hz
-  double stall_timeout_s = 0.1;  // control.stall_timeout_s
-  bool realtime = false;         // control.realtime: SCHED_FIFO at `priority` for the supervisor
-  int priority = 80;             // control.priority (the loop's: within the unit's LimitRTPRIO)
-};
+// The supervisor reads the control section: rate_hz, stall_timeout_s, realtime (SCHED_FIFO at
+// `priority` for the supervisor too; the loop's priority, within the unit's LimitRTPRIO).
+using LoopSupervisorSettings = ControlConfig;
 
 class LoopSupervisor {
  public:

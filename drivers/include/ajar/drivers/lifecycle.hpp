@@ -44,12 +44,14 @@
 // card's emergency_stop_out_of_band() from any thread.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <span>
 
 #include "ajar/drivers/manipulator.hpp"
 #include "ajar/drivers/motion_card.hpp"
+#include "ajar/core/words.hpp"
 
 namespace ajar::drivers {
 
@@ -59,6 +61,11 @@ enum class LifecycleState : std::uint8_t {
   kActive = 2,
   kFault = 3
 };
+inline constexpr std::array<Word<LifecycleState>, 4> kLifecycleWords{
+    {{LifecycleState::kUnconfigured, "unconfigured"},
+     {LifecycleState::kInactive, "inactive"},
+     {LifecycleState::kActive, "active"},
+     {LifecycleState::kFault, "fault"}}};
 const char* to_string(LifecycleState s) noexcept;
 
 // Wraps a MotionCard; itself a MotionCard so the control loop depends on the interface only.

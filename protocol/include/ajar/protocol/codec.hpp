@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "ajar/core/error.hpp"
@@ -20,6 +21,33 @@ inline constexpr std::uint32_t kMagic = 0x52414A41;  // bytes "AJAR" on the wire
 inline constexpr std::size_t kHeaderSize = 22;
 inline constexpr std::size_t kMaxPayloadSize = 1024;  // hard maximum, checked before reading
 inline constexpr std::size_t kMaxFrameSize = kHeaderSize + kMaxPayloadSize;
+
+// Where each header field starts (docs/protocol.md section 2, tested against it); the payload
+// starts at kHeaderSize. The codec, the conformance suite and the tests address header bytes only
+// through these.
+inline constexpr std::size_t kOffsetMagic = 0;           // u32, kMagic
+inline constexpr std::size_t kOffsetVersionMajor = 4;    // u8
+inline constexpr std::size_t kOffsetVersionMinor = 5;    // u8
+inline constexpr std::size_t kOffsetType = 6;            // u16, MessageType
+inline constexpr std::size_t kOffsetFlags = 8;           // u16, Flags
+inline constexpr std::size_t kOffsetRequestId = 10;      // u32
+inline constexpr std::size_t kOffsetPayloadLength = 14;  // u32
+inline constexpr std::size_t kOffsetCrc = 18;  // u32, CRC-32C of bytes 0..kOffsetCrc-1 + payload
+struct HeaderField {
+  std::string_view name;  // as in docs/protocol.md
+  std::size_t offset;
+  std::size_t size;
+};
+inline constexpr std::array<HeaderField, 8> kHeaderFields{
+    {{"magic", kOffsetMagic, 4},
+     {"version_major", kOffsetVersionMajor, 1},
+     {"version_minor", kOffsetVersionMinor, 1},
+     {"type", kOffsetType, 2},
+     {"flags", kOffsetFlags, 2},
+     {"request_id", kOffsetRequestId, 4},
+     {"payload_length", kOffsetPayloadLength, 4},
+     {"crc", kOffsetCrc, 4}}};
+static_assert(kOffsetCrc + 4 == kHeaderSize);
 
 // Flag bits. Flags are must-understand: a frame with a reserved bit set is refused as a whole with
 // kUnknownFlags (framing_lost false; the message is NOT processed; the session continues).

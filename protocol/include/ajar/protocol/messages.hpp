@@ -12,6 +12,7 @@
 
 #include "ajar/core/error.hpp"
 #include "ajar/core/types.hpp"
+#include "ajar/core/words.hpp"
 
 namespace ajar::protocol {
 
@@ -77,8 +78,9 @@ struct FixedBytes {
   }
 };
 
-// The words of a wire enum, in value order (the values are 0..words.size()-1); `last` is its last
-// enumerator, so that an enumerator added without its word fails to compile (to_string below).
+// The words of a wire enum (ajar::Word rows, core/words.hpp), in value order (the values are
+// 0..words.size()-1); `last` is its last enumerator, so that an enumerator added without its word
+// fails to compile (to_string below).
 template <typename E>
 struct EnumWords;
 
@@ -124,7 +126,8 @@ enum class MessageType : std::uint16_t {
 enum class Role : std::uint8_t { kController = 0, kObserver = 1 };
 template <>
 struct EnumWords<Role> {
-  static constexpr std::array<std::string_view, 2> words = {"controller", "observer"};
+  static constexpr std::array<Word<Role>, 2> words{
+      {{Role::kController, "controller"}, {Role::kObserver, "observer"}}};
   static constexpr auto last = Role::kObserver;
 };
 
@@ -143,9 +146,17 @@ enum class ProcedureState : std::uint8_t {
 };
 template <>
 struct EnumWords<ProcedureState> {
-  static constexpr std::array<std::string_view, 10> words = {
-      "awaiting_width", "awaiting_handle", "awaiting_plane", "ready_to_align", "aligning",
-      "aligned",        "ready_to_engage", "engaging",       "engaged",        "fault"};
+  static constexpr std::array<Word<ProcedureState>, 10> words{
+      {{ProcedureState::kAwaitingWidth, "awaiting_width"},
+       {ProcedureState::kAwaitingHandle, "awaiting_handle"},
+       {ProcedureState::kAwaitingPlane, "awaiting_plane"},
+       {ProcedureState::kReadyToAlign, "ready_to_align"},
+       {ProcedureState::kAligning, "aligning"},
+       {ProcedureState::kAligned, "aligned"},
+       {ProcedureState::kReadyToEngage, "ready_to_engage"},
+       {ProcedureState::kEngaging, "engaging"},
+       {ProcedureState::kEngaged, "engaged"},
+       {ProcedureState::kFault, "fault"}}};
   static constexpr auto last = ProcedureState::kFault;
 };
 
@@ -160,9 +171,14 @@ enum class EventKind : std::uint8_t {
 };
 template <>
 struct EnumWords<EventKind> {
-  static constexpr std::array<std::string_view, 7> words = {
-      "state_changed", "motion_started", "motion_finished", "motion_stopped",
-      "fault_latched", "fault_cleared",  "control_changed"};
+  static constexpr std::array<Word<EventKind>, 7> words{
+      {{EventKind::kStateChanged, "state_changed"},
+       {EventKind::kMotionStarted, "motion_started"},
+       {EventKind::kMotionFinished, "motion_finished"},
+       {EventKind::kMotionStopped, "motion_stopped"},
+       {EventKind::kFaultLatched, "fault_latched"},
+       {EventKind::kFaultCleared, "fault_cleared"},
+       {EventKind::kControlChanged, "control_changed"}}};
   static constexpr auto last = EventKind::kControlChanged;
 };
 
@@ -175,8 +191,11 @@ enum class ArmState : std::uint8_t {
 };
 template <>
 struct EnumWords<ArmState> {
-  static constexpr std::array<std::string_view, 5> words = {"disconnected", "idle", "busy", "done",
-                                                            "fault"};
+  static constexpr std::array<Word<ArmState>, 5> words{{{ArmState::kDisconnected, "disconnected"},
+                                                        {ArmState::kIdle, "idle"},
+                                                        {ArmState::kBusy, "busy"},
+                                                        {ArmState::kDone, "done"},
+                                                        {ArmState::kFault, "fault"}}};
   static constexpr auto last = ArmState::kFault;
 };
 
@@ -189,8 +208,11 @@ enum class DriverState : std::uint8_t {
 };
 template <>
 struct EnumWords<DriverState> {
-  static constexpr std::array<std::string_view, 4> words = {"unconfigured", "inactive", "active",
-                                                            "fault"};
+  static constexpr std::array<Word<DriverState>, 4> words{
+      {{DriverState::kUnconfigured, "unconfigured"},
+       {DriverState::kInactive, "inactive"},
+       {DriverState::kActive, "active"},
+       {DriverState::kFault, "fault"}}};
   static constexpr auto last = DriverState::kFault;
 };
 
@@ -198,7 +220,8 @@ struct EnumWords<DriverState> {
 enum class DriverKind : std::uint8_t { kSim = 0, kMock = 1, kReal = 2 };
 template <>
 struct EnumWords<DriverKind> {
-  static constexpr std::array<std::string_view, 3> words = {"sim", "mock", "real"};
+  static constexpr std::array<Word<DriverKind>, 3> words{
+      {{DriverKind::kSim, "sim"}, {DriverKind::kMock, "mock"}, {DriverKind::kReal, "real"}}};
   static constexpr auto last = DriverKind::kReal;
 };
 
@@ -213,16 +236,41 @@ enum class BaseMotion : std::uint8_t {
 };
 template <>
 struct EnumWords<BaseMotion> {
-  static constexpr std::array<std::string_view, 5> words = {"none", "aligning", "approaching",
-                                                            "jogging", "stopping"};
+  static constexpr std::array<Word<BaseMotion>, 5> words{{{BaseMotion::kNone, "none"},
+                                                          {BaseMotion::kAligning, "aligning"},
+                                                          {BaseMotion::kApproaching, "approaching"},
+                                                          {BaseMotion::kJogging, "jogging"},
+                                                          {BaseMotion::kStopping, "stopping"}}};
   static constexpr auto last = BaseMotion::kStopping;
+};
+
+// What the black box does now (Status.recorder, 1.2; docs/blackbox.md).
+enum class RecorderMode : std::uint8_t {
+  kOff = 0,          // recorder.enabled is false
+  kRecording = 1,    // a file is open and written
+  kDiskFull = 2,     // the disk refused a write for lack of space: paused, retried every 5 s
+  kDiskError = 3,    // the disk refused a write or a new file otherwise: paused, retried every 5 s
+  kNoDirectory = 4,  // its directory could not be made or written at start: off until a restart
+};
+template <>
+struct EnumWords<RecorderMode> {
+  static constexpr std::array<Word<RecorderMode>, 5> words{
+      {{RecorderMode::kOff, "off"},
+       {RecorderMode::kRecording, "recording"},
+       {RecorderMode::kDiskFull, "disk_full"},
+       {RecorderMode::kDiskError, "disk_error"},
+       {RecorderMode::kNoDirectory, "no_directory"}}};
+  static constexpr auto last = RecorderMode::kNoDirectory;
 };
 
 // The control thread's scheduling policy (Status.realtime, 1.1).
 enum class SchedulingPolicy : std::uint8_t { kOther = 0, kFifo = 1, kRoundRobin = 2 };
 template <>
 struct EnumWords<SchedulingPolicy> {
-  static constexpr std::array<std::string_view, 3> words = {"other", "fifo", "rr"};
+  static constexpr std::array<Word<SchedulingPolicy>, 3> words{
+      {{SchedulingPolicy::kOther, "other"},
+       {SchedulingPolicy::kFifo, "fifo"},
+       {SchedulingPolicy::kRoundRobin, "rr"}}};
   static constexpr auto last = SchedulingPolicy::kRoundRobin;
 };
 
@@ -419,6 +467,29 @@ struct RealtimeState {
   bool memory_locked = false;  // mlockall succeeded
 };
 
+// 1.2: the black box (Status only): the recorder's counters since the daemon started. Loop samples
+// and I/O records either reach a file (records_written), are dropped at a full ring/queue
+// (loop_dropped, io_dropped: the recorder thread fell behind) or are lost to the disk
+// (records_lost: a refused write, or taken while no file was open).
+struct RecorderState {
+  bool enabled = false;  // recorder.enabled
+  RecorderMode mode = RecorderMode::kOff;
+  FixedString<48> file;               // the file being written ("" when none)
+  std::uint64_t file_bytes = 0;       // its bytes on disk
+  std::uint64_t directory_bytes = 0;  // every recording but the saved ones (the budget's count)
+  std::uint64_t max_bytes = 0;        // the budget, recorder.max_bytes
+  std::uint64_t saved_bytes = 0;      // the saved recordings (outside the budget)
+  std::uint64_t disk_free_bytes = 0;  // free on its file system, for the daemon's user
+  std::uint64_t records_written = 0;  // messages in the files
+  std::uint64_t loop_samples = 0;     // loop samples taken (every loop_decimation-th cycle)
+  std::uint64_t loop_dropped = 0;     // ... dropped: the lock-free ring was full
+  std::uint64_t io_records = 0;       // frames, events, sessions, config, telemetry queued
+  std::uint64_t io_dropped = 0;       // ... dropped: the queue was full
+  std::uint64_t records_lost = 0;     // lost to a refused write or while no file was open
+  std::uint32_t disk_refusals = 0;    // times the disk refused (each logged once)
+  std::uint64_t last_write_ns = 0;    // daemon clock of the last write to a file; 0: none yet
+};
+
 struct Status {
   ProcedureState state = ProcedureState::kAwaitingWidth;
   ErrorCode latched_fault = ErrorCode::kOk;
@@ -449,6 +520,7 @@ struct Status {
   LoopTiming timing;
   RealtimeState realtime;
   BaseMotion base_motion = BaseMotion::kNone;  // 1.2
+  RecorderState recorder;                      // 1.2
 };
 
 struct Telemetry {
@@ -557,10 +629,10 @@ requires requires {
   EnumWords<E>::words;
 }
 constexpr std::string_view to_string(E value) noexcept {
-  static_assert(EnumWords<E>::words.size() == static_cast<std::size_t>(EnumWords<E>::last) + 1,
+  static_assert(EnumWords<E>::words.size() == static_cast<std::size_t>(EnumWords<E>::last) + 1 &&
+                    values_are_indices(EnumWords<E>::words),
                 "every enumerator has its word, in value order");
-  const auto i = static_cast<std::size_t>(value);
-  return i < EnumWords<E>::words.size() ? EnumWords<E>::words[i] : "unknown";
+  return ajar::word_of(EnumWords<E>::words, value);
 }
 
 }  // namespace ajar::protocol

@@ -51,7 +51,4 @@ std::string format_vector(const GoldenVector& v, std::string_view comment = {});
 // Error on mismatch: kInternal with a message saying what differed.
 Outcome check_vector(const GoldenVector& v);
 
-// "CRC_MISMATCH" -> ErrorCode::kCrcMismatch (the inverse of ajar::to_string(ErrorCode)).
-std::optional<ErrorCode> error_code_from_string(std::string_view name) noexcept;
-
 }  // namespace ajar::protocol

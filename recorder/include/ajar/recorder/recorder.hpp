@@ -18,10 +18,11 @@
 // rotation the oldest recordings in the directory are removed until the rest fit max_bytes.
 // Saved recordings (save_last(), in directory/saved/) are never removed by the recorder.
 // A disk that refuses a write (full, I/O error): the file is cut back to its last whole record and
-// closed, the failure is logged once (the `log` callback) and counted (write_failures; records
-// lost while no file is open count too), and a new file is tried every 5 s (after removing the
-// oldest recording, to make room). A slow disk only delays the recorder thread: the inputs drop
-// and count once their ring/queue is full. Nothing here ever fails or slows the daemon.
+// closed, the failure is logged once (the `log` callback) and counted (disk_refusals; the records
+// in write_failures, also those taken while no file is open), and a new file is tried every 5 s
+// (after removing the oldest recording, to make room). A slow disk only delays the recorder thread:
+// the inputs drop and count once their ring/queue is full. Nothing here ever fails or slows the
+// daemon.
 //
 // Files: directory/ajard-YYYYMMDDTHHMMSSmmmZ.mcap (UTC start time), created by the daemon's user
 // with mode 0640 (the directory 0750), like the state file.
@@ -52,8 +53,9 @@ struct RecorderSettings {
   double max_file_s = 600;                     // ... or this age
   std::uint32_t loop_decimation = 5;           // record every n-th loop cycle (1: all)
   std::int64_t monotonic_origin_ns = 0;        // daemon start: daemon_time_ns = t - origin
-  // Tests only: called by the recorder thread before every write(2) (a slow disk).
-  std::function<void()> before_write;
+  // Tests only: the recorder thread waits this long before every write(2) (a slow or stalled
+  // disk); stop() cuts the wait short. Nothing else ever waits for it.
+  std::int64_t write_delay_ms = 0;
 };
 
 // One loop cycle as the control thread hands it over (fixed size, trivially copyable).
@@ -73,15 +75,33 @@ struct LoopSample {
   std::int64_t wakeup_latency_ns = 0, execution_ns = 0, period_ns = 0;
 };
 
+// What the recorder does now (Status.recorder.mode, protocol 1.2: the same values).
+enum class RecorderMode : std::uint8_t {
+  kOff = 0,          // disabled, or not started
+  kRecording = 1,    // a file is open
+  kDiskFull = 2,     // the disk refused for lack of space: paused, retried every 5 s
+  kDiskError = 3,    // the disk refused otherwise (EIO, EACCES, ...): paused, retried every 5 s
+  kNoDirectory = 4,  // the directory could not be made or written at start: off until a restart
+};
+
+// The recorder's counters since start (Status.recorder). Each is read from its own atomic: each is
+// exact, the set is not one instant's (a record may be counted written before its bytes are).
 struct RecorderCounters {
   bool enabled = false;
-  bool recording = false;  // a file is open
-  bool disk_full = false;  // the last write failed for lack of space
-  std::uint64_t loop_samples = 0, loop_dropped = 0;
-  std::uint64_t io_records = 0, io_dropped = 0;
+  RecorderMode mode = RecorderMode::kOff;
+  bool recording = false;  // mode == kRecording: a file is open
+  bool disk_full = false;  // mode == kDiskFull: the last write failed for lack of space
+  std::uint64_t loop_samples = 0, loop_dropped = 0;  // taken; dropped at the full ring
+  std::uint64_t io_records = 0, io_dropped = 0;      // queued; refused by the full queue
   std::uint64_t write_failures = 0;  // records lost to a refused write or while no file was open
+  std::uint32_t disk_refusals = 0;   // refused writes and file creations
   std::uint64_t messages_written = 0, bytes_written = 0;  // since start, all files
   std::string file;                                       // the open file's name ("" if none)
+  std::uint64_t file_bytes = 0;                           // the open file's bytes on disk
+  std::uint64_t directory_bytes = 0;  // the unsaved recordings (the budget's count), open included
+  std::uint64_t saved_bytes = 0;      // saved/ (as of the last rotation or save)
+  std::uint64_t disk_free_bytes = 0;  // statvfs f_bavail of the directory (at most 1 s old)
+  std::uint64_t last_write_ns = 0;    // daemon time of the last write to a file (0: none)
 };
 
 // A recording in the directory (list()).
@@ -112,8 +132,9 @@ class Recorder {
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;
 
-  // Starts the recorder thread (nothing when disabled). A directory that cannot be made or
-  // written is logged and recording stays off (counters say so); the daemon runs on.
+  // Starts the recorder thread (nothing when disabled), which opens the first file: the caller
+  // never waits for a write. A directory that cannot be made or written is logged and recording
+  // stays off (mode kNoDirectory); the daemon runs on.
   void start();
   // Drains what is queued, closes the file with its summary and footer, joins. Idempotent.
   void stop();
