@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <new>
 #include <type_traits>
 
 #include "ajar/protocol/crc32c.hpp"
@@ -233,13 +234,29 @@ std::size_t StreamDecoder::feed(std::span<const std::uint8_t> in, Outcome& outco
     outcome.error = e;
     return used;
   };
+  if (in.empty()) return 0;
+  // The frame is split across calls (or its header is wrong): it is gathered in the buffer,
+  // allocated now if this is the decoder's first.
+  if (!buffer_) {
+    buffer_.reset(new (std::nothrow) Buffer);
+    if (!buffer_) {
+      used = in.size();
+      DecodeError e;
+      e.code = ErrorCode::kInternal;
+      e.framing_lost = true;
+      e.field = "frame";
+      e.reason = "out of memory";
+      return fail(e);
+    }
+  }
+  std::uint8_t* const buffer = buffer_->data();
   if (filled_ < kHeaderSize) {
     const std::size_t n = std::min(kHeaderSize - filled_, in.size());
     if (n == 0) return 0;
-    std::memcpy(buffer_.data() + filled_, in.data(), n);
+    std::memcpy(buffer + filled_, in.data(), n);
     const std::size_t magic_end = std::min(filled_ + n, kMagicBytes.size());
     for (std::size_t i = filled_; i < magic_end; ++i) {
-      if (buffer_[i] != kMagicBytes[i]) {
+      if (buffer[i] != kMagicBytes[i]) {
         used = i - filled_ + 1;
         DecodeError e;
         e.code = ErrorCode::kBadMagic;
@@ -252,15 +269,15 @@ std::size_t StreamDecoder::feed(std::span<const std::uint8_t> in, Outcome& outco
     used = n;
     if (filled_ < kHeaderSize) return used;
     DecodeError e;
-    if (!check_header(buffer_.data(), e)) return fail(e);
+    if (!check_header(buffer, e)) return fail(e);
   }
-  const std::size_t total = kHeaderSize + get_u32(buffer_.data() + kOffsetPayloadLength);
+  const std::size_t total = kHeaderSize + get_u32(buffer + kOffsetPayloadLength);
   const std::size_t n = std::min(total - filled_, in.size() - used);
-  if (n > 0) std::memcpy(buffer_.data() + filled_, in.data() + used, n);
+  if (n > 0) std::memcpy(buffer + filled_, in.data() + used, n);
   filled_ += n;
   used += n;
   if (filled_ < total) return used;
-  decode_into(std::span<const std::uint8_t>(buffer_.data(), total), outcome);
+  decode_into(std::span<const std::uint8_t>(buffer, total), outcome);
   filled_ = 0;
   return used;
 }

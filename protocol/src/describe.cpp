@@ -98,6 +98,8 @@ std::string sentence(const DecodeError& e) {
       }
       return field + " is " + dec(e.value) + ": allowed " + dec(kMinPlanePoints) + ".." +
              dec(kMaxPlanePoints);
+    case ErrorCode::kInternal:  // the decoder could not get its buffer for a split frame
+      return field + ": " + reason + ": closing the connection";
     default:
       return field + ": " + std::string(to_string(e.code));
   }

@@ -285,6 +285,32 @@ TEST_F(ServerIo, AClientThatStopsReadingIsDroppedWhileOthersContinue) {
   EXPECT_TRUE(bystander.wait_telemetry(before + 3));
 }
 
+// More replies queued at once than one gather-write takes (64 frames): they leave in the order
+// they were queued, none twice, none lost, over the writes that follow.
+TEST(ServerQueue, ABurstOfRepliesBeyondOneGatherWriteArrivesInOrder) {
+  FakeEngine engine;
+  ServerThread server(engine, daemon::ServerOptions{});  // send_queue_frames 512
+  TestClient c(server.port());
+  c.hello(Role::kObserver);
+  constexpr std::uint32_t kPings = 400;  // ~136 per 4 KiB read: more than 64 queue behind a write
+  std::vector<std::uint8_t> burst;
+  for (std::uint32_t i = 0; i < kPings; ++i) {
+    const auto frame = frame_of(protocol::Ping{i}, 1000 + i);
+    burst.insert(burst.end(), frame.begin(), frame.end());
+  }
+  ASSERT_TRUE(c.send_raw(burst));
+  for (std::uint32_t i = 0; i < kPings; ++i) {
+    const auto outcome = c.next();
+    ASSERT_TRUE(outcome) << "reply " << i << " never came";
+    ASSERT_EQ(outcome->kind, protocol::StreamDecoder::Kind::kMessage);
+    const auto* pong = std::get_if<protocol::Pong>(&outcome->envelope.message);
+    ASSERT_NE(pong, nullptr) << i;
+    ASSERT_EQ(outcome->envelope.request_id, 1000 + i);
+    ASSERT_EQ(pong->client_time_ns, i);
+  }
+  expect_pong(c);
+}
+
 TEST(ServerScale, TwoHundredFiftySixObserversAllGetTelemetryAndEvents) {
   FakeEngine engine;
   daemon::ServerOptions options;

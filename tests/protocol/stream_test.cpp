@@ -198,5 +198,56 @@ TEST(Stream, ManyFramesOneOutcomePerCall) {
   EXPECT_EQ(next, 50u);
 }
 
+// The buffer for a frame split across calls is allocated at the first such frame, not before: a
+// peer whose frames arrive whole costs the decoder nothing beyond itself. Every frame decodes the
+// same before, at and after the allocation, split in the header or in the payload, whole again
+// after it, and after a reset() in the middle of a frame.
+TEST(Stream, TheSplitFrameBufferComesWithTheFirstSplitFrameAndEveryFrameStillDecodes) {
+  const Bytes once = all_samples_stream(1);
+  StreamDecoder d;
+  EXPECT_EQ(d.buffer_bytes(), 0u);
+  expect_all_samples(feed_all(
+                         once, [&] { return once.size(); }, d),
+                     1);
+  EXPECT_EQ(d.buffer_bytes(), 0u) << "whole frames need no buffer";
+
+  // The largest sample frame, split at every byte: the first split allocates, every split decodes.
+  const auto samples = samples::all();
+  Bytes frame;
+  const Envelope* largest = nullptr;
+  for (const auto& sample : samples) {
+    Bytes f;
+    ASSERT_TRUE(encode_append(sample.envelope, f));
+    if (f.size() > frame.size()) {
+      frame = f;
+      largest = &sample.envelope;
+    }
+  }
+  for (std::size_t cut = 1; cut < frame.size(); ++cut) {
+    SCOPED_TRACE(cut);
+    StreamDecoder::Outcome o;
+    ASSERT_EQ(d.feed(std::span(frame).first(cut), o), cut);
+    EXPECT_EQ(o.kind, StreamDecoder::Kind::kNeedMore);
+    EXPECT_EQ(d.buffer_bytes(), kMaxFrameSize);
+    ASSERT_EQ(d.feed(std::span(frame).subspan(cut), o), frame.size() - cut);
+    ASSERT_EQ(o.kind, StreamDecoder::Kind::kMessage);
+    EXPECT_TRUE(wire_equal(o.envelope.message, largest->message));
+  }
+  // Whole frames again (the buffer kept), then split in threes, then half a frame forgotten.
+  expect_all_samples(feed_all(
+                         once, [&] { return once.size(); }, d),
+                     1);
+  expect_all_samples(feed_all(
+                         once, [] { return std::size_t{3}; }, d),
+                     1);
+  StreamDecoder::Outcome o;
+  EXPECT_EQ(d.feed(std::span(frame).first(frame.size() / 2), o), frame.size() / 2);
+  d.reset();
+  EXPECT_EQ(d.buffer_bytes(), kMaxFrameSize);
+  expect_all_samples(feed_all(
+                         once, [] { return std::size_t{5}; }, d),
+                     1);
+}
+
 }  // namespace
 }  // namespace ajar::protocol

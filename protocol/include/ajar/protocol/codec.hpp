@@ -6,6 +6,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
@@ -125,7 +126,12 @@ struct DecodeError {
 std::string describe(const DecodeError& error);
 
 // Streaming decoder. Feed it bytes as they arrive, in any chunking (one byte at a time works);
-// it yields one outcome at a time. Owns a fixed buffer of kMaxFrameSize: no allocation per frame.
+// it yields one outcome at a time. A frame that arrives whole in one call is decoded where it is;
+// a frame split across calls is gathered in a buffer of kMaxFrameSize that the decoder allocates
+// at the first such frame and keeps: no allocation per frame, and none at all for a peer whose
+// frames always arrive whole (most sessions: 257 of them hold 0.27 MiB less, docs/performance.md).
+// If that one allocation fails, feed() yields kInternal with framing_lost (reason "out of
+// memory"): the stream cannot continue.
 class StreamDecoder {
  public:
   enum class Kind { kNeedMore, kMessage, kError };
@@ -140,10 +146,15 @@ class StreamDecoder {
   // framing_lost the decoder stays failed (every later call consumes all of `in` and yields the
   // same error) until reset(). Bad magic is detected at the first wrong byte.
   std::size_t feed(std::span<const std::uint8_t> in, Outcome& outcome) noexcept;
+  // Forgets the frame being gathered and a failure; keeps the buffer if there is one.
   void reset() noexcept;
+  // The bytes this decoder holds beyond itself: 0 until a frame arrives split across calls, then
+  // kMaxFrameSize.
+  std::size_t buffer_bytes() const noexcept { return buffer_ ? kMaxFrameSize : 0; }
 
  private:
-  std::array<std::uint8_t, kMaxFrameSize> buffer_;  // not zeroed: only [0, filled_) is read
+  using Buffer = std::array<std::uint8_t, kMaxFrameSize>;
+  std::unique_ptr<Buffer> buffer_;  // not zeroed: only [0, filled_) is read
   std::size_t filled_ = 0;
   bool failed_ = false;
   DecodeError failure_;
