@@ -52,8 +52,18 @@ class Visiting {
       return v;
     } else if constexpr (std::is_enum_v<V>) {
       // to_string by argument-dependent lookup: protocol's EnumWords, core's, ErrorCode's names,
-      // MessageType's message names.
-      return FieldWord{to_string(v), static_cast<std::uint16_t>(v)};
+      // MessageType's message names. A code or type this version does not know (a newer peer's):
+      // no word, its raw value.
+      const auto raw = static_cast<std::uint16_t>(v);
+      if constexpr (std::is_same_v<V, MessageType>) {
+        return FieldWord{find_message(v) != nullptr ? to_string(v) : "", raw};
+      } else if constexpr (std::is_same_v<V, ErrorCode>) {
+        const std::string_view word = to_string(v);
+        return FieldWord{error_code_from_string(word) == v ? word : "", raw};
+      } else {
+        const std::string_view word = to_string(v);
+        return FieldWord{word == "unknown" ? "" : word, raw};
+      }
     } else if constexpr (std::is_signed_v<V>) {
       return static_cast<std::int64_t>(v);
     } else {

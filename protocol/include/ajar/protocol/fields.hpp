@@ -17,7 +17,8 @@ namespace ajar::protocol {
 
 // An enum as its word: a protocol enum's EnumWords row ("awaiting_width"), core's Frame and
 // RotationDirection ("camera", "CCW"), an ErrorCode's NAME ("POINTS_COLLINEAR"), a MessageType's
-// message name ("MeasureDoorWidth"); `raw` is the value on the wire.
+// message name ("MeasureDoorWidth"); `raw` is the value on the wire. `word` is empty for a value
+// this version has no word for (an ErrorCode or MessageType of a newer peer).
 struct FieldWord {
   std::string_view word;
   std::uint16_t raw = 0;
