@@ -367,12 +367,14 @@ function updateSteps() {
   const st = state.status || {};
   document.querySelectorAll('#steps button').forEach((b) => {
     const name = b.dataset.step;
-    const stale = !!st[name] && stepStale(name);
+    // Status has every block; has_width, has_handle, has_plane, has_contact say which are stored.
+    const stored = !!st['has_' + name];
+    const stale = stored && stepStale(name);
     b.classList.toggle('active', name === state.active_step);
-    b.classList.toggle('stored', !!st[name] && !stale);
+    b.classList.toggle('stored', stored && !stale);
     b.classList.toggle('stale', stale);
     b.setAttribute('aria-pressed', String(name === state.active_step));
-    b.querySelector('.mark').textContent = stale ? ' STALE' : st[name] ? ' ✓' : '';
+    b.querySelector('.mark').textContent = stale ? ' STALE' : stored ? ' ✓' : '';
   });
   const step = state.active_step;
   $('step-help').textContent = STEPS[step].help;
@@ -616,8 +618,9 @@ function updateState() {
   cr.dataset.op = lc ? lc.op : '';
   updateRecorder();
   for (const name of Object.keys(STEPS)) {
-    const stale = st && st[name] && stepStale(name);
-    $('stored-' + name).textContent = st && st[name] ? (stale ? 'STALE · ' : '') + describeValues(name, st[name]).split('\n')[0] : '—';
+    const stored = !!st && !!st['has_' + name];  // every block is there; the flag says it is stored
+    const stale = stored && stepStale(name);
+    $('stored-' + name).textContent = stored ? (stale ? 'STALE · ' : '') + describeValues(name, st[name]).split('\n')[0] : '—';
   }
   updateHud();
   render();
