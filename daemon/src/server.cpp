@@ -63,8 +63,13 @@ struct Server::Impl {
                      options.recordings != nullptr ? options.recordings : recordings.get()}) {
     if (engine.recorder() != nullptr) {
       options.session.frame_tap = [&eng = engine](std::uint64_t id, std::uint8_t direction,
-                                                  std::span<const std::uint8_t> frame) {
-        eng.recorder()->frame(direction, id, eng.daemon_time_ns(), frame);
+                                                  std::span<const std::uint8_t> frame,
+                                                  const SharedFrame& sent) {
+        if (sent) {
+          eng.recorder()->frame(direction, id, eng.daemon_time_ns(), sent);  // not copied
+        } else {
+          eng.recorder()->frame(direction, id, eng.daemon_time_ns(), frame);
+        }
       };
     }
   }

@@ -151,6 +151,12 @@ void McapWriter::add_ajar_channels() {
 
 void McapWriter::add_message(std::uint16_t channel, std::uint64_t time_ns,
                              std::span<const std::uint8_t> data) {
+  add_message(channel, time_ns, {}, data);
+}
+
+void McapWriter::add_message(std::uint16_t channel, std::uint64_t time_ns,
+                             std::span<const std::uint8_t> head,
+                             std::span<const std::uint8_t> data) {
   if (closed_) throw std::logic_error("MCAP writer closed");
   const auto count = counts_.find(channel);
   if (count == counts_.end()) throw std::invalid_argument("MCAP message on an unknown channel");
@@ -160,6 +166,7 @@ void McapWriter::add_message(std::uint16_t channel, std::uint64_t time_ns,
   u32(scratch_, ++sequences_[channel]);
   u64(scratch_, time_ns);  // log_time
   u64(scratch_, time_ns);  // publish_time
+  scratch_.insert(scratch_.end(), head.begin(), head.end());
   scratch_.insert(scratch_.end(), data.begin(), data.end());
   end_record(scratch_, at);
   emit(scratch_);

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -27,7 +28,11 @@ namespace {
 
 constexpr std::int64_t kWakeNs = 20'000'000;
 constexpr std::int64_t kWriteEveryNs = 100'000'000;
-constexpr std::size_t kWriteAtBytes = 256U << 10;
+// The writer's buffer is written out once it holds kWriteAtBytes (and at least every
+// kWriteEveryNs); its capacity, reserved once per file, covers that plus a large record, and stays
+// below glibc's mmap threshold (128 KiB) so that it is neither mapped nor unmapped per file.
+constexpr std::size_t kWriteAtBytes = 64U << 10;
+constexpr std::size_t kWriteBufferBytes = kWriteAtBytes + (32U << 10);
 constexpr std::int64_t kSyncEveryNs = 1'000'000'000;
 constexpr std::int64_t kStatusEveryNs = 1'000'000'000;
 constexpr std::int64_t kRetryNs = 5'000'000'000;
@@ -95,8 +100,27 @@ void append_unsigned(std::string& out, std::uint64_t v) {
 struct IoRecord {
   std::uint16_t channel = 0;
   std::uint64_t daemon_time_ns = 0;
-  std::vector<std::uint8_t> data;
+  std::vector<std::uint8_t> data;  // the message (not for a shared frame)
+  // A shared frame (frame() with shared bytes): its /ajar/wire header, then the shared bytes.
+  std::array<std::uint8_t, kWireHeaderBytes> wire_header{};
+  std::shared_ptr<const std::vector<std::uint8_t>> shared;
+
+  // What the queue's byte budget counts: a shared frame as a copy would be.
+  std::size_t size_bytes() const {
+    return shared ? kWireHeaderBytes + shared->size() : data.size();
+  }
 };
+
+// The /ajar/wire header (channels.hpp) of a frame, into out[0, kWireHeaderBytes).
+void put_wire_header(std::uint8_t* out, std::uint8_t direction, std::uint64_t session_id,
+                     std::uint64_t daemon_time_ns) {
+  out[0] = kWireLayoutVersion;
+  out[1] = direction;
+  for (std::size_t i = 0; i < 8; ++i) {
+    out[2 + i] = static_cast<std::uint8_t>(session_id >> (8 * i));
+    out[10 + i] = static_cast<std::uint8_t>(daemon_time_ns >> (8 * i));
+  }
+}
 
 // The counters are written by one thread each (the recorder thread; io_* under the queue's
 // mutex) and read by any: relaxed atomics.
@@ -234,6 +258,7 @@ struct Recorder::Impl {
     on_disk = 0;
     unwritten_messages = 0;
     writer = std::make_unique<McapWriter>(kMcapProfile, kMcapLibrary);
+    writer->reserve(kWriteBufferBytes);
     writer->add_ajar_channels();
     file_bytes.store(0, std::memory_order_relaxed);
     file_start_mono = clock_ns(CLOCK_MONOTONIC);
@@ -246,9 +271,11 @@ struct Recorder::Impl {
 
   // Moves the writer's bytes to the file. A refused write cuts the file back to its last whole
   // record and closes it.
+  // The writer's buffer is written from where it is and then cleared, keeping its capacity: one
+  // buffer of about kWriteAtBytes per file, never a new one per write.
   bool write_out() {
     if (fd < 0 || writer == nullptr) return false;
-    const auto bytes = writer->take_bytes();
+    const std::vector<std::uint8_t>& bytes = writer->pending();
     const std::uint64_t messages = unwritten_messages;
     unwritten_messages = 0;
     std::size_t done = 0;
@@ -272,10 +299,12 @@ struct Recorder::Impl {
       }
       done += static_cast<std::size_t>(n);
     }
-    on_disk += bytes.size();
+    const std::size_t written = bytes.size();
+    writer->clear_pending();
+    on_disk += written;
     last_write = clock_ns(CLOCK_MONOTONIC);
     file_bytes.store(on_disk, std::memory_order_relaxed);
-    bump(bytes_written, bytes.size());
+    bump(bytes_written, written);
     bump(messages_written, messages);
     last_write_ns.store(daemon_ns(last_write), std::memory_order_relaxed);
     return true;
@@ -302,6 +331,7 @@ struct Recorder::Impl {
   void close_file() {
     if (fd < 0) return;
     status_message(true);
+    if (fd < 0 || writer == nullptr) return;  // that last write failed: closed by failed()
     writer->close();
     if (write_out()) {
       ::fdatasync(fd);
@@ -367,7 +397,7 @@ struct Recorder::Impl {
   }
 
   // ---- messages ----
-  void add(std::uint16_t channel, std::uint64_t daemon_time_ns,
+  void add(std::uint16_t channel, std::uint64_t daemon_time_ns, std::span<const std::uint8_t> head,
            std::span<const std::uint8_t> data) {
     if (writer == nullptr) {
       bump(write_failures);
@@ -380,11 +410,14 @@ struct Recorder::Impl {
         return;
       }
     }
-    writer->add_message(channel, wall_of_daemon(daemon_time_ns), data);
+    writer->add_message(channel, wall_of_daemon(daemon_time_ns), head, data);
     ++unwritten_messages;
+    // Written as soon as there is a buffer's worth (a burst of frames between two wake-ups), so
+    // that the buffer never grows beyond about kWriteBufferBytes.
+    if (writer->pending().size() >= kWriteAtBytes) write_out();
   }
   void add_text(std::uint16_t channel, std::uint64_t daemon_time_ns, const std::string& text) {
-    add(channel, daemon_time_ns,
+    add(channel, daemon_time_ns, {},
         std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
   }
 
@@ -493,8 +526,13 @@ struct Recorder::Impl {
         batch.swap(queue);
         queue_bytes = 0;
       }
-      for (const auto& r : batch)
-        add(r.channel, r.daemon_time_ns, r.data);
+      for (const auto& r : batch) {
+        if (r.shared) {
+          add(r.channel, r.daemon_time_ns, r.wire_header, *r.shared);
+        } else {
+          add(r.channel, r.daemon_time_ns, {}, r.data);
+        }
+      }
       batch.clear();
       if (now - last_status >= kStatusEveryNs) {
         last_status = now;
@@ -526,12 +564,13 @@ struct Recorder::Impl {
 
   // frame() and json(): into the queue, or dropped and counted when it is full.
   void enqueue(IoRecord r) {
+    const std::size_t size = r.size_bytes();
     std::lock_guard lock(queue_mutex);
-    if (queue.size() >= kIoQueueMaxRecords || queue_bytes + r.data.size() > kIoQueueMaxBytes) {
+    if (queue.size() >= kIoQueueMaxRecords || queue_bytes + size > kIoQueueMaxBytes) {
       bump(io_dropped);
       return;
     }
-    queue_bytes += r.data.size();
+    queue_bytes += size;
     queue.push_back(std::move(r));
     bump(io_records);
   }
@@ -617,14 +656,20 @@ void Recorder::frame(std::uint8_t direction, std::uint64_t session_id, std::uint
   IoRecord r;
   r.channel = kWireChannel;
   r.daemon_time_ns = daemon_time_ns;
-  r.data.reserve(kWireHeaderBytes + bytes.size());
-  r.data.push_back(kWireLayoutVersion);
-  r.data.push_back(direction);
-  for (int i = 0; i < 8; ++i)
-    r.data.push_back(static_cast<std::uint8_t>(session_id >> (8 * i)));
-  for (int i = 0; i < 8; ++i)
-    r.data.push_back(static_cast<std::uint8_t>(daemon_time_ns >> (8 * i)));
-  r.data.insert(r.data.end(), bytes.begin(), bytes.end());
+  r.data.resize(kWireHeaderBytes + bytes.size());
+  put_wire_header(r.data.data(), direction, session_id, daemon_time_ns);
+  std::copy(bytes.begin(), bytes.end(), r.data.begin() + kWireHeaderBytes);
+  impl_->enqueue(std::move(r));
+}
+
+void Recorder::frame(std::uint8_t direction, std::uint64_t session_id, std::uint64_t daemon_time_ns,
+                     std::shared_ptr<const std::vector<std::uint8_t>> bytes) {
+  if (!impl_->accepting.load(std::memory_order_acquire) || !bytes) return;  // off, not running
+  IoRecord r;
+  r.channel = kWireChannel;
+  r.daemon_time_ns = daemon_time_ns;
+  put_wire_header(r.wire_header.data(), direction, session_id, daemon_time_ns);
+  r.shared = std::move(bytes);
   impl_->enqueue(std::move(r));
 }
 

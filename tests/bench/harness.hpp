@@ -1,19 +1,16 @@
 // Shared pieces of the benchmark harnesses (tests/bench/*_harness.cpp): a blocking wire client, an
-// ajard child process, percentiles, and the result rows scripts/bench turns into one table.
-// Timing is measured and printed here, never asserted: a harness fails only when something does
-// not work (daemon does not start, a reply never comes, a session is dropped).
+// ajard child process (by the tests' launcher, tests/support/ajard_process.hpp), percentiles, and
+// the result rows scripts/bench turns into one table. Timing is measured and printed here, never
+// asserted: a harness fails only when something does not work (daemon does not start, a reply never
+// comes, a session is dropped).
 #pragma once
 
-#include <fcntl.h>
 #include <netinet/in.h>
 #include <pthread.h>
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <sched.h>
-#include <signal.h>
-#include <spawn.h>
 #include <sys/socket.h>
-#include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -29,6 +26,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -38,8 +36,7 @@
 #include <vector>
 
 #include "ajar/protocol/codec.hpp"
-
-extern char** environ;
+#include "ajard_process.hpp"
 
 namespace ajar::bench {
 
@@ -489,49 +486,36 @@ inline void write_config(const std::string& path, const std::string& out,
   std::ofstream(out) << text;
 }
 
+// ajard started by the one launcher (tests/support/ajard_process.hpp), serving on a free port.
 class Daemon {
  public:
   // Starts `ajard --config config --listen 127.0.0.1:0 --port-file ... --state-dir ...` with its
-  // log in dir/ajard.log; returns once it serves (port file written and a Hello answered).
-  // `cpu` >= 0: the daemon and every thread it starts run on that CPU (Placement::server).
+  // output in dir/ajard.stdout and dir/ajard.stderr (the log); returns once it serves (port file
+  // written and a Hello answered). `cpu` >= 0: the daemon and every thread it starts run on that
+  // CPU (Placement::server).
   Daemon(const std::string& ajard, const std::string& config, const std::string& dir, int cpu = -1)
       : dir_(dir) {
     std::filesystem::create_directories(dir + "/state");
     const std::string port_file = dir + "/port";
     std::filesystem::remove(port_file);
-    std::vector<std::string> args = {ajard,      "--config",    config,
-                                     "--listen", "127.0.0.1:0", "--port-file",
-                                     port_file,  "--state-dir", dir + "/state"};
-    std::vector<char*> argv;
-    for (auto& a : args)
-      argv.push_back(a.data());
-    argv.push_back(nullptr);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 2, (dir + "/ajard.log").c_str(),
-                                     O_WRONLY | O_CREAT | O_APPEND, 0644);
     const std::int64_t t0 = now_ns();
-    const int spawned = created_on(cpu, [&] {
-      return posix_spawn(&pid_, ajard.c_str(), &actions, nullptr, argv.data(), environ);
+    process_ = created_on(cpu, [&] {
+      return std::make_unique<test::AjardProcess>(
+          test::AjardProcess::Program{ajard},
+          std::vector<std::string>{"--config", config, "--listen", "127.0.0.1:0", "--port-file",
+                                   port_file, "--state-dir", dir + "/state"},
+          dir);
     });
-    if (spawned != 0) fail("cannot start " + ajard);
-    posix_spawn_file_actions_destroy(&actions);
-    // Serving = the port file exists and a client gets its Welcome.
-    for (;;) {
-      std::ifstream f(port_file);
-      unsigned p = 0;
-      if (f >> p && p != 0) {
-        port_ = static_cast<std::uint16_t>(p);
-        break;
-      }
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        fail("ajard exited during start; log: " + dir + "/ajard.log");
-      }
-      if (now_ns() - t0 > 20'000'000'000) fail("ajard did not serve within 20 s");
-      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    if (!process_->started()) fail("cannot start " + ajard);
+    // Serving = the port file holds the port and a client gets its Welcome.
+    const auto port = test::wait_for_port_file(port_file, *process_, std::chrono::seconds(20),
+                                               std::chrono::microseconds(200));
+    if (!port) {
+      fail(std::string(process_->running() ? "ajard did not serve within 20 s"
+                                           : "ajard exited during start") +
+           "; log: " + process_->stderr_path());
     }
+    port_ = *port;
     Conn c(port_);
     (void)c.hello(protocol::Role::kObserver, "bench-probe");
     exec_to_serving_ns_ = now_ns() - t0;
@@ -540,15 +524,13 @@ class Daemon {
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
 
+  // SIGTERM and waits for the exit (killed after 30 s).
   void stop() {
-    if (pid_ <= 0) return;
-    ::kill(pid_, SIGTERM);
-    int status = 0;
-    ::waitpid(pid_, &status, 0);
-    pid_ = -1;
+    if (process_) process_->stop();
+    process_.reset();
   }
   std::uint16_t port() const { return port_; }
-  pid_t pid() const { return pid_; }
+  pid_t pid() const { return process_ ? process_->pid() : -1; }
   std::int64_t exec_to_serving_ns() const { return exec_to_serving_ns_; }
 
   // VmRSS in KiB.
@@ -560,7 +542,7 @@ class Daemon {
   // ..., thread stacks ..., anonymous ...", plus the largest anonymous mappings. A thread's stack
   // is the mapping holding its stack pointer (/proc/PID/task/TID/syscall; readable by the parent).
   std::string smaps_breakdown() const {
-    const std::string proc = "/proc/" + std::to_string(pid_);
+    const std::string proc = "/proc/" + std::to_string(pid());
     std::vector<std::uint64_t> sps;
     for (const auto& t : std::filesystem::directory_iterator(proc + "/task")) {
       std::ifstream f(t.path() / "syscall");
@@ -626,7 +608,7 @@ class Daemon {
   }
   // User + system CPU time of the daemon so far, in seconds.
   double cpu_s() const {
-    std::ifstream f("/proc/" + std::to_string(pid_) + "/stat");
+    std::ifstream f("/proc/" + std::to_string(pid()) + "/stat");
     std::string all((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
     const auto close_paren = all.rfind(')');
     std::istringstream rest(all.substr(close_paren + 2));
@@ -639,7 +621,7 @@ class Daemon {
 
  private:
   long status_field(const char* name) const {
-    std::ifstream f("/proc/" + std::to_string(pid_) + "/status");
+    std::ifstream f("/proc/" + std::to_string(pid()) + "/status");
     std::string line;
     while (std::getline(f, line))
       if (line.rfind(name, 0) == 0)
@@ -648,7 +630,7 @@ class Daemon {
   }
 
   std::string dir_;
-  pid_t pid_ = -1;
+  std::unique_ptr<test::AjardProcess> process_;
   std::uint16_t port_ = 0;
   std::int64_t exec_to_serving_ns_ = 0;
 };

@@ -27,7 +27,7 @@ class LoopDrive : public ajar::testing::DetLoopTest {
     s.drive.command_timeout_s = 0.5;
   }
   DriveCommand drive(std::uint32_t id, bool start, double v, double w) const {
-    return DriveCommand{id, start, {v, w}, now};
+    return DriveCommand{id, start, {v, w}, now()};
   }
   std::vector<drivers::CardCallRecord> jogs() const {
     std::vector<drivers::CardCallRecord> out;
@@ -178,7 +178,7 @@ TEST_F(LoopDrive, AJogStartPostedBeforeAStopNeverReachesTheCard) {
 TEST_F(LoopDrive, DeadmanStopsAJogAndLatches) {
   settings.safety.deadman_timeout_s = 0.1;
   make_loop();
-  loop->heartbeat(now);
+  loop->heartbeat(now());
   ASSERT_TRUE(loop->post_drive(drive(5, true, 0.3, 0.0)));
   for (int i = 0; i < 100; ++i) {  // Drive updates keep coming, but the controller is silent
     if (i % 20 == 0) {

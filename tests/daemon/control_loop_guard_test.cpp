@@ -39,7 +39,7 @@ class LoopDoorGuard : public ajar::testing::DetLoopTest {
   void hold(double v, double w, int n) {
     for (int i = 0; i < n; ++i) {
       if (i % 50 == 0) {
-        ASSERT_TRUE(loop->post_drive({1, started_ ? false : true, {v, w}, now}));
+        ASSERT_TRUE(loop->post_drive({1, started_ ? false : true, {v, w}, now()}));
         started_ = true;
       }
       const double before = loop->snapshot().commanded.linear_m_s;
@@ -101,7 +101,7 @@ TEST_F(LoopDoorGuard, ACardThatDoesNotSlowDownIsEmergencyStoppedAtTheStandoff) {
   card.drop_next_calls(ajar::testing::CardCall::kJog, 1'000'000);
   for (int i = 0; i < 1000 && loop->snapshot().fault == ErrorCode::kOk; ++i) {
     if (i % 50 == 0) {
-      ASSERT_TRUE(loop->post_drive({1, false, {0.3, 0.0}, now}));
+      ASSERT_TRUE(loop->post_drive({1, false, {0.3, 0.0}, now()}));
     }
     run(1);
   }

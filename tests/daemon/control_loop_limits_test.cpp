@@ -84,7 +84,7 @@ TEST_F(LoopLimits, AMoveThatIsNotATurnInPlaceKeepsTheBodyLimitsWhateverItsKind) 
 
 // A jog's ramp at the card: never above what the drive limits allow a wheel.
 TEST_F(LoopLimits, TheJogRampAtTheCardStaysWithinTheDriveLimits) {
-  ASSERT_TRUE(loop->post_drive({1, true, {0.02, 0.0}, now}));
+  ASSERT_TRUE(loop->post_drive({1, true, {0.02, 0.0}, now()}));
   run(20);
   const auto jogs = calls_of(CardCall::kJog);
   ASSERT_FALSE(jogs.empty());
@@ -106,10 +106,10 @@ class LoopDeadlines : public ajar::testing::DetLoopTest {
   }
   // Holds a 0.1 m/s jog (the wheels' top speed) for `cycles`, re-sending the Drive.
   void jog_at_speed(int cycles) {
-    ASSERT_TRUE(loop->post_drive({1, true, {0.1, 0.0}, now}));
+    ASSERT_TRUE(loop->post_drive({1, true, {0.1, 0.0}, now()}));
     for (int i = 0; i < cycles; ++i) {
       if (i % 50 == 49) {
-        ASSERT_TRUE(loop->post_drive({1, false, {0.1, 0.0}, now}));
+        ASSERT_TRUE(loop->post_drive({1, false, {0.1, 0.0}, now()}));
       }
       run(1);
     }
@@ -149,7 +149,7 @@ TEST_F(LoopDeadlines, AJogWhoseCardMissesTheZeroUpdateIsEmergencyStoppedAndLatch
   jog_at_speed(250);
   card.drop_next_calls(CardCall::kJog, 1'000'000);  // every later GT_SetVel accepted, not applied
   const std::size_t at_release = card.log_size();
-  ASSERT_TRUE(loop->post_drive({1, false, {0.0, 0.0}, now}));  // the key released
+  ASSERT_TRUE(loop->post_drive({1, false, {0.0, 0.0}, now()}));  // the key released
   const int cycles = run_until_fault(4000);
   EXPECT_LE(cycles, jog_rest_bound_cycles()) << "the jog overran its deadline to come to rest";
   const ErrorCode fault = loop->snapshot().fault;

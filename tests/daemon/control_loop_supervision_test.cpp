@@ -32,7 +32,7 @@ class ControlLoopTest : public ::testing::Test {
     managed.reset();
     const int axes[2] = {settings.base.left.card_axis, settings.base.right.card_axis};
     auto mock =
-        real_clock ? std::make_unique<drivers::MockMotionCard>() : testing::make_det_card(now);
+        real_clock ? std::make_unique<drivers::MockMotionCard>() : testing::make_det_card(clock);
     card = mock.get();
     managed = std::make_unique<drivers::ManagedMotionCard>(std::move(mock), axes);
     ASSERT_TRUE(managed->configure().ok());
@@ -42,9 +42,9 @@ class ControlLoopTest : public ::testing::Test {
   // Runs n cycles, 2 ms apart, keeping the controller's heartbeat fresh when asked.
   void run(int n, bool heartbeat = true) {
     for (int i = 0; i < n; ++i) {
-      now += 2 * kMs;
-      if (heartbeat) loop->heartbeat(now);
-      loop->cycle(now);
+      clock.advance_ns(2 * kMs);
+      if (heartbeat) loop->heartbeat(now());
+      loop->cycle(now());
     }
   }
   std::vector<LoopReport> reports() {
@@ -66,7 +66,8 @@ class ControlLoopTest : public ::testing::Test {
   drivers::MockMotionCard* card = nullptr;  // managed's
   std::unique_ptr<drivers::ManagedMotionCard> managed;
   std::unique_ptr<ControlLoop> loop;
-  std::int64_t now = 1'000 * kMs;
+  testing::FakeClock clock;
+  std::int64_t now() const { return clock.now_ns(); }
 };
 
 TEST(WheelProfile, ConvertsWheelLimitsToCardUnits) {
@@ -188,7 +189,7 @@ TEST_F(ControlLoopTest, MotionDeadlineStopsAndLatchesTimeout) {
 
 TEST_F(ControlLoopTest, DeadmanStopsASilentControllersMotion) {
   card->stick_next_move();
-  loop->heartbeat(now);
+  loop->heartbeat(now());
   ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
   const int silent_cycles = static_cast<int>(settings.safety.deadman_timeout_s / 0.002);
   run(silent_cycles - 2, /*heartbeat=*/false);
@@ -209,7 +210,7 @@ TEST_F(ControlLoopTest, FreshHeartbeatsKeepTheMotionGoing) {
 }
 
 TEST_F(ControlLoopTest, DeadmanAlsoWatchesTheArm) {
-  loop->heartbeat(now);
+  loop->heartbeat(now());
   loop->set_arm_moving(true);
   run(static_cast<int>(settings.safety.deadman_timeout_s / 0.002) + 2, false);
   EXPECT_TRUE(has(reports(), LoopReportKind::kFault, ErrorCode::kDeadman));

@@ -38,11 +38,12 @@ class DetLoopTest : public ::testing::Test {
   void run(int n, bool heartbeat = true) {
     for (int i = 0; i < n; ++i) {
       ++tick;
-      now += 2 * kMs;
-      if (heartbeat) loop->heartbeat(now);
-      loop->cycle(now);
+      clock.advance_ns(2 * kMs);
+      if (heartbeat) loop->heartbeat(now());
+      loop->cycle(now());
     }
   }
+  std::int64_t now() const { return clock.now_ns(); }
   std::vector<daemon::LoopReport> reports() {
     std::vector<daemon::LoopReport> out;
     daemon::LoopReport r;
@@ -60,9 +61,9 @@ class DetLoopTest : public ::testing::Test {
   }
 
   daemon::ControlLoopSettings settings;
-  std::int64_t now = 1'000 * kMs;
+  FakeClock clock;
   std::uint64_t tick = 0;
-  std::unique_ptr<drivers::MockMotionCard> impl = make_det_card(now);
+  std::unique_ptr<drivers::MockMotionCard> impl = make_det_card(clock);
   drivers::MockMotionCard& card = *impl;
   int left_axis = 1, right_axis = 2;
   std::size_t log_start = 0;

@@ -1,5 +1,5 @@
 // The deterministic card of the loop, engine and interleaving tests: the drivers' MockMotionCard
-// (mock_card.hpp) on the test's fake clock (never the steady clock, so that a seed replays
+// (mock_card.hpp) on the test's FakeClock (never the steady clock, so that a seed replays
 // exactly), with constant-speed motion (a move runs at its profile velocity from the first
 // instant, a jog takes its velocity at once), smooth stops that rest kDetStopDelayNs later, and
 // every call logged. The engine (or the loop test) owns it; the test keeps a pointer.
@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "ajar/drivers/mock_card.hpp"
+#include "fake_clock.hpp"
 
 namespace ajar::testing {
 
@@ -17,9 +18,9 @@ using drivers::CardCall;
 
 constexpr std::int64_t kDetStopDelayNs = 6'000'000;
 
-inline std::unique_ptr<drivers::MockMotionCard> make_det_card(const std::int64_t& now_ns) {
+inline std::unique_ptr<drivers::MockMotionCard> make_det_card(const FakeClock& clock) {
   auto mock = std::make_unique<drivers::MockMotionCard>(drivers::MockFault::kNone, 0, 1.0, 8,
-                                                        [&now_ns] { return now_ns; });
+                                                        clock.clock());
   mock->set_motion_model(drivers::MockMotionModel::kConstantSpeed, kDetStopDelayNs);
   mock->record_calls(true);
   return mock;

@@ -15,6 +15,7 @@
 #include "det_mock_card.hpp"
 #include "fake_door.hpp"
 #include "fake_engine_fixture.hpp"
+#include "manual_engine.hpp"
 
 namespace ajar::testing {
 namespace {
@@ -22,59 +23,31 @@ namespace {
 using protocol::EventKind;
 using protocol::ProcedureState;
 
-constexpr std::int64_t kPeriodNs = 2'000'000;
-
-class ArmInterlock : public ::testing::Test {
+// The manual engine with an arm on the same fake clock whose tasks stay busy until the test says;
+// its silence shows after 10 ms.
+class ArmInterlock : public ManualEngine {
  protected:
   void SetUp() override {
-    config.safety.deadman_timeout_s = 0.05;
-    config.safety.arm_task_timeout_s = 5.0;
-    config.safety.arm_stop_timeout_s = 0.5;
-    config.control.motion_timeout_margin_s = 0.2;
-    config.drive.stale_yaw_rad = 1.0;  // a jog before Engage keeps the contact point
-    drivers::DriverSet set;
-    auto mock_card = make_det_card(now);
-    card = mock_card.get();
-    set.card = std::move(mock_card);
-    // Tasks stay busy until the test says; silence shows after 10 ms, on the test's clock.
+    start_engine([](daemon::Config& c) {
+      c.safety.arm_task_timeout_s = 5.0;
+      c.safety.arm_stop_timeout_s = 0.5;
+      c.drive.stale_yaw_rad = 1.0;  // a jog before Engage keeps the contact point
+    });
+  }
+  std::unique_ptr<drivers::Manipulator> make_arm() override {
     auto mock_arm = std::make_unique<drivers::MockManipulator>(drivers::MockArmFault::kStuck, 10,
-                                                               [this] { return now; });
+                                                               clock.clock());
     arm = mock_arm.get();
-    set.arm = std::move(mock_arm);
-    daemon::EngineOptions options;
-    options.now_ns = [this] { return now; };
-    options.manual_loop = true;
-    engine = daemon::make_engine(config, std::move(set), std::move(options));
-    engine->set_event_sink([this](const protocol::Event& e) { events.push_back(e); });
-    engine->start();
+    return mock_arm;
   }
-  void TearDown() override { engine.reset(); }
 
-  protocol::Message send(const protocol::Message& m) {
-    engine->controller_heartbeat();
-    return engine->handle_command(m);
-  }
   static void accepted(const protocol::Message& reply) {
     ASSERT_TRUE(std::holds_alternative<protocol::Ack>(reply))
         << std::get<protocol::ErrorReply>(reply).message.view();
   }
-  void cycles(int n) {
-    for (int i = 0; i < n; ++i) {
-      now += kPeriodNs;
-      engine->controller_heartbeat();
-      engine->run_loop_cycle();
-      engine->poll();
-    }
-  }
   // Cycles for `seconds` of fake time.
   void run_for(double seconds) { cycles(static_cast<int>(seconds * 1e9 / kPeriodNs) + 1); }
   ErrorCode fault() { return engine->status().latched_fault; }
-  int count(EventKind kind) const {
-    int n = 0;
-    for (const auto& e : events)
-      n += e.kind == kind ? 1 : 0;
-    return n;
-  }
   // Every call that could turn a wheel (a move, or a jog with a speed).
   int wheel_calls() const {
     return count_calls(*card, CardCall::kMoveRelative) +
@@ -82,14 +55,7 @@ class ArmInterlock : public ::testing::Test {
   }
   // The plane at a yaw that needs a turn, with the contact point: ready to engage, base aligned.
   void to_engaging() {
-    cycles(3);
-    expect_ack(send(good_width()), ProcedureState::kAwaitingHandle);
-    expect_ack(send(good_handle()), ProcedureState::kAwaitingPlane);
-    expect_ack(send(plane_at_yaw(0.1)), ProcedureState::kReadyToAlign);
-    expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
-    cycles(1000);
-    ASSERT_EQ(engine->status().state, ProcedureState::kAligned);
-    expect_ack(send(good_contact()), ProcedureState::kReadyToEngage);
+    to_ready_to_engage();
     expect_ack(send(protocol::Engage{}), ProcedureState::kEngaging);
     cycles(3);
     wheel_calls_before = wheel_calls();
@@ -108,13 +74,6 @@ class ArmInterlock : public ::testing::Test {
     }
   }
 
-  TempDir tmp;
-  daemon::Config config = test_config(tmp.path());
-  std::int64_t now = 1'000'000'000;
-  drivers::MockMotionCard* card = nullptr;  // the engine's
-  drivers::MockManipulator* arm = nullptr;  // the engine's
-  std::unique_ptr<daemon::Engine> engine;
-  std::vector<protocol::Event> events;
   int wheel_calls_before = 0;
 };
 
@@ -279,14 +238,7 @@ TEST_F(ArmInterlock, AnArmThatIsNotIdleRefusesEveryWheelMotion) {
 // arm get a task) before the card can have brought the wheels to rest.
 TEST_F(ArmInterlock, AStopEndedByAStaleStatusDoesNotLetTheArmGoWhileTheWheelsRoll) {
   card->set_motion_model(drivers::MockMotionModel::kProfile);  // decelerates as it was told
-  cycles(3);
-  expect_ack(send(good_width()), ProcedureState::kAwaitingHandle);
-  expect_ack(send(good_handle()), ProcedureState::kAwaitingPlane);
-  expect_ack(send(plane_at_yaw(0.1)), ProcedureState::kReadyToAlign);
-  expect_ack(send(protocol::AlignBase{}), ProcedureState::kAligning);
-  cycles(1000);
-  ASSERT_EQ(engine->status().state, ProcedureState::kAligned);
-  expect_ack(send(good_contact()), ProcedureState::kReadyToEngage);
+  to_ready_to_engage();
   card->set_stale_status_reads(400);          // the status freezes at rest
   accepted(send(protocol::Drive{0.0, 0.6}));  // turning in place (the contact point stays fresh)
   cycles(4);
@@ -311,7 +263,7 @@ TEST_F(ArmAtDoorLoop, NoWheelMotionStartsWhileTheArmMayBeAtTheDoor) {
   loop->set_arm_at_door(true);
   ASSERT_TRUE(loop->post_move({1, 1000, -1000}));
   run(5);
-  ASSERT_TRUE(loop->post_drive({2, true, {0.1, 0.0}, now}));
+  ASSERT_TRUE(loop->post_drive({2, true, {0.1, 0.0}, now()}));
   run(5);
   const auto rs = reports();
   EXPECT_EQ(count(rs, daemon::LoopReportKind::kMoveRefused), 2);

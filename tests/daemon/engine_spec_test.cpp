@@ -56,7 +56,7 @@ TEST_F(EngineSpec, AZeroCountApproachIsOpenedAndClosedByEvents) {
 TEST_F(EngineSpec, TelemetryIsStampedWithTheCycleThatSampledTheWheels) {
   cycles(3);
   const std::uint64_t cycle_time_ns = engine->telemetry().daemon_time_ns;
-  now += 7 * kPeriodNs;  // the frame is built later than the cycle ran
+  clock.advance_ns(7 * kPeriodNs);  // the frame is built later than the cycle ran
   const auto t = engine->telemetry();
   EXPECT_EQ(t.daemon_time_ns, cycle_time_ns);
   EXPECT_EQ(engine->daemon_time_ns(), cycle_time_ns + 7 * kPeriodNs);

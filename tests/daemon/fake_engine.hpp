@@ -3,9 +3,9 @@
 //     wire format expects (or the reply the test set), emits the events the test queued from the
 //     next poll(), settles saves when the test says, reports healthy until told otherwise;
 //   - FakeEngine{inner}: in front of another engine (the real one, or a FakeEngine), forwarding
-//     every virtual of daemon::Engine to it — none is left to the base class's default — while it
-//     counts and records what reaches the engine (the interleaving proof's exactly-once count, the
-//     watchdog's health checks).
+//     every virtual of daemon::Engine to it (they are all pure: one left out does not compile)
+//     while it counts and records what reaches the engine (the interleaving proof's exactly-once
+//     count, the watchdog's health checks).
 // Thread-safe to inspect from the test while the I/O thread calls it.
 #pragma once
 

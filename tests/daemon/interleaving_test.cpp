@@ -90,22 +90,22 @@ TEST(Interleaving, RandomCommandSequencesKeepTheSafetyInvariants) {
 // acknowledged, so the wheels must never turn.
 TEST(Interleaving, AlignBaseAndStopInOneReadNeverTurn) {
   const std::string dir = shm_dir();
-  std::int64_t now = 1'000'000'000;
+  FakeClock clock;
   auto config = test_config(dir);
   drivers::MockManipulator* arm = nullptr;
   drivers::DriverSet set;
-  set.card = make_det_card(now);
+  set.card = make_det_card(clock);
   const drivers::MockMotionCard& card = static_cast<drivers::MockMotionCard&>(*set.card);
   set.arm = make_mock_arm(arm);
   daemon::EngineOptions options;
-  options.now_ns = [&] { return now; };
+  options.now_ns = clock.clock();
   options.manual_loop = true;
   auto engine = daemon::make_engine(config, std::move(set), std::move(options));
   std::vector<protocol::Event> events;
   engine->set_event_sink([&](const protocol::Event& e) { events.push_back(e); });
   engine->start();
   const auto cycle = [&] {
-    now += kPeriodNs;
+    clock.advance_ns(kPeriodNs);
     engine->controller_heartbeat();
     engine->run_loop_cycle();
     engine->poll();

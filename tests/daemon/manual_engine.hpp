@@ -1,15 +1,17 @@
-// ManualEngine: the engine with its loop driven by hand on a fake clock
-// (EngineOptions::manual_loop) over the deterministic card and the mock arm. `configure` may change
-// the config before start.
+// ManualEngine: the engine with its loop driven by hand on the FakeClock
+// (EngineOptions::manual_loop) over the deterministic card and the mock arm (make_arm(): a suite
+// may give another). `configure` may change the config before start.
 #pragma once
 
 #include <functional>
+#include <memory>
 
 #include <gtest/gtest.h>
 
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/engine.hpp"
 #include "det_mock_card.hpp"
+#include "fake_clock.hpp"
 #include "fake_door.hpp"
 #include "fake_engine_fixture.hpp"
 
@@ -31,18 +33,20 @@ class ManualEngine : public ::testing::Test {
     left_axis = config.base.left.card_axis;
     right_axis = config.base.right.card_axis;
     drivers::DriverSet set;
-    auto mock_card = make_det_card(now);
+    auto mock_card = make_det_card(clock);
     card = mock_card.get();
     set.card = std::move(mock_card);
-    set.arm = make_mock_arm(arm);
+    set.arm = make_arm();
     daemon::EngineOptions options;
-    options.now_ns = [this] { return now; };
+    options.now_ns = clock.clock();
     options.manual_loop = true;
     engine = daemon::make_engine(config, std::move(set), std::move(options));
     engine->set_event_sink([this](const protocol::Event& e) { events.push_back(e); });
     engine->start();
   }
   void TearDown() override { engine.reset(); }
+  // The engine's arm; `arm` points at it. The default: make_mock_arm (busy until the test says).
+  virtual std::unique_ptr<drivers::Manipulator> make_arm() { return make_mock_arm(arm); }
   // A new engine with a changed config (a new card and arm).
   void restart(const std::function<void(daemon::Config&)>& configure) {
     engine.reset();
@@ -58,7 +62,7 @@ class ManualEngine : public ::testing::Test {
   void cycles(int n, bool alive = true) {
     for (int i = 0; i < n; ++i) {
       ++tick;
-      now += kPeriodNs;
+      clock.advance_ns(kPeriodNs);
       if (alive) engine->controller_heartbeat();
       engine->run_loop_cycle();
       engine->poll();
@@ -88,7 +92,7 @@ class ManualEngine : public ::testing::Test {
 
   TempDir tmp;
   daemon::Config config = test_config(tmp.path());
-  std::int64_t now = 1'000'000'000;
+  FakeClock clock;
   std::uint64_t tick = 0;
   drivers::MockMotionCard* card = nullptr;  // the engine's
   int left_axis = 1, right_axis = 2;

@@ -276,15 +276,18 @@ TEST(RecorderRecordings, ListFetchAndSaveARealRecording) {
   boost::asio::io_context io;
   const auto recordings = daemon::make_recorder_recordings(rec, io);
 
-  // The writing file, listed; its bytes grow once the recorder thread wrote the frames.
+  // The writing file, listed once the recorder thread opened it (start() does not wait for the
+  // disk); its bytes grow once the recorder thread wrote the frames.
   protocol::RecordingInfo info;
   const auto until = std::chrono::steady_clock::now() + 20s;
   while (std::chrono::steady_clock::now() < until) {
     const auto list =
         std::get<protocol::RecordingList>(ask(*recordings, io, protocol::ListRecordings{}));
-    ASSERT_EQ(list.total, 1U);
-    info = list.entries[0];
-    if (info.size_bytes > 50 * frame.size()) break;
+    ASSERT_LE(list.total, 1U);
+    if (list.total == 1) {
+      info = list.entries[0];
+      if (info.size_bytes > 50 * frame.size()) break;
+    }
     std::this_thread::sleep_for(10ms);
   }
   EXPECT_TRUE(info.writing);

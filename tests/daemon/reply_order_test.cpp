@@ -120,6 +120,8 @@ class GatedEngine final : public daemon::Engine {
   std::uint64_t daemon_time_ns() const noexcept override { return inner_.daemon_time_ns(); }
   recorder::Recorder* recorder() noexcept override { return inner_.recorder(); }
   void run_loop_cycle() noexcept override { inner_.run_loop_cycle(); }
+  std::vector<std::string> startup_warnings() const override { return inner_.startup_warnings(); }
+  std::vector<std::string> take_warnings() override { return inner_.take_warnings(); }
 
  private:
   daemon::Engine& inner_;
@@ -168,16 +170,16 @@ class World {
     fast_disk_ = seed % 4 == 0;  // saves land after every action on a quarter of the seeds
     left_ = config_.base.left.card_axis;
     right_ = config_.base.right.card_axis;
-    auto card = make_det_card(now_);
+    auto card = make_det_card(clock_);
     card_ = card.get();
     drivers::DriverSet set;
     set.card = std::move(card);
     auto arm = std::make_unique<drivers::MockManipulator>(drivers::MockArmFault::kStuck, 40,
-                                                          [this] { return now_; });
+                                                          clock_.clock());
     arm_ = arm.get();
     set.arm = std::move(arm);
     daemon::EngineOptions options;
-    options.now_ns = [this] { return now_; };
+    options.now_ns = clock_.clock();
     options.manual_loop = true;
     std::filesystem::remove_all(config_.state.directory);
     engine_ = daemon::make_engine(config_, std::move(set), std::move(options));
@@ -597,7 +599,7 @@ class World {
   bool card_moving() { return card_->peek(left_).moving || card_->peek(right_).moving; }
 
   void cycle(bool poll, bool heartbeat = true) {
-    now_ += kPeriodNs;
+    clock_.advance_ns(kPeriodNs);
     ++cycles_;
     if (heartbeat && controller_ != nullptr && cycles_ % 5 == 0) {
       read(*controller_, {protocol::Message{protocol::Ping{3}}});
@@ -642,7 +644,7 @@ class World {
   bool verbose_;
   bool fast_disk_ = false;
   daemon::Config config_;
-  std::int64_t now_ = 1'000'000'000;
+  FakeClock clock_;
   std::uint64_t cycles_ = 0;
   drivers::MockMotionCard* card_ = nullptr;
   drivers::MockManipulator* arm_ = nullptr;
@@ -719,13 +721,13 @@ TEST(ReplyOrder, ATakeOverCatchesUpBeforeItsWelcome) {
   TempDir dir;
   auto config = test_config(dir.path());
   config.recorder.enabled = false;
-  std::int64_t now = 1'000'000'000;
+  FakeClock clock;
   drivers::DriverSet set;
-  set.card = make_det_card(now);
-  set.arm = std::make_unique<drivers::MockManipulator>(drivers::MockArmFault::kStuck, 40,
-                                                       [&now] { return now; });
+  set.card = make_det_card(clock);
+  set.arm =
+      std::make_unique<drivers::MockManipulator>(drivers::MockArmFault::kStuck, 40, clock.clock());
   daemon::EngineOptions options;
-  options.now_ns = [&now] { return now; };
+  options.now_ns = clock.clock();
   options.manual_loop = true;
   auto engine = daemon::make_engine(config, std::move(set), std::move(options));
   daemon::SessionHub hub(*engine);
@@ -760,7 +762,7 @@ TEST(ReplyOrder, ATakeOverCatchesUpBeforeItsWelcome) {
   }
   // The alignment runs to its end; the loop's report of it waits for the engine's next poll.
   for (int i = 0; i < 1500; ++i) {
-    now += kPeriodNs;
+    clock.advance_ns(kPeriodNs);
     engine->controller_heartbeat();
     engine->run_loop_cycle();
     if (i < 3) engine->poll();  // motion_started out

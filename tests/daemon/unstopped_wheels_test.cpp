@@ -37,10 +37,10 @@ class UnstoppedWheels : public ajar::testing::DetLoopTest {
   }
   // A jog at 0.3 m/s, the key held.
   void jog_at_speed() {
-    ASSERT_TRUE(loop->post_drive(DriveCommand{1, true, {0.3, 0.0}, now}));
+    ASSERT_TRUE(loop->post_drive(DriveCommand{1, true, {0.3, 0.0}, now()}));
     for (int i = 0; i < 8; ++i) {
       run(50);
-      ASSERT_TRUE(loop->post_drive(DriveCommand{1, false, {0.3, 0.0}, now}));
+      ASSERT_TRUE(loop->post_drive(DriveCommand{1, false, {0.3, 0.0}, now()}));
     }
     ASSERT_TRUE(card.any_moving());
   }
@@ -58,7 +58,7 @@ TEST_F(UnstoppedWheels, ASmoothStopTheWheelsDoNotFollowBecomesAnEmergencyStopAtO
   jog_at_speed();
   card.drop_next_calls(CardCall::kSmoothStop, kForever);
   const std::size_t from = card.log_size();
-  const std::int64_t asked = now;
+  const std::int64_t asked = now();
   loop->request_stop();
   run(600);  // 1.2 s
   const std::int64_t estop = first_call_ns(CardCall::kEmergencyStop, from);
@@ -90,7 +90,7 @@ TEST_F(UnstoppedWheels, WheelsThatIgnoreAnEmergencyStopGetTheirServosSwitchedOff
   card.drop_next_calls(CardCall::kSmoothStop, kForever);
   card.drop_next_calls(CardCall::kEmergencyStop, kForever);
   const std::size_t from = card.log_size();
-  const std::int64_t asked = now;
+  const std::int64_t asked = now();
   loop->request_emergency_stop();
   bool unstopped_seen = false;
   for (int i = 0; i < 300; ++i) {
@@ -147,16 +147,16 @@ TEST_F(UnstoppedWheels, ARecoveryNeverSwitchesTheServosOnWhileTheWheelsTurn) {
 // an emergency stop the card took; accepted once they rest.
 TEST(UnstoppedWheelsEngine, ResetIsRefusedWhileTheWheelsStillTurn) {
   ajar::testing::TempDir dir;
-  std::int64_t now = 1'000'000'000;
+  ajar::testing::FakeClock clock;
   auto config = ajar::testing::test_config(dir.path());
   config.recorder.enabled = false;
   drivers::DriverSet set;
-  set.card = ajar::testing::make_det_card(now);
+  set.card = ajar::testing::make_det_card(clock);
   auto& card = static_cast<drivers::MockMotionCard&>(*set.card);
-  set.arm = std::make_unique<drivers::MockManipulator>(drivers::MockArmFault::kStuck, 40,
-                                                       [&now] { return now; });
+  set.arm =
+      std::make_unique<drivers::MockManipulator>(drivers::MockArmFault::kStuck, 40, clock.clock());
   EngineOptions options;
-  options.now_ns = [&now] { return now; };
+  options.now_ns = clock.clock();
   options.manual_loop = true;
   auto engine = make_engine(config, std::move(set), std::move(options));
   std::vector<protocol::Event> events;
@@ -164,7 +164,7 @@ TEST(UnstoppedWheelsEngine, ResetIsRefusedWhileTheWheelsStillTurn) {
   engine->start();
   const auto cycles = [&](int n) {
     for (int i = 0; i < n; ++i) {
-      now += 2'000'000;
+      clock.advance_ns(2'000'000);
       engine->controller_heartbeat();
       engine->run_loop_cycle();
       engine->poll();

@@ -9,8 +9,8 @@
 namespace ajar::drivers {
 namespace {
 
+using ajar::testing::FakeClock;
 using test::sample_task;
-using testing::FakeClock;
 
 constexpr int kSlowMs = 10;
 
@@ -140,9 +140,9 @@ TEST_F(ArmMock, SetPhaseReportsWhatTheTestSays) {
 
 // The config's fault words run the same faults by time (drivers.mock.arm_fault).
 TEST(ArmMockControllerFaults, RunByTimeUnderTheConfigWords) {
-  std::int64_t now = 0;
-  const auto clock = [&now] { return now; };
-  const auto ms = [&now](int n) { now += std::int64_t{n} * 1'000'000; };
+  FakeClock fake;
+  const auto clock = fake.clock();
+  const auto ms = [&fake](int n) { fake.advance_ns(std::int64_t{n} * 1'000'000); };
   const int half = MockManipulator::kTaskDurationMs / 2;
   {
     MockManipulator a(MockArmFault::kSilentMidTask, 10, clock);

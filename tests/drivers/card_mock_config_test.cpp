@@ -12,7 +12,7 @@
 namespace ajar::drivers {
 namespace {
 
-using testing::FakeClock;
+using ajar::testing::FakeClock;
 using testing::status_of;
 
 constexpr std::array<int, 2> kWheels{1, 2};

@@ -100,7 +100,7 @@ TEST_F(ManagedCard, DeactivateStopsARunningMoveBeforeDisabling) {
 TEST(ManagedCardDeadline, DeactivateFallsBackToEmergencyStopAfterItsDeadline) {
   // A fake clock that stands still while deactivate() waits: the smooth stop (a deceleration that
   // would take ~100 s) cannot finish within the 0 ms stop deadline.
-  testing::FakeClock clock;
+  ajar::testing::FakeClock clock;
   auto mock = std::make_unique<MockMotionCard>(MockFault::kNone, 0, 1.0, 4, clock.clock());
   ManagedMotionCard card(std::move(mock), kWheels, 0);
   ASSERT_TRUE(card.configure().ok());

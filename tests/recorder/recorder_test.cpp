@@ -99,18 +99,23 @@ TEST(Recorder, WhatGoesInComesOutPerChannelAndTheFileIs0640) {
   const std::uint8_t frame[] = {0xA5, 1, 2, 3};
   for (std::uint64_t i = 0; i < 40; ++i)
     r.frame(kWireIn, 7, 1000 + i, frame);
+  // A frame sent to many sessions: its bytes shared, recorded once per session all the same.
+  const auto shared =
+      std::make_shared<const std::vector<std::uint8_t>>(std::begin(frame), std::end(frame));
+  for (std::uint64_t i = 0; i < 10; ++i)
+    r.frame(kWireOut, 100 + i, 1040 + i, shared);
   for (std::uint64_t i = 0; i < 5; ++i) {
     r.json(
         kEventsChannel, 2000 + i,
         R"({"daemon_time_ns":1,"kind":"state_changed","state":"aligned","fault":"OK","detail":)" +
             json_string("line \"one\"\n") + "}");
   }
-  ASSERT_TRUE(eventually([&] { return r.counters().messages_written >= 145; }));
+  ASSERT_TRUE(eventually([&] { return r.counters().messages_written >= 155; }));
   r.stop();
   const auto c = r.counters();
   EXPECT_EQ(c.loop_samples, 100U);
   EXPECT_EQ(c.loop_dropped, 0U);
-  EXPECT_EQ(c.io_records, 45U);
+  EXPECT_EQ(c.io_records, 55U);
   EXPECT_EQ(c.io_dropped, 0U);
   EXPECT_EQ(c.write_failures, 0U);
   EXPECT_EQ(log.size(), 0U);
@@ -126,12 +131,12 @@ TEST(Recorder, WhatGoesInComesOutPerChannelAndTheFileIs0640) {
   const auto f = test::read_mcap(test::file_bytes(files[0]));
   EXPECT_TRUE(f.complete) << "a stopped recorder closes its file with a footer";
   EXPECT_EQ(f.counts.at(kLoopChannel), 100U);
-  EXPECT_EQ(f.counts.at(kWireChannel), 40U);
+  EXPECT_EQ(f.counts.at(kWireChannel), 50U);
   EXPECT_EQ(f.counts.at(kEventsChannel), 5U);
   EXPECT_GE(f.counts.at(kRecorderChannel), 2U) << "the counters at the file's start and end";
   EXPECT_EQ(c.messages_written, f.messages.size());
   // Loop samples in order, the 3rd, 6th, ... cycle; wire messages carry the layout's header.
-  std::uint64_t expect_cycle = 3;
+  std::uint64_t expect_cycle = 3, wire = 0;
   for (const auto& m : f.messages) {
     if (m.channel == kLoopChannel) {
       const std::string text(m.data.begin(), m.data.end());
@@ -140,9 +145,18 @@ TEST(Recorder, WhatGoesInComesOutPerChannelAndTheFileIs0640) {
     } else if (m.channel == kWireChannel) {
       ASSERT_EQ(m.data.size(), kWireHeaderBytes + 4);
       EXPECT_EQ(m.data[0], kWireLayoutVersion);
-      EXPECT_EQ(m.data[1], kWireIn);
-      EXPECT_EQ(test::le(m.data, 2, 8), 7U);
-      EXPECT_EQ(m.data[kWireHeaderBytes], 0xA5);
+      const std::uint64_t time = test::le(m.data, 10, 8);
+      if (wire < 40) {
+        EXPECT_EQ(m.data[1], kWireIn);
+        EXPECT_EQ(test::le(m.data, 2, 8), 7U);
+      } else {
+        EXPECT_EQ(m.data[1], kWireOut);
+        EXPECT_EQ(test::le(m.data, 2, 8), 100 + wire - 40) << "the session it was sent to";
+      }
+      EXPECT_EQ(time, 1000 + wire);
+      EXPECT_TRUE(
+          std::equal(std::begin(frame), std::end(frame), m.data.begin() + kWireHeaderBytes));
+      ++wire;
     }
   }
 }
@@ -152,15 +166,20 @@ TEST(Recorder, RotationKeepsTheBudgetAndNeverRemovesASavedRecording) {
   RecorderSettings settings;
   settings.directory = dir.path.string();
   settings.loop_decimation = 1;
-  settings.max_file_bytes = 16 << 10;
-  settings.max_bytes = 64 << 10;
+  settings.max_file_bytes = 48 << 10;  // ~20 KiB of schemas, then ~60 samples
+  settings.max_bytes = 192 << 10;
   Recorder r(settings, {});
   r.start();
   std::uint64_t cycle = 0;
+  // As fast as the recorder writes (a rotation, with its fdatasync, every ~60 samples), at most
+  // ~400 samples ahead of what is on disk (messages_written also counts two status messages per
+  // file: ~3 %): the ring (kLoopRingCapacity) never fills, so nothing may be dropped.
   const auto feed = [&](int n) {
     for (int i = 0; i < n; ++i) {
       offer(r, sample(++cycle));
-      if (i % 200 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      if (i % 100 == 0) {
+        ASSERT_TRUE(eventually([&] { return r.counters().messages_written + 400 >= cycle; }));
+      }
     }
   };
   feed(2000);

@@ -44,9 +44,9 @@ struct Coverage {
   }
 };
 
-// The engine as the hub sees it, recording what reaches it (exactly-once is checked against it):
+// The engine as the hub sees it, recording what reaches it (exactly-once is checked against it), is
 // the tests' one engine double in front of the real engine.
-using RecordingEngine = ajar::test::FakeEngine;
+using ajar::test::FakeEngine;
 
 // One client connection as the hub sees it; the frames it was sent are decoded by the test.
 class FakeLink final : public RecordingLink {

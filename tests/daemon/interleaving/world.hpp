@@ -24,6 +24,7 @@
 #include "ajar/drivers/mock_arm.hpp"
 #include "ajar/drivers/mock_card.hpp"
 #include "det_mock_card.hpp"
+#include "fake_clock.hpp"
 #include "fake_door.hpp"
 #include "fake_engine_fixture.hpp"
 #include "harness.hpp"
@@ -57,7 +58,7 @@ class World {
     if (seed % 5 == 0) config_.state.debug_write_delay_ms = static_cast<int>(1 + seed % 3);
     left_axis_ = config_.base.left.card_axis;
     right_axis_ = config_.base.right.card_axis;
-    auto card = make_det_card(now_);
+    auto card = make_det_card(clock_);
     card_ = card.get();
     card_->set_enable_delay_reads(static_cast<int>(rng_() % 3));
     init_card_limits(seed);
@@ -78,15 +79,15 @@ class World {
     // The arm on the world's clock (a seed replays exactly): tasks stay busy until the scenario
     // says; a silent controller shows as disconnected 40 ms later.
     auto arm = std::make_unique<drivers::MockManipulator>(drivers::MockArmFault::kStuck, 40,
-                                                          [this] { return now_; });
+                                                          clock_.clock());
     arm_ = arm.get();
     set.arm = std::move(arm);
     daemon::EngineOptions options;
-    options.now_ns = [this] { return now_; };
+    options.now_ns = clock_.clock();
     options.manual_loop = true;
     std::filesystem::remove_all(config_.state.directory);
     engine_ = daemon::make_engine(config_, std::move(set), std::move(options));
-    recorder_ = std::make_unique<RecordingEngine>(*engine_);
+    recorder_ = std::make_unique<FakeEngine>(*engine_);
     recorder_->before_lost = [this] { stop_expected(false, "controller lost"); };
     hub_ = std::make_unique<daemon::SessionHub>(*recorder_);
     engine_->set_event_sink([this](const protocol::Event& e) {
@@ -244,14 +245,15 @@ class World {
   std::mt19937_64 rng_;
   bool verbose_;
   daemon::Config config_;
-  std::int64_t now_ = 1'000'000'000;
+  FakeClock clock_;  // the world's one clock: the engine's, the card's, the arm's
+  std::int64_t now() const { return clock_.now_ns(); }
   std::uint64_t tick_ = 0;
   drivers::MockMotionCard* card_ = nullptr;  // the engine's
   int left_axis_ = 1, right_axis_ = 2;
   bool stops_never_rest_ = false;
   drivers::MockManipulator* arm_ = nullptr;  // the engine's
   std::unique_ptr<daemon::Engine> engine_;
-  std::unique_ptr<RecordingEngine> recorder_;
+  std::unique_ptr<FakeEngine> recorder_;
   std::unique_ptr<daemon::SessionHub> hub_;
   std::vector<std::unique_ptr<FakeLink>> links_;
   std::uint64_t next_link_id_ = 1;

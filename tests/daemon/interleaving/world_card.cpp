@@ -116,7 +116,7 @@ void World::inject_card_misbehaviour() {
       const int cycles = 1 + pick(40);
       note("card: silent for " + std::to_string(cycles) + " cycles");
       card_->stop_answering_for_ns(cycles * kPeriodNs);
-      silent_until_ns_ = now_ + cycles * kPeriodNs;
+      silent_until_ns_ = now() + cycles * kPeriodNs;
       if (moving) coverage_.bump("card silent mid-motion");
       return;
     }
@@ -162,7 +162,7 @@ void World::check_card_call(const drivers::CardCallRecord& c, bool straight) {
       jog_told_active_ = false;
       rest_by_drive_ = false;
       rest_by_ns_ =
-          now_ +
+          now() +
           static_cast<std::int64_t>((1.5 * trapezoid_ms(distance, p) / 1e3 + margin_s) * 1e9) +
           3 * kPeriodNs;
       if (straight) coverage_.bump("approach at the card");
@@ -193,7 +193,7 @@ void World::check_card_call(const drivers::CardCallRecord& c, bool straight) {
                                                      : turn_limits_;
       // From the motion's top speed at its deceleration (x1.5), the margin.
       rest_by_ns_ =
-          now_ +
+          now() +
           static_cast<std::int64_t>((1.5 * limit.speed / limit.accel / 1e3 + margin_s) * 1e9) +
           3 * kPeriodNs;
       rest_by_drive_ = false;
@@ -202,7 +202,7 @@ void World::check_card_call(const drivers::CardCallRecord& c, bool straight) {
     }
     case CardCall::kEmergencyStop:
       if (verbose_) note("card: emergency stop");
-      rest_by_ns_ = now_ + 3 * kPeriodNs;
+      rest_by_ns_ = now() + 3 * kPeriodNs;
       rest_by_drive_ = false;
       jog_told_active_ = false;
       card_halted_ = true;
@@ -221,7 +221,7 @@ void World::check_wheels(bool halted) {
                             : wheel_kind_ == 's' ? straight_limits_
                                                  : turn_limits_;
   const double dt_ms = static_cast<double>(kPeriodNs) / 1e6;
-  const bool silent = now_ <= silent_until_ns_ + 2 * kPeriodNs;
+  const bool silent = now() <= silent_until_ns_ + 2 * kPeriodNs;
   bool moving = false;
   for (int i = 0; i < 2; ++i) {
     const int axis = i == 0 ? left_axis_ : right_axis_;
@@ -247,9 +247,9 @@ void World::check_wheels(bool halted) {
     if (!off) {
       disagree_since_[i] = -1;
     } else if (disagree_since_[i] < 0) {
-      disagree_since_[i] = now_;
+      disagree_since_[i] = now();
     } else if (!silent &&
-               now_ - disagree_since_[i] >
+               now() - disagree_since_[i] >
                    static_cast<std::int64_t>(
                        (jog_limits_.speed / jog_limits_.accel / 1e3 + kVelocityMismatchS + 0.1) *
                        1e9) &&
@@ -260,9 +260,9 @@ void World::check_wheels(bool halted) {
   if (moving) check_door_guard();  // the distance changes only while the wheels turn
   if (!violation_.empty()) return;
   if (rest_by_drive_) rest_by_ns_ = last_drive_ns_ + jog_rest_ns_;
-  if (moving && !silent && now_ > rest_by_ns_) {
+  if (moving && !silent && now() > rest_by_ns_) {
     return fail("the wheels still move past their motion's deadline (" +
-                std::to_string((now_ - rest_by_ns_) / 1'000'000) +
+                std::to_string((now() - rest_by_ns_) / 1'000'000) +
                 " ms; and no emergency stop reached the card)");
   }
 }

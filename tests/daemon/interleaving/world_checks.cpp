@@ -60,7 +60,7 @@ void World::on_executed(const protocol::Message& m, const protocol::Message& rep
     }
     // A zero Drive permits no motion of its own; it may only update (slow) a running jog.
     if (d->linear_m_s != 0 || d->angular_rad_s != 0 || open_kind_ == 'd') jog_permit_ = true;
-    last_drive_ns_ = now_;
+    last_drive_ns_ = now();
     coverage_.bump(d->linear_m_s == 0 && d->angular_rad_s == 0 ? "drive zero accepted"
                                                                : "drive accepted");
   }
@@ -79,14 +79,14 @@ void World::on_executed(const protocol::Message& m, const protocol::Message& rep
 
 void World::cycle(bool poll) {
   ++tick_;
-  now_ += kPeriodNs;
+  clock_.advance_ns(kPeriodNs);
   // The held key: the client re-sends its Drive (its own read).
   if (key_ && alive_ && controller_ != nullptr && ++key_count_ % key_every_ == 0) {
     read(*controller_, {protocol::Message{*key_}});
   }
   // A live controller pings (any frame is a heartbeat); a silent one sends nothing.
   if (alive_ && controller_ != nullptr && tick_ % 4 == 0) {
-    read(*controller_, {protocol::Message{protocol::Ping{static_cast<std::uint64_t>(now_)}}});
+    read(*controller_, {protocol::Message{protocol::Ping{static_cast<std::uint64_t>(now())}}});
   }
   const std::size_t calls_before = card_->log_size();
   engine_->run_loop_cycle();
@@ -189,7 +189,7 @@ void World::on_card_call(const drivers::CardCallRecord& c) {
             "a jog moved the wheels without an accepted Drive since the last acknowledged "
             "stop");
       }
-      if (moves && now_ - last_drive_ns_ > jog_bound_ns_) {
+      if (moves && now() - last_drive_ns_ > jog_bound_ns_) {
         return fail(
             "a jog still moves the wheels longer than drive.command_timeout_s plus the "
             "deceleration after the last accepted Drive");
@@ -202,7 +202,8 @@ void World::on_card_call(const drivers::CardCallRecord& c) {
       // wheel pair) per second since the last jog call; a jog from rest starts within a period.
       const auto& d = config_.drive;
       const double dt_s =
-          static_cast<double>(jog_left_ == 0 && jog_right_ == 0 ? kPeriodNs : now_ - last_jog_ns_) /
+          static_cast<double>(jog_left_ == 0 && jog_right_ == 0 ? kPeriodNs
+                                                                : now() - last_jog_ns_) /
           1e9;
       const double max_step = 2 *
                                   (d.max_linear_accel_m_s2 +
@@ -215,7 +216,7 @@ void World::on_card_call(const drivers::CardCallRecord& c) {
       }
       jog_left_ = left_velocity;
       jog_right_ = right_velocity;
-      last_jog_ns_ = now_;
+      last_jog_ns_ = now();
       return;
     }
     case CardCall::kSmoothStop:
@@ -256,7 +257,7 @@ void World::check_jog(bool stop_call) {
   }
   commanded_lin_ = lin;
   commanded_ang_ = ang;
-  if (card_jogging() && now_ - last_drive_ns_ > jog_rest_ns_ && now_ > silent_until_ns_) {
+  if (card_jogging() && now() - last_drive_ns_ > jog_rest_ns_ && now() > silent_until_ns_) {
     return fail(
         "the wheels still jog longer than drive.command_timeout_s plus the deceleration (and the "
         "jog's deadline to rest) after the last accepted Drive");
@@ -338,7 +339,7 @@ void World::fail(const std::string& what) {
 
 void World::note(const std::string& line) {
   std::ostringstream out;
-  out << '[' << tick_ << " t=" << now_ / 1'000'000 << "ms] " << line;
+  out << '[' << tick_ << " t=" << now() / 1'000'000 << "ms] " << line;
   trace_.push_back(out.str());
   if (verbose_) std::cerr << trace_.back() << "\n";
 }

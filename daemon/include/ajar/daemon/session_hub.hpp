@@ -72,7 +72,7 @@
 
 #include <chrono>
 #include <cstdint>
-#include <deque>
+#include <list>
 #include <map>
 #include <memory>
 #include <optional>
@@ -153,8 +153,10 @@ class SessionHub final : public SessionHandler {
     Clock::time_point opened{};
     Clock::time_point last_activity{};  // last frame received
     bool closing = false;               // past the Hello deadline: being closed
-    std::deque<HeldReply>
-        held;  // replies waiting for durability (and the events behind them), in order
+    // Replies waiting for durability (and the events behind them), in order. A list: nothing
+    // allocated while empty (a std::deque allocates a node at construction, one ~1 KiB
+    // HeldReply, for every session: 257 sessions kept 0.26 MiB for nothing).
+    std::list<HeldReply> held;
     bool greeted = false;
     protocol::Role role = protocol::Role::kObserver;
     std::uint64_t client_instance_id = 0;

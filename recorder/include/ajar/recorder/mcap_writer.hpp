@@ -60,6 +60,10 @@ class McapWriter {
   // counts per channel from 1.
   void add_message(std::uint16_t channel, std::uint64_t time_ns,
                    std::span<const std::uint8_t> data);
+  // The same with the message's data in two parts, `head` then `data` (a wire record's header and
+  // the frame, kept apart by the caller).
+  void add_message(std::uint16_t channel, std::uint64_t time_ns, std::span<const std::uint8_t> head,
+                   std::span<const std::uint8_t> data);
   void add_message(std::uint16_t channel, std::uint64_t time_ns, std::string_view data);
 
   // Ends the file: Data End, summary, summary offsets, Footer, magic. Nothing may follow.
@@ -68,8 +72,12 @@ class McapWriter {
 
   // The bytes made since the last call (whole records); they count as written from now on.
   std::vector<std::uint8_t> take_bytes();
+  // The bytes made since the last take_bytes()/clear_pending() (whole records), for a caller that
+  // writes them from here and then clears them: the buffer keeps its capacity (no allocation per
+  // write once it has grown, or reserve()d, to the size the caller writes at).
   const std::vector<std::uint8_t>& pending() const noexcept { return buffer_; }
   void clear_pending() noexcept { buffer_.clear(); }
+  void reserve(std::size_t bytes) { buffer_.reserve(bytes); }
   std::uint64_t offset() const noexcept { return offset_; }  // total bytes made so far
   std::uint64_t message_count() const noexcept { return message_count_; }
   std::uint64_t message_count(std::uint16_t channel) const;

@@ -122,7 +122,9 @@ struct SaveResult {
 
 class Recorder {
  public:
-  static constexpr std::size_t kLoopRingCapacity = 4096;  // samples (41 s at 100 Hz)
+  // Samples: 10 s at the default decimation (100 Hz), 2 s at every cycle (500 Hz); the recorder
+  // thread drains it every 20 ms. 176 KiB, all of it resident once the ring has gone round.
+  static constexpr std::size_t kLoopRingCapacity = 1024;
   static constexpr std::size_t kIoQueueMaxRecords = 16384;
   static constexpr std::size_t kIoQueueMaxBytes = 16U << 20;
 
@@ -154,6 +156,11 @@ class Recorder {
   // ---- A protocol frame in or out (channels.hpp, /ajar/wire).
   void frame(std::uint8_t direction, std::uint64_t session_id, std::uint64_t daemon_time_ns,
              std::span<const std::uint8_t> bytes);
+  // The same for a frame whose bytes are shared (a frame sent to many sessions, a Telemetry tick
+  // to 256 observers): the queue keeps a reference to them, not a copy per session. They must not
+  // change afterwards.
+  void frame(std::uint8_t direction, std::uint64_t session_id, std::uint64_t daemon_time_ns,
+             std::shared_ptr<const std::vector<std::uint8_t>> bytes);
   // A JSON message on a JSON channel of channels.hpp (the text must match its schema).
   void json(std::uint16_t channel, std::uint64_t daemon_time_ns, std::string text);
   RecorderCounters counters() const;

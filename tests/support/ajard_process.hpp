@@ -1,6 +1,8 @@
-// Runs the real ajard binary (AJARD_PATH) as a subprocess for end-to-end tests: stdout/stderr go
-// to files in a test directory; the environment is stripped of systemd variables so that ajard
-// logs to stderr and sends no notifications.
+// The one launcher of the real ajard binary, for the end-to-end tests (tests/daemon, tests/tls) and
+// the benchmark harnesses (tests/bench/harness.hpp's Daemon): a child process whose stdout and
+// stderr go to files in a directory, in an environment stripped of systemd's variables (so that
+// ajard logs to stderr and sends no notifications). The destructor kills what still runs (SIGKILL)
+// and reaps it; stop() ends it gracefully (SIGTERM) first.
 #pragma once
 
 #include <fcntl.h>
@@ -10,6 +12,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <optional>
@@ -31,12 +34,17 @@ inline std::string read_text_file(const std::string& path) {
 
 class AjardProcess {
  public:
-  // Starts `AJARD_PATH args...`; output in `dir`/NAME.stdout and .stderr. `extra_env`
-  // ("NAME=value" each) is added to the environment.
-  AjardProcess(const std::vector<std::string>& args, const std::string& dir,
+  // Which ajard binary to run (the tests' default is AJARD_PATH, the build tree's).
+  struct Program {
+    std::string path;
+  };
+
+  // Starts `program args...`; output in `dir`/NAME.stdout and .stderr (truncated). `extra_env`
+  // ("NAME=value" each) is added to the environment. started() says whether the spawn worked.
+  AjardProcess(Program program, const std::vector<std::string>& args, const std::string& dir,
                const std::string& name = "ajard", const std::vector<std::string>& extra_env = {})
       : stdout_path_(dir + "/" + name + ".stdout"), stderr_path_(dir + "/" + name + ".stderr") {
-    std::vector<std::string> argv_text{AJARD_PATH};
+    std::vector<std::string> argv_text{program.path};
     argv_text.insert(argv_text.end(), args.begin(), args.end());
     std::vector<char*> argv;
     for (auto& a : argv_text)
@@ -63,10 +71,17 @@ class AjardProcess {
                                      O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_addopen(&actions, 2, stderr_path_.c_str(),
                                      O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int rc = posix_spawn(&pid_, AJARD_PATH, &actions, nullptr, argv.data(), envp.data());
+    const int rc =
+        posix_spawn(&pid_, program.path.c_str(), &actions, nullptr, argv.data(), envp.data());
     posix_spawn_file_actions_destroy(&actions);
     if (rc != 0) pid_ = -1;
   }
+#ifdef AJARD_PATH
+  // The build tree's ajard (the test targets define AJARD_PATH).
+  AjardProcess(const std::vector<std::string>& args, const std::string& dir,
+               const std::string& name = "ajard", const std::vector<std::string>& extra_env = {})
+      : AjardProcess(Program{AJARD_PATH}, args, dir, name, extra_env) {}
+#endif
   ~AjardProcess() {
     if (running()) {
       ::kill(pid_, SIGKILL);
@@ -77,8 +92,15 @@ class AjardProcess {
   AjardProcess(const AjardProcess&) = delete;
   AjardProcess& operator=(const AjardProcess&) = delete;
 
-  bool started() const { return pid_ > 0; }
-  bool running() const { return pid_ > 0 && !exit_code_; }
+  bool started() const {
+    return pid_ > 0;
+  }
+  bool running() const {
+    return pid_ > 0 && !exit_code_;
+  }
+  pid_t pid() const {
+    return pid_;
+  }  // -1 when the spawn failed (stays valid after the exit)
   void signal(int signal_number) const {
     if (running()) ::kill(pid_, signal_number);
   }
@@ -98,9 +120,22 @@ class AjardProcess {
     }
     return exit_code_;
   }
+  // SIGTERM (ajard's orderly shutdown) and waits up to `timeout` for the exit; the destructor
+  // kills it if it still runs then. The exit code as wait_exit's.
+  std::optional<int> stop(std::chrono::milliseconds timeout = std::chrono::seconds(30)) {
+    signal(SIGTERM);
+    return wait_exit(timeout);
+  }
 
-  std::string out() const { return read_text_file(stdout_path_); }
-  std::string err() const { return read_text_file(stderr_path_); }
+  std::string out() const {
+    return read_text_file(stdout_path_);
+  }
+  std::string err() const {
+    return read_text_file(stderr_path_);
+  }
+  const std::string& stderr_path() const {
+    return stderr_path_;
+  }
 
  private:
   std::string stdout_path_;
@@ -109,16 +144,19 @@ class AjardProcess {
   std::optional<int> exit_code_;
 };
 
-// Waits until `path` holds a port number (ajard --port-file) or the process exits.
+// Waits until `path` holds a whole port number (ajard --port-file writes "PORT\n") or the process
+// exits; nullopt then, or at the deadline. Looks every `interval` (the benchmarks' start-up figure
+// wants a fine one).
 inline std::optional<std::uint16_t> wait_for_port_file(
     const std::string& path, AjardProcess& process,
-    std::chrono::milliseconds timeout = std::chrono::seconds(30)) {
+    std::chrono::milliseconds timeout = std::chrono::seconds(30),
+    std::chrono::microseconds interval = std::chrono::milliseconds(10)) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   while (std::chrono::steady_clock::now() < deadline) {
     const std::string text = read_text_file(path);
     if (!text.empty() && text.back() == '\n') return static_cast<std::uint16_t>(std::stoul(text));
     if (process.wait_exit(std::chrono::milliseconds(0))) return std::nullopt;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    std::this_thread::sleep_for(interval);
   }
   return std::nullopt;
 }
