@@ -4,6 +4,7 @@
 #include <numbers>
 
 #include "ajar/client/output.hpp"
+#include "ajar/protocol/fields.hpp"
 #include "output_fields.hpp"
 
 namespace ajar::client {
@@ -107,30 +108,53 @@ std::string window_text(const protocol::TimingWindow& w) {
 
 }  // namespace
 
-std::string robot_model_text(const protocol::RobotModel& model) {
-  std::string t = "camera_to_base (rows of [R | t]):\n";
-  for (std::size_t r = 0; r < 3; ++r) {
-    t += "  ";
-    for (std::size_t c = 0; c < 4; ++c) {
-      t += ' ';
-      t += fixed(model.camera_to_base[r * 4 + c], 6, true);
+namespace {
+
+// One line per field of RobotModel under its wire name; a block's or an array's values on its line
+// ("left:  card_axis 1  polarity 1", "camera_to_base:  0  0  1  0.15 ...").
+class ModelLines final : public protocol::FieldVisitor {
+ public:
+  std::string text;
+  void field(std::string_view name, const protocol::FieldValue& value) override {
+    const std::size_t end = std::min(name.find_first_of(".["), name.size());
+    const std::string_view top = name.substr(0, end);
+    if (top != top_) {
+      if (!top_.empty()) text += "\n";
+      text += pad_key(top);
+      top_ = std::string(top);
+    } else {
+      text += "  ";
     }
-    t += "\n";
+    if (end < name.size() && name[end] == '.') text += std::string(name.substr(end + 1)) + " ";
+    text += std::visit([](const auto& v) { return value_text(v); }, value);
   }
-  auto wheel = [](const protocol::WheelModel& w) {
-    return "card axis " + std::to_string(w.card_axis) + ", polarity " +
-           (w.polarity > 0 ? std::string("+1") : std::string("-1"));
-  };
-  t += pad_key("left wheel") + wheel(model.left) + "\n";
-  t += pad_key("right wheel") + wheel(model.right) + "\n";
-  t += pad_key("arm_shoulder_m") + vec(model.arm_shoulder_m) + "\n";
-  for (const auto& f : output::kModelFields) {
-    char value[64];
-    std::snprintf(value, sizeof value, "%.10g", model.*f.member);
-    t += pad_key(f.name) + value + "\n";
+
+ private:
+  static std::string value_text(double v) {
+    char out[64];
+    std::snprintf(out, sizeof out, "%.10g", v);
+    return out;
   }
-  t.pop_back();
-  return t;
+  static std::string value_text(float v) { return value_text(static_cast<double>(v)); }
+  static std::string value_text(bool v) { return v ? "true" : "false"; }
+  static std::string value_text(std::int64_t v) { return std::to_string(v); }
+  static std::string value_text(std::uint64_t v) { return std::to_string(v); }
+  static std::string value_text(const protocol::FieldWord& w) {
+    return w.word.empty() ? std::to_string(w.raw) : std::string(w.word);
+  }
+  static std::string value_text(const protocol::FieldText& t) { return std::string(t.text); }
+  static std::string value_text(std::span<const std::uint8_t> b) {
+    return std::to_string(b.size()) + " bytes";
+  }
+  std::string top_;
+};
+
+}  // namespace
+
+std::string robot_model_text(const protocol::RobotModel& model) {
+  ModelLines lines;
+  protocol::visit_fields(model, lines);
+  return lines.text;
 }
 
 std::string status_text(const protocol::Status& s, std::uint8_t session_minor) {

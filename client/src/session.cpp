@@ -52,7 +52,7 @@ Session::Session(const GlobalOptions& options, std::ostream& out, std::ostream& 
       events_.push_back(e.kind);
       if (events_.size() > 1024) events_.erase(events_.begin());
     }
-    if (show_events_.load()) print(event_object(e), event_text(e));
+    if (show_events_.load()) print(event_object(e, session_minor()), event_text(e));
   });
   client_.on_telemetry([this](const protocol::Telemetry& t) {
     {
@@ -60,8 +60,15 @@ Session::Session(const GlobalOptions& options, std::ostream& out, std::ostream& 
       latest_ = t;
       ++telemetry_count_;
     }
-    if (show_telemetry_.load()) print(telemetry_object(t), telemetry_text(t));
+    if (show_telemetry_.load()) print(telemetry_object(t, session_minor()), telemetry_text(t));
   });
+}
+
+// The minor of this session's Welcome (handlers run without the client's locks): events and
+// telemetry are printed in its layout, as replies are (Response::session_minor).
+std::uint8_t Session::session_minor() const {
+  const auto w = client_.welcome();
+  return w ? w->version_minor : protocol::kVersionMinor;
 }
 
 ClientOptions Session::client_options(const GlobalOptions& o) {

@@ -47,6 +47,7 @@ class Session {
 
  private:
   static ClientOptions client_options(const GlobalOptions& o);
+  std::uint8_t session_minor() const;  // the Welcome's minor (this version's before one)
 
   // session.cpp
   int ping(const Command& c);

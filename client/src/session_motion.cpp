@@ -140,9 +140,7 @@ int Session::motion(const Command& c) {
                   start.base_yaw_odometry_rad, last.base_yaw_odometry_rad, turned);
     text += line;
     if (start.has_plane) {
-      JsonObject p;
-      add_plane_fields(p, start.plane);
-      o.add("commanded", p);
+      o.add("commanded", ack_body_json(start.plane));  // the PlaneAck's wire fields
       std::snprintf(line, sizeof line, "\n  commanded:    %+.5f rad (wheels %+.5f / %+.5f rad)",
                     start.plane.yaw_deviation_rad, start.plane.left_wheel_rad,
                     start.plane.right_wheel_rad);

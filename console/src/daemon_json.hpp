@@ -1,6 +1,8 @@
 // What ajard says, as the JSON the page reads (docs/console.md): a request's reply, the daemon's
-// Status and a Telemetry sample. Key names are the wire fields' names; errors and enums are their
-// upper-case words (ajar::to_string, protocol::to_string).
+// Status and a Telemetry sample. The message itself is client::message_json(), the one JSON shape
+// ajarctl --json prints too (docs/protocol.md section 10: wire names, nested blocks as objects,
+// enums as words); the console only adds its own keys around it ("ok", "type"), never renames a
+// field.
 #pragma once
 
 #include "ajar/client/client.hpp"
@@ -9,15 +11,15 @@
 
 namespace ajar::console {
 
-// {"ok":true,"state":"...","values":{...}} (values: the Ack's span, plane or contact, when it has
-// one) or {"ok":false,"code":"POINTS_COLLINEAR","field":"points[2]","message":"..."}; a transport
-// failure's code is client::to_string(outcome), its field empty.
+// {"ok":true, then the Ack's fields: acknowledged, state, its body's fields} or {"ok":false, then
+// the Error's fields: code, offending_type, field, message}; a transport failure is {"ok":false,
+// "code": client::to_string(outcome), "field":"", "message"}.
 client::JsonObject response_json(const client::Response& r);
 
-// The daemon's Status: state, latched fault, the accepted parameters present, drivers, loop.
-client::JsonObject status_json(const protocol::Status& s);
+// The daemon's Status in protocol 1.`minor` (the session's): exactly client::message_json().
+client::JsonObject status_json(const protocol::Status& s, std::uint8_t minor);
 
-// {"type":"telemetry",...}: one sample as the page's gauges read it (t_s in seconds).
-client::JsonObject telemetry_json(const protocol::Telemetry& t);
+// {"type":"telemetry", then the sample's fields}: exactly ajarctl's telemetry line.
+client::JsonObject telemetry_json(const protocol::Telemetry& t, std::uint8_t minor);
 
 }  // namespace ajar::console

@@ -213,8 +213,10 @@ void ConsoleServer::Impl::on_telemetry(const protocol::Telemetry& t) {
     pose_at = now;
   }
   if (foxglove) foxglove->on_telemetry(t);
-  const std::string json = telemetry_json(t).str();
-  on_io([this, json, t, now] {
+  on_io([this, t, now] {
+    // In the layout of the session's minor (welcome: this thread's), as ajarctl prints it.
+    const std::string json =
+        telemetry_json(t, welcome ? welcome->version_minor : protocol::kVersionMinor).str();
     const bool stale_changed = !telemetry || telemetry->staleness.plane != t.staleness.plane ||
                                telemetry->staleness.contact != t.staleness.contact ||
                                telemetry->moving != t.moving;

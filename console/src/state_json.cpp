@@ -69,26 +69,15 @@ std::string ConsoleServer::Impl::snapshot() const {
       .add("message", connection_message)
       .add("heartbeat", heartbeat_on);
   o.add("connection", conn);
+  // The daemon's messages as client::message_json() writes them (wire names, as ajarctl --json).
+  const std::uint8_t minor = welcome ? welcome->version_minor : protocol::kVersionMinor;
   if (welcome) {
-    JsonObject w;
-    w.add("role", protocol::to_string(welcome->granted_role))
-        .add("version_major", static_cast<int>(welcome->version_major))
-        .add("version_minor", static_cast<int>(welcome->version_minor))
-        .add("daemon_version", welcome->daemon_version.view())
-        .add("loop_rate_hz", welcome->loop_rate_hz)
-        .add("deadman_timeout_s", welcome->deadman_timeout_s)
-        .add("min_door_width_m", welcome->min_door_width_m)
-        .add("max_door_width_m", welcome->max_door_width_m)
-        .add("min_handle_length_m", welcome->min_handle_length_m)
-        .add("max_handle_length_m", welcome->max_handle_length_m)
-        .add("max_yaw_correction_rad", welcome->max_yaw_correction_rad)
-        .add("driver_kind", protocol::to_string(welcome->driver_kind));
-    o.add("welcome", w);
+    o.add("welcome", client::message_json(*welcome, minor));
   } else {
     o.add_null("welcome");
   }
   if (status) {
-    o.add("status", status_json(*status));
+    o.add("status", status_json(*status, minor));
   } else {
     o.add_null("status");
   }
@@ -121,15 +110,7 @@ std::string ConsoleServer::Impl::snapshot() const {
   o.add("features", features);
   o.add("controller_only", controller_only_json());
   if (model) {
-    JsonObject m;
-    m.add("max_linear_speed_m_s", model->max_linear_speed_m_s)
-        .add("max_angular_speed_rad_s", model->max_angular_speed_rad_s)
-        .add("drive_command_timeout_s", model->drive_command_timeout_s)
-        .add("approach_min_standoff_m", model->approach_min_standoff_m)
-        .add("min_depth_m", model->min_depth_m)
-        .add("max_depth_m", model->max_depth_m)
-        .add("aligned_tolerance_rad", model->aligned_tolerance_rad);
-    o.add("model", m);
+    o.add("model", client::message_json(*model, minor));  // all of RobotModel, wire names
   } else {
     o.add_null("model");
   }

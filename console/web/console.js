@@ -316,8 +316,10 @@ function escapeHtml(s) {
   return String(s).replace(/[&<>"]/g, (c) => ({ '&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;' }[c]));
 }
 const deg = (rad) => (rad * 180 / Math.PI).toFixed(2) + '°';
-const vec = (v) => '(' + v.map((x) => x.toFixed(3)).join(', ') + ')';
+// A wire Vec3 is {x, y, z} (ajard's messages, docs/protocol.md section 8); the page's own points are [x, y, z].
+const vec = (v) => '(' + (Array.isArray(v) ? v : [v.x, v.y, v.z]).map((x) => x.toFixed(3)).join(', ') + ')';
 
+// An Ack's fields (wire names: the reply is {ok, acknowledged, state, then the body's fields}).
 function describeValues(step, v) {
   if (!v) return '';
   if (step === 'width') return `width ${v.length_m.toFixed(3)} m, door opens ${v.direction}\nP1 base ${vec(v.p1_base_m)}\nP2 base ${vec(v.p2_base_m)}`;
@@ -326,7 +328,7 @@ function describeValues(step, v) {
     `wheels L ${v.left_wheel_rad.toFixed(3)} rad / R ${v.right_wheel_rad.toFixed(3)} rad = ${v.left_counts} / ${v.right_counts} counts\n` +
     `rms residual ${(v.rms_residual_m * 1000).toFixed(1)} mm, ${v.point_count} points`;
   if (step === 'contact') return `contact base ${vec(v.contact_base_m)}\nreach margin ${v.reach_margin_m.toFixed(3)} m`;
-  return JSON.stringify(v);
+  return '';
 }
 
 // The refusal's field -> which pick it names (p1/p2/points[i]/contact), else the field itself.
@@ -343,7 +345,7 @@ function pickOfField(step, field) {
 function showResult(el, r, step) {
   el.className = el.className.replace(/\b(ok|refused)\b/g, '').trim() + ' ' + (r.ok ? 'ok' : 'refused');
   if (r.ok) {
-    el.textContent = (describeValues(step, r.values) || 'accepted') + (r.note ? '\n' + r.note : '');
+    el.textContent = (describeValues(step, r.acknowledged ? r : null) || 'accepted') + (r.note ? '\n' + r.note : '');
     el.dataset.ok = 'true';
     el.dataset.note = r.note || '';
     return;
@@ -358,19 +360,21 @@ function showResult(el, r, step) {
 function stepStale(name) {
   const t = lastTelemetry;
   if (!t) return false;
-  return (name === 'plane' && t.plane_stale) || (name === 'contact' && t.contact_stale);
+  return !!t.staleness && ((name === 'plane' && t.staleness.plane) || (name === 'contact' && t.staleness.contact));
 }
 
 function updateSteps() {
   const st = state.status || {};
   document.querySelectorAll('#steps button').forEach((b) => {
     const name = b.dataset.step;
-    const stale = !!st[name] && stepStale(name);
+    // Status has every block; has_width, has_handle, has_plane, has_contact say which are stored.
+    const stored = !!st['has_' + name];
+    const stale = stored && stepStale(name);
     b.classList.toggle('active', name === state.active_step);
-    b.classList.toggle('stored', !!st[name] && !stale);
+    b.classList.toggle('stored', stored && !stale);
     b.classList.toggle('stale', stale);
     b.setAttribute('aria-pressed', String(name === state.active_step));
-    b.querySelector('.mark').textContent = stale ? ' STALE' : st[name] ? ' ✓' : '';
+    b.querySelector('.mark').textContent = stale ? ' STALE' : stored ? ' ✓' : '';
   });
   const step = state.active_step;
   $('step-help').textContent = STEPS[step].help;
@@ -614,8 +618,9 @@ function updateState() {
   cr.dataset.op = lc ? lc.op : '';
   updateRecorder();
   for (const name of Object.keys(STEPS)) {
-    const stale = st && st[name] && stepStale(name);
-    $('stored-' + name).textContent = st && st[name] ? (stale ? 'STALE · ' : '') + describeValues(name, st[name]).split('\n')[0] : '—';
+    const stored = !!st && !!st['has_' + name];  // every block is there; the flag says it is stored
+    const stale = stored && stepStale(name);
+    $('stored-' + name).textContent = stored ? (stale ? 'STALE · ' : '') + describeValues(name, st[name]).split('\n')[0] : '—';
   }
   updateHud();
   render();
@@ -674,10 +679,10 @@ $('btn-save-recording').addEventListener('click', () => {
 function updateHud() {
   const t = lastTelemetry;
   let door = 'door: —', warn = '';
-  if (t && t.door_has_distance !== undefined) {
-    door = t.door_has_distance ? `door ${t.door_distance_m.toFixed(3)} m` + (t.door_has_yaw ? ` · yaw to square ${deg(t.door_yaw_rad)}` : '') : 'door: no distance yet (measure the width)';
-    if (t.plane_stale) warn = 'PLANE STALE: the base moved: measure the plane again';
-    if (t.contact_stale) warn += (warn ? '\n' : '') + 'CONTACT STALE: set the contact point again';
+  if (t && t.door !== undefined) {
+    door = t.door.has_distance ? `door ${t.door.distance_m.toFixed(3)} m` + (t.door.has_yaw ? ` · yaw to square ${deg(t.door.yaw_rad)}` : '') : 'door: no distance yet (measure the width)';
+    if (t.staleness.plane) warn = 'PLANE STALE: the base moved: measure the plane again';
+    if (t.staleness.contact) warn += (warn ? '\n' : '') + 'CONTACT STALE: set the contact point again';
   }
   const fault = state && state.status && state.status.latched_fault !== 'OK' ? `FAULT ${state.status.latched_fault}: Reset fault first` : '';
   // The active step's picks from before a motion beyond the staleness rule (grey on the image).
@@ -692,9 +697,9 @@ function updateHud() {
     const asked = 0.5 * (m.max_linear_speed_m_s || 0);
     const limited = t.commanded_linear_m_s < asked - 1e-3;
     const atStandoff = lc && lc.op === 'drive' && !lc.reply.ok && lc.reply.code === 'AT_MINIMUM_STANDOFF';
-    if (atStandoff || (limited && t.door_has_distance)) {
-      warn += (warn ? '\n' : '') + (t.plane_stale ? `DOOR GUARD: forward at most ${t.commanded_linear_m_s.toFixed(2)} m/s: the door plane is stale`
-        : `DOOR GUARD: forward stops at the minimum standoff ${(m.approach_min_standoff_m || 0).toFixed(2)} m (door ${t.door_distance_m.toFixed(2)} m)`);
+    if (atStandoff || (limited && t.door && t.door.has_distance)) {
+      warn += (warn ? '\n' : '') + (t.staleness.plane ? `DOOR GUARD: forward at most ${t.commanded_linear_m_s.toFixed(2)} m/s: the door plane is stale`
+        : `DOOR GUARD: forward stops at the minimum standoff ${(m.approach_min_standoff_m || 0).toFixed(2)} m (door ${t.door.distance_m.toFixed(2)} m)`);
     }
     if (atStandoff) warn += '\nAT MINIMUM STANDOFF: back off, turn, or measure the door again';
   }
@@ -709,10 +714,10 @@ function onTelemetry(t) {
   samples.push(t);
   if (samples.length > 400) samples.shift();
   // Distance to the door and the yaw still to correct, from the daemon (protocol 1.1, needs a plane).
-  if (t.door_has_distance !== undefined) {
-    $('live-door').textContent = t.door_has_distance
-      ? `${t.door_distance_m.toFixed(3)} m to the door plane` + (t.door_has_yaw ? `, yaw to square ${deg(t.door_yaw_rad)}` : '') +
-        (t.plane_stale ? '  — plane STALE: measure it again' : '')
+  if (t.door !== undefined) {
+    $('live-door').textContent = t.door.has_distance
+      ? `${t.door.distance_m.toFixed(3)} m to the door plane` + (t.door.has_yaw ? `, yaw to square ${deg(t.door.yaw_rad)}` : '') +
+        (t.staleness.plane ? '  — plane STALE: measure it again' : '')
       : 'no door plane measured yet';
   }
   $('telemetry-text').textContent = `wheels L ${t.left_wheel_rad.toFixed(3)} R ${t.right_wheel_rad.toFixed(3)} rad · counts ${t.left_counts} / ${t.right_counts} · yaw ${deg(t.base_yaw_odometry_rad)} · ${t.moving ? 'MOVING' : 'still'} · loop ${t.loop.rate_hz.toFixed(0)} Hz, overruns ${t.loop.overruns}`;

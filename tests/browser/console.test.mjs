@@ -280,7 +280,7 @@ item('issue 23 item 9: status that is no longer true is not shown', async (P) =>
       assert.match(await page.textContent('#state-box'), /JOGGING/);
       assert.ok(await P.inViewport('#hud-motion'));
     });
-    await page.waitForFunction(() => lastTelemetry && lastTelemetry.plane_stale, null, { timeout: 10000 });
+    await page.waitForFunction(() => lastTelemetry && lastTelemetry.staleness && lastTelemetry.staleness.plane, null, { timeout: 10000 });
     await b.dispatchEvent('pointerup', { pointerType: 'mouse', button: 0, isPrimary: true });
     await stillAgain(P);
     assert.ok((await P.logSince(m)).some((l) => /motion finished/.test(l)));
@@ -359,7 +359,7 @@ item('issue 23 items 1 and 2: picks know their pose: markers follow the base; ol
     assert.equal(r2.ok, false, r2.text);
     assert.match(r2.text, /pick again: the base moved [0-9.]+ m \/ [0-9.]+° since/);
     assert.ok(!(await P.logSince(m3)).some((l) => /sending MeasureDoorPlane/.test(l)), 'nothing sent');
-    assert.ok(await page.evaluate(() => lastTelemetry.plane_stale), 'the daemon calls its plane (sent from the same pose) stale too');
+    assert.ok(await page.evaluate(() => lastTelemetry.staleness.plane), 'the daemon calls its plane (sent from the same pose) stale too');
     await P.atEachViewport('item1-stale-refused', async () => {
       assert.ok(await page.isVisible('#result.refused'));
       assert.match(await page.textContent('#pick-list'), /STALE/);

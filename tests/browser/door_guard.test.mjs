@@ -25,7 +25,7 @@ test('issue 23 item 6: a forward jog held toward the door stops at the minimum s
       const L = await stack.landmarks();
       const r = await P.width(L);  // the width points give a door distance (before a plane)
       assert.ok(r.ok, r.text);
-      await page.waitForFunction(() => lastTelemetry && lastTelemetry.door_has_distance);
+      await page.waitForFunction(() => lastTelemetry && lastTelemetry.door && lastTelemetry.door.has_distance);
       const min = await page.evaluate(() => state.model.approach_min_standoff_m);
       // Hold ↑ on the jog pad (the page re-sends the Drive every 100 ms) until the base is at rest.
       const fwd = page.locator('[data-jog=fwd]');
@@ -38,7 +38,7 @@ test('issue 23 item 6: a forward jog held toward the door stops at the minimum s
         assert.match(await page.textContent('#hud-warn'), /DOOR GUARD: forward stops at the minimum standoff/);
         assert.ok(await P.inViewport('#hud-warn'));
       });
-      const d = await page.evaluate(() => lastTelemetry.door_distance_m);
+      const d = await page.evaluate(() => lastTelemetry.door.distance_m);
       assert.ok(d >= min - 0.005 && d <= min + 0.05, `stopped ${d} m from the door; minimum standoff ${min} m`);
       await fwd.dispatchEvent('pointerup', { pointerType: 'mouse', button: 0, isPrimary: true });
       await page.waitForFunction(() => !/DOOR GUARD/.test(document.getElementById('hud-warn').textContent));

@@ -21,6 +21,7 @@ inline Response reply_with(protocol::Message message) {
   Response r;
   r.outcome = CallOutcome::kReply;
   r.request_id = 4242;
+  r.session_minor = 1;  // a 1.1 session ("status 1.2" below: a 1.2 one)
   r.reply = std::move(message);
   return r;
 }

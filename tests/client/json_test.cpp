@@ -1,5 +1,6 @@
 // ajarctl --json output: every rendering is one valid JSON object with the documented fields.
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <limits>
 
@@ -21,6 +22,7 @@ template <typename T>
 T& reply_as(Response& r) {
   r.outcome = CallOutcome::kReply;
   r.request_id = 7;
+  r.session_minor = protocol::kVersionMinor;
   return r.reply.emplace<T>();
 }
 
@@ -79,24 +81,26 @@ TEST(Json, WidthAckCarriesWidthDirectionAndBasePoints) {
   EXPECT_EQ(v.at("command").get<std::string>(), "measure_width");
   EXPECT_TRUE(v.at("ok").get<bool>());
   EXPECT_EQ(v.at("state").get<std::string>(), "awaiting_handle");
-  EXPECT_EQ(v.at("width_m").get<double>(), 0.9152);
+  EXPECT_EQ(v.at("acknowledged").get<std::string>(), "MeasureDoorWidth");
+  EXPECT_EQ(v.at("length_m").get<double>(), 0.9152);
   EXPECT_EQ(v.at("direction").get<std::string>(), "CCW");
   ASSERT_EQ(v.at("p1_base_m").size(), 3u);
-  EXPECT_EQ(v.at("p1_base_m").at(1).get<double>(), 0.43);
-  EXPECT_FALSE(v.contains("handle_length_m"));
+  EXPECT_EQ(v.at("p1_base_m").at("y").get<double>(), 0.43);
+  EXPECT_FALSE(v.contains("width_m")) << "the wire's name: length_m";
 }
 
-TEST(Json, HandleAckUsesHandleLength) {
+TEST(Json, HandleAckCarriesItsLength) {
   Response r;
   ack_as<protocol::SpanAck>(r, MessageType::kMeasureHandle, ProcedureState::kAwaitingPlane)
       .length_m = 0.12;
   const auto v = parse(response_object("measure_handle", r));
-  EXPECT_EQ(v.at("handle_length_m").get<double>(), 0.12);
+  EXPECT_EQ(v.at("acknowledged").get<std::string>(), "MeasureHandle");
+  EXPECT_EQ(v.at("length_m").get<double>(), 0.12);
   EXPECT_EQ(v.at("direction").get<std::string>(), "CW");
-  EXPECT_FALSE(v.contains("width_m"));
+  EXPECT_FALSE(v.contains("handle_length_m"));
 }
 
-TEST(Json, PlaneAckCarriesYawAndWheelsLeftRight) {
+TEST(Json, PlaneAckCarriesYawAndWheels) {
   Response r;
   auto& plane =
       ack_as<protocol::PlaneAck>(r, MessageType::kMeasureDoorPlane, ProcedureState::kReadyToAlign);
@@ -108,10 +112,11 @@ TEST(Json, PlaneAckCarriesYawAndWheelsLeftRight) {
   plane.point_count = 4;
   const auto v = parse(response_object("measure_plane", r));
   EXPECT_EQ(v.at("yaw_deviation_rad").get<double>(), -0.0277);
-  EXPECT_EQ(v.at("wheel_angle_rad").at("left").get<double>(), 0.0693);
-  EXPECT_EQ(v.at("wheel_angle_rad").at("right").get<double>(), -0.0693);
-  EXPECT_EQ(v.at("wheel_counts").at("left").get<double>(), 5517);
-  EXPECT_EQ(v.at("wheel_counts").at("right").get<double>(), 5517);
+  EXPECT_EQ(v.at("left_wheel_rad").get<double>(), 0.0693);
+  EXPECT_EQ(v.at("right_wheel_rad").get<double>(), -0.0693);
+  EXPECT_EQ(v.at("left_counts").get<double>(), 5517);
+  EXPECT_EQ(v.at("right_counts").get<double>(), 5517);
+  EXPECT_EQ(v.at("normal").size(), 3u);
   EXPECT_EQ(v.at("point_count").get<double>(), 4);
 }
 
@@ -123,8 +128,8 @@ TEST(Json, ContactAckCarriesContactBase) {
   contact.reach_margin_m = 0.4;
   const auto v = parse(response_object("contact", r));
   ASSERT_EQ(v.at("contact_base_m").size(), 3u);
-  EXPECT_EQ(v.at("contact_base_m").at(0).get<double>(), 0.8);
-  EXPECT_EQ(v.at("contact_base_m").at(1).get<double>(), -0.01);
+  EXPECT_EQ(v.at("contact_base_m").at("x").get<double>(), 0.8);
+  EXPECT_EQ(v.at("contact_base_m").at("y").get<double>(), -0.01);
   EXPECT_EQ(v.at("reach_margin_m").get<double>(), 0.4);
 }
 
@@ -132,12 +137,14 @@ TEST(Json, RefusalCarriesErrorCodeFieldMessage) {
   Response r;
   r.outcome = CallOutcome::kRefused;
   r.error.code = ErrorCode::kPointsCollinear;
+  r.error.offending_type = MessageType::kMeasureDoorPlane;
   r.error.field = "points[2]";
   r.error.message = "the points are \"in a row\"";
   const auto v = parse(response_object("measure_plane", r));
   EXPECT_EQ(v.at("type").get<std::string>(), "error");
   EXPECT_FALSE(v.at("ok").get<bool>());
   EXPECT_EQ(v.at("error").at("code").get<std::string>(), "POINTS_COLLINEAR");
+  EXPECT_EQ(v.at("error").at("offending_type").get<std::string>(), "MeasureDoorPlane");
   EXPECT_EQ(v.at("error").at("field").get<std::string>(), "points[2]");
   EXPECT_EQ(v.at("error").at("message").get<std::string>(), "the points are \"in a row\"");
   EXPECT_EQ(v.at("error").at("number").get<double>(), 307);
@@ -155,7 +162,8 @@ TEST(Json, TimeoutAndDisconnectAreErrorsWithClientCodes) {
   EXPECT_EQ(v.at("error").at("field").get<std::string>(), "");
 }
 
-TEST(Json, StatusNestsStoredParametersOnlyWhenPresent) {
+// Every block of the layout, with the flag that says whether it holds a stored value.
+TEST(Json, StatusNestsStoredParametersWithTheirFlags) {
   Response r;
   auto& s = reply_as<protocol::Status>(r);
   s.state = ProcedureState::kAligned;
@@ -167,10 +175,12 @@ TEST(Json, StatusNestsStoredParametersOnlyWhenPresent) {
   const auto v = parse(response_object("status", r));
   const auto& st = v.at("status");
   EXPECT_EQ(st.at("state").get<std::string>(), "aligned");
-  EXPECT_EQ(st.at("width").at("width_m").get<double>(), 0.9);
-  EXPECT_FALSE(st.contains("handle"));
-  EXPECT_FALSE(st.contains("contact"));
-  EXPECT_EQ(st.at("plane").at("wheel_counts").at("left").get<double>(), -3);
+  EXPECT_TRUE(st.at("has_width").get<bool>());
+  EXPECT_EQ(st.at("width").at("length_m").get<double>(), 0.9);
+  EXPECT_FALSE(st.at("has_handle").get<bool>());
+  EXPECT_EQ(st.at("handle").at("length_m").get<double>(), 0);
+  EXPECT_FALSE(st.at("has_contact").get<bool>());
+  EXPECT_EQ(st.at("plane").at("left_counts").get<double>(), -3);
   EXPECT_EQ(st.at("base_yaw_odometry_rad").get<double>(), 0.25);
   EXPECT_EQ(st.at("loop").at("cycles").get<double>(), 0);
 }
@@ -196,12 +206,13 @@ TEST(Json, EventsAndTelemetryAreObjects) {
   v = parse(telemetry_object(t));
   EXPECT_EQ(v.at("type").get<std::string>(), "telemetry");
   EXPECT_TRUE(v.at("moving").get<bool>());
-  EXPECT_EQ(v.at("wheel_angle_rad").at("left").get<double>(), -0.5);
-  EXPECT_EQ(v.at("wheel_counts").at("right").get<double>(), -100);
+  EXPECT_EQ(v.at("left_wheel_rad").get<double>(), -0.5);
+  EXPECT_EQ(v.at("right_counts").get<double>(), -100);
 }
 
 // Protocol 1.1: the MotionBlock (odometry, door, staleness, commanded velocity, loop timing) under
-// the wire names, in Status and Telemetry alike; the door's values only when known.
+// the wire names, in Status and Telemetry alike; the door's values with the flags that say whether
+// they are known.
 TEST(Json, StatusAndTelemetryCarryTheMotionBlock) {
   Response r;
   auto& s = reply_as<protocol::Status>(r);
@@ -224,8 +235,9 @@ TEST(Json, StatusAndTelemetryCarryTheMotionBlock) {
   const auto& st = v.at("status");
   EXPECT_EQ(st.at("odometry_x_m").get<double>(), 0.5);
   EXPECT_EQ(st.at("odometry_y_m").get<double>(), -0.25);
+  EXPECT_TRUE(st.at("door").at("has_distance").get<bool>());
   EXPECT_EQ(st.at("door").at("distance_m").get<double>(), 1.25);
-  EXPECT_FALSE(st.at("door").contains("yaw_rad")) << "has_yaw false: no yaw_rad";
+  EXPECT_FALSE(st.at("door").at("has_yaw").get<bool>());
   EXPECT_TRUE(st.at("staleness").at("plane").get<bool>());
   EXPECT_FALSE(st.at("staleness").at("contact").get<bool>());
   EXPECT_EQ(st.at("staleness").at("travel_since_plane_m").get<double>(), 0.31);
@@ -253,9 +265,9 @@ TEST(Json, StatusAndTelemetryCarryTheMotionBlock) {
   const std::string text = telemetry_text(t);
   EXPECT_NE(text.find("door 0.7500 m"), std::string::npos) << text;
   EXPECT_NE(text.find("commanded +0.050 m/s"), std::string::npos) << text;
-  // Without a known distance the door is absent, not 0.
+  // Without a known distance the flag says so (the text leaves the door out).
   t.door = {};
-  EXPECT_FALSE(parse(telemetry_object(t)).at("door").contains("distance_m"));
+  EXPECT_FALSE(parse(telemetry_object(t)).at("door").at("has_distance").get<bool>());
   EXPECT_EQ(telemetry_text(t).find("door"), std::string::npos);
 }
 
@@ -270,8 +282,9 @@ TEST(Json, RobotModelApproachAckAndDriverKind) {
   auto v = parse(response_object("model", r));
   EXPECT_EQ(v.at("type").get<std::string>(), "robot_model");
   const auto& rm = v.at("robot_model");
-  EXPECT_EQ(rm.at("camera_to_base").at(1)[0].get<double>(), -1);
-  EXPECT_EQ(rm.at("camera_to_base").at(2)[3].get<double>(), -0.22);
+  ASSERT_EQ(rm.at("camera_to_base").size(), 12u);  // rows of [R | t], as on the wire
+  EXPECT_EQ(rm.at("camera_to_base").at(4).get<double>(), -1);
+  EXPECT_EQ(rm.at("camera_to_base").at(11).get<double>(), -0.22);
   EXPECT_EQ(rm.at("wheel_radius_m").get<double>(), 0.1);
   EXPECT_EQ(rm.at("right").at("polarity").get<double>(), -1);
   EXPECT_EQ(rm.at("right").at("card_axis").get<double>(), 2);
@@ -289,7 +302,7 @@ TEST(Json, RobotModelApproachAckAndDriverKind) {
   EXPECT_EQ(v.at("acknowledged").get<std::string>(), "Approach");
   EXPECT_EQ(v.at("travel_m").get<double>(), 0.25);
   EXPECT_EQ(v.at("start_distance_m").get<double>(), 1.0);
-  EXPECT_EQ(v.at("wheel_counts").at("right").get<double>(), -198944);
+  EXPECT_EQ(v.at("right_counts").get<double>(), -198944);
 
   protocol::Welcome w;
   w.driver_kind = protocol::DriverKind::kReal;
@@ -297,12 +310,19 @@ TEST(Json, RobotModelApproachAckAndDriverKind) {
 }
 
 // The same keys, in the same order, with the same values (numbers compared as numbers: 1 and 1.0
-// are equal, NaN is null) as the hand-written writer printed before nlohmann-json replaced it.
-TEST(Json, EveryRenderingMatchesTheFormerWriter) {
+// are equal, NaN is null) as tests/client/json_golden.jsonl: a change of what ajarctl prints is a
+// change of that file (AJAR_UPDATE_JSON_GOLDEN=1 rewrites it from the samples; review its diff).
+TEST(Json, EveryRenderingMatchesTheGoldenLines) {
   using Ordered = nlohmann::ordered_json;
+  const auto samples = json_samples::all();
+  if (std::getenv("AJAR_UPDATE_JSON_GOLDEN") != nullptr) {
+    std::ofstream out(AJAR_SOURCE_DIR "/tests/client/json_golden.jsonl");
+    for (const auto& [name, object] : samples)
+      out << Ordered::parse(object.str()).dump(-1, ' ', false, Ordered::error_handler_t::replace)
+          << "\n";
+  }
   std::ifstream golden(AJAR_SOURCE_DIR "/tests/client/json_golden.jsonl");
   ASSERT_TRUE(golden) << "tests/client/json_golden.jsonl";
-  const auto samples = json_samples::all();
   std::string line;
   std::size_t n = 0;
   for (; std::getline(golden, line); ++n) {

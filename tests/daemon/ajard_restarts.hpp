@@ -6,11 +6,14 @@
 
 #include <sys/stat.h>
 
+#include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -95,12 +98,20 @@ inline bool nothing_moves(TestClient& watcher, std::size_t frames = 25) {
 }
 
 // Makes the state store's next save hang: `ajard.state.tmp` becomes a FIFO, and the writer's
-// open() of it blocks until somebody reads it (nobody does) — a disk that never finishes, at the
-// instant the test chooses. resume_disk() removes it (before the next start).
+// open() of it blocks until somebody reads it (nobody does) — a disk that never finishes, from the
+// instant the test chooses. A save already in flight (its `.tmp` written, not yet renamed) is let
+// finish first: the FIFO is made only where no file is, so it is never the writer's file renamed
+// over `ajard.state` (removing the writer's `.tmp` did that, or lost the name to the writer's next
+// open: mkfifo failed, the crash campaign's rare "hang_disk returned false"). resume_disk()
+// removes it (before the next start).
 inline bool hang_disk(const std::string& state_dir) {
   const std::string fifo = state_dir + "/ajard.state.tmp";
-  std::filesystem::remove(fifo);
-  return ::mkfifo(fifo.c_str(), 0600) == 0;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  for (;;) {
+    if (::mkfifo(fifo.c_str(), 0600) == 0) return true;
+    if (errno != EEXIST || std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
 }
 inline void resume_disk(const std::string& state_dir) {
   std::filesystem::remove(state_dir + "/ajard.state.tmp");

@@ -5,7 +5,9 @@
 //   - FakeEngine{inner}: in front of another engine (the real one, or a FakeEngine), forwarding
 //     every virtual of daemon::Engine to it (they are all pure: one left out does not compile)
 //     while it counts and records what reaches the engine (the interleaving proof's exactly-once
-//     count, the watchdog's health checks).
+//     count, the watchdog's health checks), tells the test's hooks where a command or a
+//     controller loss reaches it (the reply-order model), and can hold the engine's saves back
+//     from the hub (gate_saves: the disk lands a save only when the test says).
 // Thread-safe to inspect from the test while the I/O thread calls it.
 #pragma once
 
@@ -13,6 +15,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -34,7 +37,10 @@ class FakeEngine final : public daemon::Engine {
   FakeEngine(const FakeEngine&) = delete;
   FakeEngine& operator=(const FakeEngine&) = delete;
 
-  // ---- hooks ----
+  // ---- hooks (called on the caller's thread, no lock held) ----
+  std::function<void(const protocol::Message&)> before_command;  // handle_command is entered
+  // handle_command answered; `new_save`: the command began a save generation (a durable Ack).
+  std::function<void(bool new_save)> after_command;
   std::function<void()> before_lost;  // runs before the engine hears of a controller loss
 
   // ---- what reached the engine ----
@@ -65,6 +71,10 @@ class FakeEngine final : public daemon::Engine {
   }
   void settle() { settled_.store(accepted_.load()); }
   void set_healthy(bool healthy) { healthy_.store(healthy); }
+  // The settled generation the hub is told never passes `up_to` (either way of use): a save has
+  // landed, as the hub sees it, only once the test opened the gate that far. No gate by default.
+  void gate_saves(std::uint64_t up_to) { gate_.store(up_to); }
+  std::uint64_t settled_seen() const { return settled_seen_.load(); }  // the hub was last told
   // Queues an event to be emitted from the next poll() (on the I/O thread).
   void emit(const protocol::Event& event) {
     std::lock_guard lock(mutex_);
@@ -96,7 +106,10 @@ class FakeEngine final : public daemon::Engine {
   bool wedged() const noexcept override { return inner_ ? inner_->wedged() : false; }
   protocol::Message handle_command(const protocol::Message& request) override {
     ++executions_;
+    if (before_command) before_command(request);
+    const std::uint64_t generation_before = accepted_generation();
     protocol::Message reply = inner_ ? inner_->handle_command(request) : scripted_reply(request);
+    if (after_command) after_command(accepted_generation() > generation_before);
     std::lock_guard lock(mutex_);
     commands_.push_back(protocol::type_of(request));
     last_reply_ = reply;
@@ -136,7 +149,10 @@ class FakeEngine final : public daemon::Engine {
     return inner_ ? inner_->accepted_generation() : accepted_.load();
   }
   std::uint64_t settled_generation() const noexcept override {
-    return inner_ ? inner_->settled_generation() : settled_.load();
+    const std::uint64_t settled = inner_ ? inner_->settled_generation() : settled_.load();
+    const std::uint64_t seen = std::min(settled, gate_.load());
+    settled_seen_.store(seen);
+    return seen;
   }
   protocol::Status status() const override {
     if (inner_) return inner_->status();
@@ -227,6 +243,8 @@ class FakeEngine final : public daemon::Engine {
   bool persisting_ = false;
   std::atomic<std::uint64_t> accepted_{0};
   std::atomic<std::uint64_t> settled_{0};
+  std::atomic<std::uint64_t> gate_{std::numeric_limits<std::uint64_t>::max()};
+  mutable std::atomic<std::uint64_t> settled_seen_{0};
 };
 
 }  // namespace ajar::test

@@ -58,6 +58,7 @@
 #include "ajar/protocol/codec.hpp"
 #include "campaign_seeds.hpp"
 #include "det_mock_card.hpp"
+#include "fake_engine.hpp"
 #include "fake_door.hpp"
 #include "recording_link.hpp"
 
@@ -69,63 +70,6 @@ using protocol::MessageType;
 
 constexpr std::int64_t kPeriodNs = 2'000'000;  // 500 Hz
 constexpr std::uint64_t kCiSeeds = test::ci_size(600, 120);
-
-// The real engine as the hub sees it, with the save gate: the hub's settled generation is the
-// engine's, but never beyond what the test let land. Calls the test must place in its model are
-// reported through the hooks.
-class GatedEngine final : public daemon::Engine {
- public:
-  explicit GatedEngine(daemon::Engine& inner) : inner_(inner) {}
-  std::function<void(const protocol::Message&)> before_command;  // handle_command is entered
-  std::function<void(bool durable)> after_command;
-  std::function<void()> before_lost;  // controller_lost is entered
-  std::uint64_t gate = 0;
-  mutable std::uint64_t last_settled_seen = 0;  // what the hub was last told
-
-  void set_event_sink(EventSink sink) override { inner_.set_event_sink(std::move(sink)); }
-  void start() override { inner_.start(); }
-  void begin_shutdown() override { inner_.begin_shutdown(); }
-  bool wheels_at_rest() override { return inner_.wheels_at_rest(); }
-  void seal_state() override { inner_.seal_state(); }
-  void shutdown() noexcept override { inner_.shutdown(); }
-  bool wedged() const noexcept override { return inner_.wedged(); }
-  protocol::Message handle_command(const protocol::Message& request) override {
-    if (before_command) before_command(request);
-    const std::uint64_t before = inner_.accepted_generation();
-    protocol::Message reply = inner_.handle_command(request);
-    if (after_command) after_command(inner_.accepted_generation() > before);
-    return reply;
-  }
-  void controller_heartbeat() noexcept override { inner_.controller_heartbeat(); }
-  void controller_lost() override {
-    if (before_lost) before_lost();
-    inner_.controller_lost();
-  }
-  void begin_read_batch() override { inner_.begin_read_batch(); }
-  void end_read_batch() override { inner_.end_read_batch(); }
-  void poll() override { inner_.poll(); }
-  void catch_up() override { inner_.catch_up(); }
-  std::uint64_t accepted_generation() const noexcept override {
-    return inner_.accepted_generation();
-  }
-  std::uint64_t settled_generation() const noexcept override {
-    last_settled_seen = std::min(inner_.settled_generation(), gate);
-    return last_settled_seen;
-  }
-  protocol::Status status() const override { return inner_.status(); }
-  protocol::Telemetry telemetry() const override { return inner_.telemetry(); }
-  protocol::Welcome welcome_template() const override { return inner_.welcome_template(); }
-  protocol::RobotModel robot_model() const override { return inner_.robot_model(); }
-  bool control_loop_healthy() const noexcept override { return inner_.control_loop_healthy(); }
-  std::uint64_t daemon_time_ns() const noexcept override { return inner_.daemon_time_ns(); }
-  recorder::Recorder* recorder() noexcept override { return inner_.recorder(); }
-  void run_loop_cycle() noexcept override { inner_.run_loop_cycle(); }
-  std::vector<std::string> startup_warnings() const override { return inner_.startup_warnings(); }
-  std::vector<std::string> take_warnings() override { return inner_.take_warnings(); }
-
- private:
-  daemon::Engine& inner_;
-};
 
 // The black box answers when the test says.
 class LateRecordings final : public daemon::Recordings {
@@ -183,7 +127,11 @@ class World {
     options.manual_loop = true;
     std::filesystem::remove_all(config_.state.directory);
     engine_ = daemon::make_engine(config_, std::move(set), std::move(options));
-    gated_ = std::make_unique<GatedEngine>(*engine_);
+    // The real engine as the hub sees it, with the save gate (the hub's settled generation is
+    // the engine's, but never beyond what the test let land: land_saves()); calls the test must
+    // place in its model are reported through the hooks.
+    gated_ = test::FakeEngine::in_front_of(*engine_);
+    gated_->gate_saves(0);
     gated_->before_command = [this](const protocol::Message& m) { on_command(m); };
     gated_->before_lost = [this] { lost_in_request_ = handling_ != nullptr; };
     gated_->after_command = [this](bool durable) {
@@ -453,11 +401,10 @@ class World {
     // Only a reply that may wait heads what is missing: a durable Ack whose save has not landed
     // (as the hub last saw it), or the black box's answer not given yet.
     const Item& first = link.expected[link.matched];
-    const bool may_wait =
-        first.kind == 'R' &&
-        ((first.generation != 0 && first.generation > gated_->last_settled_seen) ||
-         (first.black_box && std::find(pending_rids_.begin(), pending_rids_.end(),
-                                       first.request_id) != pending_rids_.end()));
+    const bool may_wait = first.kind == 'R' &&
+                          ((first.generation != 0 && first.generation > gated_->settled_seen()) ||
+                           (first.black_box && std::find(pending_rids_.begin(), pending_rids_.end(),
+                                                         first.request_id) != pending_rids_.end()));
     if (!may_wait) {
       std::ostringstream why;
       why << "session " << link.id() << ": item " << link.matched << " held without reason ("
@@ -465,8 +412,7 @@ class World {
               : first.kind == 'C' ? "control_changed"
                                   : "an event")
           << (first.kind == 'R' ? " to request " + std::to_string(first.request_id) : "")
-          << ", generation " << first.generation << ", settled " << gated_->last_settled_seen
-          << ")";
+          << ", generation " << first.generation << ", settled " << gated_->settled_seen() << ")";
       return fail(why.str());
     }
     bump(first.black_box ? "reply held for the black box" : "durable ack held");
@@ -587,7 +533,7 @@ class World {
     for (int i = 0; i < 20000 && engine_->settled_generation() < accepted; ++i)
       std::this_thread::sleep_for(std::chrono::microseconds(500));
     if (engine_->settled_generation() < accepted) return fail("the state store did not settle");
-    gated_->gate = accepted;
+    gated_->gate_saves(accepted);
     tick();
   }
 
@@ -650,7 +596,7 @@ class World {
   drivers::MockManipulator* arm_ = nullptr;
   int left_ = 1, right_ = 2;
   std::unique_ptr<daemon::Engine> engine_;
-  std::unique_ptr<GatedEngine> gated_;
+  std::unique_ptr<test::FakeEngine> gated_;
   LateRecordings recordings_;
   std::unique_ptr<daemon::SessionHub> hub_;
   std::vector<std::unique_ptr<Link>> links_;

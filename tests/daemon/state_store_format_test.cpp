@@ -9,11 +9,13 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <thread>
 #include <vector>
 
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/state_store.hpp"
 #include "ajar/protocol/codec.hpp"
+#include "ajard_restarts.hpp"
 #include "fake_door.hpp"
 #include "state_file_checksum.hpp"
 
@@ -381,6 +383,37 @@ TEST(StateStore, StopIsBoundedWhenTheDiskHangs) {
   std::string ignored;
   std::getline(reader, ignored);
   SUCCEED();
+}
+
+// The tests' hung disk (ajard_restarts.hpp) made while a save is in flight (its .tmp written, not
+// yet renamed: a slow disk holds it there): that save still lands as the state file, and the next
+// one hangs. Removing the in-flight .tmp for the FIFO made the writer rename the FIFO over the
+// state file (or, one open later, made mkfifo fail: the crash campaign's rare failure).
+TEST(StateStore, TheTestsHungDiskLetsASaveInFlightLandAndHangsTheNext) {
+  TempDir tmp;
+  const std::string tmp_file = tmp.path() + "/ajard.state.tmp";
+  {
+    StateStore store(tmp.path(), StateStore::Options{std::chrono::milliseconds(300)});
+    store.prepare();
+    store.start();
+    store.submit(full_record());
+    for (int i = 0; i < 20000 && !std::filesystem::exists(tmp_file); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    ASSERT_TRUE(std::filesystem::is_regular_file(tmp_file)) << "the writer never began its save";
+    ASSERT_TRUE(test::hang_disk(tmp.path()));
+    ASSERT_TRUE(store.flush(std::chrono::seconds(20)));
+    ASSERT_TRUE(std::filesystem::is_regular_file(store.path())) << "the FIFO became the state file";
+    EXPECT_EQ(read_all(store.path()), encode_state(full_record()));
+    EXPECT_TRUE(std::filesystem::is_fifo(tmp_file));
+    store.submit(StateRecord{});
+    EXPECT_FALSE(store.flush(std::chrono::milliseconds(50)));
+    EXPECT_EQ(store.settled(), 1U);
+    EXPECT_FALSE(store.stop(std::chrono::milliseconds(50)));
+  }
+  // Let the abandoned writer go (as in StopIsBoundedWhenTheDiskHangs).
+  std::ifstream reader(tmp_file);
+  std::string ignored;
+  std::getline(reader, ignored);
 }
 
 TEST(StateStore, UncreatableDirectoryIsAStartupError) {

@@ -12,6 +12,7 @@
 #include <string_view>
 
 #include "ajar/core/types.hpp"
+#include "ajar/protocol/messages.hpp"
 
 namespace ajar::client {
 
@@ -52,12 +53,17 @@ class JsonObject {
   JsonObject& add(std::string_view key, const JsonObject& nested);
   JsonObject& add(std::string_view key, const JsonArray& array);
   JsonObject& add_null(std::string_view key);
+  // Adds every key of `other`, in its order (as add() would, one by one).
+  JsonObject& merge(const JsonObject& other);
+  // The object under `key`; empty when there is none (or it is not an object).
+  JsonObject member(std::string_view key) const;
 
   std::string str() const;  // one line, no spaces: {"type":"ack","ok":true}
   bool empty() const;
 
  private:
   friend class JsonArray;
+  friend struct JsonAccess;  // json.cpp: message_json()
   struct Value;
   Value& value();
   std::unique_ptr<Value> value_;
@@ -90,5 +96,20 @@ class JsonArray {
   Value& value();
   std::unique_ptr<Value> value_;
 };
+
+// A protocol message as JSON, the one shape of ajarctl --json and the console (docs/protocol.md
+// section 10), generated from the message tables (protocol::visit_fields): every wire field of
+// protocol 1.`minor`, in wire order, under its wire name, where a '.' in the name opens a nested
+// object and [i] is an array element ("timing.all.latency.p99_ns", "normal.x", "points[2].frame",
+// "camera_to_base[11]"); enums as their words, ErrorCode as its NAME, MessageType as the message
+// name (a code or type this version does not know: its number); numbers as numbers (f32 as the
+// shortest text that reads back to the same float, NaN and infinity as null); str<N> as strings;
+// bytes<N> as base64 (RFC 4648). An Ack's body fields sit next to acknowledged and state, as on the
+// wire. Fields a later minor appended are left out
+// (`minor` is at least the one that defined the message's type).
+JsonObject message_json(const protocol::Message& message,
+                        std::uint8_t minor = protocol::kVersionMinor);
+// An Ack body alone, as message_json() puts it in its Ack.
+JsonObject ack_body_json(const protocol::AckBody& body);
 
 }  // namespace ajar::client
