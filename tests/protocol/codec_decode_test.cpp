@@ -11,6 +11,8 @@
 #include <bit>
 #include <cstring>
 #include <limits>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "ajar/protocol/codec.hpp"
@@ -98,6 +100,61 @@ TEST(Decode, NewerMinorMayAppendButOlderMayNot) {
   s[kOffsetVersionMinor] = kVersionMinor + 1;
   set_length(s);
   EXPECT_EQ(decode_error(s).code, ErrorCode::kBadPayloadLength);
+}
+
+// A string field's checks (zero padding, then UTF-8 without control characters) judge every byte
+// value at every place of every length as a byte-by-byte reading of the rule does (is_wire_string
+// for the string, "all zero" for the padding): the decoder scans eight bytes at a time with masks
+// (field_io.hpp, scan_string), whose edges are the word boundaries and the length.
+template <typename Message, std::size_t N>
+void expect_string_checks_as_the_rule(Message m, FixedString<N> Message::*field,
+                                      const std::vector<std::uint8_t>& values) {
+  (m.*field).assign(std::string(N, 'Q'));
+  const Bytes whole = encode_bytes(Envelope{7, 0, m});
+  std::size_t at = kHeaderSize;  // the field's length byte: the first of N + 1 bytes N, 'Q' ...
+  while (!(whole[at] == N && whole[at + 1] == 'Q'))
+    ++at;
+  for (std::size_t n = 0; n <= N; ++n) {
+    Bytes b = whole;
+    b[at] = static_cast<std::uint8_t>(n);
+    for (std::size_t i = 0; i < N; ++i)
+      b[at + 1 + i] = i < n ? 'a' : 0;
+    for (std::size_t i = 0; i < N; ++i) {
+      for (const std::uint8_t value : values) {
+        const std::uint8_t old = b[at + 1 + i];
+        b[at + 1 + i] = value;
+        refresh_crc(b);
+        const auto out = decode_frame(b);
+        b[at + 1 + i] = old;
+        const std::string_view text(reinterpret_cast<const char*>(&b[at + 1]), n);
+        std::string string(text);
+        if (i < n) string[i] = static_cast<char>(value);
+        const char* want = i >= n && value != 0      ? "non-zero padding"
+                           : !is_wire_string(string) ? "invalid UTF-8 or a control character"
+                                                     : nullptr;
+        if (want == nullptr) {
+          ASSERT_EQ(out.kind, StreamDecoder::Kind::kMessage)
+              << "n " << n << " byte " << i << " value " << int{value};
+        } else {
+          ASSERT_EQ(out.kind, StreamDecoder::Kind::kError)
+              << "n " << n << " byte " << i << " value " << int{value};
+          EXPECT_EQ(out.error.code, ErrorCode::kBadString);
+          ASSERT_STREQ(out.error.reason, want)
+              << "n " << n << " byte " << i << " value " << int{value};
+        }
+      }
+    }
+  }
+}
+
+TEST(Decode, StringChecksJudgeEveryByteAtEveryPlaceOfEveryLengthAsTheRule) {
+  std::vector<std::uint8_t> every(256);
+  for (std::size_t v = 0; v < every.size(); ++v)
+    every[v] = static_cast<std::uint8_t>(v);
+  expect_string_checks_as_the_rule(FetchRecording{}, &FetchRecording::name, every);  // 48 bytes
+  // 200 bytes: the edges of printable ASCII, a lead byte, the top bit.
+  expect_string_checks_as_the_rule(ErrorReply{}, &ErrorReply::message,
+                                   {0x00, 0x01, 0x1F, 0x20, 0x61, 0x7E, 0x7F, 0x80, 0xC3, 0xFF});
 }
 
 TEST(Decode, PayloadFieldErrorsNameTheField) {
