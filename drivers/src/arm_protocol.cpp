@@ -105,6 +105,10 @@ std::vector<std::string_view> split(std::string_view body) {
   }
 }
 
+// A TASK's five lengths in the order they are sent, as its refusals name them.
+constexpr const char* kTaskLengthNames[] = {"contact_base_m.x", "contact_base_m.y",
+                                            "contact_base_m.z", "door_width_m", "handle_length_m"};
+
 }  // namespace
 
 const char* to_string(Command c) noexcept {
@@ -140,13 +144,11 @@ Result<std::string> encode(const Message& m) {
       const double lengths[] = {m.task.contact_base_m.x(), m.task.contact_base_m.y(),
                                 m.task.contact_base_m.z(), m.task.door_width_m,
                                 m.task.handle_length_m};
-      const char* names[] = {"contact_base_m.x", "contact_base_m.y", "contact_base_m.z",
-                             "door_width_m", "handle_length_m"};
       body += ',';
       append_uint(body, m.task_id);
       for (std::size_t i = 0; i < 5; ++i) {
         if (!std::isfinite(lengths[i])) {
-          return bad(ErrorCode::kNonFiniteNumber, names[i], "not finite");
+          return bad(ErrorCode::kNonFiniteNumber, kTaskLengthNames[i], "not finite");
         }
         body += ',';
         append_metres(body, lengths[i]);
@@ -192,7 +194,10 @@ Result<std::string> encode(const Message& m) {
   return line;
 }
 
-Result<Message> decode(std::string_view line) {
+namespace {
+
+// The body between '$' and '*' of a line whose CRC matches it.
+Result<std::string_view> checked_body(std::string_view line) {
   if (line.size() < 8 || line.front() != '$') {
     return bad(ErrorCode::kBadPayloadLength, "", "line too short or without '$'");
   }
@@ -208,8 +213,115 @@ Result<Message> decode(std::string_view line) {
   }
   const std::string_view body = line.substr(1, star - 1);
   if (crc16_ccitt(body) != crc_sent) return bad(ErrorCode::kCrcMismatch, "crc", "CRC mismatch");
+  return body;
+}
 
-  const auto f = split(body);
+// A line's fields (seq and command first) read into the message whose command they carry.
+class Fields {
+ public:
+  Fields(const std::vector<std::string_view>& f, Message& m) : f_(f), m_(m) {}
+
+  std::string_view operator[](std::size_t i) const { return f_[i]; }
+
+  // Exactly `n` fields, seq and command included.
+  Outcome count(std::size_t n) const {
+    if (f_.size() != n) {
+      return bad(
+          ErrorCode::kBadPayloadLength, to_string(m_.command),
+          "expected " + std::to_string(n - 2) + " fields, got " + std::to_string(f_.size() - 2));
+    }
+    return Ok{};
+  }
+  Outcome task_id_at(std::size_t i) {
+    const auto id = parse_uint<std::uint32_t>(f_[i], 0xFFFFFFFFU);
+    if (!id) return bad(ErrorCode::kBadPayloadLength, "task_id", "not a number");
+    m_.task_id = *id;
+    return Ok{};
+  }
+  Outcome phase_at(std::size_t i) {
+    const auto p = phase_from(f_[i]);
+    if (!p)
+      return bad(ErrorCode::kInvalidEnumValue, "phase", "unknown '" + std::string(f_[i]) + "'");
+    m_.phase = *p;
+    return Ok{};
+  }
+
+ private:
+  const std::vector<std::string_view>& f_;
+  Message& m_;
+};
+
+// TASK: its id, the contact point, the door's width and handle's length, both directions.
+Outcome read_task(Fields& f, Message& m) {
+  if (auto s = f.count(10); !s) return s;
+  if (auto s = f.task_id_at(2); !s) return s;
+  double v[5] = {};
+  for (std::size_t i = 0; i < 5; ++i) {
+    auto r = parse_metres(f[3 + i], kTaskLengthNames[i]);
+    if (!r) return std::move(r).error();
+    v[i] = *r;
+  }
+  m.task.contact_base_m = core::Vec3(v[0], v[1], v[2]);
+  m.task.door_width_m = v[3];
+  m.task.handle_length_m = v[4];
+  const auto door = direction_from(f[8]);
+  if (!door) return bad(ErrorCode::kInvalidEnumValue, "door_direction", "not CW/CCW");
+  const auto handle = direction_from(f[9]);
+  if (!handle) return bad(ErrorCode::kInvalidEnumValue, "handle_direction", "not CW/CCW");
+  m.task.door_direction = *door;
+  m.task.handle_direction = *handle;
+  return Ok{};
+}
+
+// ACK/NAK: the request answered, a NAK's reason, the controller's phase and task id.
+Outcome read_reply(Fields& f, Message& m) {
+  const bool nak = m.command == Command::kNak;
+  if (auto s = f.count(nak ? 6 : 5); !s) return s;
+  const auto subject = command_from(f[2]);
+  if (!subject || !is_request(*subject)) {
+    return bad(ErrorCode::kInvalidEnumValue, "subject", "not a request name");
+  }
+  m.subject = *subject;
+  std::size_t i = 3;
+  if (nak) {
+    const auto reason = reason_from(f[i]);
+    if (!reason) return bad(ErrorCode::kInvalidEnumValue, "reason", "unknown reason");
+    m.reason = *reason;
+    ++i;
+  }
+  if (auto s = f.phase_at(i); !s) return s;
+  return f.task_id_at(i + 1);
+}
+
+// The fields after seq and command, as m.command defines them.
+Outcome read_arguments(Fields& f, Message& m) {
+  switch (m.command) {
+    case Command::kTask:
+      return read_task(f, m);
+    case Command::kStatus:
+    case Command::kStop:
+    case Command::kClear:
+      return f.count(2);
+    case Command::kAck:
+    case Command::kNak:
+      return read_reply(f, m);
+    case Command::kReport:
+      if (auto s = f.count(4); !s) return s;
+      if (auto s = f.phase_at(2); !s) return s;
+      return f.task_id_at(3);
+    case Command::kDone:
+      if (auto s = f.count(3); !s) return s;
+      return f.task_id_at(2);
+  }
+  return Ok{};
+}
+
+}  // namespace
+
+Result<Message> decode(std::string_view line) {
+  const auto body = checked_body(line);
+  if (!body) return body.error();
+  const auto f = split(*body);
   Message m;
   if (f.size() < 2) return bad(ErrorCode::kBadPayloadLength, "", "no command");
   const auto seq = parse_uint<std::uint16_t>(f[0], 0xFFFF);
@@ -220,87 +332,8 @@ Result<Message> decode(std::string_view line) {
     return bad(ErrorCode::kUnknownMessageType, "command", "unknown '" + std::string(f[1]) + "'");
   }
   m.command = *cmd;
-
-  auto want_fields = [&](std::size_t n) -> Outcome {
-    if (f.size() != n) {
-      return bad(
-          ErrorCode::kBadPayloadLength, to_string(m.command),
-          "expected " + std::to_string(n - 2) + " fields, got " + std::to_string(f.size() - 2));
-    }
-    return Ok{};
-  };
-  auto task_id_at = [&](std::size_t i) -> Outcome {
-    const auto id = parse_uint<std::uint32_t>(f[i], 0xFFFFFFFFU);
-    if (!id) return bad(ErrorCode::kBadPayloadLength, "task_id", "not a number");
-    m.task_id = *id;
-    return Ok{};
-  };
-  auto phase_at = [&](std::size_t i) -> Outcome {
-    const auto p = phase_from(f[i]);
-    if (!p)
-      return bad(ErrorCode::kInvalidEnumValue, "phase", "unknown '" + std::string(f[i]) + "'");
-    m.phase = *p;
-    return Ok{};
-  };
-
-  switch (m.command) {
-    case Command::kTask: {
-      if (auto s = want_fields(10); !s) return std::move(s).error();
-      if (auto s = task_id_at(2); !s) return std::move(s).error();
-      const char* names[] = {"contact_base_m.x", "contact_base_m.y", "contact_base_m.z",
-                             "door_width_m", "handle_length_m"};
-      double v[5] = {};
-      for (std::size_t i = 0; i < 5; ++i) {
-        auto r = parse_metres(f[3 + i], names[i]);
-        if (!r) return std::move(r).error();
-        v[i] = *r;
-      }
-      m.task.contact_base_m = core::Vec3(v[0], v[1], v[2]);
-      m.task.door_width_m = v[3];
-      m.task.handle_length_m = v[4];
-      const auto door = direction_from(f[8]);
-      if (!door) return bad(ErrorCode::kInvalidEnumValue, "door_direction", "not CW/CCW");
-      const auto handle = direction_from(f[9]);
-      if (!handle) return bad(ErrorCode::kInvalidEnumValue, "handle_direction", "not CW/CCW");
-      m.task.door_direction = *door;
-      m.task.handle_direction = *handle;
-      break;
-    }
-    case Command::kStatus:
-    case Command::kStop:
-    case Command::kClear:
-      if (auto s = want_fields(2); !s) return std::move(s).error();
-      break;
-    case Command::kAck:
-    case Command::kNak: {
-      const bool nak = m.command == Command::kNak;
-      if (auto s = want_fields(nak ? 6 : 5); !s) return std::move(s).error();
-      const auto subject = command_from(f[2]);
-      if (!subject || !is_request(*subject)) {
-        return bad(ErrorCode::kInvalidEnumValue, "subject", "not a request name");
-      }
-      m.subject = *subject;
-      std::size_t i = 3;
-      if (nak) {
-        const auto reason = reason_from(f[i]);
-        if (!reason) return bad(ErrorCode::kInvalidEnumValue, "reason", "unknown reason");
-        m.reason = *reason;
-        ++i;
-      }
-      if (auto s = phase_at(i); !s) return std::move(s).error();
-      if (auto s = task_id_at(i + 1); !s) return std::move(s).error();
-      break;
-    }
-    case Command::kReport:
-      if (auto s = want_fields(4); !s) return std::move(s).error();
-      if (auto s = phase_at(2); !s) return std::move(s).error();
-      if (auto s = task_id_at(3); !s) return std::move(s).error();
-      break;
-    case Command::kDone:
-      if (auto s = want_fields(3); !s) return std::move(s).error();
-      if (auto s = task_id_at(2); !s) return std::move(s).error();
-      break;
-  }
+  Fields fields(f, m);
+  if (auto s = read_arguments(fields, m); !s) return std::move(s).error();
   return m;
 }
 
