@@ -55,15 +55,19 @@ CLI::Validator milliseconds() {
       "MS");
 }
 
-}  // namespace
+using ajar::drivers::ArmControllerSimulator;
+using ajar::drivers::ArmSimFault;
 
-int main(int argc, char** argv) {
+struct Options {
   ajar::drivers::ArmSimulatorSettings settings;
   bool refuse = false;
   bool help = false;
   bool version = false;
+};
+
+// The command line into `options`; false on a bad one (CLI11's message printed).
+bool parse_command_line(int argc, char** argv, Options& options) {
   std::string fault = "none";
-  using ajar::drivers::ArmSimFault;
   const std::map<std::string, ArmSimFault> faults{{"none", ArmSimFault::kNone},
                                                   {"silent-mid-task", ArmSimFault::kSilentMidTask},
                                                   {"silent-mid-stop", ArmSimFault::kSilentMidStop},
@@ -71,9 +75,9 @@ int main(int argc, char** argv) {
                                                   {"stop-ignored", ArmSimFault::kStopIgnored}};
   CLI::App app("", "ajar-armsim");
   app.set_help_flag();  // --help prints kHelp (the man page's source), not CLI11's
-  app.add_option("--task-ms", settings.task_duration_ms)->check(milliseconds());
-  app.add_option("--reply-delay-ms", settings.reply_delay_ms)->check(milliseconds());
-  app.add_option("--silent-ms", settings.silent_ms)->check(milliseconds());
+  app.add_option("--task-ms", options.settings.task_duration_ms)->check(milliseconds());
+  app.add_option("--reply-delay-ms", options.settings.reply_delay_ms)->check(milliseconds());
+  app.add_option("--silent-ms", options.settings.silent_ms)->check(milliseconds());
   app.add_option("--fault", fault)
       ->check(CLI::Validator(
           [&faults](std::string& word) -> std::string {
@@ -83,25 +87,39 @@ int main(int argc, char** argv) {
                    word + "'";
           },
           "WORD"));
-  app.add_flag("--refuse", refuse);
-  app.add_flag("-h,--help", help);
-  app.add_flag("--version", version);
+  app.add_flag("--refuse", options.refuse);
+  app.add_flag("-h,--help", options.help);
+  app.add_flag("--version", options.version);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     std::fprintf(stderr, "ajar-armsim: %s (see ajar-armsim --help)\n", e.what());
-    return 2;
+    return false;
   }
-  if (help) {
-    std::fputs(kHelp, stdout);
-    return 0;
-  }
-  if (version) {
-    std::printf("ajar-armsim %s\n", ajar::kVersion);
-    return 0;
-  }
-  settings.fault = faults.at(fault);
+  options.settings.fault = faults.at(fault);
+  return true;
+}
 
+// The simulator's counters on stderr, when its requests or completed tasks changed since `last`.
+void print_counters_on_change(const ArmControllerSimulator& sim,
+                              ArmControllerSimulator::Counters& last) {
+  const auto c = sim.counters();
+  if (c.requests == last.requests && c.tasks_completed == last.tasks_completed) return;
+  std::fprintf(
+      stderr,
+      "requests %llu, duplicates %llu, tasks executed %llu, completed %llu, "
+      "stops %llu, bad lines %llu, unanswered %llu, phase %s\n",
+      static_cast<unsigned long long>(c.requests),
+      static_cast<unsigned long long>(c.duplicates_ignored),
+      static_cast<unsigned long long>(c.tasks_executed),
+      static_cast<unsigned long long>(c.tasks_completed), static_cast<unsigned long long>(c.stops),
+      static_cast<unsigned long long>(c.bad_requests),
+      static_cast<unsigned long long>(c.unanswered), ajar::drivers::arm::to_string(sim.phase()));
+  last = c;
+}
+
+// Runs the simulator until SIGINT or SIGTERM: main's exit status.
+int serve(const Options& options) {
   sigset_t signals;
   sigemptyset(&signals);
   sigaddset(&signals, SIGINT);
@@ -109,34 +127,36 @@ int main(int argc, char** argv) {
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);  // before the simulator's thread starts
 
   try {
-    ajar::drivers::ArmControllerSimulator sim(settings);
-    sim.set_refuse_tasks(refuse);
+    ArmControllerSimulator sim(options.settings);
+    sim.set_refuse_tasks(options.refuse);
     std::printf("%s\n", sim.device_path().c_str());
     std::fflush(stdout);
-    ajar::drivers::ArmControllerSimulator::Counters last{};
+    ArmControllerSimulator::Counters last{};
     timespec tick{1, 0};
     for (;;) {
       siginfo_t info;
       if (sigtimedwait(&signals, &info, &tick) > 0) break;
-      const auto c = sim.counters();
-      if (c.requests != last.requests || c.tasks_completed != last.tasks_completed) {
-        std::fprintf(stderr,
-                     "requests %llu, duplicates %llu, tasks executed %llu, completed %llu, "
-                     "stops %llu, bad lines %llu, unanswered %llu, phase %s\n",
-                     static_cast<unsigned long long>(c.requests),
-                     static_cast<unsigned long long>(c.duplicates_ignored),
-                     static_cast<unsigned long long>(c.tasks_executed),
-                     static_cast<unsigned long long>(c.tasks_completed),
-                     static_cast<unsigned long long>(c.stops),
-                     static_cast<unsigned long long>(c.bad_requests),
-                     static_cast<unsigned long long>(c.unanswered),
-                     ajar::drivers::arm::to_string(sim.phase()));
-        last = c;
-      }
+      print_counters_on_change(sim, last);
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "ajar-armsim: %s\n", e.what());
     return 1;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  if (!parse_command_line(argc, argv, options)) return 2;
+  if (options.help) {
+    std::fputs(kHelp, stdout);
+    return 0;
+  }
+  if (options.version) {
+    std::printf("ajar-armsim %s\n", ajar::kVersion);
+    return 0;
+  }
+  return serve(options);
 }
