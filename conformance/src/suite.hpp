@@ -365,6 +365,16 @@ class Suite {
   // "" when the model is plausible, else what is not.
   static std::string robot_model_problems(const protocol::RobotModel& m,
                                           const protocol::Welcome& w);
+  // recordings()' checks' bodies (recordings.cpp). The listing sets `newest` (the newest recording,
+  // if any) and `off` (why the checks that need the recorder are skipped).
+  std::string list_recordings_unknown_to_1_1();
+  std::string list_recordings_pages(std::optional<protocol::RecordingInfo>& newest,
+                                    std::string& off);
+  std::string recorder_status_agrees_with_list();
+  std::string fetch_refuses_unknown_names();
+  std::string fetch_refuses_bad_lengths(const std::optional<protocol::RecordingInfo>& newest);
+  std::string fetch_starts_with_mcap_magic(const protocol::RecordingInfo& newest);
+  std::string save_refuses_bad_ranges();
   // ---- driving (1.1): Drive and Approach ----
   void driving();
   // Its longer checks' bodies, on the controller `k` (driving.cpp).
