@@ -345,6 +345,10 @@ class Suite {
   void telemetry();
   // ---- order on the wire: replies before their events, zero-count motions (ordering.cpp) ----
   void ordering();
+  // Its checks' bodies (ordering.cpp).
+  std::string replies_before_their_events();
+  std::string observer_take_over_keeps_control();
+  std::string welcome_then_control_changed();
   // ---- the procedure, with every refusal on the way ----
   void procedure();
   // Its parts (procedure.cpp), on the controller `c`.
