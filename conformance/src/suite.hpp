@@ -334,6 +334,13 @@ class Suite {
   // ---- golden vectors ----
   void golden_vectors();
   std::string send_vector(const protocol::GoldenVector& v);
+  // Its cases (vectors.cpp): a valid Hello on a fresh session; a valid request and an invalid
+  // frame on the observer `c`. `request_id`: the vector's header's.
+  std::string send_hello_vector(const protocol::GoldenVector& v, std::uint32_t request_id);
+  std::string send_valid_vector(Client& c, const protocol::GoldenVector& v,
+                                std::uint32_t request_id, MessageType type);
+  std::string send_invalid_vector(Client& c, const protocol::GoldenVector& v,
+                                  std::uint32_t request_id);
   // ---- decode errors built here (independent of the vector files) ----
   void decode_errors();
   void decode_header_errors();  // its parts (decode.cpp)
