@@ -17,120 +17,22 @@ RunResult Rehearsal::run() {
   result_.expected_direction = world_.expected_ccw() ? "CCW" : "CW";
   result_.true_width_m = scenario_.door_width_m - 2 * scenario_.edge_inset_m;
   result_.true_handle_m = scenario_.handle_length_m;
-  ClientOptions co;
-  co.request_timeout = Milliseconds{static_cast<std::int64_t>(options_.timeout_s * 1000)};
-  co.retries = options_.retries;
-  co.tls = options_.tls;
-  co.client_name = "ajarctl simulate";
-  Client client(co);
+  Client client(client_options());
   client_ = &client;
   client.on_telemetry([this](const protocol::Telemetry& t) { on_telemetry(t); });
-  if (const auto connected = client.connect(options_.endpoint); !connected) {
-    return fail("connect: " + connected.error().message, true);
-  }
-  if (!expect_reply("hello", client.hello(protocol::Role::kController, options_.take_over))) {
-    return result_;
-  }
-  {
-    const Response model = client.request(protocol::GetRobotModel{});
-    if (const auto* m = model.get<protocol::RobotModel>()) {
-      geometry_.wheel_radius_m = m->wheel_radius_m;
-      geometry_.turning_radius_m = m->turning_radius_m;
-    } else if (noisy()) {
-      return fail("get_robot_model: " + response_text("get_robot_model", model), false);
-    }
-  }
-  start_ = Clock::now();
-  protocol::Reset reset;
-  reset.clear_parameters = true;
-  if (!expect_reply("reset", client.request(reset))) return result_;
-  if (!refresh_pose(true)) return result_;
-  (void)client.request(protocol::Subscribe{50.0f});
-  recording_ = true;
+  if (!start_session()) return result_;
 
   // 0. Fig. 4 from afar: jog toward the door, measure the width, Approach to the width standoff.
-  if (scenario_.drive) {
-    if (scenario_.jog_m > 0 && !jog(scenario_.jog_m, scenario_.jog_speed_m_s)) return result_;
-    if (!measure_width("measure_width_far")) return result_;
-    if (!approach(scenario_.width_standoff_m, "approach_width")) return result_;
-  }
+  if (scenario_.drive && !approach_from_afar()) return result_;
   // 1. Door width.
   if (!measure_width("measure_width")) return result_;
   if (scenario_.drive && !approach(scenario_.handle_standoff_m, "approach_handle")) {
     return result_;
   }
-  // 2. Handle.
-  {
-    if (!refresh_pose(false)) return result_;
-    protocol::MeasureHandle m;
-    m.p1_axis = camera(world_.handle_axis_point());
-    m.p2_free_end = camera(world_.handle_free_end_point());
-    const Response r = client.request(m);
-    if (!expect_reply("measure_handle", r)) return result_;
-    const auto& span = std::get<protocol::SpanAck>(r.get<protocol::Ack>()->body);
-    result_.measured_handle_m = span.length_m;
-    add_row("measure_handle", r, result_.true_handle_m, span.length_m,
-            core::to_string(span.direction));
-  }
-  // 3. Plane.
-  const auto first = measure_plane("measure_plane");
-  if (!first) return result_;
-  result_.yaw_before_true_rad = world_.true_yaw_error_rad(pose_.yaw_rad);
-  result_.yaw_before_measured_rad = first->yaw_deviation_rad;
-  result_.plane_rms_m = first->rms_residual_m;
-  result_.cmd_left_rad = first->left_wheel_rad;
-  result_.cmd_right_rad = first->right_wheel_rad;
-  result_.cmd_left_counts = first->left_counts;
-  result_.cmd_right_counts = first->right_counts;
-
-  // 4. Align, re-measure, until the daemon keeps the alignment. Encoder angles are reported as
-  // the change over the alignment(s) (the encoders count since the daemon started).
-  const auto encoders_before = fresh_telemetry();
-  bool aligned = false;
-  for (int i = 0; i < scenario_.max_align_iterations && !aligned; ++i) {
-    ++result_.align_iterations;
-    if (!align()) return result_;
-    const auto again = measure_plane("remeasure_plane");
-    if (!again) return result_;
-    result_.yaw_after_true_rad = world_.true_yaw_error_rad(pose_.yaw_rad);
-    result_.yaw_after_measured_rad = again->yaw_deviation_rad;
-    aligned = last_state_ == protocol::ProcedureState::kAligned;
-  }
-  if (!aligned) {
-    return fail("still not aligned after " + std::to_string(scenario_.max_align_iterations) +
-                    " alignment(s)",
-                false);
-  }
-  if (const auto encoders_after = fresh_telemetry(); encoders_before && encoders_after) {
-    result_.enc_left_rad = encoders_after->left_wheel_rad - encoders_before->left_wheel_rad;
-    result_.enc_right_rad = encoders_after->right_wheel_rad - encoders_before->right_wheel_rad;
-  }
-  // 5. Contact point, from the aligned pose.
-  {
-    if (!refresh_pose(false)) return result_;
-    const core::Vec3 truth_world = world_.contact_point();
-    protocol::SetContactPoint m;
-    m.contact = camera(truth_world);
-    const Response r = client.request(m);
-    if (!expect_reply("contact", r)) return result_;
-    const auto& contact = std::get<protocol::ContactAck>(r.get<protocol::Ack>()->body);
-    const core::Vec3 truth_base = core::rebase(truth_world, core::PlanarPose{}, pose_);
-    result_.contact_error_m = (contact.contact_base_m - truth_base).norm();
-    result_.reach_margin_m = contact.reach_margin_m;
-    add_row("contact", r, 0, result_.contact_error_m, "value: contact error (m)");
-  }
-  // 6. Engage.
-  {
-    const Response r = client.request(protocol::Engage{});
-    if (!expect_reply("engage", r)) return result_;
-    add_row("engage", r, std::nan(""), std::nan(""), "");
-    const auto final_state = wait_while(protocol::ProcedureState::kEngaging, 60.0);
-    if (!final_state) return result_;
-    result_.final_state = std::string(protocol::to_string(*final_state));
-    add_state_row("engaged", "");
-    if (scenario_.expect_engaged && *final_state != protocol::ProcedureState::kEngaged) {
-      return fail("engage ended in state " + result_.final_state, false);
-    }
+  // 2. Handle. 3. Plane. 4. Align until kept. 5. Contact point. 6. Engage.
+  if (!measure_handle() || !measure_first_plane() || !align_until_kept() || !set_contact_point() ||
+      !engage()) {
+    return result_;
   }
   if (scenario_.drive) result_.final_standoff_m = world_.true_distance_m(pose_);
   recording_ = false;
@@ -138,6 +40,131 @@ RunResult Rehearsal::run() {
   result_.completed = true;
   check_tolerances();
   return result_;
+}
+
+ClientOptions Rehearsal::client_options() const {
+  ClientOptions co;
+  co.request_timeout = Milliseconds{static_cast<std::int64_t>(options_.timeout_s * 1000)};
+  co.retries = options_.retries;
+  co.tls = options_.tls;
+  co.client_name = "ajarctl simulate";
+  return co;
+}
+
+bool Rehearsal::start_session() {
+  if (const auto connected = client_->connect(options_.endpoint); !connected) {
+    (void)fail("connect: " + connected.error().message, true);
+    return false;
+  }
+  if (!expect_reply("hello", client_->hello(protocol::Role::kController, options_.take_over))) {
+    return false;
+  }
+  const Response model = client_->request(protocol::GetRobotModel{});
+  if (const auto* m = model.get<protocol::RobotModel>()) {
+    geometry_.wheel_radius_m = m->wheel_radius_m;
+    geometry_.turning_radius_m = m->turning_radius_m;
+  } else if (noisy()) {
+    (void)fail("get_robot_model: " + response_text("get_robot_model", model), false);
+    return false;
+  }
+  start_ = Clock::now();
+  protocol::Reset reset;
+  reset.clear_parameters = true;
+  if (!expect_reply("reset", client_->request(reset))) return false;
+  if (!refresh_pose(true)) return false;
+  (void)client_->request(protocol::Subscribe{50.0f});
+  recording_ = true;
+  return true;
+}
+
+bool Rehearsal::approach_from_afar() {
+  if (scenario_.jog_m > 0 && !jog(scenario_.jog_m, scenario_.jog_speed_m_s)) return false;
+  if (!measure_width("measure_width_far")) return false;
+  return approach(scenario_.width_standoff_m, "approach_width");
+}
+
+bool Rehearsal::measure_handle() {
+  if (!refresh_pose(false)) return false;
+  protocol::MeasureHandle m;
+  m.p1_axis = camera(world_.handle_axis_point());
+  m.p2_free_end = camera(world_.handle_free_end_point());
+  const Response r = client_->request(m);
+  if (!expect_reply("measure_handle", r)) return false;
+  const auto& span = std::get<protocol::SpanAck>(r.get<protocol::Ack>()->body);
+  result_.measured_handle_m = span.length_m;
+  add_row("measure_handle", r, result_.true_handle_m, span.length_m,
+          core::to_string(span.direction));
+  return true;
+}
+
+bool Rehearsal::measure_first_plane() {
+  const auto first = measure_plane("measure_plane");
+  if (!first) return false;
+  result_.yaw_before_true_rad = world_.true_yaw_error_rad(pose_.yaw_rad);
+  result_.yaw_before_measured_rad = first->yaw_deviation_rad;
+  result_.plane_rms_m = first->rms_residual_m;
+  result_.cmd_left_rad = first->left_wheel_rad;
+  result_.cmd_right_rad = first->right_wheel_rad;
+  result_.cmd_left_counts = first->left_counts;
+  result_.cmd_right_counts = first->right_counts;
+  return true;
+}
+
+bool Rehearsal::align_until_kept() {
+  // Encoder angles are reported as the change over the alignment(s) (the encoders count since
+  // the daemon started).
+  const auto encoders_before = fresh_telemetry();
+  bool aligned = false;
+  for (int i = 0; i < scenario_.max_align_iterations && !aligned; ++i) {
+    ++result_.align_iterations;
+    if (!align()) return false;
+    const auto again = measure_plane("remeasure_plane");
+    if (!again) return false;
+    result_.yaw_after_true_rad = world_.true_yaw_error_rad(pose_.yaw_rad);
+    result_.yaw_after_measured_rad = again->yaw_deviation_rad;
+    aligned = last_state_ == protocol::ProcedureState::kAligned;
+  }
+  if (!aligned) {
+    (void)fail("still not aligned after " + std::to_string(scenario_.max_align_iterations) +
+                   " alignment(s)",
+               false);
+    return false;
+  }
+  if (const auto encoders_after = fresh_telemetry(); encoders_before && encoders_after) {
+    result_.enc_left_rad = encoders_after->left_wheel_rad - encoders_before->left_wheel_rad;
+    result_.enc_right_rad = encoders_after->right_wheel_rad - encoders_before->right_wheel_rad;
+  }
+  return true;
+}
+
+bool Rehearsal::set_contact_point() {
+  if (!refresh_pose(false)) return false;
+  const core::Vec3 truth_world = world_.contact_point();
+  protocol::SetContactPoint m;
+  m.contact = camera(truth_world);
+  const Response r = client_->request(m);
+  if (!expect_reply("contact", r)) return false;
+  const auto& contact = std::get<protocol::ContactAck>(r.get<protocol::Ack>()->body);
+  const core::Vec3 truth_base = core::rebase(truth_world, core::PlanarPose{}, pose_);
+  result_.contact_error_m = (contact.contact_base_m - truth_base).norm();
+  result_.reach_margin_m = contact.reach_margin_m;
+  add_row("contact", r, 0, result_.contact_error_m, "value: contact error (m)");
+  return true;
+}
+
+bool Rehearsal::engage() {
+  const Response r = client_->request(protocol::Engage{});
+  if (!expect_reply("engage", r)) return false;
+  add_row("engage", r, std::nan(""), std::nan(""), "");
+  const auto final_state = wait_while(protocol::ProcedureState::kEngaging, 60.0);
+  if (!final_state) return false;
+  result_.final_state = std::string(protocol::to_string(*final_state));
+  add_state_row("engaged", "");
+  if (scenario_.expect_engaged && *final_state != protocol::ProcedureState::kEngaged) {
+    (void)fail("engage ended in state " + result_.final_state, false);
+    return false;
+  }
+  return true;
 }
 
 bool Rehearsal::measure_width(const std::string& step) {

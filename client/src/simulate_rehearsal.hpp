@@ -36,6 +36,15 @@ class Rehearsal {
   using Clock = std::chrono::steady_clock;
 
   // ---- simulate_rehearsal.cpp: the steps; false (or nullopt) when the run failed ----
+  ClientOptions client_options() const;
+  // Connect, Hello as the controller, the robot model, Reset, the world's origin, telemetry.
+  bool start_session();
+  bool approach_from_afar();  // jog, measure the width, Approach to the width standoff
+  bool measure_handle();
+  bool measure_first_plane();  // the yaw before alignment and the wheels' command
+  bool align_until_kept();     // Align and measure again until the daemon keeps it
+  bool set_contact_point();    // from the aligned pose
+  bool engage();               // Engage and wait for its end
   bool measure_width(const std::string& step);
   // Teleop: Drive straight at `speed` re-sent every 0.1 s (a held key) until the odometry says
   // `distance` was covered, then release (Drive 0) and wait for the base to rest.
