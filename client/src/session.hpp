@@ -18,6 +18,7 @@
 
 #include "ajar/client/cli.hpp"
 #include "ajar/client/output.hpp"
+#include "ajar/client/teleop.hpp"
 
 namespace ajar::client {
 
@@ -71,7 +72,21 @@ class Session {
 
   // session_drive.cpp
   int drive_keys(const Command& c);
+  // drive_keys' loop (on the raw terminal): keys to velocities, Drive re-sent when due, Stop on
+  // space, the status line; until q/Esc/Ctrl-C, the end of input, an interruption, a lost
+  // connection or a Drive no velocity would change. Its exit code; `note`: what to tell.
+  int drive_by_keys(const std::string& name, const teleop::Limits& limits,
+                    teleop::ResendScheduler& schedule, std::string& note);
+  void draw_drive_status(const teleop::Velocity& v, const std::string& note);
   int drive_for(const Command& c);
+  // drive_for's parts: Drive re-sent for --for seconds (an interruption says so in `failure`);
+  // then Drive 0 and the wait for rest, or Stop after a failure (`count`: the telemetry frames
+  // before); the result printed with the odometry before and after.
+  int drive_steadily(const Command& c, teleop::ResendScheduler& schedule, std::string& failure);
+  int come_to_rest(const std::string& name, int rc, const std::string& failure,
+                   std::uint64_t count);
+  void print_drive_result(const Command& c, const protocol::Status& before,
+                          const protocol::Status& after);
 
   const GlobalOptions& options_;
   std::ostream& out_;

@@ -51,6 +51,75 @@ std::string pose_text(double x_m, double y_m, double yaw_rad) {
          fixed(yaw_rad, 5, true) + " rad";
 }
 
+// The keys typed within `wait_ms` (none typed: what the decoder holds once idle, a lone Esc);
+// false at the end of input.
+bool read_keys(teleop::KeyDecoder& decoder, int wait_ms, std::vector<teleop::Key>& keys) {
+  keys.clear();
+  pollfd in{STDIN_FILENO, POLLIN, 0};
+  if (poll(&in, 1, wait_ms) > 0 && (in.revents & (POLLIN | POLLHUP)) != 0) {
+    char bytes[64];
+    const ssize_t n = read(STDIN_FILENO, bytes, sizeof bytes);
+    if (n <= 0) return false;  // end of input
+    decoder.feed(std::span<const char>(bytes, static_cast<std::size_t>(n)), keys);
+  } else {
+    decoder.idle(keys);
+  }
+  return true;
+}
+
+// How long to wait for keys: until the next Drive is due, at most 50 ms.
+int key_wait_ms(const teleop::ResendScheduler& schedule, const teleop::Velocity& v) {
+  const auto now = Clock::now();
+  const auto wake = std::min(schedule.next(v, now), now + Milliseconds{50});
+  return static_cast<int>(std::clamp<std::int64_t>(
+      std::chrono::duration_cast<Milliseconds>(wake - now).count(), 0, 50));
+}
+
+// What the keys asked besides a new velocity.
+struct KeyRequests {
+  bool stop = false;
+  bool quit = false;
+};
+
+// The keys applied to the velocity `v` in order; a change clears the status line's `note`.
+KeyRequests apply_keys(const std::vector<teleop::Key>& keys, teleop::Velocity& v,
+                       const teleop::Limits& limits, teleop::ResendScheduler& schedule,
+                       std::string& note) {
+  KeyRequests asked;
+  for (const teleop::Key key : keys) {
+    switch (teleop::apply(key, v, limits)) {
+      case teleop::Action::kChanged:
+        schedule.changed();
+        note.clear();
+        break;
+      case teleop::Action::kUnchanged:
+        break;
+      case teleop::Action::kStop:
+        schedule.changed();
+        asked.stop = true;
+        break;
+      case teleop::Action::kQuit:
+        asked.quit = true;
+        break;
+    }
+  }
+  return asked;
+}
+
+// A refused Drive that no other velocity would change: the daemon does not drive, or this
+// session does not control; or no reply at all.
+bool drive_hopeless(const Response& r) {
+  return r.outcome != CallOutcome::kRefused || r.error.code == ErrorCode::kNotSupported ||
+         r.error.code == ErrorCode::kNotController;
+}
+
+std::string drive_keys_help(const teleop::Limits& limits) {
+  return "drive: Up/Down (w/s) " + fixed(limits.linear_step_m_s, 3) + " m/s steps up to " +
+         fixed(limits.max_linear_m_s, 3) + " m/s, Left/Right (a/d) " +
+         fixed(limits.angular_step_rad_s, 3) + " rad/s steps up to " +
+         fixed(limits.max_angular_rad_s, 3) + " rad/s; space stops; q, Esc or Ctrl-C leave\n";
+}
+
 }  // namespace
 
 // drive with keys: raw terminal, Drive re-sent while the velocity is not zero, a status line
@@ -73,95 +142,14 @@ int Session::drive_keys(const Command& c) {
   client_.set_heartbeat(Milliseconds{100});
   {
     std::lock_guard lock(print_mutex_);
-    out_ << "drive: Up/Down (w/s) " << fixed(limits.linear_step_m_s, 3) << " m/s steps up to "
-         << fixed(limits.max_linear_m_s, 3) << " m/s, Left/Right (a/d) "
-         << fixed(limits.angular_step_rad_s, 3) << " rad/s steps up to "
-         << fixed(limits.max_angular_rad_s, 3) << " rad/s; space stops; q, Esc or Ctrl-C leave\n";
+    out_ << drive_keys_help(limits);
     out_.flush();
   }
   int rc = kExitOk;
   std::string note;
   {
     RawTerminal terminal(STDIN_FILENO);
-    teleop::KeyDecoder decoder;
-    teleop::Velocity v;
-    std::vector<teleop::Key> keys;
-    auto next_draw = Clock::now();
-    bool quit = false;
-    while (!quit && !interrupted()) {
-      if (!client_.connected()) {
-        note = "connection lost";
-        rc = kExitConnection;
-        break;
-      }
-      const auto now = Clock::now();
-      const auto wake = std::min(schedule.next(v, now), now + Milliseconds{50});
-      const int wait_ms = static_cast<int>(std::clamp<std::int64_t>(
-          std::chrono::duration_cast<Milliseconds>(wake - now).count(), 0, 50));
-      keys.clear();
-      pollfd in{STDIN_FILENO, POLLIN, 0};
-      if (poll(&in, 1, wait_ms) > 0 && (in.revents & (POLLIN | POLLHUP)) != 0) {
-        char bytes[64];
-        const ssize_t n = read(STDIN_FILENO, bytes, sizeof bytes);
-        if (n > 0) {
-          decoder.feed(std::span<const char>(bytes, static_cast<std::size_t>(n)), keys);
-        } else {
-          quit = true;  // end of input
-        }
-      } else {
-        decoder.idle(keys);
-      }
-      bool stop = false;
-      for (const teleop::Key key : keys) {
-        switch (teleop::apply(key, v, limits)) {
-          case teleop::Action::kChanged:
-            schedule.changed();
-            note.clear();
-            break;
-          case teleop::Action::kUnchanged:
-            break;
-          case teleop::Action::kStop:
-            schedule.changed();
-            stop = true;
-            break;
-          case teleop::Action::kQuit:
-            quit = true;
-            break;
-        }
-      }
-      if (quit) break;
-      if (schedule.due(v, Clock::now())) {
-        const Response r = client_.request(protocol::Drive{v.linear_m_s, v.angular_rad_s});
-        if (!r.ok()) {
-          note = response_text(c.name, r);
-          v = {};
-          const bool hopeless = r.outcome != CallOutcome::kRefused ||
-                                r.error.code == ErrorCode::kNotSupported ||
-                                r.error.code == ErrorCode::kNotController;
-          if (hopeless) {
-            rc = exit_code(r);
-            break;
-          }
-        }
-      }
-      if (stop) {
-        const Response r = client_.request(protocol::Stop{});
-        note = r.ok() ? "stopped" : response_text("stop", r);
-      }
-      if (Clock::now() >= next_draw) {
-        protocol::Telemetry t;
-        bool have = false;
-        {
-          std::lock_guard lock(latest_mutex_);
-          have = telemetry_count_ > 0;
-          t = latest_;
-        }
-        std::lock_guard lock(print_mutex_);
-        out_ << "\r\033[K" << teleop::status_line(v, have ? &t : nullptr, note);
-        out_.flush();
-        next_draw = Clock::now() + Milliseconds{100};
-      }
-    }
+    rc = drive_by_keys(c.name, limits, schedule, note);
     // Leaving: the base comes to rest whatever happened above.
     (void)client_.request(protocol::Drive{0, 0});
     (void)client_.request(protocol::Stop{});
@@ -173,6 +161,53 @@ int Session::drive_keys(const Command& c) {
   if (!note.empty() && rc != kExitOk) out_ << note << "\n";
   out_.flush();
   return rc;
+}
+
+int Session::drive_by_keys(const std::string& name, const teleop::Limits& limits,
+                           teleop::ResendScheduler& schedule, std::string& note) {
+  teleop::KeyDecoder decoder;
+  teleop::Velocity v;
+  std::vector<teleop::Key> keys;
+  auto next_draw = Clock::now();
+  while (!interrupted()) {
+    if (!client_.connected()) {
+      note = "connection lost";
+      return kExitConnection;
+    }
+    const bool input = read_keys(decoder, key_wait_ms(schedule, v), keys);
+    const KeyRequests asked = apply_keys(keys, v, limits, schedule, note);
+    if (!input || asked.quit) break;
+    if (schedule.due(v, Clock::now())) {
+      const Response r = client_.request(protocol::Drive{v.linear_m_s, v.angular_rad_s});
+      if (!r.ok()) {
+        note = response_text(name, r);
+        v = {};
+        if (drive_hopeless(r)) return exit_code(r);
+      }
+    }
+    if (asked.stop) {
+      const Response r = client_.request(protocol::Stop{});
+      note = r.ok() ? "stopped" : response_text("stop", r);
+    }
+    if (Clock::now() >= next_draw) {
+      draw_drive_status(v, note);
+      next_draw = Clock::now() + Milliseconds{100};
+    }
+  }
+  return kExitOk;
+}
+
+void Session::draw_drive_status(const teleop::Velocity& v, const std::string& note) {
+  protocol::Telemetry t;
+  bool have = false;
+  {
+    std::lock_guard lock(latest_mutex_);
+    have = telemetry_count_ > 0;
+    t = latest_;
+  }
+  std::lock_guard lock(print_mutex_);
+  out_ << "\r\033[K" << teleop::status_line(v, have ? &t : nullptr, note);
+  out_.flush();
 }
 
 // drive --linear V --angular W --for S: Drive re-sent at the steady rate for S seconds, then
@@ -192,34 +227,52 @@ int Session::drive_for(const Command& c) {
   }
   client_.set_heartbeat(Milliseconds{100});
   teleop::ResendScheduler schedule(teleop::resend_period(model->drive_command_timeout_s));
+  std::string failure;
+  int rc = drive_steadily(c, schedule, failure);
+  const std::uint64_t count = telemetry_count();
+  rc = come_to_rest(c.name, rc, failure, count);
+  client_.set_heartbeat(Milliseconds{0});
+  (void)client_.request(protocol::Subscribe{});
+  if (rc != kExitOk) return rc;
+  const Response last = client_.request(protocol::GetStatus{});
+  if (!last.ok()) {
+    print(response_object(c.name, last), response_text(c.name, last));
+    return exit_code(last);
+  }
+  print_drive_result(c, before, *last.get<protocol::Status>());
+  return kExitOk;
+}
+
+int Session::drive_steadily(const Command& c, teleop::ResendScheduler& schedule,
+                            std::string& failure) {
   const teleop::Velocity v{c.linear_m_s, c.angular_rad_s};
   schedule.changed();
   const auto end = Clock::now() + seconds_to_ms(c.duration_s);
-  int rc = kExitOk;
-  std::string failure;
   while (Clock::now() < end) {
     if (interrupted()) {
       failure = "interrupted";
-      rc = kExitRefused;
-      break;
+      return kExitRefused;
     }
     if (schedule.due(v, Clock::now())) {
       const Response r = client_.request(protocol::Drive{v.linear_m_s, v.angular_rad_s});
       if (!r.ok()) {
         print(response_object(c.name, r), response_text(c.name, r));
-        rc = exit_code(r);
-        break;
+        return exit_code(r);
       }
     }
     const auto now = Clock::now();
     const auto wake = std::min({schedule.next(v, now), end, now + Milliseconds{50}});
     std::this_thread::sleep_until(wake);
   }
-  const std::uint64_t count = telemetry_count();
+  return kExitOk;
+}
+
+int Session::come_to_rest(const std::string& name, int rc, const std::string& failure,
+                          std::uint64_t count) {
   if (rc == kExitOk) {
     const Response zero = client_.request(protocol::Drive{0, 0});
     if (!zero.ok()) {
-      print(response_object(c.name, zero), response_text(c.name, zero));
+      print(response_object(name, zero), response_text(name, zero));
       rc = exit_code(zero);
     }
   }
@@ -233,15 +286,11 @@ int Session::drive_for(const Command& c) {
           "drive: still moving 10 s after Drive 0: " + response_text("stop", stop));
     rc = kExitRefused;
   }
-  client_.set_heartbeat(Milliseconds{0});
-  (void)client_.request(protocol::Subscribe{});
-  if (rc != kExitOk) return rc;
-  const Response last = client_.request(protocol::GetStatus{});
-  if (!last.ok()) {
-    print(response_object(c.name, last), response_text(c.name, last));
-    return exit_code(last);
-  }
-  const protocol::Status& after = *last.get<protocol::Status>();
+  return rc;
+}
+
+void Session::print_drive_result(const Command& c, const protocol::Status& before,
+                                 const protocol::Status& after) {
   const double moved = std::hypot(after.odometry_x_m - before.odometry_x_m,
                                   after.odometry_y_m - before.odometry_y_m);
   const double turned = std::remainder(after.base_yaw_odometry_rad - before.base_yaw_odometry_rad,
@@ -264,7 +313,6 @@ int Session::drive_for(const Command& c) {
           pose_text(after.odometry_x_m, after.odometry_y_m, after.base_yaw_odometry_rad);
   text += "\n  moved " + fixed(moved, 4) + " m, turned " + fixed(turned, 5, true) + " rad";
   print(o, text);
-  return kExitOk;
 }
 
 }  // namespace ajar::client
