@@ -17,6 +17,69 @@ double yaw_turned_rad(const protocol::Status& start, const protocol::Status& now
                         2 * std::numbers::pi);
 }
 
+// One progress line of align / engage (`command`) into `o`, its text returned: the elapsed time
+// and the yaw turned and still to turn (align), or the arm's state (engage).
+std::string motion_progress(const std::string& command, bool align, const protocol::Status& start,
+                            const protocol::Status& now, double elapsed_s, JsonObject& o) {
+  o.add("type", "progress").add("command", command).add("ok", true);
+  o.add("elapsed_s", elapsed_s).add("state", protocol::to_string(now.state));
+  char text[200];
+  if (align) {
+    const double turned = yaw_turned_rad(start, now);
+    o.add("yaw_turned_rad", turned);
+    if (start.has_plane) {
+      const double remaining = start.plane.yaw_deviation_rad - turned;
+      o.add("yaw_remaining_rad", remaining);
+      std::snprintf(text, sizeof text, "%s: %5.1f s, turned %+.4f rad, %+.4f rad (%+.2f deg) to go",
+                    command.c_str(), elapsed_s, turned, remaining,
+                    remaining * 180 / std::numbers::pi);
+    } else {
+      std::snprintf(text, sizeof text, "%s: %5.1f s, turned %+.4f rad", command.c_str(), elapsed_s,
+                    turned);
+    }
+  } else {
+    o.add("arm_state", protocol::to_string(now.arm_state));
+    std::snprintf(text, sizeof text, "%s: %5.1f s, arm %s", command.c_str(), elapsed_s,
+                  std::string(protocol::to_string(now.arm_state)).c_str());
+  }
+  return text;
+}
+
+// align's result: the odometry yaw before and after, and what the measured plane commanded.
+void add_align_result(const protocol::Status& start, const protocol::Status& last, JsonObject& o,
+                      std::string& text) {
+  const double turned = yaw_turned_rad(start, last);
+  o.add("base_yaw_before_rad", start.base_yaw_odometry_rad)
+      .add("base_yaw_after_rad", last.base_yaw_odometry_rad)
+      .add("yaw_turned_rad", turned);
+  char line[200];
+  std::snprintf(line, sizeof line, "\n  odometry yaw: %+.5f -> %+.5f rad (turned %+.5f rad)",
+                start.base_yaw_odometry_rad, last.base_yaw_odometry_rad, turned);
+  text += line;
+  if (start.has_plane) {
+    o.add("commanded", ack_body_json(start.plane));  // the PlaneAck's wire fields
+    std::snprintf(line, sizeof line, "\n  commanded:    %+.5f rad (wheels %+.5f / %+.5f rad)",
+                  start.plane.yaw_deviation_rad, start.plane.left_wheel_rad,
+                  start.plane.right_wheel_rad);
+    text += line;
+  }
+}
+
+// Why align / engage did not reach its goal: the latched fault, the state it ended in, or still
+// `busy` at --wait-timeout.
+void add_motion_failure(const Command& c, const protocol::Status& last, bool finished,
+                        protocol::ProcedureState busy, JsonObject& o, std::string& text) {
+  std::string code = last.latched_fault != ErrorCode::kOk
+                         ? std::string(ajar::to_string(last.latched_fault))
+                         : (finished ? std::string("WRONG_STATE") : std::string(kTimeoutCode));
+  const std::string message =
+      finished ? "the " + c.name + " ended in state " + std::string(protocol::to_string(last.state))
+               : "still " + std::string(protocol::to_string(busy)) + " after " +
+                     std::to_string(c.wait_timeout_s) + " s: Stop sent";
+  o.add("error", error_object(code, "", message));
+  text += "\n  " + code + ": " + message;
+}
+
 }  // namespace
 
 // The one wait of align, engage and approach: sends the request (events shown), prints the Ack and,
@@ -96,27 +159,7 @@ int Session::motion(const Command& c) {
       c, [busy](const protocol::Status& s) { return s.state != busy; },
       [&](const protocol::Status& now, double elapsed_s) {
         JsonObject o;
-        o.add("type", "progress").add("command", c.name).add("ok", true);
-        o.add("elapsed_s", elapsed_s).add("state", protocol::to_string(now.state));
-        char text[200];
-        if (align) {
-          const double turned = yaw_turned_rad(start, now);
-          o.add("yaw_turned_rad", turned);
-          if (start.has_plane) {
-            const double remaining = start.plane.yaw_deviation_rad - turned;
-            o.add("yaw_remaining_rad", remaining);
-            std::snprintf(
-                text, sizeof text, "%s: %5.1f s, turned %+.4f rad, %+.4f rad (%+.2f deg) to go",
-                c.name.c_str(), elapsed_s, turned, remaining, remaining * 180 / std::numbers::pi);
-          } else {
-            std::snprintf(text, sizeof text, "%s: %5.1f s, turned %+.4f rad", c.name.c_str(),
-                          elapsed_s, turned);
-          }
-        } else {
-          o.add("arm_state", protocol::to_string(now.arm_state));
-          std::snprintf(text, sizeof text, "%s: %5.1f s, arm %s", c.name.c_str(), elapsed_s,
-                        std::string(protocol::to_string(now.arm_state)).c_str());
-        }
+        const std::string text = motion_progress(c.name, align, start, now, elapsed_s, o);
         print(o, text);
       });
   if (!w.waited || w.rc != kExitOk) return w.rc;
@@ -131,37 +174,12 @@ int Session::motion(const Command& c) {
   std::string text = c.name + ": " + (ok ? "done" : "NOT done") + ", state " +
                      std::string(protocol::to_string(last.state));
   if (align) {
-    const double turned = yaw_turned_rad(start, last);
-    o.add("base_yaw_before_rad", start.base_yaw_odometry_rad)
-        .add("base_yaw_after_rad", last.base_yaw_odometry_rad)
-        .add("yaw_turned_rad", turned);
-    char line[200];
-    std::snprintf(line, sizeof line, "\n  odometry yaw: %+.5f -> %+.5f rad (turned %+.5f rad)",
-                  start.base_yaw_odometry_rad, last.base_yaw_odometry_rad, turned);
-    text += line;
-    if (start.has_plane) {
-      o.add("commanded", ack_body_json(start.plane));  // the PlaneAck's wire fields
-      std::snprintf(line, sizeof line, "\n  commanded:    %+.5f rad (wheels %+.5f / %+.5f rad)",
-                    start.plane.yaw_deviation_rad, start.plane.left_wheel_rad,
-                    start.plane.right_wheel_rad);
-      text += line;
-    }
+    add_align_result(start, last, o, text);
   } else {
     o.add("arm_state", protocol::to_string(last.arm_state));
     text += ", arm " + std::string(protocol::to_string(last.arm_state));
   }
-  if (!ok) {
-    std::string code = last.latched_fault != ErrorCode::kOk
-                           ? std::string(ajar::to_string(last.latched_fault))
-                           : (finished ? std::string("WRONG_STATE") : std::string(kTimeoutCode));
-    const std::string message =
-        finished
-            ? "the " + c.name + " ended in state " + std::string(protocol::to_string(last.state))
-            : "still " + std::string(protocol::to_string(busy)) + " after " +
-                  std::to_string(c.wait_timeout_s) + " s: Stop sent";
-    o.add("error", error_object(code, "", message));
-    text += "\n  " + code + ": " + message;
-  }
+  if (!ok) add_motion_failure(c, last, finished, busy, o, text);
   print(o, text);
   if (ok) return kExitOk;
   return finished ? kExitRefused : kExitConnection;
