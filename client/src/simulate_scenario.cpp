@@ -56,23 +56,8 @@ struct YamlReader {
   }
 };
 
-}  // namespace
-
-Scenario load_scenario(const std::string& path) {
-  YamlReader r{path};
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception& e) {
-    throw std::runtime_error(path + ": cannot read the scenario: " + e.what());
-  }
-  Scenario s;
-  r.check_keys(root, "",
-               {"name", "description", "door", "sensor", "operator", "run", "tolerances", "expect",
-                "drive"});
-  s.name = root["name"] ? root["name"].as<std::string>() : path;
-  if (root["description"]) s.description = root["description"].as<std::string>();
-  const auto door = root["door"];
+// door: which side its hinge is, its size, where it stands, its handle.
+void read_door(const YamlReader& r, const YAML::Node& door, Scenario& s) {
   if (!door) r.fail("door", "missing");
   r.check_keys(door, "door",
                {"hinge", "width_m", "height_m", "bottom_z_m", "distance_m", "yaw_deg", "yaw_rad",
@@ -106,51 +91,83 @@ Scenario load_scenario(const std::string& path) {
     r.number(handle["height_m"], "door.handle.height_m", s.handle_height_m, -3, 3);
     r.number(handle["offset_m"], "door.handle.offset_m", s.handle_offset_m, 0, 0.5);
   }
-  if (const auto sensor = root["sensor"]) {
-    r.check_keys(sensor, "sensor",
-                 {"depth_noise_at_1m_m", "pixel_noise_px", "focal_length_px", "edge_inset_m"});
-    r.number(sensor["depth_noise_at_1m_m"], "sensor.depth_noise_at_1m_m", s.depth_noise_at_1m_m, 0,
-             0.1);
-    r.number(sensor["pixel_noise_px"], "sensor.pixel_noise_px", s.pixel_noise_px, 0, 50);
-    r.number(sensor["focal_length_px"], "sensor.focal_length_px", s.focal_length_px, 50, 5000);
-    r.number(sensor["edge_inset_m"], "sensor.edge_inset_m", s.edge_inset_m, 0, 0.2);
+}
+
+// sensor: the depth camera's noise, focal length, and how far inside the edges it picks.
+void read_sensor(const YamlReader& r, const YAML::Node& sensor, Scenario& s) {
+  r.check_keys(sensor, "sensor",
+               {"depth_noise_at_1m_m", "pixel_noise_px", "focal_length_px", "edge_inset_m"});
+  r.number(sensor["depth_noise_at_1m_m"], "sensor.depth_noise_at_1m_m", s.depth_noise_at_1m_m, 0,
+           0.1);
+  r.number(sensor["pixel_noise_px"], "sensor.pixel_noise_px", s.pixel_noise_px, 0, 50);
+  r.number(sensor["focal_length_px"], "sensor.focal_length_px", s.focal_length_px, 50, 5000);
+  r.number(sensor["edge_inset_m"], "sensor.edge_inset_m", s.edge_inset_m, 0, 0.2);
+}
+
+// operator: the height where the operator picks the width, how many plane points.
+void read_operator(const YamlReader& r, const YAML::Node& op, Scenario& s) {
+  r.check_keys(op, "operator", {"width_pick_height_m", "plane_points"});
+  r.number(op["width_pick_height_m"], "operator.width_pick_height_m", s.width_pick_height_m, -3, 3);
+  r.integer(op["plane_points"], "operator.plane_points", s.plane_points, 3, 16);
+}
+
+// run: the seed and how many alignments are allowed.
+void read_run(const YamlReader& r, const YAML::Node& run, Scenario& s) {
+  r.check_keys(run, "run", {"seed", "max_align_iterations"});
+  double seed = static_cast<double>(s.seed);
+  r.number(run["seed"], "run.seed", seed, 0, 4294967295.0);
+  s.seed = static_cast<std::uint64_t>(seed);
+  r.integer(run["max_align_iterations"], "run.max_align_iterations", s.max_align_iterations, 1, 10);
+}
+
+// tolerances: how far each result may be from the world's truth.
+void read_tolerances(const YamlReader& r, const YAML::Node& tol, Scenario& s) {
+  r.check_keys(tol, "tolerances",
+               {"width_m", "handle_length_m", "residual_yaw_rad", "contact_m", "standoff_m"});
+  r.number(tol["standoff_m"], "tolerances.standoff_m", s.standoff_tolerance_m, 0, 1);
+  r.number(tol["width_m"], "tolerances.width_m", s.width_tolerance_m, 0, 1);
+  r.number(tol["handle_length_m"], "tolerances.handle_length_m", s.handle_tolerance_m, 0, 1);
+  r.number(tol["residual_yaw_rad"], "tolerances.residual_yaw_rad", s.residual_yaw_tolerance_rad, 0,
+           1);
+  r.number(tol["contact_m"], "tolerances.contact_m", s.contact_tolerance_m, 0, 1);
+}
+
+// drive: the jog and the two Approach standoffs, the wheels' slip and the encoders' noise.
+void read_drive(const YamlReader& r, const YAML::Node& drive, Scenario& s) {
+  s.drive = true;
+  r.check_keys(drive, "drive",
+               {"jog_m", "jog_speed_m_s", "width_standoff_m", "handle_standoff_m", "wheel_slip",
+                "encoder_noise_rad"});
+  r.number(drive["jog_m"], "drive.jog_m", s.jog_m, 0, 5);
+  r.number(drive["jog_speed_m_s"], "drive.jog_speed_m_s", s.jog_speed_m_s, 0.01, 1);
+  r.number(drive["width_standoff_m"], "drive.width_standoff_m", s.width_standoff_m, 0.2, 5);
+  r.number(drive["handle_standoff_m"], "drive.handle_standoff_m", s.handle_standoff_m, 0.2, 5);
+  r.number(drive["wheel_slip"], "drive.wheel_slip", s.wheel_slip, 0, 0.5);
+  r.number(drive["encoder_noise_rad"], "drive.encoder_noise_rad", s.encoder_noise_rad, 0, 0.1);
+}
+
+}  // namespace
+
+Scenario load_scenario(const std::string& path) {
+  YamlReader r{path};
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(path + ": cannot read the scenario: " + e.what());
   }
-  if (const auto op = root["operator"]) {
-    r.check_keys(op, "operator", {"width_pick_height_m", "plane_points"});
-    r.number(op["width_pick_height_m"], "operator.width_pick_height_m", s.width_pick_height_m, -3,
-             3);
-    r.integer(op["plane_points"], "operator.plane_points", s.plane_points, 3, 16);
-  }
-  if (const auto run = root["run"]) {
-    r.check_keys(run, "run", {"seed", "max_align_iterations"});
-    double seed = static_cast<double>(s.seed);
-    r.number(run["seed"], "run.seed", seed, 0, 4294967295.0);
-    s.seed = static_cast<std::uint64_t>(seed);
-    r.integer(run["max_align_iterations"], "run.max_align_iterations", s.max_align_iterations, 1,
-              10);
-  }
-  if (const auto tol = root["tolerances"]) {
-    r.check_keys(tol, "tolerances",
-                 {"width_m", "handle_length_m", "residual_yaw_rad", "contact_m", "standoff_m"});
-    r.number(tol["standoff_m"], "tolerances.standoff_m", s.standoff_tolerance_m, 0, 1);
-    r.number(tol["width_m"], "tolerances.width_m", s.width_tolerance_m, 0, 1);
-    r.number(tol["handle_length_m"], "tolerances.handle_length_m", s.handle_tolerance_m, 0, 1);
-    r.number(tol["residual_yaw_rad"], "tolerances.residual_yaw_rad", s.residual_yaw_tolerance_rad,
-             0, 1);
-    r.number(tol["contact_m"], "tolerances.contact_m", s.contact_tolerance_m, 0, 1);
-  }
-  if (const auto drive = root["drive"]) {
-    s.drive = true;
-    r.check_keys(drive, "drive",
-                 {"jog_m", "jog_speed_m_s", "width_standoff_m", "handle_standoff_m", "wheel_slip",
-                  "encoder_noise_rad"});
-    r.number(drive["jog_m"], "drive.jog_m", s.jog_m, 0, 5);
-    r.number(drive["jog_speed_m_s"], "drive.jog_speed_m_s", s.jog_speed_m_s, 0.01, 1);
-    r.number(drive["width_standoff_m"], "drive.width_standoff_m", s.width_standoff_m, 0.2, 5);
-    r.number(drive["handle_standoff_m"], "drive.handle_standoff_m", s.handle_standoff_m, 0.2, 5);
-    r.number(drive["wheel_slip"], "drive.wheel_slip", s.wheel_slip, 0, 0.5);
-    r.number(drive["encoder_noise_rad"], "drive.encoder_noise_rad", s.encoder_noise_rad, 0, 0.1);
-  }
+  Scenario s;
+  r.check_keys(root, "",
+               {"name", "description", "door", "sensor", "operator", "run", "tolerances", "expect",
+                "drive"});
+  s.name = root["name"] ? root["name"].as<std::string>() : path;
+  if (root["description"]) s.description = root["description"].as<std::string>();
+  read_door(r, root["door"], s);
+  if (const auto sensor = root["sensor"]) read_sensor(r, sensor, s);
+  if (const auto op = root["operator"]) read_operator(r, op, s);
+  if (const auto run = root["run"]) read_run(r, run, s);
+  if (const auto tol = root["tolerances"]) read_tolerances(r, tol, s);
+  if (const auto drive = root["drive"]) read_drive(r, drive, s);
   if (const auto expect = root["expect"]) {
     r.check_keys(expect, "expect", {"engaged"});
     if (expect["engaged"]) s.expect_engaged = expect["engaged"].as<bool>();
