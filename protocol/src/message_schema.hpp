@@ -214,7 +214,10 @@ inline constexpr auto kQueueFull = list(Refusal{E::kQueueFull, rf::kNone});
 inline constexpr auto kBaseMayDrive =
     list(Refusal{E::kFaultLatched, rf::kNone}, Refusal{E::kMotionInProgress, rf::kNone},
          Refusal{E::kDriveNotAllowed, rf::kNone}, Refusal{E::kDriveNotAllowed, rf::kArm});
-// The black box (5.23-5.25): off, too many outstanding, or its reader did not answer in time.
+// AlignBase and Approach are never refused QUEUE_FULL: their move is handed to the loop at the end
+// of the read (Engine::end_read_batch), after the Ack; a move the loop cannot take then is closed
+// by its events. The black box (5.23-5.25): off, too many outstanding, or its reader did not answer
+// in time.
 inline constexpr auto kBlackBox =
     list(Refusal{E::kNotSupported, rf::kNone}, Refusal{E::kQueueFull, rf::kNone},
          Refusal{E::kDriverError, rf::kNone});
@@ -296,8 +299,7 @@ struct Schema<AlignBase> : MessageRow<MessageType::kAlignBase, "AlignBase", kHos
   static constexpr auto refusals =
       join(kControllerSession, kMoving, kStalePlane, kNeedWidth, kNeedHandle, kNeedPlane,
            list(Refusal{E::kWrongState, rf::kNone}, Refusal{E::kYawOutOfRange, cf::kYawDeviation},
-                Refusal{E::kDriveNotAllowed, rf::kArm}),
-           kQueueFull);
+                Refusal{E::kDriveNotAllowed, rf::kArm}));
   using fields = Fields<>;
 };
 template <>
@@ -366,8 +368,7 @@ struct Schema<Approach> : MessageRow<MessageType::kApproach, "Approach", kHostTo
       kControllerSession, kNewer, kBaseMayDrive,
       list(Refusal{E::kStandoffOutOfRange, rf::kStandoff},
            Refusal{E::kMeasurementStale, rf::kPlane}, Refusal{E::kNoDoorDistance, rf::kNone},
-           Refusal{E::kNotSquareToDoor, rf::kDoorYaw}, Refusal{E::kApproachTooFar, rf::kStandoff}),
-      kQueueFull);
+           Refusal{E::kNotSquareToDoor, rf::kDoorYaw}, Refusal{E::kApproachTooFar, rf::kStandoff}));
   using ack_body = ApproachAck;
   using fields = Fields<Field<"standoff_m", &Approach::standoff_m>>;
 };
