@@ -49,7 +49,7 @@ Outcome check_separation(std::span<const Vec3> points, const Tolerances& tol) {
       const double d = (points[j] - points[i]).norm();
       if (!(d >= tol.min_point_separation_m)) {
         return make_error(
-            ErrorCode::kPointsTooClose, fmt::format("points[{}]", j),
+            ErrorCode::kPointsTooClose, point_field(j),
             fmt::format("points[{}] is {:.4f} m from points[{}]; picked points must be at "
                         "least {:.3f} m apart",
                         j, d, i, tol.min_point_separation_m));
@@ -61,7 +61,7 @@ Outcome check_separation(std::span<const Vec3> points, const Tolerances& tol) {
 
 Outcome check_points_finite(std::span<const Vec3> points) {
   for (std::size_t i = 0; i < points.size(); ++i) {
-    if (auto s = check_finite(points[i], fmt::format("points[{}]", i)); !s) return s;
+    if (auto s = check_finite(points[i], point_field(i)); !s) return s;
   }
   return Ok{};
 }
@@ -69,6 +69,10 @@ Outcome check_points_finite(std::span<const Vec3> points) {
 }  // namespace
 
 // ---- Frames ----------------------------------------------------------------------------------
+
+std::string point_field(std::size_t i) {
+  return fmt::format("{}[{}]", fields::kPoints, i);
+}
 
 Eigen::Matrix4d paper_camera_to_base_m() {
   Eigen::Matrix4d t;
@@ -135,12 +139,12 @@ Vec3 CameraToBase::to_base(const FramedPoint& point) const {
 // ---- Algorithm 1 -----------------------------------------------------------------------------
 
 Result<Span> measure_span(const Vec3& p1_base_m, const Vec3& p2_base_m, const Tolerances& tol) {
-  if (auto s = check_finite(p1_base_m, "p1"); !s) return std::move(s).error();
-  if (auto s = check_finite(p2_base_m, "p2"); !s) return std::move(s).error();
+  if (auto s = check_finite(p1_base_m, fields::kP1); !s) return std::move(s).error();
+  if (auto s = check_finite(p2_base_m, fields::kP2); !s) return std::move(s).error();
   const double length = (p1_base_m - p2_base_m).norm();
   if (!(length >= tol.min_point_separation_m)) {
     return make_error(
-        ErrorCode::kPointsTooClose, "p2",
+        ErrorCode::kPointsTooClose, std::string(fields::kP2),
         fmt::format("p1 and p2 are {:.4f} m apart; the two points must be at least {:.3f} m "
                     "apart",
                     length, tol.min_point_separation_m));
@@ -148,7 +152,7 @@ Result<Span> measure_span(const Vec3& p1_base_m, const Vec3& p2_base_m, const To
   const double dy = p1_base_m.y() - p2_base_m.y();
   if (!(std::abs(dy) >= tol.min_point_separation_m)) {
     return make_error(
-        ErrorCode::kAmbiguousDirection, "p2",
+        ErrorCode::kAmbiguousDirection, std::string(fields::kP2),
         fmt::format("p1 and p2 are at the same lateral position (y1 - y2 = {:.4f} m in the base "
                     "frame), so the direction of rotation is unknown; pick them at least "
                     "{:.3f} m apart sideways",
@@ -157,7 +161,7 @@ Result<Span> measure_span(const Vec3& p1_base_m, const Vec3& p2_base_m, const To
   const double lateral_fraction = std::abs(dy) / length;
   if (!(lateral_fraction >= tol.min_lateral_fraction)) {
     return make_error(
-        ErrorCode::kPointsNotSideBySide, "p2",
+        ErrorCode::kPointsNotSideBySide, std::string(fields::kP2),
         fmt::format("p1 and p2 are {:.3f} m apart but only {:.3f} m of that is sideways ({:.0f}%); "
                     "pick them side by side, at least {:.0f}% sideways",
                     length, std::abs(dy), lateral_fraction * 100.0,
@@ -181,7 +185,7 @@ Result<Plane> plane_from_three_points(const Vec3& a_m, const Vec3& b_m, const Ve
   const double flatness = cross.norm() / longest_sq;
   if (!(flatness >= tol.collinearity)) {
     return make_error(
-        ErrorCode::kPointsCollinear, "points",
+        ErrorCode::kPointsCollinear, std::string(fields::kPoints),
         fmt::format("the three points are nearly on one line (height / length = {:.4f}); they "
                     "must span a plane with at least {:.4f}: pick them further apart, not in a "
                     "row",
@@ -197,7 +201,7 @@ Result<Plane> plane_from_three_points(const Vec3& a_m, const Vec3& b_m, const Ve
 Result<Plane> fit_plane(std::span<const Vec3> points_base_m, const Tolerances& tol) {
   const std::size_t n = points_base_m.size();
   if (n < 3) {
-    return make_error(ErrorCode::kBadCount, "points",
+    return make_error(ErrorCode::kBadCount, std::string(fields::kPoints),
                       fmt::format("a plane needs at least 3 points; got {}", n));
   }
   if (n == 3) {
@@ -220,7 +224,7 @@ Result<Plane> fit_plane(std::span<const Vec3> points_base_m, const Tolerances& t
   const double flatness = sv(1) / sv(0);
   if (!(flatness >= tol.collinearity)) {
     return make_error(
-        ErrorCode::kPointsCollinear, "points",
+        ErrorCode::kPointsCollinear, std::string(fields::kPoints),
         fmt::format("the {} points are nearly on one line (spread ratio {:.4f}); they must "
                     "span a plane with at least {:.4f}: pick them further apart, not in a row",
                     n, flatness, tol.collinearity));
@@ -250,7 +254,7 @@ Result<double> yaw_deviation_rad(const Plane& plane, const Tolerances& tol) {
   const double tilt = std::atan2(std::abs(n.z()), horizontal);
   if (!(tilt <= tol.max_door_tilt_rad)) {
     return make_error(
-        ErrorCode::kPlaneNotVertical, "points",
+        ErrorCode::kPlaneNotVertical, std::string(fields::kPoints),
         fmt::format("the door plane's normal tilts {:.3f} rad ({:.1f} deg) out of the horizontal; "
                     "a door may tilt at most {:.3f} rad ({:.1f} deg): pick points on the door "
                     "leaf, not on the floor or ceiling",
@@ -260,7 +264,7 @@ Result<double> yaw_deviation_rad(const Plane& plane, const Tolerances& tol) {
   const double yaw = yaw_from_normal_rad(n);
   if (!(std::abs(yaw) < kPi / 2)) {
     return make_error(
-        ErrorCode::kYawOutOfRange, "yaw_deviation_rad",
+        ErrorCode::kYawOutOfRange, std::string(fields::kYawDeviation),
         fmt::format("the door plane does not face the front of the robot (squaring up would "
                     "take a turn of {:.3f} rad, {:.1f} deg); drive the robot in front of the door",
                     yaw, deg(yaw)));

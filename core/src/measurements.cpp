@@ -25,9 +25,9 @@ using RangeCheck = Outcome (*)(double, const Limits&, std::string_view);
 Result<SpanMeasurement> measure_two_points(const FramedPoint& p1, const FramedPoint& p2,
                                            const CameraToBase& t, const Limits& limits,
                                            RangeCheck check_length, std::string_view length_field) {
-  auto b1 = point_in_base(p1, t, limits, "p1");
+  auto b1 = point_in_base(p1, t, limits, fields::kP1);
   if (!b1) return std::move(b1).error();
-  auto b2 = point_in_base(p2, t, limits, "p2");
+  auto b2 = point_in_base(p2, t, limits, fields::kP2);
   if (!b2) return std::move(b2).error();
   auto span = measure_span(*b1, *b2, limits.tolerances);
   if (!span) return std::move(span).error();
@@ -41,12 +41,12 @@ Result<SpanMeasurement> measure_two_points(const FramedPoint& p1, const FramedPo
 
 Result<SpanMeasurement> measure_door_width(const FramedPoint& p1, const FramedPoint& p2,
                                            const CameraToBase& t, const Limits& limits) {
-  return measure_two_points(p1, p2, t, limits, &check_door_width, "width_m");
+  return measure_two_points(p1, p2, t, limits, &check_door_width, fields::kWidth);
 }
 
 Result<SpanMeasurement> measure_handle(const FramedPoint& p1, const FramedPoint& p2,
                                        const CameraToBase& t, const Limits& limits) {
-  return measure_two_points(p1, p2, t, limits, &check_handle_length, "handle_length_m");
+  return measure_two_points(p1, p2, t, limits, &check_handle_length, fields::kHandleLength);
 }
 
 Result<PlaneMeasurement> measure_door_plane(std::span<const FramedPoint> points,
@@ -55,13 +55,13 @@ Result<PlaneMeasurement> measure_door_plane(std::span<const FramedPoint> points,
   const std::size_t n = points.size();
   if (n < static_cast<std::size_t>(kMinPlanePoints) ||
       n > static_cast<std::size_t>(kMaxPlanePoints)) {
-    return make_error(ErrorCode::kBadCount, "points",
+    return make_error(ErrorCode::kBadCount, std::string(fields::kPoints),
                       fmt::format("the door plane needs {} to {} points; got {}", kMinPlanePoints,
                                   kMaxPlanePoints, n));
   }
   std::array<Vec3, kMaxPlanePoints> in_base;
   for (std::size_t i = 0; i < n; ++i) {
-    auto b = point_in_base(points[i], t, limits, fmt::format("points[{}]", i));
+    auto b = point_in_base(points[i], t, limits, point_field(i));
     if (!b) return std::move(b).error();
     in_base[i] = *b;
   }
@@ -70,7 +70,7 @@ Result<PlaneMeasurement> measure_door_plane(std::span<const FramedPoint> points,
   if (!plane) return std::move(plane).error();
   if (!(plane->rms_residual_m <= tol.max_plane_rms_m)) {
     return make_error(
-        ErrorCode::kPlaneResidualTooLarge, "rms_residual_m",
+        ErrorCode::kPlaneResidualTooLarge, std::string(fields::kRmsResidual),
         fmt::format("the {} points are {:.4f} m (RMS) off a common plane; at most {:.4f} m is "
                     "allowed: pick points on the flat door leaf",
                     n, plane->rms_residual_m, tol.max_plane_rms_m));
@@ -88,9 +88,9 @@ Result<PlaneMeasurement> measure_door_plane(std::span<const FramedPoint> points,
 
 Result<ContactMeasurement> measure_contact_point(const FramedPoint& p, const CameraToBase& t,
                                                  const Limits& limits) {
-  auto b = point_in_base(p, t, limits, "contact");
+  auto b = point_in_base(p, t, limits, fields::kContact);
   if (!b) return std::move(b).error();
-  if (auto s = check_reach(*b, limits.arm, "contact"); !s) return std::move(s).error();
+  if (auto s = check_reach(*b, limits.arm, fields::kContact); !s) return std::move(s).error();
   return ContactMeasurement{*b, reach_margin_m(*b, limits.arm)};
 }
 

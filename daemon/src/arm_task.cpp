@@ -3,6 +3,7 @@
 
 #include <utility>
 
+#include "ajar/protocol/message_table.hpp"
 #include "driver_wire.hpp"
 
 namespace ajar::daemon::detail {
@@ -86,7 +87,7 @@ Outcome ArmTask::check_clear() {
       what = ": check the arm and its link; Reset once it reports idle";
       break;
   }
-  return make_error(ErrorCode::kDriveNotAllowed, "arm",
+  return make_error(ErrorCode::kDriveNotAllowed, std::string(protocol::refusal_field::kArm),
                     "the arm has not reported that it is clear of the door since its last task "
                     "(arm " +
                         describe(st) + ")" + what + "; the base must not move");

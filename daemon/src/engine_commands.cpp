@@ -7,6 +7,8 @@
 namespace ajar::daemon::detail {
 
 namespace {
+namespace rf = protocol::refusal_field;
+
 // std::visit over the request: one lambda per message type it answers.
 template <typename... F>
 struct Overloaded : F... {
@@ -141,7 +143,7 @@ Outcome EngineImpl::check_door_guard(const protocol::Drive& m) const {
   const core::PlanarPose pose = loop_->snapshot().pose;
   if (!(door_guard_room_m(g, pose) <= 0.001)) return Ok{};
   return make_error(
-      ErrorCode::kAtMinimumStandoff, "linear_m_s",
+      ErrorCode::kAtMinimumStandoff, std::string(rf::kLinear),
       fmt::format("the base is {:.3f} m from the door, at drive.approach_min_standoff_m "
                   "({:.3f} m): it does not drive closer; back off, turn, or measure "
                   "the door again",
@@ -166,7 +168,7 @@ protocol::Message EngineImpl::approach(MessageType type, const protocol::Approac
   if (!(m.standoff_m >= limits.approach_min_standoff_m)) {
     return refuse(
         type, make_error(
-                  ErrorCode::kStandoffOutOfRange, "standoff_m",
+                  ErrorCode::kStandoffOutOfRange, std::string(rf::kStandoff),
                   fmt::format("standoff {:.3f} m is below drive.approach_min_standoff_m ({:.3f} m)",
                               m.standoff_m, limits.approach_min_standoff_m)));
   }
@@ -182,7 +184,7 @@ protocol::Message EngineImpl::approach(MessageType type, const protocol::Approac
   }
   if (std::abs(door.yaw_rad) > limits.approach_square_tolerance_rad) {
     return refuse(type,
-                  make_error(ErrorCode::kNotSquareToDoor, "door.yaw_rad",
+                  make_error(ErrorCode::kNotSquareToDoor, std::string(rf::kDoorYaw),
                              fmt::format("the base is {:.3f} rad off square to the door (tolerance "
                                          "{:.3f} rad): align or jog square first",
                                          door.yaw_rad, limits.approach_square_tolerance_rad)));
@@ -192,7 +194,7 @@ protocol::Message EngineImpl::approach(MessageType type, const protocol::Approac
   body.travel_m = door.distance_m - m.standoff_m;
   if (std::abs(body.travel_m) > limits.approach_max_travel_m) {
     return refuse(type,
-                  make_error(ErrorCode::kApproachTooFar, "standoff_m",
+                  make_error(ErrorCode::kApproachTooFar, std::string(rf::kStandoff),
                              fmt::format("the approach would travel {:.3f} m, more than "
                                          "drive.approach_max_travel_m ({:.3f} m): jog closer first",
                                          body.travel_m, limits.approach_max_travel_m)));
@@ -259,7 +261,7 @@ protocol::Message EngineImpl::engage(MessageType type) {
   auto id = arm_.hand_off(*task, now_ns());
   if (!id) {
     Error e = id.error();
-    if (e.field.empty()) e.field = "arm";
+    e.field = rf::kArm;  // the arm's refusal (protocol.md 8), whatever the driver's field
     return refuse(type, e);
   }
   procedure_.engaging_started();
@@ -320,14 +322,14 @@ protocol::Message EngineImpl::reset(MessageType type, const protocol::Reset& r) 
   if (procedure_.fault() != ErrorCode::kOk) {
     if (auto s = arm_.recover(); !s) {
       Error e = s.error();
-      if (e.field.empty()) e.field = "arm";
+      e.field = rf::kArm;  // the arm's refusal (protocol.md 8), whatever the driver's field
       return refuse(type, e);
     }
     // The arm interlock: the fault clears only once the arm answers, reporting idle.
     const drivers::ArmStatus arm = arm_.observe();
     if (arm_.at_door() || arm.phase != drivers::ArmPhase::kIdle ||
         arm_.state() != drivers::LifecycleState::kActive) {
-      return refuse(type, make_error(ErrorCode::kArmNotClear, "arm",
+      return refuse(type, make_error(ErrorCode::kArmNotClear, std::string(rf::kArm),
                                      "the arm has not reported idle (" + arm_.describe(arm) +
                                          "): it may still be at the door, the fault stays "
                                          "latched; Reset again once it reports idle"));

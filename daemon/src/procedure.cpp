@@ -8,6 +8,7 @@
 
 #include "ajar/core/measurements.hpp"
 #include "ajar/protocol/acks.hpp"
+#include "ajar/protocol/message_table.hpp"
 
 namespace ajar::daemon {
 namespace {
@@ -79,11 +80,11 @@ Outcome Procedure::check_fresh(bool plane, bool contact) const {
                        core::travel_m(since, pose_), std::abs(core::turn_rad(since, pose_)));
   };
   if (plane && plane_stale_) {
-    return make_error(ErrorCode::kMeasurementStale, "plane",
+    return make_error(ErrorCode::kMeasurementStale, std::string(protocol::refusal_field::kPlane),
                       "re-measure the door plane: " + moved(plane_ref_) + "measured");
   }
   if (contact && contact_stale_) {
-    return make_error(ErrorCode::kMeasurementStale, "contact",
+    return make_error(ErrorCode::kMeasurementStale, std::string(protocol::refusal_field::kContact),
                       "set the contact point again: " + moved(contact_pose_) + "set");
   }
   return Ok{};

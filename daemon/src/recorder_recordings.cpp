@@ -19,6 +19,7 @@
 #include <boost/asio/post.hpp>
 
 #include "ajar/daemon/recordings.hpp"
+#include "ajar/protocol/message_table.hpp"
 #include "ajar/recorder/recorder.hpp"
 
 namespace ajar::daemon {
@@ -111,20 +112,21 @@ class RecorderRecordings final : public Recordings {
     const auto path = std::filesystem::path(recorder_.settings().directory) / name;
     if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
       return recordings_error(
-          MessageType::kFetchRecording, ErrorCode::kNoSuchRecording, "name",
+          MessageType::kFetchRecording, ErrorCode::kNoSuchRecording, protocol::refusal_field::kName,
           "no recording '" + name + "' (rotation may have removed it: list the recordings again)");
     }
     const auto size = static_cast<std::uint64_t>(st.st_size);
     if (f.offset > size) {
-      return recordings_error(MessageType::kFetchRecording, ErrorCode::kRequestOutOfRange, "offset",
+      return recordings_error(MessageType::kFetchRecording, ErrorCode::kRequestOutOfRange,
+                              protocol::refusal_field::kOffset,
                               "offset " + std::to_string(f.offset) + " is beyond the end of '" +
                                   name + "' (" + std::to_string(size) + " bytes)");
     }
     std::string error;
     const auto bytes = recorder_.read(name, f.offset, f.max_length, &error);
     if (!bytes) {
-      return recordings_error(MessageType::kFetchRecording, ErrorCode::kNoSuchRecording, "name",
-                              error);
+      return recordings_error(MessageType::kFetchRecording, ErrorCode::kNoSuchRecording,
+                              protocol::refusal_field::kName, error);
     }
     protocol::RecordingChunk chunk;
     chunk.offset = f.offset;

@@ -4,9 +4,12 @@
 #include <cmath>
 #include <cstdio>
 
+#include "ajar/protocol/message_table.hpp"
+
 namespace ajar::daemon {
 
 using protocol::MessageType;
+namespace rf = protocol::refusal_field;
 
 protocol::ErrorReply recordings_error(MessageType type, ErrorCode code, std::string_view field,
                                       std::string_view message) {
@@ -32,7 +35,7 @@ std::optional<protocol::ErrorReply> check_recordings_request(const protocol::Mes
       why.append(
           " is not a recording name (ListRecordings gives them: NAME.mcap or "
           "saved/NAME.mcap)");
-      return recordings_error(MessageType::kFetchRecording, ErrorCode::kNoSuchRecording, "name",
+      return recordings_error(MessageType::kFetchRecording, ErrorCode::kNoSuchRecording, rf::kName,
                               why);
     }
     if (fetch->max_length == 0 || fetch->max_length > protocol::kMaxRecordingChunk) {
@@ -40,15 +43,15 @@ std::optional<protocol::ErrorReply> check_recordings_request(const protocol::Mes
       std::snprintf(text, sizeof text, "max_length is %u: allowed 1..%zu",
                     static_cast<unsigned>(fetch->max_length), protocol::kMaxRecordingChunk);
       return recordings_error(MessageType::kFetchRecording, ErrorCode::kRequestOutOfRange,
-                              "max_length", text);
+                              rf::kMaxLength, text);
     }
   } else if (const auto* save = std::get_if<protocol::SaveRecording>(&request)) {
     const double s = static_cast<double>(save->last_s);
     if (!(s > 0) || s > max_save_s) {
       char text[160];
       std::snprintf(text, sizeof text, "last_s is %g: allowed above 0 up to %g s", s, max_save_s);
-      return recordings_error(MessageType::kSaveRecording, ErrorCode::kRequestOutOfRange, "last_s",
-                              text);
+      return recordings_error(MessageType::kSaveRecording, ErrorCode::kRequestOutOfRange,
+                              rf::kLastS, text);
     }
   }
   return std::nullopt;

@@ -19,6 +19,7 @@ using protocol::MessageType;
 // policy columns (protocol/message_table.hpp).
 using protocol::is_stop;
 using protocol::needs_controller;
+namespace rf = protocol::refusal_field;
 
 }  // namespace
 
@@ -207,13 +208,13 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
 
   const MessageType type = protocol::type_of(envelope.message);
   if (!protocol::is_request(type)) {
-    refuse(s, envelope, ErrorCode::kUnknownMessageType, "header.type",
+    refuse(s, envelope, ErrorCode::kUnknownMessageType, rf::kHeaderType,
            std::string(protocol::to_string(type)) +
                " is a daemon-to-host message: the daemon does not accept it");
     return;
   }
   if (protocol::minor_of(type) > s.minor) {
-    refuse(s, envelope, ErrorCode::kUnknownMessageType, "header.type",
+    refuse(s, envelope, ErrorCode::kUnknownMessageType, rf::kHeaderType,
            std::string(protocol::to_string(type)) + " is defined from protocol 1." +
                std::to_string(protocol::minor_of(type)) + "; this session's Hello said 1." +
                std::to_string(s.minor));
@@ -278,7 +279,7 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
     handle_command(s, envelope);
     return;
   }
-  refuse(s, envelope, ErrorCode::kUnknownMessageType, "header.type",
+  refuse(s, envelope, ErrorCode::kUnknownMessageType, rf::kHeaderType,
          std::string(protocol::to_string(type)) + " is not handled by this daemon");
 }
 
@@ -290,7 +291,7 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
     return;
   }
   if (hello.version_major != protocol::kVersionMajor) {
-    refuse(s, envelope, ErrorCode::kUnsupportedVersion, "version_major",
+    refuse(s, envelope, ErrorCode::kUnsupportedVersion, rf::kVersionMajor,
            "this daemon speaks protocol version " + std::to_string(protocol::kVersionMajor) + ".x");
     return;
   }
@@ -299,13 +300,13 @@ void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelop
   std::optional<std::uint64_t> demoted;
   if (hello.requested_role == protocol::Role::kController) {
     if (!s.link->access().may_control) {
-      refuse(s, envelope, ErrorCode::kNotController, "requested_role",
+      refuse(s, envelope, ErrorCode::kNotController, rf::kRequestedRole,
              "identity " + s.link->access().identity +
                  " may only observe (network.tls.identities); ask for the observer role");
       return;
     }
     if (controller_ && !hello.take_over) {
-      refuse(s, envelope, ErrorCode::kControllerBusy, "take_over",
+      refuse(s, envelope, ErrorCode::kControllerBusy, rf::kTakeOver,
              describe(sessions_.at(*controller_)) +
                  " is the controller; send Hello with take_over=true to take control, or ask "
                  "for the observer role");
@@ -353,7 +354,7 @@ void SessionHub::handle_subscribe(SessionState& s, const protocol::Envelope& env
   const auto& subscribe = std::get<protocol::Subscribe>(envelope.message);
   const double rate_hz = static_cast<double>(subscribe.telemetry_rate_hz);
   if (!std::isfinite(rate_hz) || rate_hz < 0) {
-    refuse(s, envelope, ErrorCode::kRateLimited, "telemetry_rate_hz",
+    refuse(s, envelope, ErrorCode::kRateLimited, rf::kTelemetryRate,
            "telemetry rate must be a finite number >= 0 (0 = off)");
     return;
   }

@@ -138,7 +138,7 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
   const MessageInfo* row = find_message(static_cast<MessageType>(e.type));
   if (row == nullptr || row->since > minor) {
     e.code = ErrorCode::kUnknownMessageType;
-    e.field = "header.type";
+    e.field = refusal_field::kHeaderType.data();  // a literal: zero terminated
     e.value = e.type;
     return;
   }

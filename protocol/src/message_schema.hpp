@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <span>
 #include <string_view>
 #include <utility>
 #include <variant>
@@ -167,9 +168,67 @@ inline constexpr MessagePolicy kDriving{.sender = Sender::kController,
                                         .durable_ack = true,
                                         .starts_motion = true};
 
+// The refusals (message_table.hpp), built from the groups the requests share; a row's order is no
+// priority (docs/protocol.md 5.x and 6 give the orders). A field is a wire field of the request or
+// something the daemon holds (refusal_field, core::fields); the empty field is an Error about no
+// one field.
+
+template <std::size_t... N>
+constexpr auto join(const std::array<Refusal, N>&... parts) {
+  std::array<Refusal, (N + ... + 0)> out{};
+  std::size_t i = 0;
+  ((std::ranges::copy(parts, out.begin() + static_cast<std::ptrdiff_t>(i)), i += N), ...);
+  return out;
+}
+template <typename... R>
+constexpr auto list(R... r) {
+  return std::array<Refusal, sizeof...(R)>{r...};
+}
+
+namespace rf = refusal_field;
+namespace cf = core::fields;
+using E = ErrorCode;
+
+// Session rules (6.1, 7.1): every request but a stop, before anything else looks at it.
+inline constexpr auto kSession =
+    list(Refusal{E::kShuttingDown, rf::kNone}, Refusal{E::kTooManyClients, rf::kNone},
+         Refusal{E::kHelloRequired, rf::kNone});
+inline constexpr auto kNewer = list(Refusal{E::kUnknownMessageType, rf::kHeaderType});  // 1.1+
+inline constexpr auto kControllerSession =
+    join(kSession, list(Refusal{E::kNotController, rf::kNone}));
+// The procedure's first checks of a measurement or a motion from rest (wheels at rest, 4.2).
+inline constexpr auto kMoving =
+    list(Refusal{E::kMotionInProgress, rf::kNone}, Refusal{E::kFaultLatched, rf::kNone});
+inline constexpr auto kNeedWidth = list(Refusal{E::kMissingDoorWidth, rf::kNone});
+inline constexpr auto kNeedHandle = list(Refusal{E::kMissingHandle, rf::kNone});
+inline constexpr auto kNeedPlane = list(Refusal{E::kMissingPlane, rf::kNone});
+inline constexpr auto kNeedAligned = list(Refusal{E::kNotAligned, rf::kNone});
+inline constexpr auto kStalePlane = list(Refusal{E::kMeasurementStale, rf::kPlane});
+// A picked point, taken to the base frame (core::point_in_base).
+constexpr auto point_refusals(std::string_view point, bool indexed = false) {
+  return list(Refusal{E::kNonFinite, point, indexed, true},
+              Refusal{E::kPointOutOfDepthRange, point, indexed});
+}
+inline constexpr auto kQueueFull = list(Refusal{E::kQueueFull, rf::kNone});
+// Drive and Approach: may the base move (5.18, 5.19, their items 1-5).
+inline constexpr auto kBaseMayDrive =
+    list(Refusal{E::kFaultLatched, rf::kNone}, Refusal{E::kMotionInProgress, rf::kNone},
+         Refusal{E::kDriveNotAllowed, rf::kNone}, Refusal{E::kDriveNotAllowed, rf::kArm});
+// AlignBase and Approach are never refused QUEUE_FULL: their move is handed to the loop at the end
+// of the read (Engine::end_read_batch), after the Ack; a move the loop cannot take then is closed
+// by its events. The black box (5.23-5.25): off, too many outstanding, or its reader did not answer
+// in time.
+inline constexpr auto kBlackBox =
+    list(Refusal{E::kNotSupported, rf::kNone}, Refusal{E::kQueueFull, rf::kNone},
+         Refusal{E::kDriverError, rf::kNone});
+
 template <>
 struct Schema<Hello> : MessageRow<MessageType::kHello, "Hello", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy{.sender = Sender::kAny};
+  static constexpr auto refusals = list(
+      Refusal{E::kShuttingDown, rf::kNone}, Refusal{E::kTooManyClients, rf::kNone},
+      Refusal{E::kAlreadyGreeted, rf::kNone}, Refusal{E::kUnsupportedVersion, rf::kVersionMajor},
+      Refusal{E::kNotController, rf::kRequestedRole}, Refusal{E::kControllerBusy, rf::kTakeOver});
   using fields =
       Fields<Field<"version_major", &Hello::version_major>,
              Field<"version_minor", &Hello::version_minor>,
@@ -180,12 +239,17 @@ struct Schema<Hello> : MessageRow<MessageType::kHello, "Hello", kHostToDaemon, 0
 template <>
 struct Schema<Ping> : MessageRow<MessageType::kPing, "Ping", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy{.sender = Sender::kAny};
+  static constexpr auto refusals = kSession;
   using fields = Fields<Field<"client_time_ns", &Ping::client_time_ns>>;
 };
 template <>
 struct Schema<MeasureDoorWidth>
     : MessageRow<MessageType::kMeasureDoorWidth, "MeasureDoorWidth", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy = kMeasurement;
+  static constexpr auto refusals = join(
+      kControllerSession, kMoving, point_refusals(cf::kP1), point_refusals(cf::kP2),
+      list(Refusal{E::kPointsTooClose, cf::kP2}, Refusal{E::kAmbiguousDirection, cf::kP2},
+           Refusal{E::kPointsNotSideBySide, cf::kP2}, Refusal{E::kWidthOutOfRange, cf::kWidth}));
   using ack_body = SpanAck;
   using fields = Fields<Field<"p1", &MeasureDoorWidth::p1_hinge>,
                         Field<"p2", &MeasureDoorWidth::p2_moving_edge>>;
@@ -194,6 +258,11 @@ template <>
 struct Schema<MeasureHandle>
     : MessageRow<MessageType::kMeasureHandle, "MeasureHandle", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy = kMeasurement;
+  static constexpr auto refusals = join(
+      kControllerSession, kMoving, kNeedWidth, point_refusals(cf::kP1), point_refusals(cf::kP2),
+      list(Refusal{E::kPointsTooClose, cf::kP2}, Refusal{E::kAmbiguousDirection, cf::kP2},
+           Refusal{E::kPointsNotSideBySide, cf::kP2},
+           Refusal{E::kHandleLengthOutOfRange, cf::kHandleLength}));
   using ack_body = SpanAck;
   using fields =
       Fields<Field<"p1", &MeasureHandle::p1_axis>, Field<"p2", &MeasureHandle::p2_free_end>>;
@@ -202,6 +271,13 @@ template <>
 struct Schema<MeasureDoorPlane>
     : MessageRow<MessageType::kMeasureDoorPlane, "MeasureDoorPlane", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy = kMeasurement;
+  static constexpr auto refusals =
+      join(kControllerSession, kMoving, kNeedWidth, kNeedHandle, point_refusals(cf::kPoints, true),
+           list(Refusal{E::kPointsTooClose, cf::kPoints, true},
+                Refusal{E::kPointsCollinear, cf::kPoints},
+                Refusal{E::kPlaneResidualTooLarge, cf::kRmsResidual},
+                Refusal{E::kPlaneNotVertical, cf::kPoints},
+                Refusal{E::kYawOutOfRange, cf::kYawDeviation}));
   using ack_body = PlaneAck;
   using fields =
       Fields<Field<"count", &MeasureDoorPlane::count, 0, PlaneCount>,
@@ -211,54 +287,88 @@ template <>
 struct Schema<SetContactPoint>
     : MessageRow<MessageType::kSetContactPoint, "SetContactPoint", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy = kMeasurement;
+  static constexpr auto refusals =
+      join(kControllerSession, kMoving, kStalePlane, kNeedWidth, kNeedHandle, kNeedPlane,
+           kNeedAligned, point_refusals(cf::kContact), list(Refusal{E::kOutOfReach, cf::kContact}));
   using ack_body = ContactAck;
   using fields = Fields<Field<"contact", &SetContactPoint::contact>>;
 };
 template <>
 struct Schema<AlignBase> : MessageRow<MessageType::kAlignBase, "AlignBase", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy = kMotionFromRest;
+  static constexpr auto refusals =
+      join(kControllerSession, kMoving, kStalePlane, kNeedWidth, kNeedHandle, kNeedPlane,
+           list(Refusal{E::kWrongState, rf::kNone}, Refusal{E::kYawOutOfRange, cf::kYawDeviation},
+                Refusal{E::kDriveNotAllowed, rf::kArm}));
   using fields = Fields<>;
 };
 template <>
 struct Schema<Engage> : MessageRow<MessageType::kEngage, "Engage", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy = kMotionFromRest;
+  // The arm's hand-off (drivers::Manipulator::hand_off) refuses as the driver says, naming `arm`.
+  static constexpr auto refusals = join(
+      kControllerSession, kMoving, kStalePlane, list(Refusal{E::kMeasurementStale, rf::kContact}),
+      kNeedWidth, kNeedHandle, kNeedPlane, kNeedAligned,
+      list(Refusal{E::kMissingContactPoint, rf::kNone}, Refusal{E::kWrongState, rf::kNone},
+           Refusal{E::kArmDisconnected, rf::kArm}, Refusal{E::kWrongState, rf::kArm},
+           Refusal{E::kDriverNotActive, rf::kArm}));
   using fields = Fields<>;
 };
 template <>
 struct Schema<Stop> : MessageRow<MessageType::kStop, "Stop", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy{.sender = Sender::kStop};
+  // Only for a TLS identity that may not stop (on a refused connection: TOO_MANY_CLIENTS).
+  static constexpr auto refusals =
+      list(Refusal{E::kNotController, rf::kNone}, Refusal{E::kTooManyClients, rf::kNone});
   using fields = Fields<>;
 };
 template <>
 struct Schema<EmergencyStop>
     : MessageRow<MessageType::kEmergencyStop, "EmergencyStop", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy{.sender = Sender::kStop};
+  static constexpr auto refusals = Schema<Stop>::refusals;
   using fields = Fields<>;
 };
 template <>
 struct Schema<Reset> : MessageRow<MessageType::kReset, "Reset", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy = kCommand;
+  static constexpr auto refusals =
+      join(kControllerSession,
+           list(Refusal{E::kLoopStalled, rf::kNone}, Refusal{E::kMotionInProgress, rf::kNone},
+                Refusal{E::kArmDisconnected, rf::kArm}, Refusal{E::kArmNotClear, rf::kArm}),
+           kQueueFull);
   using fields = Fields<Field<"clear_parameters", &Reset::clear_parameters>>;
 };
 template <>
 struct Schema<GetStatus> : MessageRow<MessageType::kGetStatus, "GetStatus", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy{.sender = Sender::kAny};
+  static constexpr auto refusals = kSession;
   using fields = Fields<>;
 };
 template <>
 struct Schema<Subscribe> : MessageRow<MessageType::kSubscribe, "Subscribe", kHostToDaemon, 0> {
   static constexpr MessagePolicy policy{.sender = Sender::kAny};
+  static constexpr auto refusals =
+      join(kSession, list(Refusal{E::kRateLimited, rf::kTelemetryRate}));
   using fields = Fields<Field<"telemetry_rate_hz", &Subscribe::telemetry_rate_hz>>;
 };
 template <>
 struct Schema<Drive> : MessageRow<MessageType::kDrive, "Drive", kHostToDaemon, 1> {
   static constexpr MessagePolicy policy = kDriving;
+  static constexpr auto refusals =
+      join(kControllerSession, kNewer, kBaseMayDrive,
+           list(Refusal{E::kAtMinimumStandoff, rf::kLinear}), kQueueFull);
   using fields = Fields<Field<"linear_m_s", &Drive::linear_m_s>,
                         Field<"angular_rad_s", &Drive::angular_rad_s>>;
 };
 template <>
 struct Schema<Approach> : MessageRow<MessageType::kApproach, "Approach", kHostToDaemon, 1> {
   static constexpr MessagePolicy policy = kDriving;
+  static constexpr auto refusals = join(
+      kControllerSession, kNewer, kBaseMayDrive,
+      list(Refusal{E::kStandoffOutOfRange, rf::kStandoff},
+           Refusal{E::kMeasurementStale, rf::kPlane}, Refusal{E::kNoDoorDistance, rf::kNone},
+           Refusal{E::kNotSquareToDoor, rf::kDoorYaw}, Refusal{E::kApproachTooFar, rf::kStandoff}));
   using ack_body = ApproachAck;
   using fields = Fields<Field<"standoff_m", &Approach::standoff_m>>;
 };
@@ -266,12 +376,14 @@ template <>
 struct Schema<GetRobotModel>
     : MessageRow<MessageType::kGetRobotModel, "GetRobotModel", kHostToDaemon, 1> {
   static constexpr MessagePolicy policy{.sender = Sender::kAny};
+  static constexpr auto refusals = join(kSession, kNewer);
   using fields = Fields<>;
 };
 template <>
 struct Schema<ResetLoopStatistics>
     : MessageRow<MessageType::kResetLoopStatistics, "ResetLoopStatistics", kHostToDaemon, 1> {
   static constexpr MessagePolicy policy = kCommand;
+  static constexpr auto refusals = join(kControllerSession, kNewer);
   using fields = Fields<>;
 };
 
@@ -279,12 +391,17 @@ template <>
 struct Schema<ListRecordings>
     : MessageRow<MessageType::kListRecordings, "ListRecordings", kHostToDaemon, 2> {
   static constexpr MessagePolicy policy{.sender = Sender::kAny};
+  static constexpr auto refusals = join(kSession, kNewer, kBlackBox);
   using fields = Fields<Field<"first", &ListRecordings::first>>;
 };
 template <>
 struct Schema<FetchRecording>
     : MessageRow<MessageType::kFetchRecording, "FetchRecording", kHostToDaemon, 2> {
   static constexpr MessagePolicy policy{.sender = Sender::kAny};
+  static constexpr auto refusals = join(
+      kSession, kNewer, kBlackBox,
+      list(Refusal{E::kNoSuchRecording, rf::kName}, Refusal{E::kRequestOutOfRange, rf::kMaxLength},
+           Refusal{E::kRequestOutOfRange, rf::kOffset}));
   using fields =
       Fields<Field<"name", &FetchRecording::name>, Field<"offset", &FetchRecording::offset>,
              Field<"max_length", &FetchRecording::max_length>>;
@@ -293,6 +410,8 @@ template <>
 struct Schema<SaveRecording>
     : MessageRow<MessageType::kSaveRecording, "SaveRecording", kHostToDaemon, 2> {
   static constexpr MessagePolicy policy{.sender = Sender::kAny};
+  static constexpr auto refusals =
+      join(kSession, kNewer, kBlackBox, list(Refusal{E::kRequestOutOfRange, rf::kLastS}));
   using fields = Fields<Field<"last_s", &SaveRecording::last_s>>;
 };
 
@@ -427,6 +546,7 @@ struct MessageInfo {
   Direction direction;
   std::uint8_t since;  // the minor version that defined the type
   MessagePolicy policy;
+  std::span<const Refusal> refusals;
 };
 
 template <typename T>
@@ -434,12 +554,13 @@ using Alternative = std::type_identity<T>;
 
 template <std::size_t... I>
 constexpr auto make_message_table(std::index_sequence<I...>) {
-  return std::array<MessageInfo, sizeof...(I)>{
-      MessageInfo{Schema<std::variant_alternative_t<I, Message>>::type,
-                  Schema<std::variant_alternative_t<I, Message>>::name.view(),
-                  Schema<std::variant_alternative_t<I, Message>>::direction,
-                  Schema<std::variant_alternative_t<I, Message>>::since,
-                  Schema<std::variant_alternative_t<I, Message>>::policy}...};
+  return std::array<MessageInfo, sizeof...(I)>{MessageInfo{
+      Schema<std::variant_alternative_t<I, Message>>::type,
+      Schema<std::variant_alternative_t<I, Message>>::name.view(),
+      Schema<std::variant_alternative_t<I, Message>>::direction,
+      Schema<std::variant_alternative_t<I, Message>>::since,
+      Schema<std::variant_alternative_t<I, Message>>::policy,
+      std::span<const Refusal>(Schema<std::variant_alternative_t<I, Message>>::refusals)}...};
 }
 inline constexpr auto kMessageTable =
     make_message_table(std::make_index_sequence<std::variant_size_v<Message>>{});
@@ -484,6 +605,25 @@ constexpr bool policies_match_directions() {
   return true;
 }
 static_assert(policies_match_directions(), "every request row has its policy (message_table.hpp)");
+
+// A daemon -> host row has no refusals; a request row names each (code, field) once.
+constexpr bool refusals_are_rows() {
+  for (const MessageInfo& m : kMessageTable) {
+    if (m.direction == Direction::kDaemonToHost && !m.refusals.empty()) return false;
+    for (std::size_t i = 0; i < m.refusals.size(); ++i) {
+      for (std::size_t k = i + 1; k < m.refusals.size(); ++k) {
+        const Refusal& a = m.refusals[i];
+        const Refusal& b = m.refusals[k];
+        if (a.code == b.code && a.field == b.field && a.indexed == b.indexed &&
+            a.per_axis == b.per_axis) {
+          return false;
+        }
+      }
+    }
+  }
+  return true;
+}
+static_assert(refusals_are_rows(), "each refusal once per request row (message_table.hpp)");
 
 // The row of `t`, or nullptr for a type this version does not know.
 constexpr const MessageInfo* find_message(MessageType t) noexcept {

@@ -101,4 +101,38 @@ const MessagePolicy& policy_of(MessageType t) noexcept {
   return row == nullptr ? kUnknown : row->policy;
 }
 
+std::span<const Refusal> refusals_of(MessageType t) noexcept {
+  const auto* row = detail::find_message(t);
+  return row == nullptr ? std::span<const Refusal>{} : row->refusals;
+}
+
+bool names_field(const Refusal& r, std::string_view field) noexcept {
+  if (!field.starts_with(r.field)) return false;
+  field.remove_prefix(r.field.size());
+  if (r.indexed) {  // "[digits]"
+    if (!field.starts_with('[')) return false;
+    const std::size_t close = field.find(']');
+    if (close == std::string_view::npos || close < 2) return false;
+    for (std::size_t i = 1; i < close; ++i)
+      if (field[i] < '0' || field[i] > '9') return false;
+    field.remove_prefix(close + 1);
+  }
+  if (r.per_axis) return field == ".x" || field == ".y" || field == ".z";
+  return field.empty();
+}
+
+const Refusal* find_refusal(MessageType t, ErrorCode code, std::string_view field) noexcept {
+  for (const Refusal& r : refusals_of(t))
+    if (r.code == code && names_field(r, field)) return &r;
+  return nullptr;
+}
+
+std::string field_pattern(const Refusal& r) {
+  if (r.field.empty()) return "–";
+  std::string s(r.field);
+  if (r.indexed) s += "[i]";
+  if (r.per_axis) s += ".{x,y,z}";
+  return s;
+}
+
 }  // namespace ajar::protocol

@@ -110,15 +110,17 @@ constexpr bool appended_at_the_end(Fields<F...>) {
 enum class Direction : std::uint8_t { kHostToDaemon, kDaemonToHost };
 
 // The row of a message in the message table. Schema<T> of a message derives from its row and adds
-// `fields` (and, for a request, `ack_body`: what its Ack carries, and `policy`: who may send it and
-// how the daemon treats it, message_table.hpp).
+// `fields` (and, for a request, `ack_body`: what its Ack carries, `policy`: who may send it and
+// how the daemon treats it, and `refusals`: the Errors the daemon may answer it with,
+// message_table.hpp).
 template <MessageType Type, Text Name, Direction Dir, std::uint8_t Since>
 struct MessageRow {
   static constexpr MessageType type = Type;
   static constexpr auto name = Name;
   static constexpr Direction direction = Dir;
   static constexpr std::uint8_t since = Since;
-  static constexpr MessagePolicy policy{};  // a request's Schema gives its own
+  static constexpr MessagePolicy policy{};             // a request's Schema gives its own
+  static constexpr std::array<Refusal, 0> refusals{};  // a request's Schema gives its own
   using ack_body = EmptyAck;
   static_assert((static_cast<std::uint16_t>(Type) >> 8) ==
                     (Dir == Direction::kHostToDaemon ? 1 : 2),

@@ -571,5 +571,111 @@ TEST(ProtocolDoc, PolicyTableIsTheMessageTables) {
   EXPECT_EQ(policy_of(static_cast<MessageType>(0x01FF)).sender, Sender::kDaemon);
 }
 
+// Section 4.3 is the message table's refusal column (message_table.hpp), row by row: for each
+// request the codes it is refused with naming no field, and the codes naming a field (a pattern:
+// `points[i].{x,y,z}`); every request once, each refusal once, nothing the table does not hold.
+std::string refusal_word(const Refusal& r) {
+  std::string word(to_string(r.code));
+  return r.field.empty() ? word : word + " `" + field_pattern(r) + "`";
+}
+// A cell's entries, separated by ", " ("–": none; `{x,y,z}` has no space).
+std::vector<std::string> entries(const std::string& cell) {
+  std::vector<std::string> out;
+  if (cell == "–") return out;
+  std::size_t from = 0;
+  for (std::size_t at; (at = cell.find(", ", from)) != std::string::npos; from = at + 2)
+    out.push_back(cell.substr(from, at - from));
+  out.push_back(cell.substr(from));
+  return out;
+}
+
+TEST(ProtocolDoc, RefusalTableIsTheMessageTables) {
+  const Doc& doc = the_doc();
+  std::map<std::string, std::vector<std::string>> documented;
+  bool in_section = false;
+  for (const auto& line : doc.lines()) {
+    if (line.starts_with("### ") || line.starts_with("## ")) {
+      in_section = line.starts_with("### 4.3 ");
+    }
+    if (!in_section || !line.starts_with("| ") || line.starts_with("| message") ||
+        line.starts_with("| ---")) {
+      continue;
+    }
+    const auto c = cells(line);
+    ASSERT_EQ(c.size(), 3u) << line;
+    const std::string name = c[0].substr(0, c[0].find(' '));
+    EXPECT_TRUE(documented.emplace(name, c).second) << "twice: " << line;
+  }
+  for (const auto& [type, message] : all_types()) {
+    if (!is_request(type)) {
+      EXPECT_TRUE(refusals_of(type).empty()) << to_string(type);
+      continue;
+    }
+    std::vector<std::string> no_field, named;
+    for (const Refusal& r : refusals_of(type))
+      (r.field.empty() ? no_field : named).push_back(refusal_word(r));
+    const auto joined = [](const std::vector<std::string>& v) {
+      std::string s;
+      for (const auto& w : v)
+        s += (s.empty() ? "" : ", ") + w;
+      return s.empty() ? std::string("–") : s;
+    };
+    const std::string name(to_string(type));
+    const std::string expected =
+        "| " + name +
+        (minor_of(type) > 0 ? " (1." + std::to_string(minor_of(type)) + ")" : std::string()) +
+        " | " + joined(no_field) + " | " + joined(named) + " |";
+    const auto it = documented.find(name);
+    if (it == documented.end()) {
+      ADD_FAILURE() << "section 4.3 lacks " << name << "; expected the row\n" << expected;
+      continue;
+    }
+    for (int column : {1, 2}) {
+      const auto& want = column == 1 ? no_field : named;
+      const auto got = entries(it->second[static_cast<std::size_t>(column)]);
+      const std::set<std::string> want_set(want.begin(), want.end());
+      const std::set<std::string> got_set(got.begin(), got.end());
+      EXPECT_EQ(got.size(), got_set.size()) << "an entry twice in " << name;
+      for (const auto& w : want_set)
+        EXPECT_TRUE(got_set.count(w)) << name << ": the doc lacks " << w << "; expected\n"
+                                      << expected;
+      for (const auto& g : got_set)
+        EXPECT_TRUE(want_set.count(g))
+            << name << ": the doc lists " << g << ", the table does not; expected\n"
+            << expected;
+    }
+    documented.erase(it);
+  }
+  for (const auto& [name, c] : documented)
+    ADD_FAILURE() << "section 4.3 lists " << name << ", which is not a host -> daemon message";
+}
+
+// The patterns the refusals' fields stand for.
+TEST(MessageTable, RefusalFieldPatterns) {
+  const Refusal point{ErrorCode::kNonFinite, "points", true, true};
+  EXPECT_TRUE(names_field(point, "points[0].x"));
+  EXPECT_TRUE(names_field(point, "points[15].z"));
+  EXPECT_FALSE(names_field(point, "points[].x"));
+  EXPECT_FALSE(names_field(point, "points[1]"));
+  EXPECT_FALSE(names_field(point, "points[a].x"));
+  EXPECT_FALSE(names_field(point, "points.x"));
+  EXPECT_FALSE(names_field(point, "points[1].w"));
+  EXPECT_EQ(field_pattern(point), "points[i].{x,y,z}");
+  const Refusal plain{ErrorCode::kPointsTooClose, "p2"};
+  EXPECT_TRUE(names_field(plain, "p2"));
+  EXPECT_FALSE(names_field(plain, "p2.x"));
+  EXPECT_FALSE(names_field(plain, "p"));
+  const Refusal none{ErrorCode::kQueueFull, ""};
+  EXPECT_TRUE(names_field(none, ""));
+  EXPECT_FALSE(names_field(none, "arm"));
+  EXPECT_EQ(field_pattern(none), "–");
+  EXPECT_NE(find_refusal(MessageType::kMeasureDoorWidth, ErrorCode::kPointsTooClose, "p2"),
+            nullptr);
+  EXPECT_EQ(find_refusal(MessageType::kMeasureDoorWidth, ErrorCode::kPointsTooClose, "p1"),
+            nullptr);
+  EXPECT_EQ(find_refusal(MessageType::kStatus, ErrorCode::kQueueFull, ""), nullptr);
+  EXPECT_TRUE(refusals_of(static_cast<MessageType>(0x01FF)).empty());
+}
+
 }  // namespace
 }  // namespace ajar::protocol

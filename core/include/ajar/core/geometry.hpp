@@ -4,11 +4,13 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <span>
 #include <string_view>
 
 #include <Eigen/Geometry>
 
+#include "ajar/core/fields.hpp"
 #include "ajar/core/result.hpp"
 #include "ajar/core/robot_model.hpp"
 #include "ajar/core/types.hpp"
@@ -142,11 +144,12 @@ Outcome check_finite(const Vec3& p, std::string_view field);
 // kPointOutOfDepthRange (field), kUnknownFrame (field + ".frame").
 Outcome check_depth(const FramedPoint& p, const CameraToBase& t, const Limits& limits,
                     std::string_view field);
-Outcome check_door_width(double width_m, const Limits& limits, std::string_view field = "width_m");
+Outcome check_door_width(double width_m, const Limits& limits,
+                         std::string_view field = fields::kWidth);
 Outcome check_handle_length(double length_m, const Limits& limits,
-                            std::string_view field = "handle_length_m");
+                            std::string_view field = fields::kHandleLength);
 Outcome check_yaw(double yaw_rad, const Limits& limits,
-                  std::string_view field = "yaw_deviation_rad");
+                  std::string_view field = fields::kYawDeviation);
 
 // Ranges are inclusive; a NaN value gives kNonFinite. Messages carry the value and the range, e.g.
 // "door width 40.000 m is outside the allowed range 0.500..2.000 m".
