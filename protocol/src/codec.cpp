@@ -136,7 +136,8 @@ std::size_t row_of(std::uint16_t type, std::uint8_t minor) noexcept {
 // The error of a frame whose header passed checks 1-3: checks 4-6 in order when `payload_refused`
 // is false (one of them failed), else the payload's error that the decoder has put in out.error;
 // then the header's request id, type and minor version. Out of the way of the frames that decode.
-[[gnu::cold, gnu::noinline]] void frame_error(const std::uint8_t* h, std::uint32_t length,
+[[gnu::cold, gnu::noinline]] void frame_error(const std::uint8_t* h,
+                                              [[maybe_unused]] std::uint32_t length,
                                               bool payload_refused,
                                               StreamDecoder::Outcome& out) noexcept {
   DecodeError& e = out.error;
@@ -177,21 +178,22 @@ std::size_t row_of(std::uint16_t type, std::uint8_t minor) noexcept {
 void decode_checked(const std::uint8_t* h, std::uint32_t length,
                     StreamDecoder::Outcome& out) noexcept {
   const std::uint8_t* payload = h + kHeaderSize;
-  const std::uint16_t flags = get_u16(h + kOffsetFlags);
-  const std::uint8_t wire_minor = h[kOffsetVersionMinor];
-  const std::size_t row = row_of(get_u16(h + kOffsetType), std::min(wire_minor, kVersionMinor));
 #ifndef AJAR_PROTOCOL_FUZZING
   const bool crc_ok = frame_crc(h, std::span(payload, length)) == get_u32(h + kOffsetCrc);
 #else
   const bool crc_ok = true;  // the fuzzers' build skips the CRC comparison (tests/fuzz)
 #endif
+  const std::uint16_t flags = get_u16(h + kOffsetFlags);
+  const std::uint8_t wire_minor = h[kOffsetVersionMinor];
+  const std::size_t row = row_of(get_u16(h + kOffsetType), std::min(wire_minor, kVersionMinor));
   const bool header_ok =
       crc_ok && (flags & ~static_cast<std::uint16_t>(kFlagKnownMask)) == 0 && row != kNoRow;
   if (header_ok && kDecoders[row](payload, length, wire_minor, out.envelope.message, out.error)) {
     out.kind = StreamDecoder::Kind::kMessage;
     out.envelope.request_id = get_u32(h + kOffsetRequestId);
     out.envelope.flags = flags;
-    out.error = DecodeError{};
+    // A record this decoder cleared or never filled has code kOk: clear only a filled one.
+    if (out.error.code != ErrorCode::kOk) out.error = DecodeError{};
     return;
   }
   frame_error(h, length, header_ok, out);
@@ -279,15 +281,10 @@ StreamDecoder::Outcome decode_frame(std::span<const std::uint8_t> frame) noexcep
 
 std::size_t StreamDecoder::feed(std::span<const std::uint8_t> in, Outcome& outcome) noexcept {
   outcome.kind = Kind::kNeedMore;
-  if (failed_) {
-    outcome.kind = Kind::kError;
-    outcome.error = failure_;
-    return in.size();
-  }
   // Fast path: a whole frame at the start of `in` whose header passes checks 1-3 is decoded in
   // place, without copying. Anything else (a frame split across calls, a wrong header) goes the
   // byte-wise way below, which finds and reports a wrong header at its first wrong byte.
-  if (filled_ == 0 && in.size() >= kHeaderSize) {
+  if (filled_ == 0 && !failed_ && in.size() >= kHeaderSize) {
     const std::uint8_t* h = in.data();
     const std::uint32_t length = get_u32(h + kOffsetPayloadLength);
     if (get_u32(h + kOffsetMagic) == kMagic && h[kOffsetVersionMajor] == kVersionMajor &&
@@ -296,60 +293,69 @@ std::size_t StreamDecoder::feed(std::span<const std::uint8_t> in, Outcome& outco
       return kHeaderSize + length;
     }
   }
-  std::size_t used = 0;
-  const auto fail = [&](const DecodeError& e) {
-    failed_ = true;
-    failure_ = e;
-    outcome.kind = Kind::kError;
-    outcome.error = e;
-    return used;
-  };
-  if (in.empty()) return 0;
-  // The frame is split across calls (or its header is wrong): it is gathered in the buffer,
-  // allocated now if this is the decoder's first.
-  if (!buffer_) {
-    buffer_.reset(new (std::nothrow) Buffer);
-    if (!buffer_) {
-      used = in.size();
-      DecodeError e;
-      e.code = ErrorCode::kInternal;
-      e.framing_lost = true;
-      e.field = "frame";
-      e.reason = "out of memory";
-      return fail(e);
+  // The rest, out of line: the fast path above then needs no registers saved.
+  return [&]() __attribute__((noinline))->std::size_t {
+    if (failed_) {
+      outcome.kind = Kind::kError;
+      outcome.error = failure_;
+      return in.size();
     }
-  }
-  std::uint8_t* const buffer = buffer_->data();
-  if (filled_ < kHeaderSize) {
-    const std::size_t n = std::min(kHeaderSize - filled_, in.size());
-    if (n == 0) return 0;
-    std::memcpy(buffer + filled_, in.data(), n);
-    const std::size_t magic_end = std::min(filled_ + n, kMagicBytes.size());
-    for (std::size_t i = filled_; i < magic_end; ++i) {
-      if (buffer[i] != kMagicBytes[i]) {
-        used = i - filled_ + 1;
+    std::size_t used = 0;
+    const auto fail = [&](const DecodeError& e) {
+      failed_ = true;
+      failure_ = e;
+      outcome.kind = Kind::kError;
+      outcome.error = e;
+      return used;
+    };
+    if (in.empty()) return 0;
+    // The frame is split across calls (or its header is wrong): it is gathered in the buffer,
+    // allocated now if this is the decoder's first.
+    if (!buffer_) {
+      buffer_.reset(new (std::nothrow) Buffer);
+      if (!buffer_) {
+        used = in.size();
         DecodeError e;
-        e.code = ErrorCode::kBadMagic;
+        e.code = ErrorCode::kInternal;
         e.framing_lost = true;
-        e.field = "header.magic";
+        e.field = "frame";
+        e.reason = "out of memory";
         return fail(e);
       }
     }
+    std::uint8_t* const buffer = buffer_->data();
+    if (filled_ < kHeaderSize) {
+      const std::size_t n = std::min(kHeaderSize - filled_, in.size());
+      if (n == 0) return 0;
+      std::memcpy(buffer + filled_, in.data(), n);
+      const std::size_t magic_end = std::min(filled_ + n, kMagicBytes.size());
+      for (std::size_t i = filled_; i < magic_end; ++i) {
+        if (buffer[i] != kMagicBytes[i]) {
+          used = i - filled_ + 1;
+          DecodeError e;
+          e.code = ErrorCode::kBadMagic;
+          e.framing_lost = true;
+          e.field = "header.magic";
+          return fail(e);
+        }
+      }
+      filled_ += n;
+      used = n;
+      if (filled_ < kHeaderSize) return used;
+      DecodeError e;
+      if (!check_header(buffer, e)) return fail(e);
+    }
+    const std::size_t total = kHeaderSize + get_u32(buffer + kOffsetPayloadLength);
+    const std::size_t n = std::min(total - filled_, in.size() - used);
+    if (n > 0) std::memcpy(buffer + filled_, in.data() + used, n);
     filled_ += n;
-    used = n;
-    if (filled_ < kHeaderSize) return used;
-    DecodeError e;
-    if (!check_header(buffer, e)) return fail(e);
+    used += n;
+    if (filled_ < total) return used;
+    decode_checked(buffer, static_cast<std::uint32_t>(total - kHeaderSize), outcome);
+    filled_ = 0;
+    return used;
   }
-  const std::size_t total = kHeaderSize + get_u32(buffer + kOffsetPayloadLength);
-  const std::size_t n = std::min(total - filled_, in.size() - used);
-  if (n > 0) std::memcpy(buffer + filled_, in.data() + used, n);
-  filled_ += n;
-  used += n;
-  if (filled_ < total) return used;
-  decode_checked(buffer, static_cast<std::uint32_t>(total - kHeaderSize), outcome);
-  filled_ = 0;
-  return used;
+  ();
 }
 
 void StreamDecoder::reset() noexcept {

@@ -273,7 +273,9 @@ class FastReader {
     using Raw = typename W::raw;
     const Raw raw = load<Raw>(take(sizeof(Raw)));
     v = W::template from_raw<V>(raw);
-    bad_ |= W::check(raw).code != ErrorCode::kOk;
+    if (W::check(raw).code != ErrorCode::kOk) [[unlikely]] {
+      bad_ = true;
+    }
   }
   template <std::size_t N>
   [[gnu::always_inline]] void str(FixedString<N>& s, const char*) noexcept {
