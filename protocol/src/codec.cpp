@@ -3,6 +3,7 @@
 #include "ajar/protocol/codec.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <new>
 #include <type_traits>
@@ -20,17 +21,49 @@ namespace {
 
 constexpr std::array<std::uint8_t, 4> kMagicBytes = {0x41, 0x4A, 0x41, 0x52};  // "AJAR"
 
-// One function per message type (the walk inlined into it), like hand-written field code.
+// One function per message type (the walk inlined into it), like hand-written field code: decodes
+// the payload p[0, size) of a frame of protocol 1.`wire_minor` into `m`. False: the payload is
+// refused, and e's code, field, value, limit and reason say why (checks 7-9 of docs/protocol.md
+// section 3). A payload whose length is its layout's (payload_size()) is read by the FastReader
+// in one pass; anything it refuses, and any other length, goes to the checked Reader, which finds
+// and describes the first failure in wire order.
 template <typename T>
-[[gnu::noinline]] void decode_as(Reader& r, Message& m) noexcept {
+[[gnu::noinline]] bool decode_as(const std::uint8_t* p, std::size_t size, std::uint8_t wire_minor,
+                                 Message& m, DecodeError& e) noexcept {
+  // The layout is the frame's minor version's (a newer minor: ours, extra bytes ignored).
+  const std::uint8_t minor = std::min(wire_minor, kVersionMinor);
+  const bool newer = wire_minor > kVersionMinor;
   // Reuse the alternative when it is already there (a stream of Telemetry, say): every field is
   // overwritten. MeasureDoorPlane starts fresh so that points beyond `count` are default, and so
   // does an older layout (the fields it lacks keep their defaults).
-  T* existing = std::get_if<T>(&m);
-  if (std::is_same_v<T, MeasureDoorPlane> || existing == nullptr || !r.since(kVersionMinor)) {
-    existing = &m.template emplace<T>();
+  T* t = std::get_if<T>(&m);
+  if (std::is_same_v<T, MeasureDoorPlane> || t == nullptr || minor < kVersionMinor) {
+    t = &m.template emplace<T>();
   }
-  walk<Text("")>(r, *existing);
+  const std::size_t layout = payload_size<T>(p, size, minor);
+  const bool fast = layout == size || (newer && layout != kNoSize && layout < size);
+  if (fast) {
+    FastReader r(p, minor);
+    walk<Text("")>(r, *t);
+    if (r.ok()) {
+#ifdef AJAR_PROTOCOL_FUZZING
+      // The fuzzers hold the fast path to the checked one: the same verdict, the same value.
+      Message checked{std::in_place_type<T>};
+      Reader c(std::span(p, size), minor);
+      walk<Text("")>(c, std::get<T>(checked));
+      DecodeError ce;
+      if (!c.finish(newer, ce) || !wire_equal(checked, m)) std::abort();
+#endif
+      return true;
+    }
+  }
+  Reader r(std::span(p, size), minor);
+  walk<Text("")>(r, *t);
+  const bool decoded = r.finish(newer, e);
+#ifdef AJAR_PROTOCOL_FUZZING
+  if (fast && decoded) std::abort();  // the fast path refused what the checked walk accepts
+#endif
+  return decoded;
 }
 
 template <typename T>
@@ -40,8 +73,9 @@ template <typename T>
 
 // decode_as<T> of every Message alternative, by row of the message table.
 constexpr auto kDecoders = []<std::size_t... I>(std::index_sequence<I...>) {
-  return std::array<void (*)(Reader&, Message&) noexcept, sizeof...(I)>{
-      &decode_as<std::variant_alternative_t<I, Message>>...};
+  return std::array<bool (*)(const std::uint8_t*, std::size_t, std::uint8_t, Message&,
+                             DecodeError&) noexcept,
+                    sizeof...(I)>{&decode_as<std::variant_alternative_t<I, Message>>...};
 }
 (std::make_index_sequence<std::variant_size_v<Message>>{});
 
@@ -91,10 +125,82 @@ std::uint32_t frame_crc(const std::uint8_t* header,
   return crc32c_finish(crc32c_update(crc, payload.data(), payload.size()));
 }
 
-// Decodes one whole frame into `out` (reusing its storage). `header_checked`: check_header()
-// already passed on these bytes and filled out.error.
-void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& out,
-                 bool header_checked = false) noexcept {
+// The row of `type` in the message table when protocol 1.`minor` has it (check 6), else kNoRow.
+std::size_t row_of(std::uint16_t type, std::uint8_t minor) noexcept {
+  const std::size_t i = static_cast<std::size_t>(type) - kLowestType;  // wraps below the lowest
+  if (i >= kRowOfType.size()) return kNoRow;
+  const std::uint8_t row = kRowOfType[i];
+  return row == kNoRow || kMessageTable[row].since > minor ? kNoRow : row;
+}
+
+// The error of a frame whose header passed checks 1-3: checks 4-6 in order when `payload_refused`
+// is false (one of them failed), else the payload's error that the decoder has put in out.error;
+// then the header's request id, type and minor version. Out of the way of the frames that decode.
+[[gnu::cold, gnu::noinline]] void frame_error(const std::uint8_t* h,
+                                              [[maybe_unused]] std::uint32_t length,
+                                              bool payload_refused,
+                                              StreamDecoder::Outcome& out) noexcept {
+  DecodeError& e = out.error;
+  out.kind = StreamDecoder::Kind::kError;
+  if (!payload_refused) {
+    e = DecodeError{};
+    const std::uint16_t flags = get_u16(h + kOffsetFlags);
+#ifndef AJAR_PROTOCOL_FUZZING
+    const std::uint32_t crc = frame_crc(h, std::span(h + kHeaderSize, length));
+#else
+    const std::uint32_t crc = get_u32(h + kOffsetCrc);
+#endif
+    if (crc != get_u32(h + kOffsetCrc)) {
+      e.code = ErrorCode::kCrcMismatch;
+      e.field = "header.crc";
+      e.value = get_u32(h + kOffsetCrc);
+      e.limit = crc;
+    } else if ((flags & ~static_cast<std::uint16_t>(kFlagKnownMask)) != 0) {
+      e.code = ErrorCode::kUnknownFlags;
+      e.field = "header.flags";
+      e.value = flags;
+      e.limit = kFlagKnownMask;
+    } else {
+      e.code = ErrorCode::kUnknownMessageType;
+      e.field = refusal_field::kHeaderType.data();  // a literal: zero terminated
+      e.value = get_u16(h + kOffsetType);
+    }
+  }
+  e.framing_lost = false;
+  e.type = get_u16(h + kOffsetType);
+  e.request_id = get_u32(h + kOffsetRequestId);
+  e.version_minor = h[kOffsetVersionMinor];
+}
+
+// Checks 4-9 of a frame whose header passed checks 1-3 and whose `length` payload bytes follow it
+// in memory; decodes it into `out` (reusing its storage). The header is read once, every check
+// is made, and the error record is written once: cleared for a message, filled for an error.
+void decode_checked(const std::uint8_t* h, std::uint32_t length,
+                    StreamDecoder::Outcome& out) noexcept {
+  const std::uint8_t* payload = h + kHeaderSize;
+#ifndef AJAR_PROTOCOL_FUZZING
+  const bool crc_ok = frame_crc(h, std::span(payload, length)) == get_u32(h + kOffsetCrc);
+#else
+  const bool crc_ok = true;  // the fuzzers' build skips the CRC comparison (tests/fuzz)
+#endif
+  const std::uint16_t flags = get_u16(h + kOffsetFlags);
+  const std::uint8_t wire_minor = h[kOffsetVersionMinor];
+  const std::size_t row = row_of(get_u16(h + kOffsetType), std::min(wire_minor, kVersionMinor));
+  const bool header_ok =
+      crc_ok && (flags & ~static_cast<std::uint16_t>(kFlagKnownMask)) == 0 && row != kNoRow;
+  if (header_ok && kDecoders[row](payload, length, wire_minor, out.envelope.message, out.error)) {
+    out.kind = StreamDecoder::Kind::kMessage;
+    out.envelope.request_id = get_u32(h + kOffsetRequestId);
+    out.envelope.flags = flags;
+    // A record this decoder cleared or never filled has code kOk: clear only a filled one.
+    if (out.error.code != ErrorCode::kOk) out.error = DecodeError{};
+    return;
+  }
+  frame_error(h, length, header_ok, out);
+}
+
+// Decodes one whole frame (exactly one: else kBadPayloadLength, framing lost) into `out`.
+void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& out) noexcept {
   DecodeError& e = out.error;
   out.kind = StreamDecoder::Kind::kError;
   if (frame.size() < kHeaderSize) {
@@ -105,7 +211,7 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
     return;
   }
   const std::uint8_t* h = frame.data();
-  if (!header_checked && !check_header(h, e)) return;
+  if (!check_header(h, e)) return;
   const std::uint32_t length = get_u32(h + kOffsetPayloadLength);
   if (frame.size() != kHeaderSize + length) {
     e.code = ErrorCode::kBadPayloadLength;
@@ -113,41 +219,7 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
     e.field = "frame";
     return;
   }
-  const auto payload = frame.subspan(kHeaderSize);
-#ifndef AJAR_PROTOCOL_FUZZING
-  const std::uint32_t crc = frame_crc(h, payload);
-  if (crc != get_u32(h + kOffsetCrc)) {
-    e.code = ErrorCode::kCrcMismatch;
-    e.field = "header.crc";
-    e.value = get_u32(h + kOffsetCrc);
-    e.limit = crc;
-    return;
-  }
-#endif
-  const std::uint16_t flags = get_u16(h + kOffsetFlags);
-  if ((flags & ~static_cast<std::uint16_t>(kFlagKnownMask)) != 0) {
-    e.code = ErrorCode::kUnknownFlags;
-    e.field = "header.flags";
-    e.value = flags;
-    e.limit = kFlagKnownMask;
-    return;
-  }
-  // The layout is the frame's minor version's (a newer minor: ours, extra bytes ignored).
-  const std::uint8_t minor = std::min(h[kOffsetVersionMinor], kVersionMinor);
-  Reader r(payload, minor);
-  const MessageInfo* row = find_message(static_cast<MessageType>(e.type));
-  if (row == nullptr || row->since > minor) {
-    e.code = ErrorCode::kUnknownMessageType;
-    e.field = refusal_field::kHeaderType.data();  // a literal: zero terminated
-    e.value = e.type;
-    return;
-  }
-  kDecoders[static_cast<std::size_t>(row - kMessageTable.data())](r, out.envelope.message);
-  if (!r.finish(h[kOffsetVersionMinor] > kVersionMinor, e)) return;
-  out.kind = StreamDecoder::Kind::kMessage;
-  out.envelope.request_id = e.request_id;
-  out.envelope.flags = flags;
-  e = DecodeError{};
+  decode_checked(h, length, out);
 }
 
 }  // namespace
@@ -209,77 +281,81 @@ StreamDecoder::Outcome decode_frame(std::span<const std::uint8_t> frame) noexcep
 
 std::size_t StreamDecoder::feed(std::span<const std::uint8_t> in, Outcome& outcome) noexcept {
   outcome.kind = Kind::kNeedMore;
-  if (failed_) {
-    outcome.kind = Kind::kError;
-    outcome.error = failure_;
-    return in.size();
-  }
-  // Fast path: a whole frame at the start of `in` is decoded in place, without copying.
-  if (filled_ == 0 && in.size() >= kHeaderSize) {
+  // Fast path: a whole frame at the start of `in` whose header passes checks 1-3 is decoded in
+  // place, without copying. Anything else (a frame split across calls, a wrong header) goes the
+  // byte-wise way below, which finds and reports a wrong header at its first wrong byte.
+  if (filled_ == 0 && !failed_ && in.size() >= kHeaderSize) {
     const std::uint8_t* h = in.data();
-    if (check_header(h, outcome.error)) {
-      const std::size_t total = kHeaderSize + get_u32(h + kOffsetPayloadLength);
-      if (in.size() >= total) {
-        decode_into(in.first(total), outcome, true);
-        return total;
-      }
+    const std::uint32_t length = get_u32(h + kOffsetPayloadLength);
+    if (get_u32(h + kOffsetMagic) == kMagic && h[kOffsetVersionMajor] == kVersionMajor &&
+        length <= kMaxPayloadSize && in.size() - kHeaderSize >= length) {
+      decode_checked(h, length, outcome);
+      return kHeaderSize + length;
     }
-    outcome.error = DecodeError{};
   }
-  std::size_t used = 0;
-  const auto fail = [&](const DecodeError& e) {
-    failed_ = true;
-    failure_ = e;
-    outcome.kind = Kind::kError;
-    outcome.error = e;
-    return used;
-  };
-  if (in.empty()) return 0;
-  // The frame is split across calls (or its header is wrong): it is gathered in the buffer,
-  // allocated now if this is the decoder's first.
-  if (!buffer_) {
-    buffer_.reset(new (std::nothrow) Buffer);
+  // The rest, out of line: the fast path above then needs no registers saved.
+  return [&]() __attribute__((noinline))->std::size_t {
+    if (failed_) {
+      outcome.kind = Kind::kError;
+      outcome.error = failure_;
+      return in.size();
+    }
+    std::size_t used = 0;
+    const auto fail = [&](const DecodeError& e) {
+      failed_ = true;
+      failure_ = e;
+      outcome.kind = Kind::kError;
+      outcome.error = e;
+      return used;
+    };
+    if (in.empty()) return 0;
+    // The frame is split across calls (or its header is wrong): it is gathered in the buffer,
+    // allocated now if this is the decoder's first.
     if (!buffer_) {
-      used = in.size();
-      DecodeError e;
-      e.code = ErrorCode::kInternal;
-      e.framing_lost = true;
-      e.field = "frame";
-      e.reason = "out of memory";
-      return fail(e);
-    }
-  }
-  std::uint8_t* const buffer = buffer_->data();
-  if (filled_ < kHeaderSize) {
-    const std::size_t n = std::min(kHeaderSize - filled_, in.size());
-    if (n == 0) return 0;
-    std::memcpy(buffer + filled_, in.data(), n);
-    const std::size_t magic_end = std::min(filled_ + n, kMagicBytes.size());
-    for (std::size_t i = filled_; i < magic_end; ++i) {
-      if (buffer[i] != kMagicBytes[i]) {
-        used = i - filled_ + 1;
+      buffer_.reset(new (std::nothrow) Buffer);
+      if (!buffer_) {
+        used = in.size();
         DecodeError e;
-        e.code = ErrorCode::kBadMagic;
+        e.code = ErrorCode::kInternal;
         e.framing_lost = true;
-        e.field = "header.magic";
+        e.field = "frame";
+        e.reason = "out of memory";
         return fail(e);
       }
     }
+    std::uint8_t* const buffer = buffer_->data();
+    if (filled_ < kHeaderSize) {
+      const std::size_t n = std::min(kHeaderSize - filled_, in.size());
+      if (n == 0) return 0;
+      std::memcpy(buffer + filled_, in.data(), n);
+      const std::size_t magic_end = std::min(filled_ + n, kMagicBytes.size());
+      for (std::size_t i = filled_; i < magic_end; ++i) {
+        if (buffer[i] != kMagicBytes[i]) {
+          used = i - filled_ + 1;
+          DecodeError e;
+          e.code = ErrorCode::kBadMagic;
+          e.framing_lost = true;
+          e.field = "header.magic";
+          return fail(e);
+        }
+      }
+      filled_ += n;
+      used = n;
+      if (filled_ < kHeaderSize) return used;
+      DecodeError e;
+      if (!check_header(buffer, e)) return fail(e);
+    }
+    const std::size_t total = kHeaderSize + get_u32(buffer + kOffsetPayloadLength);
+    const std::size_t n = std::min(total - filled_, in.size() - used);
+    if (n > 0) std::memcpy(buffer + filled_, in.data() + used, n);
     filled_ += n;
-    used = n;
-    if (filled_ < kHeaderSize) return used;
-    DecodeError e;
-    if (!check_header(buffer, e)) return fail(e);
+    used += n;
+    if (filled_ < total) return used;
+    decode_checked(buffer, static_cast<std::uint32_t>(total - kHeaderSize), outcome);
+    filled_ = 0;
+    return used;
   }
-  const std::size_t total = kHeaderSize + get_u32(buffer + kOffsetPayloadLength);
-  const std::size_t n = std::min(total - filled_, in.size() - used);
-  if (n > 0) std::memcpy(buffer + filled_, in.data() + used, n);
-  filled_ += n;
-  used += n;
-  if (filled_ < total) return used;
-  decode_into(std::span<const std::uint8_t>(buffer, total), outcome);
-  filled_ = 0;
-  return used;
+  ();
 }
 
 void StreamDecoder::reset() noexcept {

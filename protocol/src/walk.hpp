@@ -8,10 +8,13 @@
 // layout being walked does not have, or at a size field that failed.
 #pragma once
 
+#include <array>
 #include <cstddef>
+#include <cstdint>
 #include <type_traits>
 #include <utility>
 
+#include "little_endian.hpp"
 #include "message_schema.hpp"
 
 namespace ajar::protocol::detail {
@@ -42,6 +45,15 @@ struct KindArgument<K<M>> {
 
 template <Text Prefix, typename IO, typename S>
 AJAR_WALK_INLINE bool walk(IO& io, S& s) noexcept;
+
+// Ack.acknowledged sizes the Ack: it must be a request type that protocol 1.`minor` has. Its row,
+// or nullptr.
+AJAR_WALK_INLINE const MessageInfo* acked_row(MessageType t, std::uint8_t minor) noexcept {
+  const MessageInfo* row = find_message(t);
+  return row != nullptr && row->direction == Direction::kHostToDaemon && row->since <= minor
+             ? row
+             : nullptr;
+}
 
 // Elements [0, count) of an array, named Name[i].
 template <Text Name, typename IO, typename A, std::size_t... I>
@@ -98,7 +110,7 @@ AJAR_WALK_INLINE bool walk_field(IO& io, S& s) noexcept {
     return io.sizes(valid_plane_count(v), ErrorCode::kBadCount, c_str<name>(), v, "");
   } else if constexpr (std::is_same_v<K, AckedType>) {
     walk_value<name>(io, v);
-    return io.sizes(is_request(v) && minor_of(v) <= io.minor(), ErrorCode::kInvalidEnumValue,
+    return io.sizes(acked_row(v, io.minor()) != nullptr, ErrorCode::kInvalidEnumValue,
                     c_str<name>(), static_cast<std::uint16_t>(v), "acknowledged");
   } else if constexpr (std::is_same_v<K, CountedBy<KindArgument<K>::member>>) {
     using A = std::remove_cvref_t<decltype(v)>;
@@ -127,6 +139,118 @@ AJAR_WALK_INLINE bool walk_fields(IO& io, S& s, Fields<F...> fields) noexcept {
 template <Text Prefix, typename IO, typename S>
 AJAR_WALK_INLINE bool walk(IO& io, S& s) noexcept {
   return walk_fields<Prefix>(io, s, typename Schema<std::remove_const_t<S>>::fields{});
+}
+
+// ---- the length of a layout, from the same tables, without a value ---------------------------
+// The decoder's fast path (codec.cpp) reads a payload without a bounds check per field once its
+// length is known to be the layout's; these give that length. wire_size<V>() is walk_value's
+// cases counted: the bytes a V takes. payload_size<S>() is walk's fields counted in protocol
+// 1.`minor`, with the fields that size the payload (MeasureDoorPlane.count, Ack.acknowledged)
+// read from the payload; kNoSize when one of those is not in the payload or is invalid (the
+// checked walk reports it). tests/protocol compares both with payload_layout() for every sample
+// in every minor.
+
+inline constexpr std::size_t kNoSize = static_cast<std::size_t>(-1);
+
+template <typename S, typename F>
+using MemberOf = std::remove_cvref_t<decltype(std::declval<S&>().*(F::member))>;
+
+template <typename V>
+consteval std::size_t wire_size();
+
+template <typename S, typename F>
+consteval std::size_t fixed_field_size() {
+  static_assert(F::since == 0, "a nested structure's fields are all in its first layout");
+  if constexpr (IsWire<typename F::kind>::value) {
+    return sizeof(typename F::kind::raw);
+  } else {
+    static_assert(std::is_same_v<typename F::kind, Plain>, "a nested structure has a fixed size");
+    return wire_size<MemberOf<S, F>>();
+  }
+}
+template <typename S, typename... F>
+consteval std::size_t fixed_fields_size(Fields<F...>) {
+  return (fixed_field_size<S, F>() + ... + 0);
+}
+
+template <typename V>
+consteval std::size_t wire_size() {
+  using T = std::remove_const_t<V>;
+  if constexpr (!std::is_void_v<WireOf<T>>) {
+    return sizeof(typename WireOf<T>::raw);
+  } else if constexpr (IsFixedString<T>::value) {
+    return 1 + std::tuple_size_v<decltype(T::bytes)>;
+  } else if constexpr (IsFixedBytes<T>::value) {
+    return 2 + std::tuple_size_v<decltype(T::bytes)>;
+  } else if constexpr (std::is_same_v<T, core::Vec3>) {
+    return 3 * wire_size<double>();
+  } else if constexpr (std::is_same_v<T, core::FramedPoint>) {
+    return wire_size<core::Frame>() + wire_size<core::Vec3>();
+  } else if constexpr (IsStdArray<T>::value) {
+    return std::tuple_size_v<T> * wire_size<typename T::value_type>();
+  } else {
+    return fixed_fields_size<T>(typename Schema<T>::fields{});
+  }
+}
+
+// The Ack body's length by message table row (0: the empty body, and rows without a body).
+inline constexpr auto kAckBodySize = []<std::size_t... I>(std::index_sequence<I...>) {
+  return std::array<std::size_t, sizeof...(I)>{
+      wire_size<typename Schema<std::variant_alternative_t<I, Message>>::ack_body>()...};
+}
+(std::make_index_sequence<std::variant_size_v<Message>>{});
+
+struct SizeWalk {
+  const std::uint8_t* p;
+  std::size_t size;
+  std::uint8_t minor;
+  std::size_t offset = 0;
+  std::size_t count = 0;  // the last PlaneCount read
+  std::size_t body = 0;   // the Ack body's length, from the last AckedType read
+  bool sized = true;
+};
+// Counts field F of S; false: the layout ends here (a newer minor's field, or a size field that
+// is missing or invalid: then sized is false).
+template <typename S, typename F>
+AJAR_WALK_INLINE bool size_field(SizeWalk& w) noexcept {
+  if (w.minor < F::since) return false;
+  using V = MemberOf<S, F>;
+  using K = typename F::kind;
+  if constexpr (std::is_same_v<K, Plain>) {
+    w.offset += wire_size<V>();
+  } else if constexpr (IsWire<K>::value) {
+    w.offset += sizeof(typename K::raw);
+  } else if constexpr (std::is_same_v<K, PlaneCount> || std::is_same_v<K, AckedType>) {
+    using W = WireOf<V>;
+    using Raw = typename W::raw;
+    if (w.size < w.offset + sizeof(Raw)) return w.sized = false;
+    const V v = W::template from_raw<V>(load<Raw>(w.p + w.offset));
+    if constexpr (std::is_same_v<K, PlaneCount>) {
+      if (!valid_plane_count(v)) return w.sized = false;
+      w.count = v;
+    } else {
+      const MessageInfo* row = acked_row(v, w.minor);
+      if (row == nullptr) return w.sized = false;
+      w.body = kAckBodySize[static_cast<std::size_t>(row - kMessageTable.data())];
+    }
+    w.offset += sizeof(Raw);
+  } else if constexpr (std::is_same_v<K, CountedBy<KindArgument<K>::member>>) {
+    w.offset += w.count * wire_size<typename V::value_type>();
+  } else {
+    w.offset += w.body;
+  }
+  return true;
+}
+template <typename S, typename... F>
+AJAR_WALK_INLINE std::size_t payload_size(SizeWalk& w, Fields<F...>) noexcept {
+  static_cast<void>((size_field<S, F>(w) && ...));
+  return w.sized ? w.offset : kNoSize;
+}
+template <typename S>
+AJAR_WALK_INLINE std::size_t payload_size(const std::uint8_t* p, std::size_t size,
+                                          std::uint8_t minor) noexcept {
+  SizeWalk w{p, size, minor};
+  return payload_size<S>(w, typename Schema<S>::fields{});
 }
 
 }  // namespace ajar::protocol::detail
