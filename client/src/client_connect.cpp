@@ -58,6 +58,129 @@ Outcome Client::connect(const Endpoint& endpoint) {
   return connect(endpoint, options_.connect_timeout);
 }
 
+// Resolve, connect, the TLS handshake when TLS is on, all bounded by one timer; the promise gets
+// "" once connected (the Impl then reads and heartbeats on the new socket), else why not. Each
+// pending handler holds the attempt; after the first outcome (`done_`) the others are ignored.
+class Client::Impl::Connecting : public std::enable_shared_from_this<Client::Impl::Connecting> {
+ public:
+  Connecting(Impl* impl, const Endpoint& endpoint, Milliseconds timeout,
+             std::shared_ptr<std::promise<std::string>> promise,
+             std::shared_ptr<ssl::context> tls_context, std::string server_name)
+      : impl_(impl),
+        endpoint_(endpoint),
+        where_(endpoint.host + ":" + std::to_string(endpoint.port)),
+        sock_(std::make_shared<tcp::socket>(impl->io)),
+        timer_(impl->io, timeout),
+        resolver_(impl->io),
+        promise_(std::move(promise)),
+        tls_context_(std::move(tls_context)),
+        server_name_(std::move(server_name)) {}
+
+  void start() {
+    timer_.async_wait(
+        [self = shared_from_this()](boost::system::error_code ec) { self->timed_out(ec); });
+    resolver_.async_resolve(endpoint_.host, std::to_string(endpoint_.port),
+                            [self = shared_from_this()](boost::system::error_code ec,
+                                                        tcp::resolver::results_type results) {
+                              self->resolved(ec, results);
+                            });
+  }
+
+ private:
+  void timed_out(boost::system::error_code ec) {
+    if (ec || done_) return;
+    done_ = true;
+    resolver_.cancel();
+    boost::system::error_code ignored;
+    sock_->close(ignored);
+    promise_->set_value("timed out connecting to " + where_);
+  }
+
+  // The attempt failed: `why`.
+  void fail(std::string why) {
+    done_ = true;
+    timer_.cancel();
+    promise_->set_value(std::move(why));
+  }
+
+  void resolved(boost::system::error_code ec, const tcp::resolver::results_type& results) {
+    if (done_) return;
+    if (ec) return fail("cannot resolve " + where_ + ": " + ec.message());
+    asio::async_connect(
+        *sock_, results,
+        [self = shared_from_this()](boost::system::error_code cec, const tcp::endpoint&) {
+          self->connected(cec);
+        });
+  }
+
+  void connected(boost::system::error_code ec) {
+    if (done_) return;
+    if (ec) return fail("cannot connect to " + where_ + ": " + ec.message());
+    boost::system::error_code ignored;
+    sock_->set_option(tcp::no_delay(true), ignored);
+    if (!tls_context_) return established(nullptr);
+    start_handshake();
+  }
+
+  // TLS: verify the daemon's certificate for `server_name` (DNS name or IP).
+  void start_handshake() {
+    auto tls = std::make_shared<TlsSocket>(*sock_, *tls_context_);
+    boost::system::error_code addr_ec;
+    asio::ip::make_address(server_name_, addr_ec);
+    if (addr_ec)  // a name, not an address: send it (SNI)
+      SSL_ctrl(tls->native_handle(), SSL_CTRL_SET_TLSEXT_HOSTNAME, TLSEXT_NAMETYPE_host_name,
+               const_cast<char*>(server_name_.c_str()));
+    tls->set_verify_callback(ssl::host_name_verification(server_name_));
+    tls->async_handshake(ssl::stream_base::client,
+                         [self = shared_from_this(), tls](boost::system::error_code hec) {
+                           self->handshaken(hec, tls);
+                         });
+  }
+
+  void handshaken(boost::system::error_code ec, const std::shared_ptr<TlsSocket>& tls) {
+    if (done_) return;
+    if (!ec) return established(tls);
+    std::string why = "TLS handshake with " + where_ + " failed: " + ec.message();
+    const long verify = SSL_get_verify_result(tls->native_handle());
+    if (verify != X509_V_OK)
+      why += std::string(" (daemon certificate: ") + X509_verify_cert_error_string(verify) + ")";
+    boost::system::error_code ignored_ec;
+    sock_->close(ignored_ec);
+    fail(std::move(why));
+  }
+
+  // Connected (over `tls` when TLS is on): the Impl takes the socket, forgets the old
+  // connection's replies and starts reading and the heartbeat.
+  void established(std::shared_ptr<TlsSocket> tls) {
+    done_ = true;
+    timer_.cancel();
+    impl_->socket = sock_;
+    impl_->tls = std::move(tls);
+    impl_->tls_context = tls_context_;
+    {
+      std::lock_guard lock(impl_->mutex);
+      impl_->is_connected = true;
+      impl_->replies.clear();
+      impl_->stale.clear();  // the old connection's replies never come
+      impl_->welcome.reset();
+    }
+    impl_->start_read(sock_);
+    impl_->schedule_heartbeat();
+    promise_->set_value("");
+  }
+
+  Impl* impl_;
+  const Endpoint endpoint_;
+  const std::string where_;
+  std::shared_ptr<tcp::socket> sock_;
+  asio::steady_timer timer_;
+  tcp::resolver resolver_;
+  std::shared_ptr<std::promise<std::string>> promise_;
+  std::shared_ptr<ssl::context> tls_context_;  // null: plain TCP
+  const std::string server_name_;
+  bool done_ = false;
+};
+
 Outcome Client::connect(const Endpoint& endpoint, Milliseconds timeout) {
   std::shared_ptr<ssl::context> tls_context;
   if (options_.tls.enabled()) {
@@ -74,96 +197,8 @@ Outcome Client::connect(const Endpoint& endpoint, Milliseconds timeout) {
     impl->decoder.reset();
     impl->track_filled = 0;
     impl->track_skip = 0;
-    auto sock = std::make_shared<tcp::socket>(impl->io);
-    auto timer = std::make_shared<asio::steady_timer>(impl->io, timeout);
-    auto resolver = std::make_shared<tcp::resolver>(impl->io);
-    auto done = std::make_shared<bool>(false);
-    const std::string where = endpoint.host + ":" + std::to_string(endpoint.port);
-    timer->async_wait([sock, resolver, done, promise, where](boost::system::error_code ec) {
-      if (ec || *done) return;
-      *done = true;
-      resolver->cancel();
-      boost::system::error_code ignored;
-      sock->close(ignored);
-      promise->set_value("timed out connecting to " + where);
-    });
-    resolver->async_resolve(
-        endpoint.host, std::to_string(endpoint.port),
-        [impl, sock, timer, resolver, done, promise, where, tls_context, server_name](
-            boost::system::error_code ec, tcp::resolver::results_type results) {
-          if (*done) return;
-          if (ec) {
-            *done = true;
-            timer->cancel();
-            promise->set_value("cannot resolve " + where + ": " + ec.message());
-            return;
-          }
-          asio::async_connect(
-              *sock, results,
-              [impl, sock, timer, done, promise, where, tls_context, server_name](
-                  boost::system::error_code cec, const tcp::endpoint&) {
-                if (*done) return;
-                if (cec) {
-                  *done = true;
-                  timer->cancel();
-                  promise->set_value("cannot connect to " + where + ": " + cec.message());
-                  return;
-                }
-                boost::system::error_code ignored;
-                sock->set_option(tcp::no_delay(true), ignored);
-                auto established = [impl, sock, timer, done, promise](
-                                       std::shared_ptr<TlsSocket> tls,
-                                       std::shared_ptr<ssl::context> context) {
-                  *done = true;
-                  timer->cancel();
-                  impl->socket = sock;
-                  impl->tls = std::move(tls);
-                  impl->tls_context = std::move(context);
-                  {
-                    std::lock_guard lock(impl->mutex);
-                    impl->is_connected = true;
-                    impl->replies.clear();
-                    impl->stale.clear();  // the old connection's replies never come
-                    impl->welcome.reset();
-                  }
-                  impl->start_read(sock);
-                  impl->schedule_heartbeat();
-                  promise->set_value("");
-                };
-                if (!tls_context) {
-                  established(nullptr, nullptr);
-                  return;
-                }
-                // TLS: verify the daemon's certificate for `server_name` (DNS name or IP).
-                auto tls = std::make_shared<TlsSocket>(*sock, *tls_context);
-                boost::system::error_code addr_ec;
-                asio::ip::make_address(server_name, addr_ec);
-                if (addr_ec)  // a name, not an address: send it (SNI)
-                  SSL_ctrl(tls->native_handle(), SSL_CTRL_SET_TLSEXT_HOSTNAME,
-                           TLSEXT_NAMETYPE_host_name, const_cast<char*>(server_name.c_str()));
-                tls->set_verify_callback(ssl::host_name_verification(server_name));
-                tls->async_handshake(
-                    ssl::stream_base::client, [sock, tls, tls_context, done, timer, promise, where,
-                                               established](boost::system::error_code hec) {
-                      if (*done) return;
-                      if (hec) {
-                        *done = true;
-                        timer->cancel();
-                        std::string why =
-                            "TLS handshake with " + where + " failed: " + hec.message();
-                        const long verify = SSL_get_verify_result(tls->native_handle());
-                        if (verify != X509_V_OK)
-                          why += std::string(" (daemon certificate: ") +
-                                 X509_verify_cert_error_string(verify) + ")";
-                        boost::system::error_code ignored_ec;
-                        sock->close(ignored_ec);
-                        promise->set_value(why);
-                        return;
-                      }
-                      established(tls, tls_context);
-                    });
-              });
-        });
+    std::make_shared<Impl::Connecting>(impl, endpoint, timeout, promise, tls_context, server_name)
+        ->start();
   });
   if (future.wait_for(timeout + Milliseconds{2000}) != std::future_status::ready) {
     return connect_error("endpoint", "timed out connecting to " + endpoint.host + ":" +

@@ -80,6 +80,9 @@ struct Client::Impl {
     }
   }
 
+  // One connection attempt on the I/O thread (client_connect.cpp).
+  class Connecting;
+
   // I/O thread only.
   std::shared_ptr<tcp::socket> socket;
   std::shared_ptr<TlsSocket> tls;  // over *socket when TLS is on

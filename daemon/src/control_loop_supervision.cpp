@@ -255,104 +255,123 @@ void ControlLoop::supervise(std::int64_t now_ns) noexcept {
 }
 
 void ControlLoop::supervise_motion(std::int64_t now_ns) noexcept {
-  const drivers::AxisStatus* status = status_;
-  const bool answered = answered_;
-  const ErrorCode read_error = read_error_;
   const bool silent = now_ns - heartbeat_ns_.load(std::memory_order_acquire) > deadman_ns_;
   switch (motion_) {
     case Motion::kMoving:
-    case Motion::kJogging: {
-      ErrorCode fault = ErrorCode::kOk;
-      int axis = 0;
-      if (!answered) {
-        fault = read_error == ErrorCode::kOk ? ErrorCode::kCardCommunication : read_error;
-      } else {
-        for (int i = 0; i < 2 && fault == ErrorCode::kOk; ++i) {
-          if (status[i].alarm)
-            fault = ErrorCode::kAxisAlarm;
-          else if (status[i].following_error)
-            fault = ErrorCode::kFollowingError;
-          else if (status[i].positive_limit || status[i].negative_limit)
-            fault = ErrorCode::kLimitHit;
-          if (fault != ErrorCode::kOk) axis = axes_[i];
-        }
-      }
-      if (fault == ErrorCode::kOk && silent) fault = ErrorCode::kDeadman;
-      if (fault != ErrorCode::kOk) {
-        latch(fault, axis);
-        stop_reason_ = fault;
-        begin_stop(now_ns);
-        break;
-      }
-      // Deadlines (a move's planned duration; a jog told zero coming to rest) and a card that
-      // does not do what it was told: it is not trusted with a smooth stop.
-      // (A jog held at the standoff, told zero and at rest, has nothing left to do by then.)
-      const bool still = !status[0].moving && !status[1].moving;
-      const bool deadline = (motion_ == Motion::kMoving || (jog_.resting() && !still)) &&
-                            now_ns > motion_deadline_ns_;
-      if (deadline) return emergency_fault(ErrorCode::kMotionTimeout, 0, now_ns);
-      if (const int off = check_velocity(now_ns); off != 0)
-        return emergency_fault(ErrorCode::kVelocityMismatch, off, now_ns);
-      if (past_door_standoff()) return emergency_fault(ErrorCode::kVelocityMismatch, 0, now_ns);
-      if (motion_ == Motion::kJogging) break;  // advance_jog ends a jog
-      if (status[0].moving || status[1].moving) seen_moving_ = true;
-      const bool at_rest =
-          !status[0].moving && !status[1].moving && status[0].in_position && status[1].in_position;
-      const bool reached = status[0].profile_position_counts == target_counts_[0] &&
-                           status[1].profile_position_counts == target_counts_[1];
-      if (at_rest && (seen_moving_ || reached))
-        finish(LoopReportKind::kMotionFinished, ErrorCode::kOk);
-      break;
-    }
+    case Motion::kJogging:
+      return supervise_running(now_ns, silent);
     case Motion::kStopping:
-      if (!stop_sent_) {  // again, as an emergency stop
-        stop_sent_ = send_emergency_stop(now_ns);
-        smooth_stop_ = false;
-      }
-      // A smooth stop the wheels do not follow (a card that took it and did not apply it):
-      // emergency stop now rather than at the stop's deadline.
-      if (const int off = check_velocity(now_ns); off != 0) {
-        emergency_fault(ErrorCode::kVelocityMismatch, off, now_ns);
-        break;
-      }
-      // A stop that does not stop the base before the door's standoff (a card that did not apply
-      // it): emergency stop now rather than at the stop's deadline.
-      if (past_door_standoff()) {
-        stop_sent_ = send_emergency_stop(now_ns);
-        smooth_stop_ = false;
-        latch(ErrorCode::kVelocityMismatch, 0);
-      }
-      if (answered && !status[0].moving && !status[1].moving) {
-        finish(LoopReportKind::kMotionStopped, stop_reason_);
-      } else if (now_ns > motion_deadline_ns_) {
-        // The stop overran its deadline: emergency stop. Ended once the card took it (a card
-        // that keeps its wheels moving after that is stopped again by the idle check, and
-        // check_stopped_wheels() switches their servos off).
-        stop_sent_ = send_emergency_stop(now_ns);
-        smooth_stop_ = false;
-        latch(ErrorCode::kMotionTimeout, 0);
-        if (stop_sent_) finish(LoopReportKind::kMotionStopped, ErrorCode::kMotionTimeout);
-      }
-      break;
+      return supervise_stopping(now_ns);
     case Motion::kIdle:
-      // Nothing runs: wheels that move anyway (a card that did not apply a stop, or took a command
-      // it answered with an error) are emergency-stopped every cycle, and that latches.
-      if (const int off = check_velocity(now_ns); off != 0) {
-        emergency_fault(ErrorCode::kVelocityMismatch, off, now_ns);
+      return supervise_idle(now_ns, silent);
+  }
+}
+
+namespace {
+
+// kOk, or what one axis's status says stops a running motion.
+ErrorCode axis_fault(const drivers::AxisStatus& status) noexcept {
+  if (status.alarm) return ErrorCode::kAxisAlarm;
+  if (status.following_error) return ErrorCode::kFollowingError;
+  if (status.positive_limit || status.negative_limit) return ErrorCode::kLimitHit;
+  return ErrorCode::kOk;
+}
+
+}  // namespace
+
+ErrorCode ControlLoop::running_fault(bool silent, int& axis) const noexcept {
+  if (!answered_) {
+    return read_error_ == ErrorCode::kOk ? ErrorCode::kCardCommunication : read_error_;
+  }
+  for (int i = 0; i < 2; ++i) {
+    if (const ErrorCode fault = axis_fault(status_[i]); fault != ErrorCode::kOk) {
+      axis = axes_[i];
+      return fault;
+    }
+  }
+  return silent ? ErrorCode::kDeadman : ErrorCode::kOk;
+}
+
+void ControlLoop::supervise_running(std::int64_t now_ns, bool silent) noexcept {
+  int axis = 0;
+  if (const ErrorCode fault = running_fault(silent, axis); fault != ErrorCode::kOk) {
+    latch(fault, axis);
+    stop_reason_ = fault;
+    begin_stop(now_ns);
+    return;
+  }
+  // Deadlines (a move's planned duration; a jog told zero coming to rest) and a card that
+  // does not do what it was told: it is not trusted with a smooth stop.
+  // (A jog held at the standoff, told zero and at rest, has nothing left to do by then.)
+  const bool still = !status_[0].moving && !status_[1].moving;
+  const bool deadline =
+      (motion_ == Motion::kMoving || (jog_.resting() && !still)) && now_ns > motion_deadline_ns_;
+  if (deadline) return emergency_fault(ErrorCode::kMotionTimeout, 0, now_ns);
+  if (const int off = check_velocity(now_ns); off != 0)
+    return emergency_fault(ErrorCode::kVelocityMismatch, off, now_ns);
+  if (past_door_standoff()) return emergency_fault(ErrorCode::kVelocityMismatch, 0, now_ns);
+  if (motion_ == Motion::kJogging) return;  // advance_jog ends a jog
+  finish_move_at_rest();
+}
+
+void ControlLoop::finish_move_at_rest() noexcept {
+  const drivers::AxisStatus* status = status_;
+  if (status[0].moving || status[1].moving) seen_moving_ = true;
+  const bool at_rest =
+      !status[0].moving && !status[1].moving && status[0].in_position && status[1].in_position;
+  const bool reached = status[0].profile_position_counts == target_counts_[0] &&
+                       status[1].profile_position_counts == target_counts_[1];
+  if (at_rest && (seen_moving_ || reached)) finish(LoopReportKind::kMotionFinished, ErrorCode::kOk);
+}
+
+void ControlLoop::supervise_stopping(std::int64_t now_ns) noexcept {
+  if (!stop_sent_) {  // again, as an emergency stop
+    stop_sent_ = send_emergency_stop(now_ns);
+    smooth_stop_ = false;
+  }
+  // A smooth stop the wheels do not follow (a card that took it and did not apply it):
+  // emergency stop now rather than at the stop's deadline.
+  if (const int off = check_velocity(now_ns); off != 0) {
+    emergency_fault(ErrorCode::kVelocityMismatch, off, now_ns);
+    return;
+  }
+  // A stop that does not stop the base before the door's standoff (a card that did not apply
+  // it): emergency stop now rather than at the stop's deadline.
+  if (past_door_standoff()) {
+    stop_sent_ = send_emergency_stop(now_ns);
+    smooth_stop_ = false;
+    latch(ErrorCode::kVelocityMismatch, 0);
+  }
+  if (answered_ && !status_[0].moving && !status_[1].moving) {
+    finish(LoopReportKind::kMotionStopped, stop_reason_);
+  } else if (now_ns > motion_deadline_ns_) {
+    // The stop overran its deadline: emergency stop. Ended once the card took it (a card
+    // that keeps its wheels moving after that is stopped again by the idle check, and
+    // check_stopped_wheels() switches their servos off).
+    stop_sent_ = send_emergency_stop(now_ns);
+    smooth_stop_ = false;
+    latch(ErrorCode::kMotionTimeout, 0);
+    if (stop_sent_) finish(LoopReportKind::kMotionStopped, ErrorCode::kMotionTimeout);
+  }
+}
+
+void ControlLoop::supervise_idle(std::int64_t now_ns, bool silent) noexcept {
+  // Nothing runs: wheels that move anyway (a card that did not apply a stop, or took a command
+  // it answered with an error) are emergency-stopped every cycle, and that latches.
+  if (const int off = check_velocity(now_ns); off != 0) {
+    emergency_fault(ErrorCode::kVelocityMismatch, off, now_ns);
+    return;
+  }
+  if (fault_ != ErrorCode::kOk) return;
+  if (arm_moving_.load(std::memory_order_acquire) && silent) {
+    latch(ErrorCode::kDeadman, 0);
+  } else if (answered_ && !recovery_.running()) {  // a recovery checks alarms itself
+    for (int i = 0; i < 2; ++i) {
+      if (status_[i].alarm) {
+        latch(ErrorCode::kAxisAlarm, axes_[i]);
         break;
       }
-      if (fault_ != ErrorCode::kOk) break;
-      if (arm_moving_.load(std::memory_order_acquire) && silent) {
-        latch(ErrorCode::kDeadman, 0);
-      } else if (answered && !recovery_.running()) {  // a recovery checks alarms itself
-        for (int i = 0; i < 2; ++i) {
-          if (status[i].alarm) {
-            latch(ErrorCode::kAxisAlarm, axes_[i]);
-            break;
-          }
-        }
-      }
-      break;
+    }
   }
 }
 

@@ -15,6 +15,7 @@
 //   crc32 <8 hex digits>
 #include <charconv>
 #include <cmath>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -79,14 +80,13 @@ bool parse_point(const Tokens& t, std::size_t at, core::FramedPoint& p) {
   return true;
 }
 
-}  // namespace
-
-Result<StateRecord> decode_text_state(const std::string& text) {
+// The bytes before the `crc32` line, when its checksum is theirs.
+Result<std::string> checksummed_body(const std::string& text) {
   const auto crc_at = text.rfind("crc32 ");
   if (crc_at == std::string::npos || (crc_at > 0 && text[crc_at - 1] != '\n')) {
     return state_file_error("no checksum line (truncated?)");
   }
-  const std::string body = text.substr(0, crc_at);
+  std::string body = text.substr(0, crc_at);
   const Tokens crc_line(text.substr(crc_at));
   unsigned long expected = 0;
   if (crc_line.size() != 2 ||
@@ -95,10 +95,104 @@ Result<StateRecord> decode_text_state(const std::string& text) {
       expected != crc32(body)) {
     return state_file_error("checksum mismatch (corrupt file)");
   }
+  return body;
+}
 
-  StateRecord state;
+// What is wrong with a line (its number is added by the caller); none when it was read.
+using LineError = std::optional<std::string>;
+
+// `ajar-state 1|2`: the file's format version.
+LineError read_header(const Tokens& t, StateRecord& state) {
+  if (t.size() != 2 || t[0] != kTextMagic) return "not an ajar state file";
+  if (t[1] != "1" && t[1] != "2") {
+    return "unsupported format version " + t[1] + " (this daemon reads 1, 2 and " +
+           std::to_string(kStateFormatVersion) + ")";
+  }
+  state.format_version = t[1] == "1" ? 1 : 2;
+  return std::nullopt;
+}
+
+LineError read_phase(const std::string& word, Phase& phase) {
+  if (word == "idle")
+    phase = Phase::kIdle;
+  else if (word == "aligning")
+    phase = Phase::kAligning;
+  else if (word == "engaging")
+    phase = Phase::kEngaging;
+  else if (word == "engaged")
+    phase = Phase::kEngaged;
+  else
+    return "unknown phase '" + word + "'";
+  return std::nullopt;
+}
+
+// `plane <n>` then n points, n within what MeasureDoorPlane carries.
+LineError read_plane(const Tokens& t, ProcedureRecord& r) {
+  long long n = 0;
+  if (!parse_int(t[1], n) || n < static_cast<long long>(protocol::kMinPlanePoints) ||
+      n > static_cast<long long>(protocol::kMaxPlanePoints) ||
+      t.size() != 2 + 4 * static_cast<std::size_t>(n)) {
+    return "bad plane point count";
+  }
+  protocol::MeasureDoorPlane m;
+  m.count = static_cast<std::uint8_t>(n);
+  for (std::size_t i = 0; i < m.count; ++i) {
+    if (!parse_point(t, 2 + 4 * i, m.points[i])) return "bad plane point";
+  }
+  r.plane = m;
+  return std::nullopt;
+}
+
+// One line after the header (its key not seen before): the procedure's fields, the clean
+// shutdown flag (format 2) and the measurements.
+LineError read_field(const Tokens& t, const std::string& line, StateRecord& state) {
   ProcedureRecord& r = state.procedure;
-  std::istringstream in(body);
+  const std::string& key = t[0];
+  if (key == "clean_shutdown" && state.format_version >= 2 && t.size() == 2 &&
+      (t[1] == "0" || t[1] == "1")) {
+    state.clean_shutdown = t[1] == "1";
+  } else if (key == "phase" && t.size() == 2) {
+    return read_phase(t[1], r.phase);
+  } else if ((key == "aligned" || key == "plane_consumed") && t.size() == 2 &&
+             (t[1] == "0" || t[1] == "1")) {
+    (key == "aligned" ? r.aligned : r.plane_consumed) = t[1] == "1";
+  } else if (key == "fault" && t.size() == 2) {
+    long long code = 0;
+    if (!parse_int(t[1], code) || !is_restorable_fault(code)) {
+      return "fault code '" + t[1] + "' is not a fault the daemon latches";
+    }
+    r.fault = static_cast<ErrorCode>(code);
+  } else if (key == "width" && t.size() == 9) {
+    protocol::MeasureDoorWidth m;
+    if (!parse_point(t, 1, m.p1_hinge) || !parse_point(t, 5, m.p2_moving_edge)) {
+      return "bad width points";
+    }
+    r.width = m;
+  } else if (key == "handle" && t.size() == 9) {
+    protocol::MeasureHandle m;
+    if (!parse_point(t, 1, m.p1_axis) || !parse_point(t, 5, m.p2_free_end)) {
+      return "bad handle points";
+    }
+    r.handle = m;
+  } else if (key == "plane" && t.size() >= 2) {
+    return read_plane(t, r);
+  } else if (key == "contact" && t.size() == 5) {
+    protocol::SetContactPoint m;
+    if (!parse_point(t, 1, m.contact)) return "bad contact point";
+    r.contact = m;
+  } else {
+    return "unexpected '" + line + "'";
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+Result<StateRecord> decode_text_state(const std::string& text) {
+  const Result<std::string> body = checksummed_body(text);
+  if (!body) return body.error();
+  StateRecord state;
+  std::istringstream in(*body);
   std::string line;
   int line_number = 0;
   bool have_header = false;
@@ -107,76 +201,16 @@ Result<StateRecord> decode_text_state(const std::string& text) {
     ++line_number;
     const Tokens t(line);
     if (t.size() == 0) continue;
-    const auto fail = [&](const std::string& what) {
-      return state_file_error("line " + std::to_string(line_number) + ": " + what);
-    };
+    LineError error;
     if (!have_header) {
-      if (t.size() != 2 || t[0] != kTextMagic) return fail("not an ajar state file");
-      if (t[1] != "1" && t[1] != "2") {
-        return fail("unsupported format version " + t[1] + " (this daemon reads 1, 2 and " +
-                    std::to_string(kStateFormatVersion) + ")");
-      }
-      state.format_version = t[1] == "1" ? 1 : 2;
-      have_header = true;
-      continue;
-    }
-    const std::string& key = t[0];
-    if (!seen.insert(key).second) return fail("'" + key + "' appears twice");
-    if (key == "clean_shutdown" && state.format_version >= 2 && t.size() == 2 &&
-        (t[1] == "0" || t[1] == "1")) {
-      state.clean_shutdown = t[1] == "1";
-    } else if (key == "phase" && t.size() == 2) {
-      if (t[1] == "idle")
-        r.phase = Phase::kIdle;
-      else if (t[1] == "aligning")
-        r.phase = Phase::kAligning;
-      else if (t[1] == "engaging")
-        r.phase = Phase::kEngaging;
-      else if (t[1] == "engaged")
-        r.phase = Phase::kEngaged;
-      else
-        return fail("unknown phase '" + t[1] + "'");
-    } else if ((key == "aligned" || key == "plane_consumed") && t.size() == 2 &&
-               (t[1] == "0" || t[1] == "1")) {
-      (key == "aligned" ? r.aligned : r.plane_consumed) = t[1] == "1";
-    } else if (key == "fault" && t.size() == 2) {
-      long long code = 0;
-      if (!parse_int(t[1], code) || !is_restorable_fault(code)) {
-        return fail("fault code '" + t[1] + "' is not a fault the daemon latches");
-      }
-      r.fault = static_cast<ErrorCode>(code);
-    } else if (key == "width" && t.size() == 9) {
-      protocol::MeasureDoorWidth m;
-      if (!parse_point(t, 1, m.p1_hinge) || !parse_point(t, 5, m.p2_moving_edge)) {
-        return fail("bad width points");
-      }
-      r.width = m;
-    } else if (key == "handle" && t.size() == 9) {
-      protocol::MeasureHandle m;
-      if (!parse_point(t, 1, m.p1_axis) || !parse_point(t, 5, m.p2_free_end)) {
-        return fail("bad handle points");
-      }
-      r.handle = m;
-    } else if (key == "plane" && t.size() >= 2) {
-      long long n = 0;
-      if (!parse_int(t[1], n) || n < static_cast<long long>(protocol::kMinPlanePoints) ||
-          n > static_cast<long long>(protocol::kMaxPlanePoints) ||
-          t.size() != 2 + 4 * static_cast<std::size_t>(n)) {
-        return fail("bad plane point count");
-      }
-      protocol::MeasureDoorPlane m;
-      m.count = static_cast<std::uint8_t>(n);
-      for (std::size_t i = 0; i < m.count; ++i) {
-        if (!parse_point(t, 2 + 4 * i, m.points[i])) return fail("bad plane point");
-      }
-      r.plane = m;
-    } else if (key == "contact" && t.size() == 5) {
-      protocol::SetContactPoint m;
-      if (!parse_point(t, 1, m.contact)) return fail("bad contact point");
-      r.contact = m;
+      error = read_header(t, state);
+      have_header = !error;
+    } else if (!seen.insert(t[0]).second) {
+      error = "'" + t[0] + "' appears twice";
     } else {
-      return fail("unexpected '" + line + "'");
+      error = read_field(t, line, state);
     }
+    if (error) return state_file_error("line " + std::to_string(line_number) + ": " + *error);
   }
   if (!have_header) return state_file_error("empty file");
   for (const char* required : {"clean_shutdown", "phase", "aligned", "plane_consumed", "fault"}) {

@@ -441,7 +441,20 @@ class ControlLoop {
   void report(const LoopReport& r) noexcept;
   void read_axes(std::int64_t now_ns) noexcept;
   void supervise(std::int64_t now_ns) noexcept;  // supervise_motion(), check_stopped_wheels()
+  // The running motion's checks this cycle, by what runs (`silent`: no heartbeat for deadman_s).
   void supervise_motion(std::int64_t now_ns) noexcept;
+  // A move or a jog: faults and the controller's silence stop it smoothly; deadlines and a card
+  // that does not do what it was told, by an emergency stop; a move at rest where it was sent ends.
+  void supervise_running(std::int64_t now_ns, bool silent) noexcept;
+  // kOk, or why a running motion stops now: the card did not answer, an axis reports an alarm,
+  // a following error or a limit (`axis`: which), or the controller is silent.
+  ErrorCode running_fault(bool silent, int& axis) const noexcept;
+  // A move whose wheels rest in position (having moved, or at its target) is finished.
+  void finish_move_at_rest() noexcept;
+  // A stop: sent again until the card takes it, ended when the wheels rest or at its deadline.
+  void supervise_stopping(std::int64_t now_ns) noexcept;
+  // Nothing runs: wheels that move anyway, an arm moving while the controller is silent, alarms.
+  void supervise_idle(std::int64_t now_ns, bool silent) noexcept;
   drivers::LifecycleState card_state() const noexcept;
 
   drivers::MotionCard& card_;
