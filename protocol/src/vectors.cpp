@@ -76,6 +76,75 @@ std::vector<StreamDecoder::Outcome> feed_bytewise(std::span<const std::uint8_t> 
   return outcomes;
 }
 
+// The values of a vector's keys, each into `v`; `line` is the line's number for the error.
+Outcome parse_direction(std::string_view value, std::size_t line, GoldenVector& v) {
+  if (value == "host_to_daemon") {
+    v.direction = GoldenVector::Direction::kHostToDaemon;
+  } else if (value == "daemon_to_host") {
+    v.direction = GoldenVector::Direction::kDaemonToHost;
+  } else {
+    return syntax(line, "direction", "expected host_to_daemon or daemon_to_host");
+  }
+  return Ok{};
+}
+
+// "ok", or "error CODE [framing_lost]".
+Outcome parse_expect(std::string_view value, std::size_t line, GoldenVector& v) {
+  if (value == "ok") {
+    v.expect_ok = true;
+    return Ok{};
+  }
+  if (!value.starts_with("error")) {
+    return syntax(line, "expect", "expected 'ok' or 'error CODE [framing_lost]'");
+  }
+  v.expect_ok = false;
+  std::string_view rest = trim(value.substr(5));
+  const auto space = rest.find_first_of(" \t");
+  const std::string_view code = rest.substr(0, space);
+  const std::string_view tail =
+      space == std::string_view::npos ? std::string_view{} : trim(rest.substr(space));
+  const auto parsed = error_code_from_string(code);
+  if (!parsed || *parsed == ErrorCode::kOk) {
+    return syntax(line, "expect", "unknown error code '" + std::string(code) + "'");
+  }
+  v.expected_error = *parsed;
+  if (tail == "framing_lost") {
+    v.framing_lost = true;
+  } else if (!tail.empty()) {
+    return syntax(line, "expect", "expected 'framing_lost' after the error code");
+  }
+  return Ok{};
+}
+
+Outcome parse_roundtrip(std::string_view value, std::size_t line, GoldenVector& v) {
+  if (value == "yes") {
+    v.roundtrip = true;
+  } else if (value == "no") {
+    v.roundtrip = false;
+  } else {
+    return syntax(line, "roundtrip", "expected yes or no");
+  }
+  return Ok{};
+}
+
+// One line of hex digits (spaces and tabs between them ignored), appended to the vector's bytes.
+Outcome parse_hex(std::string_view value, std::size_t line, GoldenVector& v) {
+  int high = -1;
+  for (const char c : value) {
+    if (c == ' ' || c == '\t') continue;
+    const int d = hex_digit(c);
+    if (d < 0) return syntax(line, "hex", "not a hex digit");
+    if (high < 0) {
+      high = d;
+    } else {
+      v.bytes.push_back(static_cast<std::uint8_t>(high * 16 + d));
+      high = -1;
+    }
+  }
+  if (high >= 0) return syntax(line, "hex", "odd number of hex digits on the line");
+  return Ok{};
+}
+
 }  // namespace
 
 Result<GoldenVector> parse_vector(std::string_view text) {
@@ -93,70 +162,27 @@ Result<GoldenVector> parse_vector(std::string_view text) {
     if (colon == std::string_view::npos) return syntax(line_no, "line", "expected 'key: value'");
     const std::string_view key = trim(line.substr(0, colon));
     const std::string_view value = trim(line.substr(colon + 1));
+    Outcome parsed = Ok{};
     if (key == "name") {
       if (value.empty()) return syntax(line_no, "name", "empty name");
       v.name = std::string(value);
       have_name = true;
     } else if (key == "direction") {
-      if (value == "host_to_daemon") {
-        v.direction = GoldenVector::Direction::kHostToDaemon;
-      } else if (value == "daemon_to_host") {
-        v.direction = GoldenVector::Direction::kDaemonToHost;
-      } else {
-        return syntax(line_no, "direction", "expected host_to_daemon or daemon_to_host");
-      }
+      parsed = parse_direction(value, line_no, v);
       have_direction = true;
     } else if (key == "expect") {
-      if (value == "ok") {
-        v.expect_ok = true;
-      } else if (value.starts_with("error")) {
-        v.expect_ok = false;
-        std::string_view rest = trim(value.substr(5));
-        const auto space = rest.find_first_of(" \t");
-        const std::string_view code = rest.substr(0, space);
-        const std::string_view tail =
-            space == std::string_view::npos ? std::string_view{} : trim(rest.substr(space));
-        const auto parsed = error_code_from_string(code);
-        if (!parsed || *parsed == ErrorCode::kOk) {
-          return syntax(line_no, "expect", "unknown error code '" + std::string(code) + "'");
-        }
-        v.expected_error = *parsed;
-        if (tail == "framing_lost") {
-          v.framing_lost = true;
-        } else if (!tail.empty()) {
-          return syntax(line_no, "expect", "expected 'framing_lost' after the error code");
-        }
-      } else {
-        return syntax(line_no, "expect", "expected 'ok' or 'error CODE [framing_lost]'");
-      }
+      parsed = parse_expect(value, line_no, v);
       have_expect = true;
     } else if (key == "field") {
       v.field = std::string(value);
     } else if (key == "roundtrip") {
-      if (value == "yes") {
-        v.roundtrip = true;
-      } else if (value == "no") {
-        v.roundtrip = false;
-      } else {
-        return syntax(line_no, "roundtrip", "expected yes or no");
-      }
+      parsed = parse_roundtrip(value, line_no, v);
     } else if (key == "hex") {
-      int high = -1;
-      for (const char c : value) {
-        if (c == ' ' || c == '\t') continue;
-        const int d = hex_digit(c);
-        if (d < 0) return syntax(line_no, "hex", "not a hex digit");
-        if (high < 0) {
-          high = d;
-        } else {
-          v.bytes.push_back(static_cast<std::uint8_t>(high * 16 + d));
-          high = -1;
-        }
-      }
-      if (high >= 0) return syntax(line_no, "hex", "odd number of hex digits on the line");
+      parsed = parse_hex(value, line_no, v);
       have_hex = true;
     }
     // Unknown keys are ignored.
+    if (!parsed) return std::move(parsed).error();
   }
   if (!have_name) return syntax(line_no, "name", "missing 'name:'");
   if (!have_direction) return syntax(line_no, "direction", "missing 'direction:'");
