@@ -315,7 +315,7 @@ void value_vectors(std::vector<Written>& out) {
       "Control characters (U+0000..U+001F, U+007F) are not allowed in strings.");
 }
 
-// Refused by version: 1.0 layouts and types, and 1.1 fields.
+// Refused by version: 1.0 layouts and types, and 1.2 types in a 1.1 frame.
 void version_vectors(std::vector<Written>& out) {
   const BadVector bad{out};
   bad(
@@ -343,6 +343,11 @@ void version_vectors(std::vector<Written>& out) {
         refresh(b);
       },
       "FetchRecording (0x0151) in a frame that says 1.1: 1.1 has no such type.");
+}
+
+// Refused 1.2 payloads: the black box's chunks, lists, names and durations.
+void black_box_vectors(std::vector<Written>& out) {
+  const BadVector bad{out};
   bad(
       "bad_bytes_length", "recording_chunk", ErrorCode::kBadCount, false, "data",
       [](Bytes& b, std::size_t at) {
@@ -379,6 +384,12 @@ void version_vectors(std::vector<Written>& out) {
         refresh(b);
       },
       "SaveRecording of the last NaN seconds.");
+}
+
+// Refused values of the robot and its motion: RobotModel's wheel polarity, Welcome's driver kind,
+// Drive and Approach.
+void robot_and_drive_vectors(std::vector<Written>& out) {
+  const BadVector bad{out};
   bad(
       "invalid_polarity", "robot_model", ErrorCode::kInvalidEnumValue, false, "left.polarity",
       [](Bytes& b, std::size_t at) {
@@ -444,5 +455,7 @@ int main(int argc, char** argv) {
   enum_vectors(out);
   value_vectors(out);
   version_vectors(out);
+  black_box_vectors(out);
+  robot_and_drive_vectors(out);
   return write_vectors(argv[1], out);
 }
