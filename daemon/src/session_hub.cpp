@@ -207,19 +207,7 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
   s.last_activity = Clock::now();
 
   const MessageType type = protocol::type_of(envelope.message);
-  if (!protocol::is_request(type)) {
-    refuse(s, envelope, ErrorCode::kUnknownMessageType, rf::kHeaderType,
-           std::string(protocol::to_string(type)) +
-               " is a daemon-to-host message: the daemon does not accept it");
-    return;
-  }
-  if (protocol::minor_of(type) > s.minor) {
-    refuse(s, envelope, ErrorCode::kUnknownMessageType, rf::kHeaderType,
-           std::string(protocol::to_string(type)) + " is defined from protocol 1." +
-               std::to_string(protocol::minor_of(type)) + "; this session's Hello said 1." +
-               std::to_string(s.minor));
-    return;
-  }
+  if (refuse_unknown_type(s, envelope)) return;
   if (shutting_down_ && !is_stop(type)) {
     refuse(s, envelope, ErrorCode::kShuttingDown, "",
            "the daemon is shutting down: only Stop and EmergencyStop are executed; reconnect "
@@ -231,27 +219,60 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
     return;
   }
   if (is_stop(type)) {  // from any session, greeted or not, unless its certificate may not stop
-    if (!link.access().may_stop) {
-      refuse(s, envelope, ErrorCode::kNotController, "",
-             "identity " + link.access().identity +
-                 " may not stop the robot (network.tls.identities: may_stop false)");
-      return;
-    }
-    spdlog::info("{}: {}", describe(s), protocol::to_string(type));
-    engine_.catch_up();
-    const EventDeferral after_reply(*this);
-    reply(s, envelope.request_id, call_engine(envelope.message));
+    handle_stop(link, s, envelope);
     return;
   }
   if (!s.greeted) {
     refuse(s, envelope, ErrorCode::kHelloRequired, "", "send Hello first");
     return;
   }
-  switch (type) {
+  if (handle_any_session_request(s, envelope)) return;
+  if (needs_controller(type)) {
+    handle_command(s, envelope);
+    return;
+  }
+  refuse(s, envelope, ErrorCode::kUnknownMessageType, rf::kHeaderType,
+         std::string(protocol::to_string(type)) + " is not handled by this daemon");
+}
+
+bool SessionHub::refuse_unknown_type(SessionState& s, const protocol::Envelope& envelope) {
+  const MessageType type = protocol::type_of(envelope.message);
+  if (!protocol::is_request(type)) {
+    refuse(s, envelope, ErrorCode::kUnknownMessageType, rf::kHeaderType,
+           std::string(protocol::to_string(type)) +
+               " is a daemon-to-host message: the daemon does not accept it");
+    return true;
+  }
+  if (protocol::minor_of(type) > s.minor) {
+    refuse(s, envelope, ErrorCode::kUnknownMessageType, rf::kHeaderType,
+           std::string(protocol::to_string(type)) + " is defined from protocol 1." +
+               std::to_string(protocol::minor_of(type)) + "; this session's Hello said 1." +
+               std::to_string(s.minor));
+    return true;
+  }
+  return false;
+}
+
+void SessionHub::handle_stop(SessionLink& link, SessionState& s,
+                             const protocol::Envelope& envelope) {
+  if (!link.access().may_stop) {
+    refuse(s, envelope, ErrorCode::kNotController, "",
+           "identity " + link.access().identity +
+               " may not stop the robot (network.tls.identities: may_stop false)");
+    return;
+  }
+  spdlog::info("{}: {}", describe(s), protocol::to_string(protocol::type_of(envelope.message)));
+  engine_.catch_up();
+  const EventDeferral after_reply(*this);
+  reply(s, envelope.request_id, call_engine(envelope.message));
+}
+
+bool SessionHub::handle_any_session_request(SessionState& s, const protocol::Envelope& envelope) {
+  switch (protocol::type_of(envelope.message)) {
     case MessageType::kPing: {
       const auto& ping = std::get<protocol::Ping>(envelope.message);
       reply(s, envelope.request_id, protocol::Pong{ping.client_time_ns, engine_.daemon_time_ns()});
-      return;
+      return true;
     }
     case MessageType::kGetStatus: {
       protocol::Status status = engine_.status();
@@ -259,28 +280,22 @@ void SessionHub::on_message(SessionLink& link, const protocol::Envelope& envelop
       status.session_count = static_cast<std::uint16_t>(
           std::min<std::size_t>(sessions_.size(), std::numeric_limits<std::uint16_t>::max()));
       reply(s, envelope.request_id, status);
-      return;
+      return true;
     }
     case MessageType::kSubscribe:
       handle_subscribe(s, envelope);
-      return;
+      return true;
     case MessageType::kGetRobotModel:
       reply(s, envelope.request_id, engine_.robot_model());
-      return;
+      return true;
     case MessageType::kListRecordings:
     case MessageType::kFetchRecording:
     case MessageType::kSaveRecording:
       handle_recordings(s, envelope);
-      return;
+      return true;
     default:
-      break;
+      return false;
   }
-  if (needs_controller(type)) {
-    handle_command(s, envelope);
-    return;
-  }
-  refuse(s, envelope, ErrorCode::kUnknownMessageType, rf::kHeaderType,
-         std::string(protocol::to_string(type)) + " is not handled by this daemon");
 }
 
 void SessionHub::handle_hello(SessionState& s, const protocol::Envelope& envelope) {

@@ -166,7 +166,15 @@ class SessionHub final : public SessionHandler {
     Clock::time_point next_telemetry{};
   };
 
+  // UNKNOWN_MESSAGE_TYPE for a type the session may not send (a daemon-to-host type, or one newer
+  // than its Hello's minor); whether it refused.
+  bool refuse_unknown_type(SessionState& s, const protocol::Envelope& envelope);
   void handle_hello(SessionState& s, const protocol::Envelope& envelope);
+  // Stop and EmergencyStop: from any session, greeted or not, unless its TLS identity may not stop.
+  void handle_stop(SessionLink& link, SessionState& s, const protocol::Envelope& envelope);
+  // Answers what any greeted session may ask (Ping, GetStatus, Subscribe, GetRobotModel, the
+  // black box); false for any other request.
+  bool handle_any_session_request(SessionState& s, const protocol::Envelope& envelope);
   void handle_subscribe(SessionState& s, const protocol::Envelope& envelope);
   void handle_command(SessionState& s, const protocol::Envelope& envelope);
   void handle_recordings(SessionState& s, const protocol::Envelope& envelope);
