@@ -489,15 +489,27 @@ void black_box_refusals(Covered& covered, std::vector<std::string>& violations) 
   }
 }
 
-// The measurements' validation (core) and the procedure's order, for each request in turn.
-void procedure_refusals(Covered& covered, std::vector<std::string>& violations) {
+// Two-point picks (`make(p1, p2)`): each point out of range, too close, in depth, not side by
+// side, then the pair `wide_p1`, `wide_p2` out of the measurement's range.
+template <typename Make>
+void two_point_refusals(World& w, Link& c, Make make, std::string_view range_field,
+                        ErrorCode range_code, core::FramedPoint wide_p1,
+                        core::FramedPoint wide_p2) {
+  namespace cf = core::fields;
+  const auto ok1 = base_point(1.5, 0.40, 1.0);
+  const auto ok2 = base_point(1.5, -0.20, 1.0);
+  w.refused(c, make(far_point(), ok2), ErrorCode::kPointOutOfDepthRange, cf::kP1);
+  w.refused(c, make(ok1, far_point()), ErrorCode::kPointOutOfDepthRange, cf::kP2);
+  w.refused(c, make(ok1, ok1), ErrorCode::kPointsTooClose, cf::kP2);
+  w.refused(c, make(ok1, base_point(2.0, 0.40, 1.0)), ErrorCode::kAmbiguousDirection, cf::kP2);
+  w.refused(c, make(ok1, base_point(2.5, 0.30, 1.0)), ErrorCode::kPointsNotSideBySide, cf::kP2);
+  w.refused(c, make(wide_p1, wide_p2), range_code, range_field);
+}
+
+// Nothing measured yet; then the width's and the handle's picks, each accepted in the end.
+void width_and_handle_refusals(World& w, Link& c) {
   namespace rf = protocol::refusal_field;
   namespace cf = core::fields;
-  World w(covered, violations, Options{.configure = [](daemon::Config& c) {
-            c.drive.stale_travel_m = 0.1;
-            c.drive.stale_yaw_rad = 0.2;
-          }});
-  Link& c = w.greeted(Role::kController);
   // Nothing measured.
   for (const Message& m :
        {Message{good_handle()}, Message{plane_at_yaw(0.1)}, Message{good_contact()},
@@ -505,19 +517,8 @@ void procedure_refusals(Covered& covered, std::vector<std::string>& violations) 
     w.refused(c, m, ErrorCode::kMissingDoorWidth, "");
   w.refused(c, protocol::Approach{0.6}, ErrorCode::kNoDoorDistance, "");
   w.refused(c, protocol::Approach{0.1}, ErrorCode::kStandoffOutOfRange, rf::kStandoff);
-  // Two-point picks, for the width and (once it is measured) the handle.
-  const auto pairs = [&](auto make, std::string_view range_field, ErrorCode range_code,
-                         core::FramedPoint wide_p1, core::FramedPoint wide_p2) {
-    const auto ok1 = base_point(1.5, 0.40, 1.0);
-    const auto ok2 = base_point(1.5, -0.20, 1.0);
-    w.refused(c, make(far_point(), ok2), ErrorCode::kPointOutOfDepthRange, cf::kP1);
-    w.refused(c, make(ok1, far_point()), ErrorCode::kPointOutOfDepthRange, cf::kP2);
-    w.refused(c, make(ok1, ok1), ErrorCode::kPointsTooClose, cf::kP2);
-    w.refused(c, make(ok1, base_point(2.0, 0.40, 1.0)), ErrorCode::kAmbiguousDirection, cf::kP2);
-    w.refused(c, make(ok1, base_point(2.5, 0.30, 1.0)), ErrorCode::kPointsNotSideBySide, cf::kP2);
-    w.refused(c, make(wide_p1, wide_p2), range_code, range_field);
-  };
-  pairs(
+  two_point_refusals(
+      w, c,
       [](auto a, auto b) {
         return Message{protocol::MeasureDoorWidth{a, b}};
       },
@@ -527,17 +528,22 @@ void procedure_refusals(Covered& covered, std::vector<std::string>& violations) 
   for (const Message& m : {Message{plane_at_yaw(0.1)}, Message{good_contact()},
                            Message{protocol::AlignBase{}}, Message{protocol::Engage{}}})
     w.refused(c, m, ErrorCode::kMissingHandle, "");
-  pairs(
+  two_point_refusals(
+      w, c,
       [](auto a, auto b) {
         return Message{protocol::MeasureHandle{a, b}};
       },
       cf::kHandleLength, ErrorCode::kHandleLengthOutOfRange, base_point(1.45, 0.2, 1.0),
       base_point(1.45, -0.42, 1.0));
   w.accepted(c, good_handle());
+}
+
+// The plane's picks, then the plane 0.65 rad off, within the correction (0.7 rad), accepted.
+void plane_refusals(World& w, Link& c) {
+  namespace cf = core::fields;
   for (const Message& m :
        {Message{good_contact()}, Message{protocol::AlignBase{}}, Message{protocol::Engage{}}})
     w.refused(c, m, ErrorCode::kMissingPlane, "");
-  // Plane picks.
   auto plane = plane_at_yaw(0.1);
   plane.points[1] = far_point();
   w.refused(c, plane, ErrorCode::kPointOutOfDepthRange, core::point_field(1));
@@ -556,9 +562,14 @@ void procedure_refusals(Covered& covered, std::vector<std::string>& violations) 
   bumpy.points[3] = base_point(1.7, 0.0, 0.9);
   w.refused(c, bumpy, ErrorCode::kPlaneResidualTooLarge, cf::kRmsResidual);
   w.refused(c, plane_at_yaw(1.0), ErrorCode::kYawOutOfRange, cf::kYawDeviation);
-  // The plane 0.65 rad off, within the correction (0.7 rad); ready to align.
   w.accepted(c, plane_at_yaw(0.65));
-  ASSERT_EQ(w.state(), ProcedureState::kReadyToAlign);
+}
+
+// Ready to align: what waits for the alignment, a correction grown too large, a stale plane, the
+// approach's own checks, then aligned: the contact point's refusals, and a stale contact point.
+void alignment_refusals(World& w, Link& c) {
+  namespace rf = protocol::refusal_field;
+  namespace cf = core::fields;
   w.refused(c, good_contact(), ErrorCode::kNotAligned, "");
   w.refused(c, protocol::Engage{}, ErrorCode::kNotAligned, "");
   w.refused(c, protocol::Approach{0.6}, ErrorCode::kNotSquareToDoor, rf::kDoorYaw);
@@ -586,7 +597,10 @@ void procedure_refusals(Covered& covered, std::vector<std::string>& violations) 
   w.accepted(c, good_contact());
   w.jog(c, -0.1, 0, 1.4);
   w.refused(c, protocol::Engage{}, ErrorCode::kMeasurementStale, rf::kContact);
-  // While a jog runs: measurements wait for rest, Approach too.
+}
+
+// While a jog runs: measurements wait for rest, Approach too. Then a fault latched.
+void motion_and_fault_refusals(World& w, Link& c) {
   w.accepted(c, protocol::Drive{-0.1, 0});
   w.cycles(20);
   w.refused(c, good_width(), ErrorCode::kMotionInProgress, "");
@@ -600,6 +614,20 @@ void procedure_refusals(Covered& covered, std::vector<std::string>& violations) 
         Message{good_contact()}, Message{protocol::AlignBase{}}, Message{protocol::Engage{}},
         Message{protocol::Drive{0.1, 0}}, Message{protocol::Approach{0.6}}})
     w.refused(c, m, ErrorCode::kFaultLatched, "");
+}
+
+// The measurements' validation (core) and the procedure's order, for each request in turn.
+void procedure_refusals(Covered& covered, std::vector<std::string>& violations) {
+  World w(covered, violations, Options{.configure = [](daemon::Config& c) {
+            c.drive.stale_travel_m = 0.1;
+            c.drive.stale_yaw_rad = 0.2;
+          }});
+  Link& c = w.greeted(Role::kController);
+  width_and_handle_refusals(w, c);
+  plane_refusals(w, c);
+  ASSERT_EQ(w.state(), ProcedureState::kReadyToAlign);
+  alignment_refusals(w, c);
+  motion_and_fault_refusals(w, c);
 }
 
 // Picks whose base-frame coordinates overflow (a turned camera): NON_FINITE naming the coordinate.
