@@ -658,6 +658,34 @@ TEST(ReplyOrder, RandomHostileOrderingsKeepEveryReplyBeforeTheEventsItCauses) {
   }
 }
 
+// The engine on `clock`, its loop run by hand (run_loop_cycle), over the deterministic card and
+// an arm that never finishes its task.
+std::unique_ptr<daemon::Engine> engine_with_stuck_arm(const daemon::Config& config,
+                                                      FakeClock& clock) {
+  drivers::DriverSet set;
+  set.card = make_det_card(clock);
+  set.arm =
+      std::make_unique<drivers::MockManipulator>(drivers::MockArmFault::kStuck, 40, clock.clock());
+  daemon::EngineOptions options;
+  options.now_ns = clock.clock();
+  options.manual_loop = true;
+  return daemon::make_engine(config, std::move(set), std::move(options));
+}
+
+// What `l` received from its frame `from` on: each message's type, an event's kind instead.
+std::vector<std::string> frame_kinds(const Link& l, std::size_t from) {
+  std::vector<std::string> out;
+  for (std::size_t i = from; i < l.frames.size(); ++i) {
+    const auto d = protocol::decode_frame(*l.frames[i]);
+    if (const auto* e = std::get_if<protocol::Event>(&d.envelope.message)) {
+      out.push_back(std::string(protocol::to_string(e->kind)));
+    } else {
+      out.push_back(std::string(protocol::to_string(protocol::type_of(d.envelope.message))));
+    }
+  }
+  return out;
+}
+
 // A take-over while the loop's report of a finished motion has not been taken yet (the I/O thread
 // polls the engine every few ms; the loop reports at once): that motion finished before the
 // Hello, so its events go out before the control_changed, and the new controller — not greeted
@@ -668,14 +696,7 @@ TEST(ReplyOrder, ATakeOverCatchesUpBeforeItsWelcome) {
   auto config = test_config(dir.path());
   config.recorder.enabled = false;
   FakeClock clock;
-  drivers::DriverSet set;
-  set.card = make_det_card(clock);
-  set.arm =
-      std::make_unique<drivers::MockManipulator>(drivers::MockArmFault::kStuck, 40, clock.clock());
-  daemon::EngineOptions options;
-  options.now_ns = clock.clock();
-  options.manual_loop = true;
-  auto engine = daemon::make_engine(config, std::move(set), std::move(options));
+  auto engine = engine_with_stuck_arm(config, clock);
   daemon::SessionHub hub(*engine);
   engine->set_event_sink([&hub](const protocol::Event& e) { hub.on_event(e); });
   engine->start();
@@ -719,26 +740,14 @@ TEST(ReplyOrder, ATakeOverCatchesUpBeforeItsWelcome) {
   hello.client_instance_id = b.instance;
   send(b, hello);
   settle();
-  const auto kinds = [](const Link& l, std::size_t from) {
-    std::vector<std::string> out;
-    for (std::size_t i = from; i < l.frames.size(); ++i) {
-      const auto d = protocol::decode_frame(*l.frames[i]);
-      if (const auto* e = std::get_if<protocol::Event>(&d.envelope.message)) {
-        out.push_back(std::string(protocol::to_string(e->kind)));
-      } else {
-        out.push_back(std::string(protocol::to_string(protocol::type_of(d.envelope.message))));
-      }
-    }
-    return out;
-  };
-  const auto seen_by_o = kinds(o, o_before);
+  const auto seen_by_o = frame_kinds(o, o_before);
   const auto finished = std::find(seen_by_o.begin(), seen_by_o.end(), "motion_finished");
   const auto changed = std::find(seen_by_o.begin(), seen_by_o.end(), "control_changed");
   ASSERT_NE(finished, seen_by_o.end()) << "the alignment did not finish";
   ASSERT_NE(changed, seen_by_o.end());
   EXPECT_LT(finished, changed)
       << "the observer was told the alignment finished after the take-over";
-  const auto seen_by_b = kinds(b, 0);
+  const auto seen_by_b = frame_kinds(b, 0);
   ASSERT_FALSE(seen_by_b.empty());
   EXPECT_EQ(seen_by_b.front(), "Welcome");
   EXPECT_EQ(std::count(seen_by_b.begin(), seen_by_b.end(), "motion_finished"), 0)
