@@ -257,35 +257,131 @@ class Controller {
   std::atomic<int> aligns_{0};
 };
 
+// The command line: --fifo and --no-controller, then the harnesses' own options.
+struct FanoutOptions {
+  Options common;
+  bool fifo = false;
+  bool with_controller = true;
+};
+FanoutOptions parse_fanout_options(int argc, char** argv) {
+  FanoutOptions f;
+  std::vector<char*> rest;
+  for (int i = 0; i < argc; ++i) {
+    if (std::string(argv[i]) == "--fifo")
+      f.fifo = true;
+    else if (std::string(argv[i]) == "--no-controller")  // diagnosis: observers only
+      f.with_controller = false;
+    else
+      rest.push_back(argv[i]);
+  }
+  f.common = Options::parse(static_cast<int>(rest.size()), rest.data());
+  return f;
+}
+
+// The daemon's config: --config as it is, or with --fifo a copy with control.realtime and
+// lock_memory on.
+std::string daemon_config(const Options& o, bool fifo) {
+  if (!fifo) return o.config;
+  const std::string config = o.dir + "/fifo.yaml";
+  write_config(
+      o.config, config,
+      {{"realtime: false", "realtime: true"}, {"lock_memory: false", "lock_memory: true"}});
+  return config;
+}
+
+// `observers` greeted observers of ajard (on `daemon_port`), and kObservers connections to the
+// bare server, accepted by it.
+void connect_observers(Observers& on_daemon, Observers& on_bare, std::uint16_t daemon_port,
+                       BareFanout& bare, int observers) {
+  for (int i = 0; i < observers; ++i) {
+    Conn c(daemon_port);
+    (void)c.hello(Role::kObserver, "bench-observer");
+    on_daemon.add(std::move(c));
+  }
+  std::thread connector([&] {
+    for (int i = 0; i < kObservers; ++i)
+      on_bare.add(Conn(bare.port()));
+  });
+  bare.accept_all();
+  connector.join();
+}
+
+void sleep_block(double block_s) {
+  std::this_thread::sleep_for(std::chrono::duration<double>(block_s));
+}
+
+// Idle: nobody subscribed, controller paused, bare server paused. The loop's timing over the block
+// (its statistics reset at the start); what the observers got meanwhile is dropped.
+TimingWindow idle_block(Conn& control, Observers& on_daemon, Observers& on_bare, double block_s) {
+  (void)control.request(ResetLoopStatistics{});
+  sleep_block(block_s);
+  TimingWindow idle = loop_timing(control);
+  (void)on_daemon.take_block();
+  (void)on_bare.take_block();
+  return idle;
+}
+
+// Bare: the bare fan-out server alone. The telemetry inter-arrival at its observers.
+Quantiles bare_block(BareFanout& bare, Observers& on_bare, Observers& on_daemon, double block_s) {
+  (void)on_bare.take_block();
+  bare.set_active(true);
+  sleep_block(block_s);
+  bare.set_active(false);
+  const auto bare_gaps = quantiles(on_bare.take_block());
+  (void)on_daemon.take_block();
+  return bare_gaps;
+}
+
+// The figures of the run, one pair per cycle: the loop's timing loaded vs idle, the telemetry
+// inter-arrival on ajard vs the bare server; the daemon's CPU over the loaded blocks.
+struct Figures {
+  Paired lat_p99, lat_p999, lat_max, period_p99, exec_p99, gap_p999, gap_max;
+  double cpu_s = 0, loaded_s = 0;
+
+  void add_cycle(const TimingWindow& idle, const TimingWindow& loaded, const Quantiles& bare_gaps,
+                 const Quantiles& daemon_gaps) {
+    lat_p99.add(idle.latency.p99_ns / 1e3, loaded.latency.p99_ns / 1e3);
+    lat_p999.add(idle.latency.p999_ns / 1e3, loaded.latency.p999_ns / 1e3);
+    lat_max.add(idle.latency.max_ns / 1e3, loaded.latency.max_ns / 1e3);
+    period_p99.add(idle.period.p99_ns / 1e3, loaded.period.p99_ns / 1e3);
+    exec_p99.add(idle.execution.p99_ns / 1e3, loaded.execution.p99_ns / 1e3);
+    gap_p999.add(bare_gaps.p999 / 1e6, daemon_gaps.p999 / 1e6);
+    gap_max.add(bare_gaps.max / 1e6, daemon_gaps.max / 1e6);
+  }
+  void print(int observers, const std::string& mode, bool fifo, int aligns, int dropped) const {
+    const std::string load = std::to_string(observers) + " observers, " + mode;
+    compare_row("loop wake-up latency p99 with " + load, lat_p99, "us", fifo ? "<= 1.1x" : "",
+                "vs idle blocks; " + std::to_string(aligns) + " aligns meanwhile");
+    compare_row("loop wake-up latency p99.9 with " + load, lat_p999, "us", "", "vs idle blocks");
+    compare_row("loop wake-up latency max with " + load, lat_max, "us", "", "vs idle blocks",
+                Over::kMax);
+    compare_row("loop period p99 with " + load, period_p99, "us", "", "vs idle blocks");
+    compare_row("loop cycle execution p99 with " + load, exec_p99, "us", "", "vs idle blocks");
+    compare_row("telemetry inter-arrival p99.9, " + mode, gap_p999, "ms", "",
+                "vs bare fan-out server blocks");
+    compare_row("telemetry inter-arrival max, " + mode, gap_max, "ms", "<= 1.2x",
+                "vs bare fan-out server blocks", Over::kMax);
+    row("sessions dropped, " + mode, dropped, "", std::nullopt, "0");
+    row("daemon CPU under fan-out, " + mode, loaded_s > 0 ? 100 * cpu_s / loaded_s : 0,
+        "% of a core", std::nullopt, "", "loaded blocks only");
+  }
+};
+
 }  // namespace
 }  // namespace ajar::bench
 
 int main(int argc, char** argv) {
   using namespace ajar::bench;
   using namespace ajar::protocol;
-  bool fifo = false, with_controller = true;
-  std::vector<char*> rest;
-  for (int i = 0; i < argc; ++i) {
-    if (std::string(argv[i]) == "--fifo")
-      fifo = true;
-    else if (std::string(argv[i]) == "--no-controller")  // diagnosis: observers only
-      with_controller = false;
-    else
-      rest.push_back(argv[i]);
-  }
-  const Options o = Options::parse(static_cast<int>(rest.size()), rest.data());
+  const FanoutOptions fo = parse_fanout_options(argc, argv);
+  const Options& o = fo.common;
+  const bool fifo = fo.fifo;
   if (o.ajard.empty() || o.config.empty()) fail("--ajard and --config are required");
   const int cycles = o.smoke ? 2 : kMinBlocks;
   const double block_s = o.smoke ? 0.5 : 2.0;
   const int observers = o.smoke ? 16 : kObservers;
   const std::string mode = fifo ? "SCHED_FIFO" : "SCHED_OTHER";
-  std::string config = o.config;
-  if (fifo) {
-    config = o.dir + "/fifo.yaml";
-    write_config(
-        o.config, config,
-        {{"realtime: false", "realtime: true"}, {"lock_memory: false", "lock_memory: true"}});
-  }
+  const std::string config = daemon_config(o, fifo);
   const Placement where = placement();
   pin_this_thread(where.client);  // this thread, the observers' readers, the controller
   info("fan-out (" + mode + "): load average " + load_average() + " at start; " +
@@ -300,19 +396,7 @@ int main(int argc, char** argv) {
   Daemon d(o.ajard, config, o.dir + "/fanout", where.server);
   auto bare = created_on(where.server, [] { return std::make_unique<BareFanout>(); });
   Observers on_daemon, on_bare;
-  for (int i = 0; i < observers; ++i) {
-    Conn c(d.port());
-    (void)c.hello(Role::kObserver, "bench-observer");
-    on_daemon.add(std::move(c));
-  }
-  {
-    std::thread connector([&] {
-      for (int i = 0; i < kObservers; ++i)
-        on_bare.add(Conn(bare->port()));
-    });
-    bare->accept_all();
-    connector.join();
-  }
+  connect_observers(on_daemon, on_bare, d.port(), *bare, observers);
   Conn control(d.port());
   if (control.hello(Role::kController, "bench-controller").granted_role != Role::kController)
     fail("controller role not granted");
@@ -324,68 +408,34 @@ int main(int argc, char** argv) {
   });
   Controller controller(control);  // its thread on the client CPU; uses `control` only when active
 
-  const auto block = [&] { std::this_thread::sleep_for(std::chrono::duration<double>(block_s)); };
-  Paired lat_p99, lat_p999, lat_max, period_p99, exec_p99, gap_p999, gap_max;
-  double cpu_s = 0, loaded_s = 0;
-  TimingWindow idle;
+  Figures figures;
   for (int c = 0; c < cycles; ++c) {
-    // Idle: nobody subscribed, controller paused, bare server paused.
-    (void)control.request(ResetLoopStatistics{});
-    block();
-    idle = loop_timing(control);
-    (void)on_daemon.take_block();
-    (void)on_bare.take_block();
+    const TimingWindow idle = idle_block(control, on_daemon, on_bare, block_s);
 
     // Loaded: every observer subscribed, the controller aligning.
     (void)control.request(ResetLoopStatistics{});
     subscribe_all(on_daemon.conns(), kTelemetryHz);
     const double cpu0 = d.cpu_s();
     const std::int64_t t0 = now_ns();
-    controller.set_active(with_controller);
-    block();
+    controller.set_active(fo.with_controller);
+    sleep_block(block_s);
     controller.set_active(false);  // waits for the alignment under way
-    cpu_s += d.cpu_s() - cpu0;
-    loaded_s += static_cast<double>(now_ns() - t0) * 1e-9;
+    figures.cpu_s += d.cpu_s() - cpu0;
+    figures.loaded_s += static_cast<double>(now_ns() - t0) * 1e-9;
     const TimingWindow loaded = loop_timing(control);
     const auto daemon_gaps = quantiles(on_daemon.take_block());
     subscribe_all(on_daemon.conns(), 0);
 
-    // Bare: the bare fan-out server alone.
-    (void)on_bare.take_block();
-    bare->set_active(true);
-    block();
-    bare->set_active(false);
-    const auto bare_gaps = quantiles(on_bare.take_block());
-    (void)on_daemon.take_block();
+    const auto bare_gaps = bare_block(*bare, on_bare, on_daemon, block_s);
 
-    lat_p99.add(idle.latency.p99_ns / 1e3, loaded.latency.p99_ns / 1e3);
-    lat_p999.add(idle.latency.p999_ns / 1e3, loaded.latency.p999_ns / 1e3);
-    lat_max.add(idle.latency.max_ns / 1e3, loaded.latency.max_ns / 1e3);
-    period_p99.add(idle.period.p99_ns / 1e3, loaded.period.p99_ns / 1e3);
-    exec_p99.add(idle.execution.p99_ns / 1e3, loaded.execution.p99_ns / 1e3);
-    gap_p999.add(bare_gaps.p999 / 1e6, daemon_gaps.p999 / 1e6);
-    gap_max.add(bare_gaps.max / 1e6, daemon_gaps.max / 1e6);
+    figures.add_cycle(idle, loaded, bare_gaps, daemon_gaps);
   }
   const int aligns = controller.aligns();
   on_daemon.stop();
   on_bare.stop();
   const int dropped = on_daemon.dropped();
 
-  const std::string load = std::to_string(observers) + " observers, " + mode;
-  compare_row("loop wake-up latency p99 with " + load, lat_p99, "us", fifo ? "<= 1.1x" : "",
-              "vs idle blocks; " + std::to_string(aligns) + " aligns meanwhile");
-  compare_row("loop wake-up latency p99.9 with " + load, lat_p999, "us", "", "vs idle blocks");
-  compare_row("loop wake-up latency max with " + load, lat_max, "us", "", "vs idle blocks",
-              Over::kMax);
-  compare_row("loop period p99 with " + load, period_p99, "us", "", "vs idle blocks");
-  compare_row("loop cycle execution p99 with " + load, exec_p99, "us", "", "vs idle blocks");
-  compare_row("telemetry inter-arrival p99.9, " + mode, gap_p999, "ms", "",
-              "vs bare fan-out server blocks");
-  compare_row("telemetry inter-arrival max, " + mode, gap_max, "ms", "<= 1.2x",
-              "vs bare fan-out server blocks", Over::kMax);
-  row("sessions dropped, " + mode, dropped, "", std::nullopt, "0");
-  row("daemon CPU under fan-out, " + mode, loaded_s > 0 ? 100 * cpu_s / loaded_s : 0, "% of a core",
-      std::nullopt, "", "loaded blocks only");
+  figures.print(observers, mode, fifo, aligns, dropped);
   info("fan-out (" + mode + "): load average " + load_average() + " at the end");
   return dropped == 0 ? 0 : 1;
 }
