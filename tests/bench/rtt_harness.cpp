@@ -159,6 +159,89 @@ class Controller {
   std::atomic<std::uint64_t> commands_{0};
 };
 
+// 1. ajard vs the echo server: A (echo) B (ajard) A B ...
+void rtt_vs_echo(Conn& to_daemon, Conn& to_echo, int blocks, int per_block) {
+  SampleBlocks rtt;
+  for (int b = 0; b < blocks; ++b) {
+    auto base = ping_block(to_echo, per_block);
+    auto subject = ping_block(to_daemon, per_block);
+    rtt.add(base, subject);
+  }
+  latency_rows("Ping RTT ajard", rtt, "echo server", "<= 1.1x", "<= 1.1x");
+}
+
+// 2. The same client's Ping with the controller paused (A) and sending commands back to back
+// (B), same daemon, same connections.
+void rtt_with_controller(Conn& to_daemon, std::uint16_t port, int blocks, int per_block) {
+  SampleBlocks loaded;
+  std::uint64_t commands = 0;
+  {
+    Controller controller(port);
+    for (int b = 0; b < blocks; ++b) {
+      controller.set_active(false);
+      auto base = ping_block(to_daemon, per_block);
+      controller.set_active(true);
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));  // its first command is out
+      auto subject = ping_block(to_daemon, per_block);
+      loaded.add(base, subject);
+    }
+    controller.set_active(false);
+    commands = controller.commands();
+  }
+  latency_rows("Ping RTT, controller sending commands", loaded, "controller paused", "", "<= 1.2x",
+               true);
+  info("Ping RTT with a controller: " + std::to_string(commands) +
+       " commands (Reset, MeasureDoorWidth, MeasureHandle: each persisted) during the run");
+}
+
+// 3. A durable Ack (a command whose new state is saved before its Ack) vs the state store's
+// save done by this harness in the same directory (the fsync floor): A (floor) B (command)...
+// Target: Ack p50 <= floor p50 + one loop period. The floor's saves run on `server_cpu`.
+void durable_ack_vs_fsync_floor(const Options& o, std::uint16_t port, int server_cpu, int blocks) {
+  using namespace ajar::protocol;
+  Conn c(port);
+  if (c.hello(Role::kController, "bench-durable").granted_role != Role::kController)
+    fail("controller role not granted");
+  (void)c.request(Reset{true});
+  (void)c.request(MeasureDoorWidth{base_point(1.5, 0.40, 1.0), base_point(1.5, -0.44, 1.0)});
+  const std::size_t bytes = std::max<std::size_t>(state_file_bytes(o.dir + "/rtt/state"), 64);
+  // A sibling of the daemon's state directory: the same file system, not the daemon's files.
+  const std::string state_dir = o.dir + "/rtt/floor";
+  std::filesystem::create_directories(state_dir);
+  const double period_us = 1e6 / loop_rate_hz(o.config);
+  const int per = o.smoke ? 5 : 40;
+  SampleBlocks ack;
+  Paired budget;  // per block: Ack p50 vs floor p50 + one loop period
+  int i = 0;
+  for (int b = 0; b < blocks; ++b) {
+    std::vector<std::int64_t> floor, acks;
+    created_on(server_cpu, [&] {
+      for (int k = 0; k < per; ++k)
+        floor.push_back(fsync_floor_once(state_dir, bytes));
+      return 0;
+    });
+    for (int k = 0; k < per; ++k, ++i) {
+      // Alternating widths: each one is a new accepted state, hence saved before its Ack.
+      const double y = i % 2 ? -0.45 : -0.46;
+      const std::int64_t t0 = now_ns();
+      const auto reply =
+          c.request(MeasureDoorWidth{base_point(1.5, 0.40, 1.0), base_point(1.5, y, 1.0)});
+      acks.push_back(now_ns() - t0);
+      if (!std::holds_alternative<Ack>(reply)) fail("MeasureDoorWidth not acknowledged");
+    }
+    ack.add(floor, acks);
+    budget.add(ack.p50.base.back() + period_us, ack.p50.subject.back());
+  }
+  compare_row("durable Ack p50 (MeasureDoorWidth, saved)", ack.p50, "us", "",
+              "vs the fsync floor: the state store's save, same directory, same run");
+  compare_row("durable Ack p50 vs fsync floor + one loop period", budget, "us", "<= 1x",
+              "baseline = floor p50 + " + format_number(period_us) + " us, per block");
+  compare_row("durable Ack min", ack.min, "us", "", "vs the fsync floor's min", Over::kMin);
+  compare_row("durable Ack p99", ack.p99, "us", "", "vs the fsync floor's p99");
+  info("durable Ack: " + std::to_string(bytes) + "-byte saves in " + state_dir + "; " +
+       std::to_string(per) + " per block and side");
+}
+
 }  // namespace
 }  // namespace ajar::bench
 
@@ -183,85 +266,11 @@ int main(int argc, char** argv) {
   (void)ping_block(to_daemon, per_block);  // warm-up
   (void)ping_block(to_echo, per_block);
 
-  // 1. ajard vs the echo server: A (echo) B (ajard) A B ...
-  SampleBlocks rtt;
-  for (int b = 0; b < blocks; ++b) {
-    auto base = ping_block(to_echo, per_block);
-    auto subject = ping_block(to_daemon, per_block);
-    rtt.add(base, subject);
-  }
-  latency_rows("Ping RTT ajard", rtt, "echo server", "<= 1.1x", "<= 1.1x");
+  rtt_vs_echo(to_daemon, to_echo, blocks, per_block);
   to_echo.close();  // the echo thread sees EOF and returns
   echo.reset();
-
-  // 2. The same client's Ping with the controller paused (A) and sending commands back to back
-  // (B), same daemon, same connections.
-  SampleBlocks loaded;
-  std::uint64_t commands = 0;
-  {
-    Controller controller(daemon.port());
-    for (int b = 0; b < blocks; ++b) {
-      controller.set_active(false);
-      auto base = ping_block(to_daemon, per_block);
-      controller.set_active(true);
-      std::this_thread::sleep_for(std::chrono::milliseconds(2));  // its first command is out
-      auto subject = ping_block(to_daemon, per_block);
-      loaded.add(base, subject);
-    }
-    controller.set_active(false);
-    commands = controller.commands();
-  }
-  latency_rows("Ping RTT, controller sending commands", loaded, "controller paused", "", "<= 1.2x",
-               true);
-  info("Ping RTT with a controller: " + std::to_string(commands) +
-       " commands (Reset, MeasureDoorWidth, MeasureHandle: each persisted) during the run");
-
-  // 3. A durable Ack (a command whose new state is saved before its Ack) vs the state store's
-  // save done by this harness in the same directory (the fsync floor): A (floor) B (command)...
-  // Target: Ack p50 <= floor p50 + one loop period.
-  {
-    Conn c(daemon.port());
-    if (c.hello(Role::kController, "bench-durable").granted_role != Role::kController)
-      fail("controller role not granted");
-    (void)c.request(Reset{true});
-    (void)c.request(MeasureDoorWidth{base_point(1.5, 0.40, 1.0), base_point(1.5, -0.44, 1.0)});
-    const std::size_t bytes = std::max<std::size_t>(state_file_bytes(o.dir + "/rtt/state"), 64);
-    // A sibling of the daemon's state directory: the same file system, not the daemon's files.
-    const std::string state_dir = o.dir + "/rtt/floor";
-    std::filesystem::create_directories(state_dir);
-    const double period_us = 1e6 / loop_rate_hz(o.config);
-    const int per = o.smoke ? 5 : 40;
-    SampleBlocks ack;
-    Paired budget;  // per block: Ack p50 vs floor p50 + one loop period
-    int i = 0;
-    for (int b = 0; b < blocks; ++b) {
-      std::vector<std::int64_t> floor, acks;
-      created_on(where.server, [&] {
-        for (int k = 0; k < per; ++k)
-          floor.push_back(fsync_floor_once(state_dir, bytes));
-        return 0;
-      });
-      for (int k = 0; k < per; ++k, ++i) {
-        // Alternating widths: each one is a new accepted state, hence saved before its Ack.
-        const double y = i % 2 ? -0.45 : -0.46;
-        const std::int64_t t0 = now_ns();
-        const auto reply =
-            c.request(MeasureDoorWidth{base_point(1.5, 0.40, 1.0), base_point(1.5, y, 1.0)});
-        acks.push_back(now_ns() - t0);
-        if (!std::holds_alternative<Ack>(reply)) fail("MeasureDoorWidth not acknowledged");
-      }
-      ack.add(floor, acks);
-      budget.add(ack.p50.base.back() + period_us, ack.p50.subject.back());
-    }
-    compare_row("durable Ack p50 (MeasureDoorWidth, saved)", ack.p50, "us", "",
-                "vs the fsync floor: the state store's save, same directory, same run");
-    compare_row("durable Ack p50 vs fsync floor + one loop period", budget, "us", "<= 1x",
-                "baseline = floor p50 + " + format_number(period_us) + " us, per block");
-    compare_row("durable Ack min", ack.min, "us", "", "vs the fsync floor's min", Over::kMin);
-    compare_row("durable Ack p99", ack.p99, "us", "", "vs the fsync floor's p99");
-    info("durable Ack: " + std::to_string(bytes) + "-byte saves in " + state_dir + "; " +
-         std::to_string(per) + " per block and side");
-  }
+  rtt_with_controller(to_daemon, daemon.port(), blocks, per_block);
+  durable_ack_vs_fsync_floor(o, daemon.port(), where.server, blocks);
   info("Ping RTT: load average " + load_average() + " at the end");
   return 0;
 }
