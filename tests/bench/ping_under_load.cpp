@@ -99,12 +99,70 @@ ajar::protocol::Hello hello(ajar::protocol::Role role) {
   return h;
 }
 
-// One disk setting: a fresh daemon; an observer pings in blocks of `per_block` (one every
-// `interval_ms`), alternately with the controller paused (A) and sending a door width every 10 ms
-// (B; alternating two widths: each one is a new accepted state, saved before its Ack).
-void run(int slow_ms, int blocks, int per_block, int interval_ms,
-         const ajar::bench::Placement& where) {
-  ajar::testing::TempDir dir;
+// The controller: while active, a door width every 10 ms (two widths alternating: each one is a
+// new accepted state, saved before its Ack); set_active(false) returns once the command under way
+// was answered. Its thread runs from construction to destruction.
+class WidthController {
+ public:
+  explicit WidthController(std::uint16_t port) : thread_([this, port] { run(port); }) {}
+  ~WidthController() {
+    done_ = true;
+    thread_.join();
+  }
+  void set_active(bool on) {
+    active_ = on;
+    while (!on && busy_.load())
+      std::this_thread::sleep_for(100us);  // a "controller paused" block starts after its Ack
+  }
+  std::size_t commands() const { return commands_.load(); }  // the widths acknowledged
+
+ private:
+  void run(std::uint16_t port) {
+    Peer controller(port);
+    controller.request(hello(ajar::protocol::Role::kController));
+    auto next = Clock::now();
+    for (int i = 0; !done_.load(); ++i) {
+      if (!active_) {
+        std::this_thread::sleep_for(1ms);
+        next = Clock::now();
+        continue;
+      }
+      busy_ = true;
+      if (active_) {
+        auto width = ajar::testing::good_width();
+        width.p2_moving_edge.position_m.y() -= (i % 2) * 0.01;
+        ajar::protocol::Message reply;
+        if (controller.request(width, &reply) && std::holds_alternative<ajar::protocol::Ack>(reply))
+          ++commands_;
+      }
+      busy_ = false;
+      next += 10ms;
+      std::this_thread::sleep_until(next);
+      if (Clock::now() > next + 100ms) next = Clock::now();  // a slow save: no burst after
+    }
+  }
+
+  std::atomic<bool> done_{false}, active_{false}, busy_{false};
+  std::atomic<std::size_t> commands_{0};
+  std::thread thread_;  // last: it starts once the flags above exist
+};
+
+// `per_block` Pings of the observer, one every `interval_ms`: their round trips.
+std::vector<std::int64_t> ping_block(Peer& observer, int per_block, int interval_ms) {
+  std::vector<std::int64_t> out;
+  for (int i = 0; i < per_block; ++i) {
+    const auto sent = Clock::now();
+    if (!observer.request(ajar::protocol::Ping{})) ajar::bench::fail("Ping not answered");
+    out.push_back(
+        std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - sent).count());
+    std::this_thread::sleep_for(std::chrono::milliseconds(interval_ms));
+  }
+  return out;
+}
+
+// The shipped config on mock drivers, its state and recordings in `dir`, every save `slow_ms`
+// slower, on 127.0.0.1 at any free port.
+ajar::daemon::Config bench_config(const ajar::testing::TempDir& dir, int slow_ms) {
   ajar::daemon::Config config = ajar::daemon::load_config(AJAR_SOURCE_DIR "/config/ajard.yaml");
   config.drivers.kind = ajar::drivers::DriverKind::kMock;
   config.camera_to_base_m = ajar::testing::forward_camera_to_base_m();
@@ -113,6 +171,16 @@ void run(int slow_ms, int blocks, int per_block, int interval_ms,
   config.state.debug_write_delay_ms = slow_ms;
   config.network.bind_address = "127.0.0.1";
   config.network.port = 0;
+  return config;
+}
+
+// One disk setting: a fresh daemon; an observer pings in blocks of `per_block` (one every
+// `interval_ms`), alternately with the controller paused (A) and sending a door width every 10 ms
+// (B; alternating two widths: each one is a new accepted state, saved before its Ack).
+void run(int slow_ms, int blocks, int per_block, int interval_ms,
+         const ajar::bench::Placement& where) {
+  ajar::testing::TempDir dir;
+  const ajar::daemon::Config config = bench_config(dir, slow_ms);
   // The daemon's threads (I/O, control, state writer) on the server CPU; the clients on the other.
   ajar::bench::pin_this_thread(where.server);
   auto engine = ajar::daemon::make_engine(config);
@@ -125,69 +193,27 @@ void run(int slow_ms, int blocks, int per_block, int interval_ms,
   ajar::bench::pin_this_thread(where.client);
 
   ajar::bench::SampleBlocks b;
-  std::atomic<std::size_t> commands{0};
+  std::size_t commands = 0;
   {
     Peer observer(port);
     observer.request(hello(ajar::protocol::Role::kObserver));
-    std::atomic<bool> done{false}, active{false}, busy{false};
-    std::thread controller_thread([&] {
-      Peer controller(port);
-      controller.request(hello(ajar::protocol::Role::kController));
-      auto next = Clock::now();
-      for (int i = 0; !done.load(); ++i) {
-        if (!active) {
-          std::this_thread::sleep_for(1ms);
-          next = Clock::now();
-          continue;
-        }
-        busy = true;
-        if (active) {
-          auto width = ajar::testing::good_width();
-          width.p2_moving_edge.position_m.y() -= (i % 2) * 0.01;
-          ajar::protocol::Message reply;
-          if (controller.request(width, &reply) &&
-              std::holds_alternative<ajar::protocol::Ack>(reply))
-            ++commands;
-        }
-        busy = false;
-        next += 10ms;
-        std::this_thread::sleep_until(next);
-        if (Clock::now() > next + 100ms) next = Clock::now();  // a slow save: no burst after
-      }
-    });
-    const auto set_active = [&](bool on) {
-      active = on;
-      while (!on && busy.load())
-        std::this_thread::sleep_for(100us);  // a "controller paused" block starts after its Ack
-    };
-    const auto pings = [&] {
-      std::vector<std::int64_t> out;
-      for (int i = 0; i < per_block; ++i) {
-        const auto sent = Clock::now();
-        if (!observer.request(ajar::protocol::Ping{})) ajar::bench::fail("Ping not answered");
-        out.push_back(
-            std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - sent).count());
-        std::this_thread::sleep_for(std::chrono::milliseconds(interval_ms));
-      }
-      return out;
-    };
+    WidthController controller(port);
     for (int k = 0; k < blocks; ++k) {
-      set_active(false);
-      auto base = pings();
-      set_active(true);
+      controller.set_active(false);
+      auto base = ping_block(observer, per_block, interval_ms);
+      controller.set_active(true);
       std::this_thread::sleep_for(20ms);  // the controller's commands are flowing
-      auto subject = pings();
+      auto subject = ping_block(observer, per_block, interval_ms);
       b.add(base, subject);
     }
-    set_active(false);
-    done = true;
-    controller_thread.join();
+    controller.set_active(false);
+    commands = controller.commands();
   }
   const std::string disk =
       slow_ms == 0 ? "normal disk" : "fsync +" + std::to_string(slow_ms) + " ms";
   ajar::bench::latency_rows("another client's Ping, controller commanding (" + disk + ")", b,
                             "controller paused", "", "<= 1.2x", true);
-  ajar::bench::info("ping under load (" + disk + "): " + std::to_string(commands.load()) +
+  ajar::bench::info("ping under load (" + disk + "): " + std::to_string(commands) +
                     " controller commands acknowledged (each saved before its Ack)");
   asio::post(io, [&] {
     server.stop_accepting();
