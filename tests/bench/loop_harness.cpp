@@ -24,6 +24,36 @@ namespace {
 using namespace ajar;
 using namespace ajar::bench;
 
+// The loop's settings: the config's control (realtime as `fifo` says), safety and base.
+daemon::ControlLoopSettings loop_settings(const daemon::Config& config, bool fifo) {
+  daemon::ControlLoopSettings s;
+  s.control = config.control;
+  s.control.realtime = fifo;
+  s.safety = config.safety;
+  s.base = config.base;
+  return s;
+}
+
+// The reference thread's work: sleep to deadlines one `period` apart and record each wake-up in
+// `reference`, until `stop`; with `fifo` under SCHED_FIFO at `priority`.
+void reference_cycles(daemon::LoopStatisticsRecorder& reference, std::int64_t period, bool fifo,
+                      int priority, const std::atomic<bool>& stop) {
+  if (fifo) {
+    sched_param p{};
+    p.sched_priority = priority;
+    pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);
+  }
+  std::int64_t deadline = now_ns() + period + period / 2;
+  while (!stop.load(std::memory_order_relaxed)) {
+    daemon::sleep_until_ns(deadline);
+    const std::int64_t wake = now_ns();
+    reference.record_cycle(deadline, wake, now_ns());
+    deadline += period;
+    while (deadline <= now_ns())
+      deadline += period;
+  }
+}
+
 void run(const daemon::Config& base_config, bool fifo, double seconds, int blocks,
          const Placement& where) {
   daemon::Config config = base_config;
@@ -33,16 +63,11 @@ void run(const daemon::Config& base_config, bool fifo, double seconds, int block
       fifo ? "SCHED_FIFO " + std::to_string(config.control.priority) : std::string("SCHED_OTHER");
   auto set = drivers::make_drivers(config.drivers, config.base);
   const int axes[2] = {config.base.left.card_axis, config.base.right.card_axis};
-  daemon::ControlLoopSettings s;
-  s.control = config.control;
-  s.control.realtime = fifo;
-  s.safety = config.safety;
-  s.base = config.base;
   drivers::ManagedMotionCard card(std::move(set.card), axes);
   Outcome up = card.configure();
   if (up) up = card.activate();
   if (!up) fail("card bring-up: " + up.error().message);
-  daemon::ControlLoop loop(card, s);
+  daemon::ControlLoop loop(card, loop_settings(config, fifo));
 
   daemon::LoopStatisticsRecorder reference(config.control.rate_hz);
   const std::int64_t period = reference.nominal_period_ns();
@@ -50,22 +75,8 @@ void run(const daemon::Config& base_config, bool fifo, double seconds, int block
   // Both threads on the server CPU (created while this thread is pinned there), this reading
   // thread on the client CPU: the same placement for the loop and its reference.
   std::thread ref = created_on(where.server, [&] {
-    return std::thread([&] {
-      if (fifo) {
-        sched_param p{};
-        p.sched_priority = config.control.priority;
-        pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);
-      }
-      std::int64_t deadline = now_ns() + period + period / 2;
-      while (!stop.load(std::memory_order_relaxed)) {
-        daemon::sleep_until_ns(deadline);
-        const std::int64_t wake = now_ns();
-        reference.record_cycle(deadline, wake, now_ns());
-        deadline += period;
-        while (deadline <= now_ns())
-          deadline += period;
-      }
-    });
+    return std::thread(
+        [&] { reference_cycles(reference, period, fifo, config.control.priority, stop); });
   });
   const auto warnings = created_on(where.server, [&] { return loop.start_thread(); });
   for (const auto& w : warnings)
