@@ -42,6 +42,61 @@ JsonObject controller_only_json() {
     o.add(p.op, protocol::needs_controller(p.request));
   return o;
 }
+
+// `key`: what `to_json` makes of `value`; null when there is no value.
+template <typename T, typename ToJson>
+void add_or_null(JsonObject& o, std::string_view key, const std::optional<T>& value,
+                 ToJson to_json) {
+  if (value) {
+    o.add(key, to_json(*value));
+  } else {
+    o.add_null(key);
+  }
+}
+
+// `key`: `value`; null while it is empty (nothing said yet).
+void add_or_null(JsonObject& o, std::string_view key, const JsonObject& value) {
+  if (value.empty()) {
+    o.add_null(key);
+  } else {
+    o.add(key, value);
+  }
+}
+
+// The daemon's camera-to-base calibration, row-major 4x4.
+client::JsonArray calibration_json(const core::CameraToBase& camera_to_base) {
+  client::JsonArray m;
+  const Eigen::Matrix4d t = camera_to_base.isometry().matrix();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c)
+      m.add(t(r, c));
+  }
+  return m;
+}
+
+// The frame source: what it is, its last error; with a frame (`newest`), its size and rate.
+JsonObject source_json(const FrameSource& source, const std::string& error, bool simulated,
+                       const FrameEntry* newest) {
+  JsonObject src;
+  src.add("describe", source.describe()).add("error", error).add("simulated", simulated);
+  if (newest != nullptr) {
+    src.add("width_px", newest->frame.intrinsics.width_px)
+        .add("height_px", newest->frame.intrinsics.height_px)
+        .add("rate_hz", source.rate_hz());
+  }
+  return src;
+}
+
+// The newest frame's camera intrinsics.
+JsonObject intrinsics_json(const core::PinholeIntrinsics& k) {
+  return JsonObject()
+      .add("fx_px", k.fx_px)
+      .add("fy_px", k.fy_px)
+      .add("cx_px", k.cx_px)
+      .add("cy_px", k.cy_px)
+      .add("width_px", k.width_px)
+      .add("height_px", k.height_px);
+}
 }  // namespace
 
 // One frame's age, pose and the picks' markers on it: each pick seen from the frame's pose (its
@@ -63,45 +118,19 @@ std::string ConsoleServer::Impl::frame_json(const FrameEntry& f) const {
 std::string ConsoleServer::Impl::snapshot() const {
   JsonObject o;
   o.add("type", "state");
-  JsonObject conn;
-  conn.add("connected", daemon_connected)
-      .add("daemon", options.daemon.host + ":" + std::to_string(options.daemon.port))
-      .add("message", connection_message)
-      .add("heartbeat", heartbeat_on);
-  o.add("connection", conn);
+  o.add("connection",
+        JsonObject()
+            .add("connected", daemon_connected)
+            .add("daemon", options.daemon.host + ":" + std::to_string(options.daemon.port))
+            .add("message", connection_message)
+            .add("heartbeat", heartbeat_on));
   // The daemon's messages as client::message_json() writes them (wire names, as ajarctl --json).
   const std::uint8_t minor = welcome ? welcome->version_minor : protocol::kVersionMinor;
-  if (welcome) {
-    o.add("welcome", client::message_json(*welcome, minor));
-  } else {
-    o.add_null("welcome");
-  }
-  if (status) {
-    o.add("status", status_json(*status, minor));
-  } else {
-    o.add_null("status");
-  }
-  if (camera_to_base) {
-    client::JsonArray m;  // row-major 4x4
-    const Eigen::Matrix4d t = camera_to_base->isometry().matrix();
-    for (int r = 0; r < 4; ++r) {
-      for (int c = 0; c < 4; ++c)
-        m.add(t(r, c));
-    }
-    o.add("camera_to_base", m);
-  } else {
-    o.add_null("camera_to_base");
-  }
-  JsonObject src;
-  src.add("describe", source->describe())
-      .add("error", source_error)
-      .add("simulated", sim != nullptr);
-  if (!frames.empty()) {
-    src.add("width_px", frames.back()->frame.intrinsics.width_px)
-        .add("height_px", frames.back()->frame.intrinsics.height_px)
-        .add("rate_hz", source->rate_hz());
-  }
-  o.add("source", src);
+  add_or_null(o, "welcome", welcome, [&](const auto& w) { return client::message_json(w, minor); });
+  add_or_null(o, "status", status, [&](const auto& s) { return status_json(s, minor); });
+  add_or_null(o, "camera_to_base", camera_to_base, calibration_json);
+  o.add("source", source_json(*source, source_error, sim != nullptr,
+                              frames.empty() ? nullptr : frames.back().get()));
   // Approach and jog: protocol 1.1 and a daemon that drives (a drive command timeout in its
   // model); otherwise the page shows no such buttons.
   JsonObject features;
@@ -109,27 +138,16 @@ std::string ConsoleServer::Impl::snapshot() const {
                             model->drive_command_timeout_s > 0);
   o.add("features", features);
   o.add("controller_only", controller_only_json());
-  if (model) {
-    o.add("model", client::message_json(*model, minor));  // all of RobotModel, wire names
-  } else {
-    o.add_null("model");
-  }
+  add_or_null(o, "model", model, [&](const auto& m) {
+    return client::message_json(m, minor);  // all of RobotModel, wire names
+  });
   // Honest state: the role the daemon gives this session now, who controls, what moves, how old
   // the daemon's telemetry is, the watchdog's threshold (the page's FROZEN).
   o.add("role", role_now ? std::string(protocol::to_string(*role_now)) : std::string());
   o.add("controller", controller_text);
   o.add("motion", motion);
   o.add("frozen_after_ms", static_cast<double>(kFrozenAfter.count()));
-  if (!frames.empty()) {
-    const auto& k = frames.back()->frame.intrinsics;
-    o.add("intrinsics", JsonObject()
-                            .add("fx_px", k.fx_px)
-                            .add("fy_px", k.fy_px)
-                            .add("cx_px", k.cx_px)
-                            .add("cy_px", k.cy_px)
-                            .add("width_px", k.width_px)
-                            .add("height_px", k.height_px));
-  }
+  if (!frames.empty()) o.add("intrinsics", intrinsics_json(frames.back()->frame.intrinsics));
   o.add("guidance", guidance_json());
   o.add("active_step", kStepNames[board.active()]);
   BoardView view = board_view();
@@ -141,16 +159,8 @@ std::string ConsoleServer::Impl::snapshot() const {
   o.add("picks", board.picks_json(view));
   o.add("results", board.results_json());
   o.add("recorder", recorder_state);
-  if (recorder_save.empty()) {
-    o.add_null("recorder_save");
-  } else {
-    o.add("recorder_save", recorder_save);
-  }
-  if (last_command.empty()) {
-    o.add_null("last_command");
-  } else {
-    o.add("last_command", last_command);
-  }
+  add_or_null(o, "recorder_save", recorder_save);
+  add_or_null(o, "last_command", last_command);
   return o.str();
 }
 
@@ -219,6 +229,126 @@ std::vector<Landmark> ConsoleServer::Impl::landmarks_now(const core::PlanarPose&
   return out;
 }
 
+namespace {
+// The view along a straight Approach from the door distance now: where each landmark leaves the
+// view, and the standoff that keeps them all in it.
+void add_view_guidance(JsonObject& g, const Camera& cam, const std::vector<Landmark>& landmarks,
+                       double distance_m, double lowest_m) {
+  constexpr double kPreferredStandoff_m = 0.75;  // the paper's standoff for the handle
+  const auto limits = view_limits(cam, landmarks, distance_m, lowest_m);
+  client::JsonArray items;
+  for (const auto& l : limits) {
+    JsonObject j;
+    j.add("name", l.name).add("why", l.why);
+    if (std::isfinite(l.min_standoff_m)) {
+      j.add("min_standoff_m", l.min_standoff_m);
+    } else {
+      j.add_null("min_standoff_m");  // out of view already
+    }
+    items.add(j);
+  }
+  g.add("view", items);
+  if (!landmarks.empty()) {
+    g.add("default_standoff_m",
+          default_standoff(limits, lowest_m, kPreferredStandoff_m, distance_m));
+  }
+}
+
+// Hinge side: the handle's axis (accepted, or picked and not sent yet) must lie nearer P2 (the
+// moving edge) than P1. Where that axis is, seen from the base now; nullopt when not measured.
+std::optional<core::Vec3> handle_axis_now(const PickBoard& board,
+                                          const core::CameraToBase& camera_to_base,
+                                          const std::vector<Landmark>& landmarks,
+                                          const core::PlanarPose& now) {
+  std::optional<core::Vec3> axis;
+  if (board.sent(kHandle) && landmarks.size() >= 3) axis = landmarks[2].base_m;
+  if (!board.picks(kHandle).empty()) {
+    const auto& p = board.picks(kHandle)[0];
+    axis = core::rebase(camera_to_base.to_base(p.camera_m), p.pose, now);
+  }
+  return axis;
+}
+
+// Picks to look at again, each with the step, its index and why: seen from the base now.
+class PickFlags {
+ public:
+  PickFlags(const PickBoard& board, const core::CameraToBase& camera_to_base,
+            const core::PlanarPose& now)
+      : board_(board), camera_to_base_(camera_to_base), now_(now) {}
+
+  // Plane points far off the plane of the others (the handle, the frame, the wall).
+  void plane_points_off_their_plane() {
+    const auto& picks = board_.picks(kPlane);
+    if (picks.size() < 4) return;
+    std::vector<core::Vec3> pts;
+    for (const auto& p : picks)
+      pts.push_back(base_now(p));
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      std::vector<core::Vec3> others = pts;
+      others.erase(others.begin() + static_cast<std::ptrdiff_t>(i));
+      const auto plane = fit_points(others);
+      if (!plane) continue;
+      const double d = distance_to_plane(*plane, pts[i]);
+      if (d > std::max(kOffPlane_m, 4 * plane->rms_residual_m)) {
+        std::snprintf(buf_.data(), buf_.size(),
+                      "point %zu is %.3f m off the plane of the others (handle, frame, wall?)",
+                      i + 1, d);
+        flag(kPlane, i, buf_.data());
+      }
+    }
+  }
+  // Plane points outside the door's measured edges P1..P2 (at base `p1_m`, `p2_m`).
+  void plane_points_outside_edges(const core::Vec3& p1_m, const core::Vec3& p2_m) {
+    const auto& picks = board_.picks(kPlane);
+    for (std::size_t i = 0; i < picks.size(); ++i) {
+      const double t = along_edges(p1_m, p2_m, base_now(picks[i]));
+      if (t < -0.02 || t > 1.02) {
+        std::snprintf(buf_.data(), buf_.size(),
+                      "point %zu is outside the door's measured edges (P1..P2): on the wall?",
+                      i + 1);
+        flag(kPlane, i, buf_.data());
+      }
+    }
+  }
+  // Width points off the accepted door plane (not on the door leaf's edge).
+  void width_points_off_door_plane() {
+    const auto& plane_sent = board_.sent(kPlane);
+    if (!plane_sent || plane_sent->camera_m.size() < 3) return;
+    std::vector<core::Vec3> pts;
+    for (const auto& c : plane_sent->camera_m)
+      pts.push_back(core::rebase(camera_to_base_.to_base(c), plane_sent->pose, now_));
+    const auto plane = fit_points(pts);
+    if (!plane) return;
+    const auto& picks = board_.picks(kWidth);
+    for (std::size_t i = 0; i < picks.size(); ++i) {
+      const double d = distance_to_plane(*plane, base_now(picks[i]));
+      if (d > kOffPlane_m) {
+        std::snprintf(buf_.data(), buf_.size(),
+                      "P%zu is %.3f m off the door plane: not on the door leaf's edge?", i + 1, d);
+        flag(kWidth, i, buf_.data());
+      }
+    }
+  }
+  const client::JsonArray& json() const { return flags_; }
+
+ private:
+  static constexpr double kOffPlane_m = 0.02;
+
+  core::Vec3 base_now(const Pick& p) const {
+    return core::rebase(camera_to_base_.to_base(p.camera_m), p.pose, now_);
+  }
+  void flag(Step step, std::size_t i, const char* text) {
+    flags_.add(JsonObject().add("step", kStepNames[step]).add("index", i).add("text", text));
+  }
+
+  const PickBoard& board_;
+  const core::CameraToBase& camera_to_base_;
+  core::PlanarPose now_;
+  std::array<char, 200> buf_{};  // a flag's text
+  client::JsonArray flags_;
+};
+}  // namespace
+
 // Geometry guidance (issue 23): the door distance, where each measured landmark leaves the view on
 // a straight Approach, the standoff that keeps them all in view, the hinge cross-check, and picks
 // far off the fitted door plane or outside the measured edges.
@@ -228,105 +358,27 @@ JsonObject ConsoleServer::Impl::guidance_json() const {
   const core::PlanarPose now{telemetry->odometry_x_m, telemetry->odometry_y_m,
                              telemetry->base_yaw_odometry_rad};
   const auto landmarks = landmarks_now(now);
-  const double lowest = model->approach_min_standoff_m;
-  constexpr double kPreferredStandoff_m = 0.75;  // the paper's standoff for the handle
   if (telemetry->door.has_distance) {
     const double distance = telemetry->door.distance_m;
     g.add("door_distance_m", distance);
     const Camera cam{frames.back()->frame.intrinsics, *camera_to_base, model->min_depth_m,
                      model->max_depth_m};
-    const auto limits = view_limits(cam, landmarks, distance, lowest);
-    client::JsonArray items;
-    for (const auto& l : limits) {
-      JsonObject j;
-      j.add("name", l.name).add("why", l.why);
-      if (std::isfinite(l.min_standoff_m)) {
-        j.add("min_standoff_m", l.min_standoff_m);
-      } else {
-        j.add_null("min_standoff_m");  // out of view already
-      }
-      items.add(j);
-    }
-    g.add("view", items);
-    if (!landmarks.empty()) {
-      g.add("default_standoff_m", default_standoff(limits, lowest, kPreferredStandoff_m, distance));
-    }
+    add_view_guidance(g, cam, landmarks, distance, model->approach_min_standoff_m);
   }
-  // Hinge side: the handle's axis (accepted, or picked and not sent yet) must lie nearer P2 (the
-  // moving edge) than P1.
-  const auto picks = [this](Step step) -> const std::vector<Pick>& { return board.picks(step); };
-  const auto sent = [this](Step step) -> const std::optional<SentStep>& {
-    return board.sent(step);
-  };
-  if (landmarks.size() >= 2 && sent(kWidth)) {
-    std::optional<core::Vec3> axis;
-    if (sent(kHandle) && landmarks.size() >= 3) axis = landmarks[2].base_m;
-    if (!picks(kHandle).empty()) {
-      const auto& p = picks(kHandle)[0];
-      axis = core::rebase(camera_to_base->to_base(p.camera_m), p.pose, now);
-    }
-    if (axis) {
+  // Both door edges seen from the base now: P1 and P2 accepted.
+  const bool edges_known = landmarks.size() >= 2 && board.sent(kWidth);
+  if (edges_known) {
+    if (const auto axis = handle_axis_now(board, *camera_to_base, landmarks, now)) {
       g.add("hinge_problem", hinge_side_problem(landmarks[0].base_m, landmarks[1].base_m, *axis));
     }
   }
   // Picks to look at again: plane points far off the plane of the others or outside the door's
   // measured edges; width points off the accepted door plane.
-  client::JsonArray flags;
-  const auto flag = [&](Step step, std::size_t i, const std::string& text) {
-    flags.add(JsonObject().add("step", kStepNames[step]).add("index", i).add("text", text));
-  };
-  const auto base_now = [&](const Pick& p) {
-    return core::rebase(camera_to_base->to_base(p.camera_m), p.pose, now);
-  };
-  constexpr double kOffPlane_m = 0.02;
-  std::array<char, 200> buf{};
-  if (picks(kPlane).size() >= 4) {
-    std::vector<core::Vec3> pts;
-    for (const auto& p : picks(kPlane))
-      pts.push_back(base_now(p));
-    for (std::size_t i = 0; i < pts.size(); ++i) {
-      std::vector<core::Vec3> others = pts;
-      others.erase(others.begin() + static_cast<std::ptrdiff_t>(i));
-      const auto plane = fit_points(others);
-      if (!plane) continue;
-      const double d = distance_to_plane(*plane, pts[i]);
-      if (d > std::max(kOffPlane_m, 4 * plane->rms_residual_m)) {
-        std::snprintf(buf.data(), buf.size(),
-                      "point %zu is %.3f m off the plane of the others (handle, frame, wall?)",
-                      i + 1, d);
-        flag(kPlane, i, buf.data());
-      }
-    }
-  }
-  if (landmarks.size() >= 2 && sent(kWidth)) {
-    for (std::size_t i = 0; i < picks(kPlane).size(); ++i) {
-      const double t =
-          along_edges(landmarks[0].base_m, landmarks[1].base_m, base_now(picks(kPlane)[i]));
-      if (t < -0.02 || t > 1.02) {
-        std::snprintf(buf.data(), buf.size(),
-                      "point %zu is outside the door's measured edges (P1..P2): on the wall?",
-                      i + 1);
-        flag(kPlane, i, buf.data());
-      }
-    }
-  }
-  if (sent(kPlane) && sent(kPlane)->camera_m.size() >= 3) {
-    std::vector<core::Vec3> pts;
-    for (const auto& c : sent(kPlane)->camera_m)
-      pts.push_back(core::rebase(camera_to_base->to_base(c), sent(kPlane)->pose, now));
-    if (const auto plane = fit_points(pts)) {
-      for (std::size_t i = 0; i < picks(kWidth).size(); ++i) {
-        const double d = distance_to_plane(*plane, base_now(picks(kWidth)[i]));
-        if (d > kOffPlane_m) {
-          std::snprintf(buf.data(), buf.size(),
-                        "P%zu is %.3f m off the door plane: not on the door leaf's edge?", i + 1,
-                        d);
-          flag(kWidth, i, buf.data());
-        }
-      }
-    }
-  }
-  g.add("flags", flags);
+  PickFlags flags(board, *camera_to_base, now);
+  flags.plane_points_off_their_plane();
+  if (edges_known) flags.plane_points_outside_edges(landmarks[0].base_m, landmarks[1].base_m);
+  flags.width_points_off_door_plane();
+  g.add("flags", flags.json());
   return g;
 }
 
