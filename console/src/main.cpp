@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <exception>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -90,101 +91,141 @@ std::string default_path(const char* relative) {
   return relative;
 }
 
+// An option NAME TYPE whose value `apply` takes as it is read (trigger_on_parse).
+void add_text(CLI::App& app, const char* name, const char* type, const char* help,
+              std::function<void(const std::string&)> apply) {
+  app.add_option_function<std::string>(name, std::move(apply), help)
+      ->type_name(type)
+      ->trigger_on_parse();
+}
+
+// Where ajard is and where the page is served.
+void add_addresses(CLI::App& app, Args& a) {
+  add_text(app, "--connect", "HOST:PORT", "ajard to connect to (default 127.0.0.1:7450)",
+           [&a](const std::string& v) {
+             const auto e = ajar::client::parse_endpoint(v);
+             if (!e) usage_error("--connect: expected HOST:PORT");
+             a.options.daemon = *e;
+           });
+  add_text(app, "--listen", "HOST:PORT",
+           "address of the page (default 127.0.0.1:8080; port 0 = any free port)",
+           [&a](const std::string& v) {
+             auto e = ajar::protocol::parse_host_port(v, ajar::protocol::PortZero::kAllowed);
+             if (!e)
+               usage_error("--listen: expected HOST:PORT (port 0..65535; IPv6 as [::1]:8080)");
+             a.options.listen_host = std::move(e->host);
+             a.options.listen_port = e->port;
+           });
+}
+
+// The camera: simulated, recorded or live, and what each takes.
+void add_camera(CLI::App& app, Args& a) {
+  add_text(app, "--source", "KIND", "camera: sim (default), recorded, live (OpenNI2)",
+           [&a](const std::string& v) {
+             if (v != "sim" && v != "recorded" && v != "live") {
+               usage_error("--source: sim, recorded or live");
+             }
+             a.source = v;
+           });
+  add_text(app, "--scenario", "FILE",
+           "sim: the door scene (default config/scenarios/console-door.yaml)",
+           [&a](const std::string& v) { a.scenario = v; });
+  add_text(app, "--recorded", "DIR", "recorded: a folder in the TUM RGB-D layout (docs/console.md)",
+           [&a](const std::string& v) {
+             a.recorded = v;
+             a.source = "recorded";
+           });
+  add_text(app, "--device", "URI", "live: the OpenNI2 device URI (default: the first sensor)",
+           [&a](const std::string& v) { a.device = v; });
+  add_text(app, "--fps", "HZ", "sim: frame rate (default 15)", [&a](const std::string& v) {
+    a.fps = std::atof(v.c_str());
+    if (!(a.fps >= 0.5 && a.fps <= 60)) usage_error("--fps: 0.5..60");
+  });
+}
+
+// What the console serves besides the page's address: Foxglove live and the page's files.
+void add_served(CLI::App& app, Args& a) {
+  add_text(app, "--foxglove", "HOST:PORT",
+           "also serve Foxglove live (foxglove.websocket.v1) on this loopback\n"
+           "address, e.g. 127.0.0.1:8765 (port 0 = any free port; default off)",
+           [&a](const std::string& v) {
+             auto e = ajar::protocol::parse_host_port(v, ajar::protocol::PortZero::kAllowed);
+             if (!e) usage_error("--foxglove: expected HOST:PORT (e.g. 127.0.0.1:8765)");
+             a.options.foxglove = true;
+             a.options.foxglove_host = std::move(e->host);
+             a.options.foxglove_port = e->port;
+           });
+  add_text(app, "--web", "DIR", "the page's files (default: the installed/source web folder)",
+           [&a](const std::string& v) { a.options.web_dir = v; });
+}
+
+// Mutual TLS to ajard, given here or by ajarctl's client config file.
+void add_tls(CLI::App& app, Args& a) {
+  add_text(app, "--ca", "FILE", "mutual TLS to ajard: the CA that signed ajard's certificate (PEM)",
+           [&a](const std::string& v) { a.options.tls.ca = v; });
+  add_text(app, "--cert", "FILE",
+           "with --ca: this console's certificate (PEM), made by scripts/make-certs",
+           [&a](const std::string& v) { a.options.tls.certificate = v; });
+  add_text(app, "--key", "FILE",
+           "with --ca: its private key (mode 0600: refused when group/world readable)",
+           [&a](const std::string& v) { a.options.tls.private_key = v; });
+  add_text(app, "--server-name", "NAME",
+           "with --ca: the name in ajard's certificate (default: the --connect host)",
+           [&a](const std::string& v) { a.options.tls.server_name = v; });
+  add_text(app, "--client-config", "FILE",
+           "connect and tls from ajarctl's client config file (docs/ajarctl.md);\n"
+           "options after it override it",
+           [&a](const std::string& v) {
+             // ajarctl's loader: one file format for every host-side program.
+             const std::vector<std::string> words{"--client-config", v};
+             const auto parsed = ajar::client::parse_global_options(words);
+             if (!parsed.error.empty()) usage_error(parsed.error);
+             a.options.daemon = parsed.options.endpoint;
+             a.options.tls = parsed.options.tls;
+           });
+}
+
+// The role the console asks ajard for.
+void add_role(CLI::App& app, Args& a) {
+  app.add_flag_callback(
+         "--observer", [&a] { a.options.role = ajar::protocol::Role::kObserver; },
+         "connect as an observer (default: controller)")
+      ->trigger_on_parse();
+  app.add_flag_callback(
+         "--take-over", [&a] { a.options.take_over = true; },
+         "take control from the current controller")
+      ->trigger_on_parse();
+}
+
+// Writing the simulated camera's frames to disk instead of serving.
+void add_record(CLI::App& app, Args& a) {
+  add_text(app, "--record", "DIR",
+           "sim: write --frames rendered frames in the TUM layout to DIR and exit",
+           [&a](const std::string& v) { a.record = v; });
+  add_text(app, "--frames", "N", "with --record (default 3)", [&a](const std::string& v) {
+    a.frames = std::atoi(v.c_str());
+    if (a.frames < 1 || a.frames > 1000) usage_error("--frames: 1..1000");
+  });
+  add_text(app, "--scale", "S", "with --record: image size divided by S (default 1)",
+           [&a](const std::string& v) {
+             a.scale = std::atoi(v.c_str());
+             if (a.scale < 1 || a.scale > 16) usage_error("--scale: 1..16");
+           });
+}
+
 // The one description of ajar-console's options: parse() parses with it, --help prints it. Every
 // option acts when it is read (trigger_on_parse), in the order of the command line: options after
-// --client-config override it.
+// --client-config override it. The help lists them in the order they are added here.
 std::unique_ptr<CLI::App> make_parser(Args& a, bool& version) {
   auto app = std::make_unique<CLI::App>(kDescription, "ajar-console");
   app->formatter(std::make_shared<HelpFormatter>());
   app->set_help_flag("-h,--help", "print this help and exit");
-  const auto text = [&](const char* name, const char* type, const char* help, auto apply) {
-    app->add_option_function<std::string>(name, apply, help)->type_name(type)->trigger_on_parse();
-  };
-  text("--connect", "HOST:PORT", "ajard to connect to (default 127.0.0.1:7450)",
-       [&a](const std::string& v) {
-         const auto e = ajar::client::parse_endpoint(v);
-         if (!e) usage_error("--connect: expected HOST:PORT");
-         a.options.daemon = *e;
-       });
-  text("--listen", "HOST:PORT",
-       "address of the page (default 127.0.0.1:8080; port 0 = any free port)",
-       [&a](const std::string& v) {
-         auto e = ajar::protocol::parse_host_port(v, ajar::protocol::PortZero::kAllowed);
-         if (!e) usage_error("--listen: expected HOST:PORT (port 0..65535; IPv6 as [::1]:8080)");
-         a.options.listen_host = std::move(e->host);
-         a.options.listen_port = e->port;
-       });
-  text("--source", "KIND", "camera: sim (default), recorded, live (OpenNI2)",
-       [&a](const std::string& v) {
-         if (v != "sim" && v != "recorded" && v != "live") {
-           usage_error("--source: sim, recorded or live");
-         }
-         a.source = v;
-       });
-  text("--scenario", "FILE", "sim: the door scene (default config/scenarios/console-door.yaml)",
-       [&a](const std::string& v) { a.scenario = v; });
-  text("--recorded", "DIR", "recorded: a folder in the TUM RGB-D layout (docs/console.md)",
-       [&a](const std::string& v) {
-         a.recorded = v;
-         a.source = "recorded";
-       });
-  text("--device", "URI", "live: the OpenNI2 device URI (default: the first sensor)",
-       [&a](const std::string& v) { a.device = v; });
-  text("--fps", "HZ", "sim: frame rate (default 15)", [&a](const std::string& v) {
-    a.fps = std::atof(v.c_str());
-    if (!(a.fps >= 0.5 && a.fps <= 60)) usage_error("--fps: 0.5..60");
-  });
-  text("--foxglove", "HOST:PORT",
-       "also serve Foxglove live (foxglove.websocket.v1) on this loopback\n"
-       "address, e.g. 127.0.0.1:8765 (port 0 = any free port; default off)",
-       [&a](const std::string& v) {
-         auto e = ajar::protocol::parse_host_port(v, ajar::protocol::PortZero::kAllowed);
-         if (!e) usage_error("--foxglove: expected HOST:PORT (e.g. 127.0.0.1:8765)");
-         a.options.foxglove = true;
-         a.options.foxglove_host = std::move(e->host);
-         a.options.foxglove_port = e->port;
-       });
-  text("--web", "DIR", "the page's files (default: the installed/source web folder)",
-       [&a](const std::string& v) { a.options.web_dir = v; });
-  text("--ca", "FILE", "mutual TLS to ajard: the CA that signed ajard's certificate (PEM)",
-       [&a](const std::string& v) { a.options.tls.ca = v; });
-  text("--cert", "FILE", "with --ca: this console's certificate (PEM), made by scripts/make-certs",
-       [&a](const std::string& v) { a.options.tls.certificate = v; });
-  text("--key", "FILE", "with --ca: its private key (mode 0600: refused when group/world readable)",
-       [&a](const std::string& v) { a.options.tls.private_key = v; });
-  text("--server-name", "NAME",
-       "with --ca: the name in ajard's certificate (default: the --connect host)",
-       [&a](const std::string& v) { a.options.tls.server_name = v; });
-  text("--client-config", "FILE",
-       "connect and tls from ajarctl's client config file (docs/ajarctl.md);\n"
-       "options after it override it",
-       [&a](const std::string& v) {
-         // ajarctl's loader: one file format for every host-side program.
-         const std::vector<std::string> words{"--client-config", v};
-         const auto parsed = ajar::client::parse_global_options(words);
-         if (!parsed.error.empty()) usage_error(parsed.error);
-         a.options.daemon = parsed.options.endpoint;
-         a.options.tls = parsed.options.tls;
-       });
-  app->add_flag_callback(
-         "--observer", [&a] { a.options.role = ajar::protocol::Role::kObserver; },
-         "connect as an observer (default: controller)")
-      ->trigger_on_parse();
-  app->add_flag_callback(
-         "--take-over", [&a] { a.options.take_over = true; },
-         "take control from the current controller")
-      ->trigger_on_parse();
-  text("--record", "DIR", "sim: write --frames rendered frames in the TUM layout to DIR and exit",
-       [&a](const std::string& v) { a.record = v; });
-  text("--frames", "N", "with --record (default 3)", [&a](const std::string& v) {
-    a.frames = std::atoi(v.c_str());
-    if (a.frames < 1 || a.frames > 1000) usage_error("--frames: 1..1000");
-  });
-  text("--scale", "S", "with --record: image size divided by S (default 1)",
-       [&a](const std::string& v) {
-         a.scale = std::atoi(v.c_str());
-         if (a.scale < 1 || a.scale > 16) usage_error("--scale: 1..16");
-       });
+  add_addresses(*app, a);
+  add_camera(*app, a);
+  add_served(*app, a);
+  add_tls(*app, a);
+  add_role(*app, a);
+  add_record(*app, a);
   app->add_flag("--version", version, "print the version and exit");
   return app;
 }
