@@ -341,6 +341,36 @@ struct Server::Impl {
     return res;
   }
 
+  // Why an upgrade request is refused, with its status; empty `why`: it may become a client.
+  struct UpgradeRefusal {
+    http::status code = http::status::bad_request;
+    std::string why;
+  };
+  UpgradeRefusal upgrade_refusal(const http::request<http::string_body>& req) const {
+    const std::string host(req[http::field::host]);
+    const std::string protocols(req[http::field::sec_websocket_protocol]);
+    const std::string origin(req[http::field::origin]);
+    const std::string p = ":" + std::to_string(port);
+    if (host != "127.0.0.1" + p && host != "localhost" + p && host != "[::1]" + p &&
+        host != options.host + p) {
+      return {http::status::forbidden, "unexpected Host header"};
+    }
+    if (!websocket::is_upgrade(req)) {
+      return {http::status::bad_request, "this is a Foxglove WebSocket port (" +
+                                             std::string(kSubprotocol) +
+                                             "): connect Foxglove Studio to ws://" + host + "/"};
+    }
+    if (!lists_token(protocols, kSubprotocol)) {
+      return {http::status::bad_request,
+              "the WebSocket subprotocol " + std::string(kSubprotocol) + " is required"};
+    }
+    if (!origin_allowed(origin)) {
+      return {http::status::forbidden,
+              "a web page from " + origin + " may not read this port (docs/console.md, Foxglove)"};
+    }
+    return {};
+  }
+
   // One connection from its accept to a client (or its refusal), within upgrade_timeout.
   asio::awaitable<void> serve(tcp::socket socket, std::unique_ptr<Slot> upgrade) {
     beast::tcp_stream stream(std::move(socket));
@@ -359,28 +389,9 @@ struct Server::Impl {
       co_return;
     }
     const auto req = parser.release();
-    std::string refusal;
-    http::status code = http::status::bad_request;
-    const std::string host(req[http::field::host]);
-    const std::string protocols(req[http::field::sec_websocket_protocol]);
-    const std::string origin(req[http::field::origin]);
-    const std::string p = ":" + std::to_string(port);
-    if (host != "127.0.0.1" + p && host != "localhost" + p && host != "[::1]" + p &&
-        host != options.host + p) {
-      refusal = "unexpected Host header";
-      code = http::status::forbidden;
-    } else if (!websocket::is_upgrade(req)) {
-      refusal = "this is a Foxglove WebSocket port (" + std::string(kSubprotocol) +
-                "): connect Foxglove Studio to ws://" + host + "/";
-    } else if (!lists_token(protocols, kSubprotocol)) {
-      refusal = "the WebSocket subprotocol " + std::string(kSubprotocol) + " is required";
-    } else if (!origin_allowed(origin)) {
-      refusal = "a web page from " + origin + " may not read this port (docs/console.md, Foxglove)";
-      code = http::status::forbidden;
-    }
-    if (!refusal.empty()) {
+    if (const UpgradeRefusal refusal = upgrade_refusal(req); !refusal.why.empty()) {
       count([](ServerStats& s) { ++s.clients_refused; });
-      auto res = refusal_response(code, req.version(), refusal);
+      auto res = refusal_response(refusal.code, req.version(), refusal.why);
       co_await http::async_write(stream, res, asio::redirect_error(asio::use_awaitable, ec));
       co_return;
     }
@@ -403,10 +414,17 @@ struct Server::Impl {
       s.clients = clients.size();
       ++s.clients_total;
     });
+    co_await serve_client(c);
+  }
+
+  // A client, from its first messages (serverInfo, advertise) until it or the server closes: its
+  // writer runs beside; what it sends is read here.
+  asio::awaitable<void> serve_client(std::shared_ptr<Client> c) {
     send_control(c, server_info());
     send_control(c, advertise());
     asio::co_spawn(ioc, write_loop(c), asio::detached);
     beast::flat_buffer in;
+    error_code ec;
     while (!c->closed) {
       in.clear();
       co_await c->ws.async_read(in, asio::redirect_error(asio::use_awaitable, ec));
