@@ -142,33 +142,111 @@ void DoorScene::add_sensor_effects(const Exact& exact, std::uint64_t sequence, F
   }
 }
 
-void DoorScene::render_exact(const BasePose& pose, const Eigen::Isometry3d& camera_to_base,
-                             Exact& exact) const {
-  Frame& out = exact.frame;
-  const auto& k = sensor_.intrinsics;
-  const auto& s = scenario_;
+namespace {
+// The scene in door-local coordinates (DoorFrame): the wall with the leaf (s in leaf_lo..leaf_hi,
+// z in floor_z..top_z) and its frame around it, the floor at floor_z, the handle's bar and stem.
+struct SceneGeometry {
+  DoorFrame door;
+  double leaf_lo = 0, leaf_hi = 0, floor_z = 0, top_z = 0;
+  Box bar, stem;
+};
+
+SceneGeometry scene_geometry(const client::Scenario& s) {
   const double c = std::cos(s.yaw_rad);
   const double sn = std::sin(s.yaw_rad);
-  const DoorFrame door{core::Vec3(s.distance_m * c, s.distance_m * sn, 0), core::Vec3(-sn, c, 0),
-                       core::Vec3(-c, -sn, 0)};
+  SceneGeometry g;
+  g.door = DoorFrame{core::Vec3(s.distance_m * c, s.distance_m * sn, 0), core::Vec3(-sn, c, 0),
+                     core::Vec3(-c, -sn, 0)};
   const double hinge = s.hinge == client::Scenario::Hinge::kLeft ? 1.0 : -1.0;
-  const double leaf_lo = s.lateral_offset_m - s.door_width_m / 2;
-  const double leaf_hi = s.lateral_offset_m + s.door_width_m / 2;
-  const double floor_z = s.door_bottom_z_m;
-  const double top_z = s.door_bottom_z_m + s.door_height_m;
+  g.leaf_lo = s.lateral_offset_m - s.door_width_m / 2;
+  g.leaf_hi = s.lateral_offset_m + s.door_width_m / 2;
+  g.floor_z = s.door_bottom_z_m;
+  g.top_z = s.door_bottom_z_m + s.door_height_m;
   const double axis_s =
       s.lateral_offset_m - hinge * s.door_width_m / 2 + hinge * s.handle_axis_from_edge_m;
   const double free_s = axis_s + hinge * s.handle_length_m;
   const double h = s.handle_height_m;
   const double front = s.handle_offset_m;
-  const Box bar{{std::min(axis_s, free_s) - kStemHalfWidth_m, front - 2 * kHandleHalfThickness_m,
-                 h - kHandleHalfThickness_m},
-                {std::max(axis_s, free_s) + kStemHalfWidth_m, front, h + kHandleHalfThickness_m}};
-  const Box stem{{axis_s - kStemHalfWidth_m, 0, h - kStemHalfWidth_m},
-                 {axis_s + kStemHalfWidth_m, front, h + kStemHalfWidth_m}};
+  g.bar = Box{{std::min(axis_s, free_s) - kStemHalfWidth_m, front - 2 * kHandleHalfThickness_m,
+               h - kHandleHalfThickness_m},
+              {std::max(axis_s, free_s) + kStemHalfWidth_m, front, h + kHandleHalfThickness_m}};
+  g.stem = Box{{axis_s - kStemHalfWidth_m, 0, h - kStemHalfWidth_m},
+               {axis_s + kStemHalfWidth_m, front, h + kStemHalfWidth_m}};
+  return g;
+}
 
+// The nearest surface a ray meets so far: its t along the ray, colour, the cosine of the angle
+// between the ray and its normal (the shading), and whether it is the handle's specular face.
+struct Hit {
+  double t = kNoHit;
+  Rgb colour{40, 44, 52};  // nothing hit: dark background
+  double cosine = 1;
+  bool specular = false;
+};
+
+// Wall and leaf: n = 0, seen from the robot's side.
+void hit_wall(const SceneGeometry& g, const core::Vec3& origin, const core::Vec3& d, Hit& hit) {
+  if (!(d.y() < -1e-12 && origin.y() > 0)) return;
+  const double tw = -origin.y() / d.y();
+  const double ws = origin.x() + tw * d.x();
+  const double wz = origin.z() + tw * d.z();
+  if (!(wz >= g.floor_z)) return;
+  hit.t = tw;
+  hit.cosine = -d.y() / (d.norm());
+  const bool on_leaf = ws >= g.leaf_lo && ws <= g.leaf_hi && wz <= g.top_z;
+  const bool on_frame = !on_leaf && ws >= g.leaf_lo - kFrameBand_m &&
+                        ws <= g.leaf_hi + kFrameBand_m && wz <= g.top_z + kFrameBand_m;
+  if (on_leaf) {
+    const double grain = 10 * std::sin(ws * 37.0 + 3 * std::sin(wz * 5.0));
+    hit.colour = {150 + grain, 98 + grain * 0.7, 58 + grain * 0.4};
+  } else if (on_frame) {
+    hit.colour = {70, 62, 55};
+  } else {
+    hit.colour = {205, 200, 188};
+  }
+}
+
+// The floor: a checkerboard of 0.5 m squares, in front of the wall.
+void hit_floor(const SceneGeometry& g, const core::Vec3& origin, const core::Vec3& d, Hit& hit) {
+  if (!(d.z() < -1e-12)) return;
+  const double tf = (g.floor_z - origin.z()) / d.z();
+  const double fn = origin.y() + tf * d.y();
+  if (!(tf > 0 && tf < hit.t && fn >= 0)) return;
+  hit.t = tf;
+  hit.cosine = -d.z() / d.norm();
+  const double fx = origin.x() + tf * d.x();
+  const bool dark =
+      (static_cast<long>(std::floor(fx / 0.5)) + static_cast<long>(std::floor(fn / 0.5))) % 2 != 0;
+  hit.colour = dark ? Rgb{110, 112, 118} : Rgb{135, 137, 143};
+}
+
+// Handle: the bar and its stem.
+void hit_handle(const SceneGeometry& g, const core::Vec3& origin, const core::Vec3& d, Hit& hit) {
+  int axis = -1;
+  const double tb = hit_box(g.bar, origin, d, axis);
+  if (tb < hit.t) {
+    hit.t = tb;
+    hit.cosine = std::abs(d[axis]) / d.norm();
+    hit.colour = {185, 188, 195};
+    hit.specular = axis == 1;  // the front face (normal along n)
+  }
+  const double ts = hit_box(g.stem, origin, d, axis);
+  if (ts < hit.t) {
+    hit.t = ts;
+    hit.cosine = std::abs(d[axis]) / d.norm();
+    hit.colour = {160, 163, 170};
+    hit.specular = false;
+  }
+}
+}  // namespace
+
+void DoorScene::render_exact(const BasePose& pose, const Eigen::Isometry3d& camera_to_base,
+                             Exact& exact) const {
+  Frame& out = exact.frame;
+  const auto& k = sensor_.intrinsics;
+  const SceneGeometry g = scene_geometry(scenario_);
   const Eigen::Isometry3d cam = camera_in_world(pose, camera_to_base);
-  const core::Vec3 origin = door.local(cam.translation());
+  const core::Vec3 origin = g.door.local(cam.translation());
   const Eigen::Matrix3d rot = cam.linear();
 
   out.intrinsics = k;
@@ -180,71 +258,19 @@ void DoorScene::render_exact(const BasePose& pose, const Eigen::Isometry3d& came
   for (int v = 0; v < k.height_px; ++v) {
     for (int u = 0; u < k.width_px; ++u) {
       const core::Vec3 ray_cam((u - k.cx_px) / k.fx_px, (v - k.cy_px) / k.fy_px, 1.0);
-      const core::Vec3 d = door.local_dir(rot * ray_cam);
-      double t = kNoHit;
-      Rgb colour{40, 44, 52};  // nothing hit: dark background
-      double cosine = 1;
-      bool specular = false;
-      // Wall and leaf: n = 0, seen from the robot's side.
-      if (d.y() < -1e-12 && origin.y() > 0) {
-        const double tw = -origin.y() / d.y();
-        const double ws = origin.x() + tw * d.x();
-        const double wz = origin.z() + tw * d.z();
-        if (wz >= floor_z) {
-          t = tw;
-          cosine = -d.y() / (d.norm());
-          const bool on_leaf = ws >= leaf_lo && ws <= leaf_hi && wz <= top_z;
-          const bool on_frame = !on_leaf && ws >= leaf_lo - kFrameBand_m &&
-                                ws <= leaf_hi + kFrameBand_m && wz <= top_z + kFrameBand_m;
-          if (on_leaf) {
-            const double grain = 10 * std::sin(ws * 37.0 + 3 * std::sin(wz * 5.0));
-            colour = {150 + grain, 98 + grain * 0.7, 58 + grain * 0.4};
-          } else if (on_frame) {
-            colour = {70, 62, 55};
-          } else {
-            colour = {205, 200, 188};
-          }
-        }
-      }
-      // Floor.
-      if (d.z() < -1e-12) {
-        const double tf = (floor_z - origin.z()) / d.z();
-        const double fn = origin.y() + tf * d.y();
-        if (tf > 0 && tf < t && fn >= 0) {
-          t = tf;
-          cosine = -d.z() / d.norm();
-          const double fx = origin.x() + tf * d.x();
-          const bool dark =
-              (static_cast<long>(std::floor(fx / 0.5)) + static_cast<long>(std::floor(fn / 0.5))) %
-                  2 !=
-              0;
-          colour = dark ? Rgb{110, 112, 118} : Rgb{135, 137, 143};
-        }
-      }
-      // Handle: the bar and its stem.
-      int axis = -1;
-      const double tb = hit_box(bar, origin, d, axis);
-      if (tb < t) {
-        t = tb;
-        cosine = std::abs(d[axis]) / d.norm();
-        colour = {185, 188, 195};
-        specular = axis == 1;  // the front face (normal along n)
-      }
-      const double ts = hit_box(stem, origin, d, axis);
-      if (ts < t) {
-        t = ts;
-        cosine = std::abs(d[axis]) / d.norm();
-        colour = {160, 163, 170};
-        specular = false;
-      }
+      const core::Vec3 d = g.door.local_dir(rot * ray_cam);
+      Hit hit;
+      hit_wall(g, origin, d, hit);
+      hit_floor(g, origin, d, hit);
+      hit_handle(g, origin, d, hit);
       const auto i = static_cast<std::size_t>(v) * static_cast<std::size_t>(k.width_px) +
                      static_cast<std::size_t>(u);
-      const double shade = 0.35 + 0.65 * cosine;
+      const double shade = 0.35 + 0.65 * hit.cosine;
       for (std::size_t ch = 0; ch < 3; ++ch)
-        out.rgb[i * 3 + ch] = to_byte(colour[ch] * shade);
-      exact.specular[i] = specular ? 1 : 0;
+        out.rgb[i * 3 + ch] = to_byte(hit.colour[ch] * shade);
+      exact.specular[i] = hit.specular ? 1 : 0;
       // The camera-frame ray has z = 1: t is the camera z. Exact depth: no range limit here.
-      if (t != kNoHit) out.depth_m[i] = static_cast<float>(t);
+      if (hit.t != kNoHit) out.depth_m[i] = static_cast<float>(hit.t);
     }
   }
 }
