@@ -168,33 +168,27 @@ inline ContactAck contact_ack() {
   return {m.contact_base_m, m.reach_margin_m};
 }
 
-inline std::vector<Sample> all() {
-  std::vector<Sample> s;
-  const auto add = [&s](std::string name, std::uint32_t id, Message m, std::uint16_t flags = 0) {
-    s.push_back({std::move(name), Envelope{id, flags, std::move(m)}});
-  };
-  // host -> daemon
-  // Hello and Welcome as 1.1 peers send them (their vectors are 1.1 frames, unchanged by 1.2).
+// Hello and Welcome as 1.1 peers send them (their vectors are 1.1 frames, unchanged by 1.2).
+inline Hello hello_sample() {
   Hello hello;
   hello.version_minor = 1;
   hello.requested_role = Role::kController;
   hello.client_instance_id = 0x0123456789ABCDEFull;
   hello.client_name = "door-gui 2.3";
-  add("hello_controller", 1, hello);
+  return hello;
+}
+
+inline Hello observer_hello_sample() {
   Hello observer;
   observer.version_minor = 1;
   observer.requested_role = Role::kObserver;
   observer.client_instance_id = 0x1122334455667788ull;
   observer.client_name = "Türöffner-Monitor";  // UTF-8 multi-byte characters
-  add("hello_observer_utf8", 1, observer);
-  Hello take_over = hello;
-  take_over.take_over = true;
-  add("hello_take_over", 1, take_over);
-  add("ping", 2, Ping{1700000000123456789ull});
-  add("ping_retransmit", 2, Ping{1700000000123456789ull}, kFlagRetransmit);
-  add("measure_door_width", 3, width_request());
-  add("measure_handle", 4, handle_request());
-  add("measure_door_plane_3", 5, plane3_request());
+  return observer;
+}
+
+// The most points a plane takes: 15 camera points on a grid and one in the base frame.
+inline MeasureDoorPlane plane16_request() {
   MeasureDoorPlane plane16;
   plane16.count = 16;
   for (std::size_t i = 0; i < 16; ++i) {
@@ -202,29 +196,18 @@ inline std::vector<Sample> all() {
     const double v = static_cast<double>(i / 4) * 0.15 - 0.2;
     plane16.points[i] = i == 15 ? base_point(1.5, 0.1, 1.1) : camera_point(u, v, 1.6 + 0.05 * u);
   }
-  add("measure_door_plane_16", 6, plane16);
-  add("set_contact_point", 7, contact_request());
-  add("align_base", 8, AlignBase{});
-  add("engage", 9, Engage{});
-  add("stop", 10, Stop{});
-  add("emergency_stop", 11, EmergencyStop{});
-  add("reset", 12, Reset{false});
-  add("reset_clear_parameters", 13, Reset{true});
-  add("get_status", 14, GetStatus{});
-  add("subscribe", 15, Subscribe{50.0f});
-  add("drive", 16, Drive{0.25, -0.125});
-  add("approach", 17, Approach{0.75});
-  add("get_robot_model", 18, GetRobotModel{});
-  add("reset_loop_statistics", 19, ResetLoopStatistics{});
-  add("list_recordings", 20, ListRecordings{8});
+  return plane16;
+}
+
+inline FetchRecording fetch_sample() {
   FetchRecording fetch;
   fetch.name = "ajard-20261126T130502Z-0007.mcap";
   fetch.offset = 1048576;
   fetch.max_length = 960;
-  add("fetch_recording", 21, fetch);
-  add("save_recording", 22, SaveRecording{300.0f});
+  return fetch;
+}
 
-  // daemon -> host
+inline Welcome welcome_sample() {
   Welcome welcome;
   welcome.version_minor = 1;
   welcome.granted_role = Role::kController;
@@ -238,24 +221,12 @@ inline std::vector<Sample> all() {
   welcome.max_handle_length_m = 0.25f;
   welcome.max_yaw_correction_rad = 0.5236f;
   welcome.driver_kind = DriverKind::kReal;
-  add("welcome", 1, welcome);
-  add("pong", 2, Pong{1700000000123456789ull, 987654321012ull});
-  add("ack_measure_door_width", 3,
-      Ack{MessageType::kMeasureDoorWidth, ProcedureState::kAwaitingHandle, width_ack()});
-  add("ack_measure_handle", 4,
-      Ack{MessageType::kMeasureHandle, ProcedureState::kAwaitingPlane, handle_ack()});
-  add("ack_measure_door_plane", 5,
-      Ack{MessageType::kMeasureDoorPlane, ProcedureState::kReadyToAlign, plane_ack()});
-  add("ack_set_contact_point", 7,
-      Ack{MessageType::kSetContactPoint, ProcedureState::kReadyToEngage, contact_ack()});
-  add("ack_align_base", 8, Ack{MessageType::kAlignBase, ProcedureState::kAligning, EmptyAck{}});
-  add("ack_stop", 10, Ack{MessageType::kStop, ProcedureState::kAligned, EmptyAck{}});
-  add("ack_drive", 16, Ack{MessageType::kDrive, ProcedureState::kAwaitingHandle, EmptyAck{}});
-  add("ack_approach", 17,
-      Ack{MessageType::kApproach, ProcedureState::kAwaitingHandle,
-          ApproachAck{0.25, 1.0, 198944, -198944}});
-  add("robot_model", 18, robot_model());
-  RecordingList list;  // the 9th to 11th newest of 11 recordings
+  return welcome;
+}
+
+// The 9th to 11th newest of 11 recordings.
+inline RecordingList recording_list_sample() {
+  RecordingList list;
   list.total = 11;
   list.first = 8;
   list.count = 3;
@@ -266,8 +237,12 @@ inline std::vector<Sample> all() {
     e.start_unix_ns = 1795683600000000000ull - 3600000000000ull * i;
     e.end_unix_ns = e.start_unix_ns + 600000000000ull;
   }
-  add("recording_list", 20, list);
-  RecordingList saved;  // the reply to SaveRecording
+  return list;
+}
+
+// The reply to SaveRecording.
+inline RecordingList saved_list_sample() {
+  RecordingList saved;
   saved.total = 2;
   saved.count = 2;
   saved.entries[0].name = "saved/ajard-20261126T131000000Z.mcap";
@@ -280,7 +255,10 @@ inline std::vector<Sample> all() {
   saved.entries[1].start_unix_ns = 1795698000000000000ull;
   saved.entries[1].end_unix_ns = 1795698600000000000ull;
   saved.entries[1].saved = true;
-  add("recording_list_saved", 22, saved);
+  return saved;
+}
+
+inline RecordingChunk chunk_sample() {
   RecordingChunk chunk;
   chunk.offset = 1048576;
   chunk.size_bytes = 1049000;
@@ -288,26 +266,59 @@ inline std::vector<Sample> all() {
   for (std::size_t i = 0; i < tail.size(); ++i)
     tail[i] = static_cast<std::uint8_t>(i * 37 + 11);
   chunk.data.assign(tail.data(), tail.size());  // the last 424 bytes of the file
-  add("recording_chunk", 21, chunk);
+  return chunk;
+}
+
+inline ErrorReply error_sample() {
   ErrorReply error;
   error.code = ErrorCode::kPointsCollinear;
   error.offending_type = MessageType::kMeasureDoorPlane;
   error.field = "points[2]";
   error.message = "The three plane points lie on one line; pick points spread over the door.";
-  add("error_points_collinear", 5, error);
+  return error;
+}
+
+inline Event fault_event_sample() {
   Event fault;
   fault.kind = EventKind::kFaultLatched;
   fault.state = ProcedureState::kFault;
   fault.fault = ErrorCode::kFollowingError;
   fault.daemon_time_ns = 5123456789ull;
   fault.detail = "left wheel following error 0.012 rad";
-  add("event_fault_latched", 0, fault);
+  return fault;
+}
+
+inline Event finished_event_sample() {
   Event finished;
   finished.kind = EventKind::kMotionFinished;
   finished.state = ProcedureState::kAligned;
   finished.daemon_time_ns = 6000000000ull;
   finished.detail = "base aligned";
-  add("event_motion_finished", 0, finished);
+  return finished;
+}
+
+// 1.2 (absent from the `status` vector, which is 1.1; the v1_2_status vector has them).
+inline void fill_recorder(Status& status) {
+  status.base_motion = BaseMotion::kApproaching;
+  status.recorder.enabled = true;
+  status.recorder.mode = RecorderMode::kRecording;
+  status.recorder.file = "ajard-20261126T130501123Z.mcap";
+  status.recorder.file_bytes = 1234567;
+  status.recorder.directory_bytes = 45678901;
+  status.recorder.max_bytes = 536870912;
+  status.recorder.saved_bytes = 2345678;
+  status.recorder.disk_free_bytes = 9876543210;
+  status.recorder.records_written = 456789;
+  status.recorder.loop_samples = 400000;
+  status.recorder.loop_dropped = 17;
+  status.recorder.io_records = 56800;
+  status.recorder.io_dropped = 3;
+  status.recorder.records_lost = 11;
+  status.recorder.disk_refusals = 1;
+  status.recorder.last_write_ns = 4000000123ull;
+}
+
+inline Status status_sample() {
   Status status;
   status.state = ProcedureState::kReadyToEngage;
   status.latched_fault = ErrorCode::kOk;
@@ -329,25 +340,11 @@ inline std::vector<Sample> all() {
   status.loop = loop_stats();
   fill_motion(status);
   status.realtime = {SchedulingPolicy::kFifo, 80, true};
-  // 1.2 (absent from the `status` vector, which is 1.1; the v1_2_status vector has them)
-  status.base_motion = BaseMotion::kApproaching;
-  status.recorder.enabled = true;
-  status.recorder.mode = RecorderMode::kRecording;
-  status.recorder.file = "ajard-20261126T130501123Z.mcap";
-  status.recorder.file_bytes = 1234567;
-  status.recorder.directory_bytes = 45678901;
-  status.recorder.max_bytes = 536870912;
-  status.recorder.saved_bytes = 2345678;
-  status.recorder.disk_free_bytes = 9876543210;
-  status.recorder.records_written = 456789;
-  status.recorder.loop_samples = 400000;
-  status.recorder.loop_dropped = 17;
-  status.recorder.io_records = 56800;
-  status.recorder.io_dropped = 3;
-  status.recorder.records_lost = 11;
-  status.recorder.disk_refusals = 1;
-  status.recorder.last_write_ns = 4000000123ull;
-  add("status", 14, status);
+  fill_recorder(status);
+  return status;
+}
+
+inline Telemetry telemetry_sample() {
   Telemetry telemetry;
   telemetry.daemon_time_ns = 5500000000ull;
   telemetry.state = ProcedureState::kAligning;
@@ -360,8 +357,87 @@ inline std::vector<Sample> all() {
   telemetry.arm_state = ArmState::kIdle;
   telemetry.loop = loop_stats();
   fill_motion(telemetry);
-  add("telemetry", 0, telemetry);
-  return s;
+  return telemetry;
+}
+
+// Adds one sample: its name, its envelope's request id, message and flags.
+class SampleList {
+ public:
+  void add(std::string name, std::uint32_t id, Message m, std::uint16_t flags = 0) {
+    samples_.push_back({std::move(name), Envelope{id, flags, std::move(m)}});
+  }
+  std::vector<Sample> take() { return std::move(samples_); }
+
+ private:
+  std::vector<Sample> samples_;
+};
+
+// host -> daemon
+inline void add_requests(SampleList& s) {
+  const Hello hello = hello_sample();
+  s.add("hello_controller", 1, hello);
+  s.add("hello_observer_utf8", 1, observer_hello_sample());
+  Hello take_over = hello;
+  take_over.take_over = true;
+  s.add("hello_take_over", 1, take_over);
+  s.add("ping", 2, Ping{1700000000123456789ull});
+  s.add("ping_retransmit", 2, Ping{1700000000123456789ull}, kFlagRetransmit);
+  s.add("measure_door_width", 3, width_request());
+  s.add("measure_handle", 4, handle_request());
+  s.add("measure_door_plane_3", 5, plane3_request());
+  s.add("measure_door_plane_16", 6, plane16_request());
+  s.add("set_contact_point", 7, contact_request());
+  s.add("align_base", 8, AlignBase{});
+  s.add("engage", 9, Engage{});
+  s.add("stop", 10, Stop{});
+  s.add("emergency_stop", 11, EmergencyStop{});
+  s.add("reset", 12, Reset{false});
+  s.add("reset_clear_parameters", 13, Reset{true});
+  s.add("get_status", 14, GetStatus{});
+  s.add("subscribe", 15, Subscribe{50.0f});
+  s.add("drive", 16, Drive{0.25, -0.125});
+  s.add("approach", 17, Approach{0.75});
+  s.add("get_robot_model", 18, GetRobotModel{});
+  s.add("reset_loop_statistics", 19, ResetLoopStatistics{});
+  s.add("list_recordings", 20, ListRecordings{8});
+  s.add("fetch_recording", 21, fetch_sample());
+  s.add("save_recording", 22, SaveRecording{300.0f});
+}
+
+// daemon -> host
+inline void add_replies_and_events(SampleList& s) {
+  s.add("welcome", 1, welcome_sample());
+  s.add("pong", 2, Pong{1700000000123456789ull, 987654321012ull});
+  s.add("ack_measure_door_width", 3,
+        Ack{MessageType::kMeasureDoorWidth, ProcedureState::kAwaitingHandle, width_ack()});
+  s.add("ack_measure_handle", 4,
+        Ack{MessageType::kMeasureHandle, ProcedureState::kAwaitingPlane, handle_ack()});
+  s.add("ack_measure_door_plane", 5,
+        Ack{MessageType::kMeasureDoorPlane, ProcedureState::kReadyToAlign, plane_ack()});
+  s.add("ack_set_contact_point", 7,
+        Ack{MessageType::kSetContactPoint, ProcedureState::kReadyToEngage, contact_ack()});
+  s.add("ack_align_base", 8, Ack{MessageType::kAlignBase, ProcedureState::kAligning, EmptyAck{}});
+  s.add("ack_stop", 10, Ack{MessageType::kStop, ProcedureState::kAligned, EmptyAck{}});
+  s.add("ack_drive", 16, Ack{MessageType::kDrive, ProcedureState::kAwaitingHandle, EmptyAck{}});
+  s.add("ack_approach", 17,
+        Ack{MessageType::kApproach, ProcedureState::kAwaitingHandle,
+            ApproachAck{0.25, 1.0, 198944, -198944}});
+  s.add("robot_model", 18, robot_model());
+  s.add("recording_list", 20, recording_list_sample());
+  s.add("recording_list_saved", 22, saved_list_sample());
+  s.add("recording_chunk", 21, chunk_sample());
+  s.add("error_points_collinear", 5, error_sample());
+  s.add("event_fault_latched", 0, fault_event_sample());
+  s.add("event_motion_finished", 0, finished_event_sample());
+  s.add("status", 14, status_sample());
+  s.add("telemetry", 0, telemetry_sample());
+}
+
+inline std::vector<Sample> all() {
+  SampleList s;
+  add_requests(s);
+  add_replies_and_events(s);
+  return s.take();
 }
 
 }  // namespace ajar::protocol::samples
