@@ -64,31 +64,9 @@ TEST(Crc32, MatchesTheCheckValueOfCrc32IsoHdlc) {
   EXPECT_EQ(crc32(std::span(p + 4, 5), crc32(std::span(p, 4))), 0xCBF43926U);
 }
 
-TEST(McapWriter, BytesFollowTheSpecification) {
-  McapWriter w("", "ajar-test");
-  w.add_schema(1, "ajar.Event", "jsonschema", R"({"type":"object"})");
-  w.add_channel(2, 1, "/ajar/events", "json", {{"k", "v"}});
-  w.add_channel(1, 0, "/ajar/wire", "ajar.wire");
-  w.add_message(2, 1000, std::string_view(R"({"a":1})"));
-  w.add_message(1, 900, std::string_view("\x01\x02", 2));
-  w.add_message(2, 2000, std::string_view(R"({"a":2})"));
-  w.close();
-  const auto b = w.take_bytes();
-  ASSERT_GT(b.size(), 16U);
-  EXPECT_EQ(std::memcmp(b.data(), kMcapMagic, 8), 0);
-  EXPECT_EQ(std::memcmp(b.data() + b.size() - 8, kMcapMagic, 8), 0);
-  EXPECT_EQ(b[5], 0x30) << "major version '0'";
-
-  const auto rs = records(b);
-  std::vector<std::uint8_t> ops;
-  for (const auto& r : rs)
-    ops.push_back(r.op);
-  // Header, Schema, Channel x2, Message x3, Data End, summary (Schema, Channel x2, Statistics),
-  // Summary Offset x3 (one per group), Footer.
-  EXPECT_EQ(ops, (std::vector<std::uint8_t>{0x01, 0x03, 0x04, 0x04, 0x05, 0x05, 0x05, 0x0F, 0x03,
-                                            0x04, 0x04, 0x0B, 0x0E, 0x0E, 0x0E, 0x02}));
-  ASSERT_EQ(rs.size(), ops.size());
-
+// The data section of the file BytesFollowTheSpecification writes: Header, Schema, Channel,
+// Messages (with their sequence per channel), and Data End's CRC.
+void expect_data_section(const std::vector<std::uint8_t>& b, const std::vector<Record>& rs) {
   Cursor c{b, rs[0].content};
   EXPECT_EQ(c.str(), "");
   EXPECT_EQ(c.str(), "ajar-test");
@@ -125,9 +103,12 @@ TEST(McapWriter, BytesFollowTheSpecification) {
   // Data End: CRC-32 of every byte before it.
   c.at = rs[7].content;
   EXPECT_EQ(c.le(4), crc32(std::span(b.data(), rs[7].start)));
+}
 
+// Its summary: Statistics, the Summary Offsets of each group, and the Footer.
+void expect_summary_section(const std::vector<std::uint8_t>& b, const std::vector<Record>& rs) {
   // Statistics.
-  c.at = rs[11].content;
+  Cursor c{b, rs[11].content};
   EXPECT_EQ(c.le(8), 3U);     // message_count
   EXPECT_EQ(c.le(2), 1U);     // schema_count
   EXPECT_EQ(c.le(4), 2U);     // channel_count
@@ -160,6 +141,35 @@ TEST(McapWriter, BytesFollowTheSpecification) {
   const std::size_t crc_end = c.at;
   EXPECT_EQ(c.le(4), crc32(std::span(b.data() + rs[8].start, crc_end - rs[8].start)));
   EXPECT_EQ(c.at, rs[15].end);
+}
+
+TEST(McapWriter, BytesFollowTheSpecification) {
+  McapWriter w("", "ajar-test");
+  w.add_schema(1, "ajar.Event", "jsonschema", R"({"type":"object"})");
+  w.add_channel(2, 1, "/ajar/events", "json", {{"k", "v"}});
+  w.add_channel(1, 0, "/ajar/wire", "ajar.wire");
+  w.add_message(2, 1000, std::string_view(R"({"a":1})"));
+  w.add_message(1, 900, std::string_view("\x01\x02", 2));
+  w.add_message(2, 2000, std::string_view(R"({"a":2})"));
+  w.close();
+  const auto b = w.take_bytes();
+  ASSERT_GT(b.size(), 16U);
+  EXPECT_EQ(std::memcmp(b.data(), kMcapMagic, 8), 0);
+  EXPECT_EQ(std::memcmp(b.data() + b.size() - 8, kMcapMagic, 8), 0);
+  EXPECT_EQ(b[5], 0x30) << "major version '0'";
+
+  const auto rs = records(b);
+  std::vector<std::uint8_t> ops;
+  for (const auto& r : rs)
+    ops.push_back(r.op);
+  // Header, Schema, Channel x2, Message x3, Data End, summary (Schema, Channel x2, Statistics),
+  // Summary Offset x3 (one per group), Footer.
+  EXPECT_EQ(ops, (std::vector<std::uint8_t>{0x01, 0x03, 0x04, 0x04, 0x05, 0x05, 0x05, 0x0F, 0x03,
+                                            0x04, 0x04, 0x0B, 0x0E, 0x0E, 0x0E, 0x02}));
+  ASSERT_EQ(rs.size(), ops.size());
+
+  expect_data_section(b, rs);
+  expect_summary_section(b, rs);
 }
 
 TEST(McapWriter, HandsOutWholeRecordsSoThatEveryTakenPrefixParses) {
