@@ -282,35 +282,229 @@ std::vector<std::uint8_t> frame_to_send(const Exchange& e, std::uint64_t instanc
   return out;
 }
 
-}  // namespace
+// The replies the session's client has received, each given to the request it answers.
+void collect(ReplaySession& s) {
+  while (auto reply = s.client->wait_reply(std::nullopt, Milliseconds{0})) {
+    for (auto& e : s.exchanges) {
+      if (e.request.request_id == reply->request_id && !e.replayed_reply && e.recorded_reply) {
+        e.replayed_reply = reply->message;
+        break;
+      }
+    }
+  }
+}
 
-int run_replay(const Command& command, const GlobalOptions& options, std::ostream& out,
-               std::ostream& err) {
+// The replies still owed to the session's requests, until `deadline`.
+void await_replies(ReplaySession& s, SteadyClock::time_point deadline) {
+  collect(s);
+  for (auto& e : s.exchanges) {
+    while (e.recorded_reply && !e.replayed_reply && SteadyClock::now() < deadline &&
+           s.client->connected()) {
+      std::this_thread::sleep_for(Milliseconds{2});
+      collect(s);
+    }
+  }
+}
+
+// Until the replayed session has received `count` events, `until` passes or the user interrupts.
+void await_events(ReplaySession& s, std::size_t count, SteadyClock::time_point until) {
+  for (;;) {
+    {
+      std::lock_guard lock(s.mutex);
+      if (s.replayed_events.size() >= count) break;
+    }
+    if (SteadyClock::now() >= until || interrupted()) break;
+    std::this_thread::sleep_for(Milliseconds{2});
+  }
+}
+
+// replay FILE [--settle S]; nullopt after a usage error (said on `err`).
+struct ReplayArgs {
   std::string path;
   double settle_s = 2.0;
+};
+std::optional<ReplayArgs> parse_replay_args(const Command& command, std::ostream& err) {
+  ReplayArgs r;
   for (std::size_t i = 0; i < command.args.size(); ++i) {
     const std::string& a = command.args[i];
     if (a == "--settle" && i + 1 < command.args.size()) {
       try {
-        settle_s = std::stod(command.args[++i]);
+        r.settle_s = std::stod(command.args[++i]);
       } catch (const std::exception&) {
-        settle_s = -1;
+        r.settle_s = -1;
       }
-      if (!(settle_s >= 0 && settle_s <= 600)) {
+      if (!(r.settle_s >= 0 && r.settle_s <= 600)) {
         err << "ajarctl: replay: --settle wants seconds 0..600\n";
-        return kExitUsage;
+        return std::nullopt;
       }
-    } else if (path.empty() && !a.starts_with("-")) {
-      path = a;
+    } else if (r.path.empty() && !a.starts_with("-")) {
+      r.path = a;
     } else {
       err << "ajarctl: replay: unexpected '" << a << "' (usage: replay FILE [--settle S])\n";
-      return kExitUsage;
+      return std::nullopt;
     }
   }
-  if (path.empty()) {
+  if (r.path.empty()) {
     err << "ajarctl: replay wants FILE (usage: replay FILE [--settle S])\n";
-    return kExitUsage;
+    return std::nullopt;
   }
+  return r;
+}
+
+// A request of a recorded session, or where the recorded session closed.
+struct Step {
+  ReplaySession* session;
+  Exchange* exchange;  // nullptr: the recorded session closed here
+  std::uint64_t at_ns;
+};
+
+// Every request of every session, and each session's close after its last request, in recorded
+// order.
+std::vector<Step> replay_steps(std::vector<std::unique_ptr<ReplaySession>>& sessions,
+                               const recorder::McapFile& file) {
+  std::vector<Step> steps;
+  const auto closes = session_closes(file);
+  for (auto& s : sessions) {
+    for (auto& e : s->exchanges)
+      steps.push_back({s.get(), &e, e.at_ns});
+    if (const auto c = closes.find(s->id);
+        c != closes.end() && c->second >= s->exchanges.back().at_ns) {
+      s->closed_ns = c->second;
+      steps.push_back({s.get(), nullptr, c->second});
+    }
+  }
+  std::stable_sort(steps.begin(), steps.end(),
+                   [](const Step& a, const Step& b) { return a.at_ns < b.at_ns; });
+  return steps;
+}
+
+// Plays the steps against the daemon at their recorded times, one client per recorded session:
+// each request after the events its session had received before it (at most --settle; the time
+// waited delays the rest), each recorded close as a close of the replayed session.
+class Replayer {
+ public:
+  Replayer(const GlobalOptions& options, Milliseconds settle, std::uint64_t t0_ns)
+      : options_(options), settle_(settle), t0_ns_(t0_ns) {
+    client_options_.connect_timeout =
+        Milliseconds(std::max<long>(1000, std::lround(options.timeout_s * 1000)));
+    client_options_.tls = options.tls;
+    client_options_.client_name = "ajarctl replay";
+    start_ = SteadyClock::now();
+  }
+
+  // kExitOk, or the exit code it stopped with (interrupted, no connection: said on `err`).
+  int play(const std::vector<Step>& steps, std::ostream& err) {
+    for (const Step& step : steps) {
+      ReplaySession& s = *step.session;
+      std::this_thread::sleep_until(start_ + late_ + std::chrono::nanoseconds(step.at_ns - t0_ns_));
+      if (interrupted()) {
+        err << "ajarctl: replay interrupted\n";
+        return kExitConnection;
+      }
+      if (step.exchange == nullptr) {  // the recorded session closed: so does the replayed one
+        close(s);
+        continue;
+      }
+      // The operator reacted to what the session had seen: wait (at most --settle) for the events
+      // the recorded session had received before this request.
+      if (s.client) {
+        const auto wait_until = SteadyClock::now() + settle_;
+        const auto begin = SteadyClock::now();
+        await_events(s, step.exchange->events_before, wait_until);
+        late_ += SteadyClock::now() - begin;
+      }
+      if (!s.client && !connect(s, err)) return kExitConnection;
+      s.client->send_raw(frame_to_send(*step.exchange, rng_() | 1));
+      collect(s);
+    }
+    return kExitOk;
+  }
+
+ private:
+  // Once its replies and the events the recorded session had got before it closed came (at most
+  // --settle).
+  void close(ReplaySession& s) {
+    if (!s.client) return;
+    const auto until = SteadyClock::now() + settle_;
+    await_replies(s, until);
+    await_events(s, s.recorded_events.size(), until);
+    s.client->close();
+  }
+  bool connect(ReplaySession& s, std::ostream& err) {
+    s.client = std::make_unique<Client>(client_options_);
+    s.client->on_event([&s](const protocol::Event& e) {
+      std::lock_guard lock(s.mutex);
+      s.replayed_events.push_back(key_of(e));
+    });
+    if (const auto c = s.client->connect(options_.endpoint); !c) {
+      err << "ajarctl: replay: connect: " << c.error().message << "\n";
+      return false;
+    }
+    s.connected = true;
+    return true;
+  }
+
+  std::mt19937_64 rng_{std::random_device{}()};
+  const GlobalOptions& options_;
+  ClientOptions client_options_;
+  Milliseconds settle_;
+  std::uint64_t t0_ns_;
+  SteadyClock::time_point start_;
+  std::chrono::nanoseconds late_{0};  // how far the replay fell behind the recording (event waits)
+};
+
+// The session's differences from the recording, each a line on `out`: replies (at +seconds from
+// `t0_ns`) and events; how many.
+std::size_t report_differences(ReplaySession& s, std::uint64_t t0_ns, std::ostream& out) {
+  std::size_t differences = 0;
+  const auto when = [&](const Exchange& e) {
+    char text[32];
+    std::snprintf(text, sizeof text, "+%.3f s", static_cast<double>(e.at_ns - t0_ns) * 1e-9);
+    return std::string(text);
+  };
+  for (const auto& e : s.exchanges) {
+    if (!e.recorded_reply) continue;  // none recorded (the recording was cut): nothing to hold
+    const std::string what = std::string(protocol::to_string(protocol::type_of(e.request.message)));
+    std::string why;
+    if (!e.replayed_reply) {
+      why = "no reply";
+    } else {
+      why = compare(*e.recorded_reply, *e.replayed_reply);
+    }
+    if (why.empty()) continue;
+    ++differences;
+    out << "DIFFERENCE session " << s.id << " request " << e.request.request_id << " " << what
+        << " at " << when(e) << ": " << why << "\n  recorded: " << reply_text(*e.recorded_reply)
+        << "\n  replayed: " << (e.replayed_reply ? reply_text(*e.replayed_reply) : "(none)")
+        << "\n";
+  }
+  std::vector<EventKey> replayed_events;
+  {
+    std::lock_guard lock(s.mutex);
+    replayed_events = s.replayed_events;
+  }
+  std::vector<std::size_t> only_recorded, only_replayed;
+  diff_events(s.recorded_events, replayed_events, only_recorded, only_replayed);
+  for (const std::size_t i : only_recorded) {
+    ++differences;
+    out << "DIFFERENCE session " << s.id << " event " << event_text_of(s.recorded_events[i])
+        << ": recorded, not replayed (" << s.recorded_events[i].detail << ")\n";
+  }
+  for (const std::size_t i : only_replayed) {
+    ++differences;
+    out << "DIFFERENCE session " << s.id << " event " << event_text_of(replayed_events[i])
+        << ": replayed, not recorded (" << replayed_events[i].detail << ")\n";
+  }
+  return differences;
+}
+
+}  // namespace
+
+int run_replay(const Command& command, const GlobalOptions& options, std::ostream& out,
+               std::ostream& err) {
+  const auto args = parse_replay_args(command, err);
+  if (!args) return kExitUsage;
+  const std::string& path = args->path;
   std::string error;
   const recorder::McapFile file = recorder::read_mcap(path, &error);
   if (!file.is_mcap) {
@@ -327,25 +521,7 @@ int run_replay(const Command& command, const GlobalOptions& options, std::ostrea
     return kExitRefused;
   }
 
-  // Every request of every session, in recorded order.
-  struct Step {
-    ReplaySession* session;
-    Exchange* exchange;  // nullptr: the recorded session closed here
-    std::uint64_t at_ns;
-  };
-  std::vector<Step> steps;
-  const auto closes = session_closes(file);
-  for (auto& s : sessions) {
-    for (auto& e : s->exchanges)
-      steps.push_back({s.get(), &e, e.at_ns});
-    if (const auto c = closes.find(s->id);
-        c != closes.end() && c->second >= s->exchanges.back().at_ns) {
-      s->closed_ns = c->second;
-      steps.push_back({s.get(), nullptr, c->second});
-    }
-  }
-  std::stable_sort(steps.begin(), steps.end(),
-                   [](const Step& a, const Step& b) { return a.at_ns < b.at_ns; });
+  const std::vector<Step> steps = replay_steps(sessions, file);
   std::size_t requests = 0;
   for (const auto& step : steps)
     requests += step.exchange != nullptr ? 1 : 0;
@@ -353,94 +529,14 @@ int run_replay(const Command& command, const GlobalOptions& options, std::ostrea
   for (const auto& w : wires)
     last_recorded_ns = std::max(last_recorded_ns, w.daemon_time_ns);
 
-  std::mt19937_64 rng(std::random_device{}());
-  ClientOptions client_options;
-  client_options.connect_timeout =
-      Milliseconds(std::max<long>(1000, std::lround(options.timeout_s * 1000)));
-  client_options.tls = options.tls;
-  client_options.client_name = "ajarctl replay";
   const std::uint64_t t0_ns = steps.front().at_ns;
-  const auto start = SteadyClock::now();
-  const auto collect = [](ReplaySession& s) {
-    while (auto reply = s.client->wait_reply(std::nullopt, Milliseconds{0})) {
-      for (auto& e : s.exchanges) {
-        if (e.request.request_id == reply->request_id && !e.replayed_reply && e.recorded_reply) {
-          e.replayed_reply = reply->message;
-          break;
-        }
-      }
-    }
-  };
-  // The replies still owed to the session's requests, until `deadline`.
-  const auto await_replies = [&](ReplaySession& s, SteadyClock::time_point deadline) {
-    collect(s);
-    for (auto& e : s.exchanges) {
-      while (e.recorded_reply && !e.replayed_reply && SteadyClock::now() < deadline &&
-             s.client->connected()) {
-        std::this_thread::sleep_for(Milliseconds{2});
-        collect(s);
-      }
-    }
-  };
+  const auto settle =
+      std::chrono::duration_cast<Milliseconds>(std::chrono::duration<double>(args->settle_s));
+  Replayer replayer(options, settle, t0_ns);
   out << "replaying " << requests << " requests of " << sessions.size()
       << " controller session(s) from " << path << " ("
       << (static_cast<double>(steps.back().at_ns - t0_ns) * 1e-9) << " s)\n";
-  const auto settle =
-      std::chrono::duration_cast<Milliseconds>(std::chrono::duration<double>(settle_s));
-  std::chrono::nanoseconds late{0};  // how far the replay fell behind the recording (event waits)
-  for (const Step& step : steps) {
-    ReplaySession& s = *step.session;
-    std::this_thread::sleep_until(start + late + std::chrono::nanoseconds(step.at_ns - t0_ns));
-    if (interrupted()) {
-      err << "ajarctl: replay interrupted\n";
-      return kExitConnection;
-    }
-    if (step.exchange == nullptr) {  // the recorded session closed: so does the replayed one
-      if (s.client) {
-        const auto until = SteadyClock::now() + settle;
-        await_replies(s, until);
-        for (;;) {  // and the events the recorded session had got before it closed
-          {
-            std::lock_guard lock(s.mutex);
-            if (s.replayed_events.size() >= s.recorded_events.size()) break;
-          }
-          if (SteadyClock::now() >= until || interrupted()) break;
-          std::this_thread::sleep_for(Milliseconds{2});
-        }
-        s.client->close();
-      }
-      continue;
-    }
-    // The operator reacted to what the session had seen: wait (at most --settle) for the events
-    // the recorded session had received before this request.
-    if (s.client) {
-      const auto wait_until = SteadyClock::now() + settle;
-      const auto begin = SteadyClock::now();
-      for (;;) {
-        {
-          std::lock_guard lock(s.mutex);
-          if (s.replayed_events.size() >= step.exchange->events_before) break;
-        }
-        if (SteadyClock::now() >= wait_until || interrupted()) break;
-        std::this_thread::sleep_for(Milliseconds{2});
-      }
-      late += SteadyClock::now() - begin;
-    }
-    if (!s.client) {
-      s.client = std::make_unique<Client>(client_options);
-      s.client->on_event([&s](const protocol::Event& e) {
-        std::lock_guard lock(s.mutex);
-        s.replayed_events.push_back(key_of(e));
-      });
-      if (const auto c = s.client->connect(options.endpoint); !c) {
-        err << "ajarctl: replay: connect: " << c.error().message << "\n";
-        return kExitConnection;
-      }
-      s.connected = true;
-    }
-    s.client->send_raw(frame_to_send(*step.exchange, rng() | 1));
-    collect(s);
-  }
+  if (const int code = replayer.play(steps, err); code != kExitOk) return code;
   // The replies still owed, then the events of the recording's tail.
   const auto tail = std::chrono::nanoseconds(last_recorded_ns - steps.back().at_ns);
   const auto deadline = SteadyClock::now() + tail + settle;
@@ -450,46 +546,8 @@ int run_replay(const Command& command, const GlobalOptions& options, std::ostrea
   std::this_thread::sleep_until(deadline);
 
   std::size_t differences = 0;
-  const auto when = [&](const Exchange& e) {
-    char text[32];
-    std::snprintf(text, sizeof text, "+%.3f s", static_cast<double>(e.at_ns - t0_ns) * 1e-9);
-    return std::string(text);
-  };
   for (auto& s : sessions) {
-    for (const auto& e : s->exchanges) {
-      if (!e.recorded_reply) continue;  // none recorded (the recording was cut): nothing to hold
-      const std::string what =
-          std::string(protocol::to_string(protocol::type_of(e.request.message)));
-      std::string why;
-      if (!e.replayed_reply) {
-        why = "no reply";
-      } else {
-        why = compare(*e.recorded_reply, *e.replayed_reply);
-      }
-      if (why.empty()) continue;
-      ++differences;
-      out << "DIFFERENCE session " << s->id << " request " << e.request.request_id << " " << what
-          << " at " << when(e) << ": " << why << "\n  recorded: " << reply_text(*e.recorded_reply)
-          << "\n  replayed: " << (e.replayed_reply ? reply_text(*e.replayed_reply) : "(none)")
-          << "\n";
-    }
-    std::vector<EventKey> replayed_events;
-    {
-      std::lock_guard lock(s->mutex);
-      replayed_events = s->replayed_events;
-    }
-    std::vector<std::size_t> only_recorded, only_replayed;
-    diff_events(s->recorded_events, replayed_events, only_recorded, only_replayed);
-    for (const std::size_t i : only_recorded) {
-      ++differences;
-      out << "DIFFERENCE session " << s->id << " event " << event_text_of(s->recorded_events[i])
-          << ": recorded, not replayed (" << s->recorded_events[i].detail << ")\n";
-    }
-    for (const std::size_t i : only_replayed) {
-      ++differences;
-      out << "DIFFERENCE session " << s->id << " event " << event_text_of(replayed_events[i])
-          << ": replayed, not recorded (" << replayed_events[i].detail << ")\n";
-    }
+    differences += report_differences(*s, t0_ns, out);
     s->client->close();
   }
   out << (differences == 0 ? "no difference" : std::to_string(differences) + " difference(s)")
