@@ -249,6 +249,72 @@ std::string wire_text(const WireRecord& w) {
   return text + body + " (request " + std::to_string(w.envelope->request_id) + ")";
 }
 
+// show's lines: the time since the first line, who and what (with --json: the record's JSON with
+// its daemon_time_ns, one object a line).
+class ShowLines {
+ public:
+  ShowLines(bool json, std::ostream& out) : json_(json), out_(out) {}
+  void line(std::uint64_t t, const std::string& who, const std::string& what,
+            const ordered_json& json) {
+    if (!have_t0_) {
+      t0_ = t;
+      have_t0_ = true;
+    }
+    ++lines_;
+    if (json_) {
+      ordered_json j = json;
+      j["daemon_time_ns"] = t;
+      out_ << j.dump() << "\n";
+    } else {
+      char who_text[24];
+      std::snprintf(who_text, sizeof who_text, "%-11s", who.c_str());
+      out_ << time_text(t, t0_) << "  " << who_text << " " << what << "\n";
+    }
+  }
+  std::size_t count() const { return lines_; }
+
+ private:
+  bool json_;
+  std::ostream& out_;
+  std::uint64_t t0_ = 0;
+  bool have_t0_ = false;
+  std::size_t lines_ = 0;
+};
+
+// A record `j` of the events, faults, sessions or config channel (`t`), or with `all` of the
+// recorder's own, as a line; records of other channels are not shown.
+void show_channel_record(ShowLines& show, std::string_view t, const ordered_json& j, bool all) {
+  const std::uint64_t time = j.value("daemon_time_ns", std::uint64_t{0});
+  const auto s = [&j](const char* key) { return j.value(key, std::string()); };
+  if (t == topic_of(recorder::kEventsChannel)) {
+    std::string what = s("kind") + " -> " + s("state");
+    if (s("fault") != "OK" && !s("fault").empty()) what += " " + s("fault");
+    if (!s("detail").empty()) what += ": " + s("detail");
+    show.line(time, "event", what, {{"type", "event"}, {"event", j}});
+  } else if (t == topic_of(recorder::kFaultsChannel)) {
+    show.line(time, "FAULT", s("change") + " " + s("code") + ": " + s("detail"),
+              {{"type", "fault"}, {"fault", j}});
+  } else if (t == topic_of(recorder::kSessionsChannel)) {
+    std::string what = s("change");
+    if (s("change") == "open") what += " from " + s("peer") + " as " + s("identity");
+    if (s("change") == "role") what += " " + s("role");
+    if (!s("detail").empty()) what += ": " + s("detail");
+    show.line(time, "session " + std::to_string(j.value("session_id", std::uint64_t{0})), what,
+              {{"type", "session"}, {"session", j}});
+  } else if (t == topic_of(recorder::kConfigChannel)) {
+    std::string what = s("reason") + " " + s("file");
+    if (j.contains("changed_keys") && j["changed_keys"].is_array() && !j["changed_keys"].empty()) {
+      what += " (changed:";
+      for (const auto& k : j["changed_keys"])
+        what += " " + k.get<std::string>();
+      what += ")";
+    }
+    show.line(time, "config", what, {{"type", "config"}, {"reason", s("reason")}});
+  } else if (t == topic_of(recorder::kRecorderChannel) && all) {
+    show.line(time, "recorder", j.dump(), {{"type", "recorder"}, {"recorder", j}});
+  }
+}
+
 int show_command(const std::string& path, bool all, const GlobalOptions& options, std::ostream& out,
                  std::ostream& err) {
   const auto file = open_recording(path, err);
@@ -256,26 +322,7 @@ int show_command(const std::string& path, bool all, const GlobalOptions& options
   std::string problem;
   const auto wires = wire_records(*file, &problem);
   std::size_t wire_index = 0;
-  std::uint64_t t0 = 0;
-  bool have_t0 = false;
-  std::size_t lines = 0;
-  const auto line = [&](std::uint64_t t, const std::string& who, const std::string& what,
-                        const ordered_json& json) {
-    if (!have_t0) {
-      t0 = t;
-      have_t0 = true;
-    }
-    ++lines;
-    if (options.json) {
-      ordered_json j = json;
-      j["daemon_time_ns"] = t;
-      out << j.dump() << "\n";
-    } else {
-      char who_text[24];
-      std::snprintf(who_text, sizeof who_text, "%-11s", who.c_str());
-      out << time_text(t, t0) << "  " << who_text << " " << what << "\n";
-    }
-  };
+  ShowLines show(options.json, out);
   out << (options.json ? ""
                        : "recording " + path + ": " + std::to_string(file->messages.size()) +
                              " messages" + (file->complete ? "" : " (cut short)") + "\n");
@@ -289,50 +336,21 @@ int show_command(const std::string& path, bool all, const GlobalOptions& options
         // Events are shown once, from their own channel; the rest of the noise with --all.
         if (type == protocol::MessageType::kEvent || (!all && noisy(type))) continue;
       }
-      line(w.daemon_time_ns, "session " + std::to_string(w.session_id), wire_text(w),
-           {{"type", "wire"},
-            {"session_id", w.session_id},
-            {"direction", w.in ? "in" : "out"},
-            {"text", wire_text(w)}});
+      show.line(w.daemon_time_ns, "session " + std::to_string(w.session_id), wire_text(w),
+                {{"type", "wire"},
+                 {"session_id", w.session_id},
+                 {"direction", w.in ? "in" : "out"},
+                 {"text", wire_text(w)}});
       continue;
     }
     const auto data = file->data(m);
     const ordered_json j =
         ordered_json::parse(data.begin(), data.end(), nullptr, /*allow_exceptions=*/false);
     if (j.is_discarded() || !j.is_object()) continue;
-    const std::uint64_t time = j.value("daemon_time_ns", std::uint64_t{0});
-    const auto s = [&j](const char* key) { return j.value(key, std::string()); };
-    if (t == topic_of(recorder::kEventsChannel)) {
-      std::string what = s("kind") + " -> " + s("state");
-      if (s("fault") != "OK" && !s("fault").empty()) what += " " + s("fault");
-      if (!s("detail").empty()) what += ": " + s("detail");
-      line(time, "event", what, {{"type", "event"}, {"event", j}});
-    } else if (t == topic_of(recorder::kFaultsChannel)) {
-      line(time, "FAULT", s("change") + " " + s("code") + ": " + s("detail"),
-           {{"type", "fault"}, {"fault", j}});
-    } else if (t == topic_of(recorder::kSessionsChannel)) {
-      std::string what = s("change");
-      if (s("change") == "open") what += " from " + s("peer") + " as " + s("identity");
-      if (s("change") == "role") what += " " + s("role");
-      if (!s("detail").empty()) what += ": " + s("detail");
-      line(time, "session " + std::to_string(j.value("session_id", std::uint64_t{0})), what,
-           {{"type", "session"}, {"session", j}});
-    } else if (t == topic_of(recorder::kConfigChannel)) {
-      std::string what = s("reason") + " " + s("file");
-      if (j.contains("changed_keys") && j["changed_keys"].is_array() &&
-          !j["changed_keys"].empty()) {
-        what += " (changed:";
-        for (const auto& k : j["changed_keys"])
-          what += " " + k.get<std::string>();
-        what += ")";
-      }
-      line(time, "config", what, {{"type", "config"}, {"reason", s("reason")}});
-    } else if (t == topic_of(recorder::kRecorderChannel) && all) {
-      line(time, "recorder", j.dump(), {{"type", "recorder"}, {"recorder", j}});
-    }
+    show_channel_record(show, t, j, all);
   }
   if (!problem.empty()) err << "note: " << problem << "\n";
-  if (!options.json) out << lines << " lines\n";
+  if (!options.json) out << show.count() << " lines\n";
   return kExitOk;
 }
 
