@@ -167,25 +167,28 @@ inline protocol::Welcome welcome() {
   return w;
 }
 
-// (name, object) in the order of json_golden.jsonl.
-inline std::vector<std::pair<std::string, JsonObject>> all() {
+using NamedObjects = std::vector<std::pair<std::string, JsonObject>>;
+
+inline void add_sample(NamedObjects& out, std::string name, JsonObject o) {
+  out.emplace_back(std::move(name), std::move(o));
+}
+
+// The replies: every Ack body, Status, RobotModel, Pong, Welcome and any other reply.
+inline void add_replies(NamedObjects& out) {
   using protocol::MessageType;
   using protocol::ProcedureState;
-  std::vector<std::pair<std::string, JsonObject>> out;
-  auto add = [&](std::string name, JsonObject o) { out.emplace_back(std::move(name), o); };
-
   auto a = ack(MessageType::kMeasureDoorWidth, ProcedureState::kAwaitingHandle);
   a.body = span(0.9152);
-  add("ack width", response_object("measure_width", reply_with(a)));
+  add_sample(out, "ack width", response_object("measure_width", reply_with(a)));
   a = ack(MessageType::kMeasureHandle, ProcedureState::kAwaitingPlane);
   a.body = span(0.12);
-  add("ack handle", response_object("measure_handle", reply_with(a)));
+  add_sample(out, "ack handle", response_object("measure_handle", reply_with(a)));
   a = ack(MessageType::kMeasureDoorPlane, ProcedureState::kReadyToAlign);
   a.body = plane();
-  add("ack plane", response_object("measure_plane", reply_with(a)));
+  add_sample(out, "ack plane", response_object("measure_plane", reply_with(a)));
   a = ack(MessageType::kSetContactPoint, ProcedureState::kReadyToEngage);
   a.body = contact();
-  add("ack contact", response_object("contact", reply_with(a)));
+  add_sample(out, "ack contact", response_object("contact", reply_with(a)));
   a = ack(MessageType::kApproach, ProcedureState::kAwaitingWidth);
   protocol::ApproachAck approach;
   approach.travel_m = 0.25;
@@ -193,41 +196,49 @@ inline std::vector<std::pair<std::string, JsonObject>> all() {
   approach.left_counts = 198944;
   approach.right_counts = -198944;
   a.body = approach;
-  add("ack approach", response_object("approach", reply_with(a)));
-  add("ack reset", response_object("reset", reply_with(ack(MessageType::kReset,
-                                                           ProcedureState::kAwaitingWidth))));
-  add("status", response_object("status", reply_with(status())));
-  add("status empty", response_object("status", reply_with(protocol::Status{})));
-  add("robot model", response_object("model", reply_with(robot_model())));
+  add_sample(out, "ack approach", response_object("approach", reply_with(a)));
+  add_sample(out, "ack reset",
+             response_object("reset",
+                             reply_with(ack(MessageType::kReset, ProcedureState::kAwaitingWidth))));
+  add_sample(out, "status", response_object("status", reply_with(status())));
+  add_sample(out, "status empty", response_object("status", reply_with(protocol::Status{})));
+  add_sample(out, "robot model", response_object("model", reply_with(robot_model())));
   protocol::Pong pong;
   pong.daemon_time_ns = 1234567890123456789u;
-  add("pong", response_object("ping", reply_with(pong)));
-  add("welcome", response_object("hello", reply_with(welcome())));
-  add("other reply", response_object("stop", reply_with(protocol::Stop{})));
+  add_sample(out, "pong", response_object("ping", reply_with(pong)));
+  add_sample(out, "welcome", response_object("hello", reply_with(welcome())));
+  add_sample(out, "other reply", response_object("stop", reply_with(protocol::Stop{})));
+}
 
+// A request without a reply: refused, timed out, disconnected.
+inline void add_failures(NamedObjects& out) {
   Response refused;
   refused.outcome = CallOutcome::kRefused;
   refused.request_id = 7;
   refused.error.code = ErrorCode::kPointsCollinear;
   refused.error.field = "points[2]";
   refused.error.message = "the points are \"in a row\"\\\n\t\x01 (\xc2\xb0)";
-  add("refused", response_object("measure_plane", refused));
+  add_sample(out, "refused", response_object("measure_plane", refused));
   Response timeout;
   timeout.outcome = CallOutcome::kTimeout;
   timeout.transport_error = "no reply in 2.0 s";
-  add("timeout", response_object("status", timeout));
+  add_sample(out, "timeout", response_object("status", timeout));
   Response disconnected;
   disconnected.outcome = CallOutcome::kDisconnected;
   disconnected.transport_error = "connection reset";
-  add("disconnected", response_object("status", disconnected));
+  add_sample(out, "disconnected", response_object("status", disconnected));
+}
 
+// What is not a reply: an event, telemetry, the Welcome and error objects, a 1.2 Status.
+inline void add_other_objects(NamedObjects& out) {
+  using protocol::ProcedureState;
   protocol::Event e;
   e.kind = protocol::EventKind::kFaultLatched;
   e.state = ProcedureState::kFault;
   e.fault = ErrorCode::kDeadman;
   e.daemon_time_ns = 42;
   e.detail = "controller \"gui\" went silent";
-  add("event", event_object(e));
+  add_sample(out, "event", event_object(e));
 
   protocol::Telemetry t;
   t.daemon_time_ns = 1000000000;
@@ -239,15 +250,23 @@ inline std::vector<std::pair<std::string, JsonObject>> all() {
   t.right_counts = 100;
   t.base_yaw_odometry_rad = -std::numeric_limits<double>::infinity();
   fill_motion(t);
-  add("telemetry", telemetry_object(t));
-  add("telemetry empty", telemetry_object(protocol::Telemetry{}));
-  add("welcome object", welcome_object(welcome()));
-  add("error object", error_object("SIMULATION_FAILED", "", "x \x7f y"));
+  add_sample(out, "telemetry", telemetry_object(t));
+  add_sample(out, "telemetry empty", telemetry_object(protocol::Telemetry{}));
+  add_sample(out, "welcome object", welcome_object(welcome()));
+  add_sample(out, "error object", error_object("SIMULATION_FAILED", "", "x \x7f y"));
   Response status_1_2 = reply_with(status());  // a 1.2 session: base_motion and the recorder
   status_1_2.session_minor = 2;
   std::get<protocol::Status>(status_1_2.reply).base_motion = protocol::BaseMotion::kStopping;
   std::get<protocol::Status>(status_1_2.reply).recorder = recorder();
-  add("status 1.2", response_object("status", status_1_2));
+  add_sample(out, "status 1.2", response_object("status", status_1_2));
+}
+
+// (name, object) in the order of json_golden.jsonl.
+inline NamedObjects all() {
+  NamedObjects out;
+  add_replies(out);
+  add_failures(out);
+  add_other_objects(out);
   return out;
 }
 
