@@ -290,32 +290,46 @@ class Campaign {
     return "closed";
   }
 
+  // One step of the connection: the policy may change first (maybe_change), then `action`.
+  template <typename Action>
+  auto step(std::mt19937_64& rng, SteppedTlsClient& client, const std::string& name,
+            const std::string& what, Action&& action) {
+    maybe_change(rng, client, name);
+    log(what);
+    return action();
+  }
+
+  // The connection step by step, the policy changing between steps; what went against the policy
+  // ("" when nothing did).
   std::string steps(std::mt19937_64& rng, SteppedTlsClient& client, const std::string& name) {
-    auto step = [&](const std::string& what, auto&& action) {
-      maybe_change(rng, client, name);
-      log(what);
-      return action();
-    };
-    if (!step("ClientHello", [&] { return client.send_client_hello(); }) ||
-        !step("read the daemon's flight", [&] { return client.read_daemon_flight(); })) {
+    if (!step(rng, client, name, "ClientHello", [&] { return client.send_client_hello(); }) ||
+        !step(rng, client, name, "read the daemon's flight",
+              [&] { return client.read_daemon_flight(); })) {
       ++counters_["refused in the first flights"];
       return client.failure().find("deadline") != std::string::npos
                  ? "no answer: " + client.failure()
                  : "";
     }
     for (const char* record : {"ChangeCipherSpec", "Certificate", "CertificateVerify", "Finished"})
-      step(std::string("send ") + record, [&] { return client.send_next_record(); });
+      step(rng, client, name, std::string("send ") + record,
+           [&] { return client.send_next_record(); });
+    std::optional<Role> granted;
+    if (std::string wrong = hello_step(rng, client, name, granted); !wrong.empty()) return wrong;
+    if (std::string wrong = drive_step(rng, client, name, granted); !wrong.empty()) return wrong;
+    return stop_step(rng, client, name);
+  }
 
-    // Hello: what is granted is at most what the policy in force grants.
+  // Hello: what is granted (into `granted`) is at most what the policy in force grants.
+  std::string hello_step(std::mt19937_64& rng, SteppedTlsClient& client, const std::string& name,
+                         std::optional<Role>& granted) {
     const Role asked = pick(rng, 4) == 0 ? Role::kObserver : Role::kController;
-    const auto welcome =
-        step(asked == Role::kController ? "Hello controller" : "Hello observer", [&] {
+    const auto welcome = step(
+        rng, client, name, asked == Role::kController ? "Hello controller" : "Hello observer", [&] {
           client.send(hello_as(asked, seed_id(rng), true), 1);
           return client.reply_to(1);
         });
-    Grant now = policy_.grant();
+    const Grant now = policy_.grant();
     const auto* w = welcome ? std::get_if<protocol::Welcome>(&*welcome) : nullptr;
-    std::optional<Role> granted;
     if (w != nullptr) {
       granted = w->granted_role;
       log(std::string("Welcome ") + (*granted == Role::kController ? "controller" : "observer"));
@@ -331,13 +345,17 @@ class Campaign {
       if (always_.admitted && (asked == Role::kObserver || always_.may_control))
         return "refused (" + how + ") though the policy admits it as asked and never changed";
     }
+    return "";
+  }
 
-    // Drive, then Stop: acknowledged only under a policy that grants them.
-    const auto drive = step("Drive", [&] {
+  // Drive: acknowledged only under a policy that grants control, to the controller.
+  std::string drive_step(std::mt19937_64& rng, SteppedTlsClient& client, const std::string& name,
+                         const std::optional<Role>& granted) {
+    const auto drive = step(rng, client, name, "Drive", [&] {
       client.send(protocol::Drive{0.05, 0.0}, 2);
       return client.reply_to(2);
     });
-    now = policy_.grant();
+    const Grant now = policy_.grant();
     if (drive && std::holds_alternative<protocol::Ack>(*drive)) {
       acknowledged_.push_back(MessageType::kDrive);
       log("Drive acknowledged");
@@ -352,11 +370,16 @@ class Campaign {
         return "Drive refused (" + how + ") though the policy grants control and never changed";
       ++counters_["Drive refused"];
     }
-    const auto stop = step("Stop", [&] {
+    return "";
+  }
+
+  // Stop: acknowledged only under a policy that admits the certificate and lets it stop.
+  std::string stop_step(std::mt19937_64& rng, SteppedTlsClient& client, const std::string& name) {
+    const auto stop = step(rng, client, name, "Stop", [&] {
       client.send(protocol::Stop{}, 3);
       return client.reply_to(3);
     });
-    now = policy_.grant();
+    const Grant now = policy_.grant();
     if (stop && std::holds_alternative<protocol::Ack>(*stop)) {
       acknowledged_.push_back(MessageType::kStop);
       log("Stop acknowledged");
