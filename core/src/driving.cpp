@@ -7,15 +7,13 @@
 namespace ajar::core {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 double finite_or_zero(double v) noexcept {
   return std::isfinite(v) ? v : 0.0;
 }
 
 double wrap(double a) noexcept {
-  a = std::remainder(a, 2.0 * kPi);
-  return a <= -kPi ? a + 2.0 * kPi : a;
+  a = std::remainder(a, 2.0 * std::numbers::pi);
+  return a <= -std::numbers::pi ? a + 2.0 * std::numbers::pi : a;
 }
 
 // One component of the speed limiter.

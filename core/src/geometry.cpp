@@ -13,9 +13,8 @@ namespace ajar::core {
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
 double deg(double rad) {
-  return rad * 180.0 / kPi;
+  return rad * 180.0 / std::numbers::pi;
 }
 
 // Largest |counts| we convert: doubles hold every integer below 2^53 exactly.
@@ -262,7 +261,7 @@ Result<double> yaw_deviation_rad(const Plane& plane, const Tolerances& tol) {
   }
   // The base's +x must point into the door: along -normal (the normal faces the robot).
   const double yaw = yaw_from_normal_rad(n);
-  if (!(std::abs(yaw) < kPi / 2)) {
+  if (!(std::abs(yaw) < std::numbers::pi / 2)) {
     return make_error(
         ErrorCode::kYawOutOfRange, std::string(fields::kYawDeviation),
         fmt::format("the door plane does not face the front of the robot (squaring up would "
@@ -280,14 +279,15 @@ double yaw_from_normal_rad(const Vec3& normal) noexcept {
 
 std::optional<std::int64_t> wheel_rad_to_motor_counts(double wheel_rad,
                                                       const BaseGeometry& base) noexcept {
-  const double raw = wheel_rad / (2.0 * kPi) * base.gear_ratio * base.encoder_counts_per_rev;
+  const double raw =
+      wheel_rad / (2.0 * std::numbers::pi) * base.gear_ratio * base.encoder_counts_per_rev;
   if (!std::isfinite(raw) || !(std::abs(raw) < kMaxCounts)) return std::nullopt;
   return static_cast<std::int64_t>(std::round(raw));
 }
 
 double counts_to_wheel_rad(std::int64_t counts, const WheelAxis& axis, const BaseGeometry& base) {
   const double motor_counts = static_cast<double>(counts) * sign_of(axis.polarity);
-  return motor_counts / (base.gear_ratio * base.encoder_counts_per_rev) * (2.0 * kPi);
+  return motor_counts / (base.gear_ratio * base.encoder_counts_per_rev) * (2.0 * std::numbers::pi);
 }
 
 double base_yaw_from_wheels_rad(double left_wheel_rad, double right_wheel_rad,

@@ -16,13 +16,10 @@
 #include <stdexcept>
 
 #include "ajar/daemon/realtime.hpp"
+#include "control_loop_units.hpp"
 
 namespace ajar::daemon {
 namespace {
-
-std::int64_t seconds_to_ns(double s) {
-  return static_cast<std::int64_t>(std::llround(s * 1e9));
-}
 
 // SCHED_FIFO for the calling thread; empty when granted, else the warning.
 std::string make_realtime(int priority) {

@@ -9,6 +9,7 @@
 #include "ajar/drivers/card_checks.hpp"
 #include "ajar/drivers/gts_abi.hpp"
 #include "ajar/drivers/factory.hpp"
+#include "library_symbol.hpp"
 
 namespace ajar::drivers {
 
@@ -16,15 +17,7 @@ namespace {
 
 using card::fail;
 
-template <typename F>
-F resolve(void* handle, const char* name, const std::string& path) {
-  dlerror();
-  void* sym = dlsym(handle, name);
-  if (sym == nullptr) {
-    throw DriverStartupError("GTS card library " + path + " lacks the symbol " + name);
-  }
-  return reinterpret_cast<F>(sym);
-}
+constexpr const char* kGtsCardLibrary = "GTS card library";
 
 // Decodes a GT_GetSts word (positions left at 0).
 AxisStatus decode_status(long sts) {
@@ -106,24 +99,24 @@ GtsMotionCard::GtsMotionCard(GtsCardSettings settings) : settings_(std::move(set
   }
   try {
     api_ = std::make_unique<Api>(Api{
-        resolve<gts::GT_Open_t>(handle_, "GT_Open", path),
-        resolve<gts::GT_Close_t>(handle_, "GT_Close", path),
-        resolve<gts::GT_Reset_t>(handle_, "GT_Reset", path),
-        resolve<gts::GT_LoadConfig_t>(handle_, "GT_LoadConfig", path),
-        resolve<gts::GT_ClrSts_t>(handle_, "GT_ClrSts", path),
-        resolve<gts::GT_AxisOn_t>(handle_, "GT_AxisOn", path),
-        resolve<gts::GT_AxisOff_t>(handle_, "GT_AxisOff", path),
-        resolve<gts::GT_PrfTrap_t>(handle_, "GT_PrfTrap", path),
-        resolve<gts::GT_SetTrapPrm_t>(handle_, "GT_SetTrapPrm", path),
-        resolve<gts::GT_PrfJog_t>(handle_, "GT_PrfJog", path),
-        resolve<gts::GT_SetJogPrm_t>(handle_, "GT_SetJogPrm", path),
-        resolve<gts::GT_SetPos_t>(handle_, "GT_SetPos", path),
-        resolve<gts::GT_SetVel_t>(handle_, "GT_SetVel", path),
-        resolve<gts::GT_Update_t>(handle_, "GT_Update", path),
-        resolve<gts::GT_GetSts_t>(handle_, "GT_GetSts", path),
-        resolve<gts::GT_GetPrfPos_t>(handle_, "GT_GetPrfPos", path),
-        resolve<gts::GT_GetEncPos_t>(handle_, "GT_GetEncPos", path),
-        resolve<gts::GT_Stop_t>(handle_, "GT_Stop", path),
+        resolve_symbol<gts::GT_Open_t>(handle_, "GT_Open", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_Close_t>(handle_, "GT_Close", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_Reset_t>(handle_, "GT_Reset", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_LoadConfig_t>(handle_, "GT_LoadConfig", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_ClrSts_t>(handle_, "GT_ClrSts", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_AxisOn_t>(handle_, "GT_AxisOn", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_AxisOff_t>(handle_, "GT_AxisOff", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_PrfTrap_t>(handle_, "GT_PrfTrap", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_SetTrapPrm_t>(handle_, "GT_SetTrapPrm", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_PrfJog_t>(handle_, "GT_PrfJog", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_SetJogPrm_t>(handle_, "GT_SetJogPrm", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_SetPos_t>(handle_, "GT_SetPos", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_SetVel_t>(handle_, "GT_SetVel", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_Update_t>(handle_, "GT_Update", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_GetSts_t>(handle_, "GT_GetSts", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_GetPrfPos_t>(handle_, "GT_GetPrfPos", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_GetEncPos_t>(handle_, "GT_GetEncPos", kGtsCardLibrary, path),
+        resolve_symbol<gts::GT_Stop_t>(handle_, "GT_Stop", kGtsCardLibrary, path),
     });
   } catch (...) {
     dlclose(handle_);

@@ -6,19 +6,13 @@
 #include "ajar/install_paths.hpp"
 #include "ajar/drivers/factory.hpp"
 #include "ajar/drivers/gts_sim_control.hpp"
+#include "library_symbol.hpp"
 
 namespace ajar::drivers {
 
 namespace {
 
-template <typename F>
-F resolve(void* handle, const char* name, const std::string& path) {
-  void* sym = dlsym(handle, name);
-  if (sym == nullptr) {
-    throw DriverStartupError("card simulator library " + path + " lacks the symbol " + name);
-  }
-  return reinterpret_cast<F>(sym);
-}
+constexpr const char* kCardSimLibrary = "card simulator library";
 
 }  // namespace
 
@@ -30,29 +24,36 @@ GtsSimControl::GtsSimControl(const std::string& library_path) {
                              (why != nullptr ? why : "unknown error"));
   }
   try {
-    reset = resolve<AjarSim_Reset_t>(handle_, "AjarSim_Reset", library_path);
-    set_time_scale = resolve<AjarSim_SetTimeScale_t>(handle_, "AjarSim_SetTimeScale", library_path);
-    set_manual_clock =
-        resolve<AjarSim_SetManualClock_t>(handle_, "AjarSim_SetManualClock", library_path);
-    advance_clock_ns =
-        resolve<AjarSim_AdvanceClockNs_t>(handle_, "AjarSim_AdvanceClockNs", library_path);
-    inject_fault_raw = resolve<AjarSim_InjectFault_t>(handle_, "AjarSim_InjectFault", library_path);
-    fail_next_calls =
-        resolve<AjarSim_FailNextCalls_t>(handle_, "AjarSim_FailNextCalls", library_path);
-    set_call_delay_us =
-        resolve<AjarSim_SetCallDelayUs_t>(handle_, "AjarSim_SetCallDelayUs", library_path);
-    block_next_call =
-        resolve<AjarSim_BlockNextCall_t>(handle_, "AjarSim_BlockNextCall", library_path);
-    release_blocked_calls = resolve<AjarSim_ReleaseBlockedCalls_t>(
-        handle_, "AjarSim_ReleaseBlockedCalls", library_path);
-    blocked_calls = resolve<AjarSim_BlockedCalls_t>(handle_, "AjarSim_BlockedCalls", library_path);
-    set_encoder_lag_ms =
-        resolve<AjarSim_SetEncoderLagMs_t>(handle_, "AjarSim_SetEncoderLagMs", library_path);
-    call_count = resolve<AjarSim_CallCount_t>(handle_, "AjarSim_CallCount", library_path);
-    last_update_mask =
-        resolve<AjarSim_LastUpdateMask_t>(handle_, "AjarSim_LastUpdateMask", library_path);
-    last_stop = resolve<AjarSim_LastStop_t>(handle_, "AjarSim_LastStop", library_path);
-    now_ms = resolve<AjarSim_NowMs_t>(handle_, "AjarSim_NowMs", library_path);
+    reset =
+        resolve_symbol<AjarSim_Reset_t>(handle_, "AjarSim_Reset", kCardSimLibrary, library_path);
+    set_time_scale = resolve_symbol<AjarSim_SetTimeScale_t>(handle_, "AjarSim_SetTimeScale",
+                                                            kCardSimLibrary, library_path);
+    set_manual_clock = resolve_symbol<AjarSim_SetManualClock_t>(handle_, "AjarSim_SetManualClock",
+                                                                kCardSimLibrary, library_path);
+    advance_clock_ns = resolve_symbol<AjarSim_AdvanceClockNs_t>(handle_, "AjarSim_AdvanceClockNs",
+                                                                kCardSimLibrary, library_path);
+    inject_fault_raw = resolve_symbol<AjarSim_InjectFault_t>(handle_, "AjarSim_InjectFault",
+                                                             kCardSimLibrary, library_path);
+    fail_next_calls = resolve_symbol<AjarSim_FailNextCalls_t>(handle_, "AjarSim_FailNextCalls",
+                                                              kCardSimLibrary, library_path);
+    set_call_delay_us = resolve_symbol<AjarSim_SetCallDelayUs_t>(handle_, "AjarSim_SetCallDelayUs",
+                                                                 kCardSimLibrary, library_path);
+    block_next_call = resolve_symbol<AjarSim_BlockNextCall_t>(handle_, "AjarSim_BlockNextCall",
+                                                              kCardSimLibrary, library_path);
+    release_blocked_calls = resolve_symbol<AjarSim_ReleaseBlockedCalls_t>(
+        handle_, "AjarSim_ReleaseBlockedCalls", kCardSimLibrary, library_path);
+    blocked_calls = resolve_symbol<AjarSim_BlockedCalls_t>(handle_, "AjarSim_BlockedCalls",
+                                                           kCardSimLibrary, library_path);
+    set_encoder_lag_ms = resolve_symbol<AjarSim_SetEncoderLagMs_t>(
+        handle_, "AjarSim_SetEncoderLagMs", kCardSimLibrary, library_path);
+    call_count = resolve_symbol<AjarSim_CallCount_t>(handle_, "AjarSim_CallCount", kCardSimLibrary,
+                                                     library_path);
+    last_update_mask = resolve_symbol<AjarSim_LastUpdateMask_t>(handle_, "AjarSim_LastUpdateMask",
+                                                                kCardSimLibrary, library_path);
+    last_stop = resolve_symbol<AjarSim_LastStop_t>(handle_, "AjarSim_LastStop", kCardSimLibrary,
+                                                   library_path);
+    now_ms =
+        resolve_symbol<AjarSim_NowMs_t>(handle_, "AjarSim_NowMs", kCardSimLibrary, library_path);
   } catch (...) {
     dlclose(handle_);
     throw;

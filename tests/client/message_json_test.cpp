@@ -29,16 +29,16 @@
 namespace ajar::client {
 namespace {
 
-using Json = nlohmann::ordered_json;
+using OrderedJson = nlohmann::ordered_json;
 using protocol::FieldLayout;
 
-Json parse(const JsonObject& o) {
-  return Json::parse(o.str());
+OrderedJson parse_ordered(const JsonObject& o) {
+  return OrderedJson::parse(o.str());
 }
 
 // Every leaf of `j` with its path: "a.b" for key b of object a, "a[2]" for element 2 of array a.
-void flatten(const Json& j, const std::string& path,
-             std::vector<std::pair<std::string, Json>>& out) {
+void flatten(const OrderedJson& j, const std::string& path,
+             std::vector<std::pair<std::string, OrderedJson>>& out) {
   if (j.is_object()) {
     for (const auto& [key, v] : j.items())
       flatten(v, path.empty() ? key : path + "." + key, out);
@@ -49,9 +49,9 @@ void flatten(const Json& j, const std::string& path,
     out.emplace_back(path, j);
   }
 }
-std::vector<std::pair<std::string, Json>> leaves(const JsonObject& o) {
-  std::vector<std::pair<std::string, Json>> out;
-  flatten(parse(o), "", out);
+std::vector<std::pair<std::string, OrderedJson>> leaves(const JsonObject& o) {
+  std::vector<std::pair<std::string, OrderedJson>> out;
+  flatten(parse_ordered(o), "", out);
   return out;
 }
 
@@ -109,7 +109,7 @@ std::string base64(const std::uint8_t* p, std::size_t n) {
 
 // Whether the JSON value `j` is what the field's bytes at `at` say; the words of enums are checked
 // by kind (a non-empty known word), their values by the golden vectors' decode.
-std::string differs(const Json& j, const FieldLayout& f, const std::uint8_t* at) {
+std::string differs(const OrderedJson& j, const FieldLayout& f, const std::uint8_t* at) {
   const std::string type(f.type);
   const std::uint64_t raw = f.size <= 8 ? little_endian(at, f.size) : 0;
   const auto bad = [&] { return "json " + j.dump() + " for " + type; };
@@ -199,32 +199,32 @@ Response reply(protocol::Message m, std::uint8_t minor = protocol::kVersionMinor
 TEST(MessageJson, AjarctlsLinesCarryTheMessagesJsonUnchanged) {
   for (const auto& sample : protocol::samples::all()) {
     const protocol::Message& m = sample.envelope.message;
-    const Json generated = parse(message_json(m));
-    Json line;
+    const OrderedJson generated = parse_ordered(message_json(m));
+    OrderedJson line;
     std::set<std::string> own;
     if (std::holds_alternative<protocol::Ack>(m)) {
-      line = parse(response_object("x", reply(m)));
+      line = parse_ordered(response_object("x", reply(m)));
       own = {"type", "command", "ok", "request_id"};
     } else if (std::holds_alternative<protocol::Pong>(m)) {
-      line = parse(response_object("ping", reply(m)));
+      line = parse_ordered(response_object("ping", reply(m)));
       own = {"type", "command", "ok"};
     } else if (std::holds_alternative<protocol::Status>(m)) {
-      line = parse(response_object("status", reply(m))).at("status");
+      line = parse_ordered(response_object("status", reply(m))).at("status");
     } else if (std::holds_alternative<protocol::RobotModel>(m)) {
-      line = parse(response_object("model", reply(m))).at("robot_model");
+      line = parse_ordered(response_object("model", reply(m))).at("robot_model");
     } else if (std::holds_alternative<protocol::Welcome>(m)) {
-      line = parse(response_object("hello", reply(m))).at("welcome");
+      line = parse_ordered(response_object("hello", reply(m))).at("welcome");
     } else if (const auto* e = std::get_if<protocol::Event>(&m)) {
-      line = parse(event_object(*e));
+      line = parse_ordered(event_object(*e));
       own = {"type"};
     } else if (const auto* t = std::get_if<protocol::Telemetry>(&m)) {
-      line = parse(telemetry_object(*t));
+      line = parse_ordered(telemetry_object(*t));
       own = {"type"};
     } else if (const auto* error = std::get_if<protocol::ErrorReply>(&m)) {
       Response refused;
       refused.outcome = CallOutcome::kRefused;
       refused.error = *error;
-      line = parse(response_object("x", refused)).at("error");
+      line = parse_ordered(response_object("x", refused)).at("error");
       own = {"number"};
     } else {
       continue;
@@ -243,11 +243,11 @@ TEST(MessageJson, AnUnknownCodeOrTypeIsItsNumber) {
   e.code = static_cast<ErrorCode>(999);
   e.offending_type = static_cast<protocol::MessageType>(0x0199);
   e.field = "header.type";
-  const Json j = parse(message_json(e));
+  const OrderedJson j = parse_ordered(message_json(e));
   EXPECT_EQ(j.at("code"), 999);
   EXPECT_EQ(j.at("offending_type"), 0x0199);
   e.code = ErrorCode::kUnknownMessageType;
-  EXPECT_EQ(parse(message_json(e)).at("code"), "UNKNOWN_MESSAGE_TYPE");
+  EXPECT_EQ(parse_ordered(message_json(e)).at("code"), "UNKNOWN_MESSAGE_TYPE");
 }
 
 // RobotModel: the JSON and the text name every one of its fields (its layout's top-level names).
@@ -260,7 +260,7 @@ TEST(MessageJson, TheRobotModelPrintersShowEveryField) {
   }
   EXPECT_EQ(fields.size(), 37u);
   std::vector<std::string> keys;
-  const Json json = parse(robot_model_object(model));
+  const OrderedJson json = parse_ordered(robot_model_object(model));
   for (const auto& [key, value] : json.items())
     keys.push_back(key);
   EXPECT_EQ(keys, fields);

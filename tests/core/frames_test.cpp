@@ -10,8 +10,8 @@
 namespace ajar::core {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using test::kInf;
+using test::kNaN;
 
 TEST(PaperTransform, IsEquationTwoInMetres) {
   Eigen::Matrix4d expected;

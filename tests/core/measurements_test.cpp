@@ -14,12 +14,10 @@
 namespace ajar::core {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using test::kInf;
+using test::kNaN;
 
-CameraToBase paper() {
-  return *CameraToBase::from_matrix(paper_camera_to_base_m());
-}
+using test::paper;
 
 FramedPoint cam(double x, double y, double z) {
   return {Frame::kCamera, Vec3(x, y, z)};

@@ -14,7 +14,7 @@ namespace ajar::core {
 namespace {
 
 using test::kPi;
-const Tolerances kTol{};
+using test::kTol;
 
 double yaw_of(const Result<Plane>& plane) {
   EXPECT_TRUE(plane.ok()) << plane.error().message;

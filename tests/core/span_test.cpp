@@ -10,7 +10,7 @@
 namespace ajar::core {
 namespace {
 
-const Tolerances kTol{};  // min separation 0.01 m, lateral fraction 0.5
+using test::kTol;
 
 TEST(Algorithm1, LengthAndDirectionFromTheSignOfY1MinusY2) {
   auto ccw = measure_span(Vec3(1.0, 0.4, 0.1), Vec3(1.2, -0.4, 0.0), kTol);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <vector>
@@ -15,6 +16,15 @@
 namespace ajar::core::test {
 
 inline constexpr double kPi = std::numbers::pi;
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+// The default tolerances (min separation 0.01 m, lateral fraction 0.5).
+inline const Tolerances kTol{};
+
+// The paper's camera-to-base transform (docs/geometry.md, "Worked example").
+inline CameraToBase paper() {
+  return *CameraToBase::from_matrix(paper_camera_to_base_m());
+}
 
 inline double uniform(std::mt19937_64& rng, double lo, double hi) {
   return std::uniform_real_distribution<double>(lo, hi)(rng);

@@ -4,15 +4,14 @@
 #include <gtest/gtest.h>
 
 #include "ajar/core/geometry.hpp"
+#include "test_support.hpp"
 
 namespace ajar::core {
 namespace {
 
 const Limits kLimits{};  // depth 0.4..4, width 0.5..2, handle 0.05..0.3, yaw 0.7
 
-CameraToBase paper() {
-  return *CameraToBase::from_matrix(paper_camera_to_base_m());
-}
+using test::paper;
 
 TEST(CheckFinite, NamesTheCoordinate) {
   EXPECT_TRUE(check_finite(Vec3(1, 2, 3), "p1").ok());

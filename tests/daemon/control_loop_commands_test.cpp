@@ -8,8 +8,8 @@
 namespace ajar::daemon {
 namespace {
 
-constexpr std::int64_t kMs = ajar::testing::DetLoopTest::kMs;
 using ajar::testing::CardCall;
+using ajar::testing::kMs;
 
 class LoopCommands : public ajar::testing::DetLoopTest {
  protected:

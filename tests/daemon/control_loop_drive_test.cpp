@@ -12,9 +12,9 @@
 namespace ajar::daemon {
 namespace {
 
-constexpr std::int64_t kMs = ajar::testing::DetLoopTest::kMs;
 using ajar::testing::CardCall;
 using ajar::testing::count_calls;
+using ajar::testing::kMs;
 
 class LoopDrive : public ajar::testing::DetLoopTest {
  protected:

@@ -16,7 +16,7 @@ namespace {
 
 using drivers::CardCall;
 
-constexpr std::int64_t kMs = 1'000'000;
+using ajar::testing::kMs;
 
 class ControlLoopTest : public ::testing::Test {
  protected:

@@ -15,7 +15,7 @@ namespace ajar::testing {
 
 class DetLoopTest : public ::testing::Test {
  public:
-  static constexpr std::int64_t kMs = 1'000'000;
+  static constexpr std::int64_t kMs = ajar::testing::kMs;
 
  protected:
   void SetUp() override {

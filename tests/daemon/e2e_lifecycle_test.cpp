@@ -189,7 +189,7 @@ TEST_F(AjardLifecycle, AFaultLatchedBeforeTheStateFileIsRejectedStaysLatched) {
     EXPECT_FALSE(status.restored_from_disk);
     EXPECT_FALSE(status.has_width);
   }
-  EXPECT_NE(ajard_->err().find("no longer validates"), std::string::npos) << ajard_->err();
+  EXPECT_TRUE(ajard_->err_shows("no longer validates")) << ajard_->err();
   expect_latched_until_reset(*again, {ErrorCode::kEmergencyStopped});
 }
 
@@ -249,7 +249,7 @@ TEST_F(AjardLifecycle, AStartAfterAnUncleanEndNeedsAResetAndACleanEndDoesNot) {
   EXPECT_EQ(ajard_->wait_exit(), 128 + SIGKILL);
   port = start(file, "second");
   ASSERT_TRUE(port) << ajard_->err();
-  EXPECT_NE(ajard_->err().find("UNCLEAN_SHUTDOWN"), std::string::npos) << ajard_->err();
+  EXPECT_TRUE(ajard_->err_shows("UNCLEAN_SHUTDOWN")) << ajard_->err();
   expect_latched_until_reset(*port, {ErrorCode::kUncleanShutdown});
   ajard_->signal(SIGTERM);
   EXPECT_EQ(ajard_->wait_exit(), 0) << ajard_->err();

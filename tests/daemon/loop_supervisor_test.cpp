@@ -15,6 +15,7 @@
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/loop_supervisor.hpp"
 #include "ajar/drivers/mock_card.hpp"
+#include "fake_clock.hpp"
 #include "fake_door.hpp"
 
 namespace ajar::daemon {
@@ -22,7 +23,7 @@ namespace {
 
 using drivers::CardCall;
 
-constexpr std::int64_t kMs = 1'000'000;
+using ajar::testing::kMs;
 constexpr std::array<int, 2> kWheels{1, 2};
 
 class LoopSupervisorTest : public ::testing::Test {

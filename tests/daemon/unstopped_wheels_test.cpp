@@ -21,7 +21,7 @@ namespace {
 
 using ajar::testing::CardCall;
 using ajar::testing::count_calls;
-constexpr std::int64_t kMs = ajar::testing::DetLoopTest::kMs;
+using ajar::testing::kMs;
 constexpr int kForever = std::numeric_limits<int>::max();
 
 class UnstoppedWheels : public ajar::testing::DetLoopTest {

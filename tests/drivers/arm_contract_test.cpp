@@ -58,7 +58,7 @@ class ArmContract : public ::testing::Test {
   Impl impl_;
 };
 
-using Implementations = ::testing::Types<MockArm, SerialArmOverSimulator>;
+using ArmImplementations = ::testing::Types<MockArm, SerialArmOverSimulator>;
 class ImplNames {
  public:
   template <typename T>
@@ -66,7 +66,7 @@ class ImplNames {
     return std::is_same_v<T, MockArm> ? "Mock" : "SerialOverSimulator";
   }
 };
-TYPED_TEST_SUITE(ArmContract, Implementations, ImplNames);
+TYPED_TEST_SUITE(ArmContract, ArmImplementations, ImplNames);
 
 TYPED_TEST(ArmContract, StartsDisconnectedAndRefusesHandOff) {
   Manipulator& arm = this->make();

@@ -22,7 +22,7 @@ using testing::kFastTimeScale;
 using testing::status_of;
 using testing::wait_until;
 
-constexpr std::array<int, 2> kWheels{1, 2};
+using testing::kWheels;
 
 // Each maker builds one implementation and injects hardware faults into it.
 struct MockMaker {
@@ -104,7 +104,7 @@ class MotionCardContract : public ::testing::Test {
   std::unique_ptr<MotionCard> card_;
 };
 
-using Implementations =
+using CardImplementations =
     ::testing::Types<MockMaker, SimMaker, ManagedMaker<MockMaker>, ManagedMaker<SimMaker>>;
 class ImplementationNames {
  public:
@@ -116,7 +116,7 @@ class ImplementationNames {
     return "ManagedGtsOverSimulator";
   }
 };
-TYPED_TEST_SUITE(MotionCardContract, Implementations, ImplementationNames);
+TYPED_TEST_SUITE(MotionCardContract, CardImplementations, ImplementationNames);
 
 TYPED_TEST(MotionCardContract, RefusesEverythingBeforeOpen) {
   EXPECT_FALSE(status_of(*this->card_, 1).has_value());
@@ -339,7 +339,7 @@ class JogContract : public MotionCardContract<Maker> {
     ASSERT_NEAR(position(2), -400, 1);
   }
 };
-TYPED_TEST_SUITE(JogContract, Implementations, ImplementationNames);
+TYPED_TEST_SUITE(JogContract, CardImplementations, ImplementationNames);
 
 TYPED_TEST(JogContract, RampRespectsTheAccelerationThenHoldsTheVelocity) {
   ASSERT_EQ(this->jog(2, -2), ErrorCode::kOk) << failure_text(*this->card_);

@@ -15,12 +15,12 @@ namespace {
 using ajar::testing::FakeClock;
 using testing::status_of;
 
-constexpr std::array<int, 2> kWheels{1, 2};
+using testing::kWheels;
 constexpr std::array<int, 1> kLeft{1};
-constexpr AxisMove kMove[] = {{1, 500}, {2, -200}};
+constexpr AxisMove kBothWheelsMove[] = {{1, 500}, {2, -200}};
 // 2 counts/ms; the ramps are ignored by the constant-speed model.
 constexpr TrapezoidProfile kProfile{2, 0.01, 0.01, 0};
-constexpr JogProfile kJog{0.01, 0.01, 0};
+constexpr JogProfile kSlowJog{0.01, 0.01, 0};
 constexpr std::int64_t kStopDelayNs = 6'000'000;
 
 struct MockCardConfig : ::testing::Test {
@@ -38,7 +38,7 @@ struct MockCardConfig : ::testing::Test {
 };
 
 TEST_F(MockCardConfig, ConstantSpeedMovesRunAtTheProfileVelocityFromTheFirstInstant) {
-  ASSERT_EQ(card.move_relative(kMove, kProfile), ErrorCode::kOk);
+  ASSERT_EQ(card.move_relative(kBothWheelsMove, kProfile), ErrorCode::kOk);
   clock.advance_ms(10);
   EXPECT_EQ(position(1), 20);
   EXPECT_EQ(position(2), -20);
@@ -56,7 +56,7 @@ TEST_F(MockCardConfig, ConstantSpeedMovesRunAtTheProfileVelocityFromTheFirstInst
 
 TEST_F(MockCardConfig, ConstantSpeedJogsTakeTheirVelocityAtOnceAndStopsRestAfterTheDelay) {
   const AxisVelocity v[] = {{1, 3.0}};
-  ASSERT_EQ(card.jog(v, kJog), ErrorCode::kOk);
+  ASSERT_EQ(card.jog(v, kSlowJog), ErrorCode::kOk);
   EXPECT_TRUE(card.jogging(1));
   clock.advance_ms(10);
   EXPECT_EQ(position(1), 30);
@@ -68,7 +68,7 @@ TEST_F(MockCardConfig, ConstantSpeedJogsTakeTheirVelocityAtOnceAndStopsRestAfter
   EXPECT_FALSE(moving(1));
   EXPECT_FALSE(card.jogging(1));
   card.set_motion_model(MockMotionModel::kConstantSpeed, 0);  // stops rest at once
-  ASSERT_EQ(card.jog(v, kJog), ErrorCode::kOk);
+  ASSERT_EQ(card.jog(v, kSlowJog), ErrorCode::kOk);
   ASSERT_EQ(card.smooth_stop(kLeft), ErrorCode::kOk);
   EXPECT_FALSE(moving(1));
 }
@@ -76,7 +76,7 @@ TEST_F(MockCardConfig, ConstantSpeedJogsTakeTheirVelocityAtOnceAndStopsRestAfter
 TEST_F(MockCardConfig, TheLogRecordsCommandingCallsWithTheirArgumentsAndCountersCountEveryCall) {
   const std::size_t start = card.log_size();
   EXPECT_EQ(start, 1U);  // the set-up's enable_axes
-  ASSERT_EQ(card.move_relative(kMove, kProfile), ErrorCode::kOk);
+  ASSERT_EQ(card.move_relative(kBothWheelsMove, kProfile), ErrorCode::kOk);
   EXPECT_EQ(card.motion_call(1), start);
   AxisStatus st;
   ASSERT_EQ(card.axis_status(1, st), ErrorCode::kOk);  // counted, not logged
@@ -96,7 +96,7 @@ TEST_F(MockCardConfig, TheLogRecordsCommandingCallsWithTheirArgumentsAndCounters
 }
 
 TEST_F(MockCardConfig, NotAnsweringFailsTheNextCallsButNeverTheEmergencyStop) {
-  ASSERT_EQ(card.move_relative(kMove, kProfile), ErrorCode::kOk);
+  ASSERT_EQ(card.move_relative(kBothWheelsMove, kProfile), ErrorCode::kOk);
   const std::size_t start = card.log_size();
   card.fail_next_calls(2);
   AxisStatus st;
@@ -112,24 +112,24 @@ TEST_F(MockCardConfig, NotAnsweringFailsTheNextCallsButNeverTheEmergencyStop) {
 
 TEST_F(MockCardConfig, RefusedAndStuckMovesAreOneShot) {
   card.refuse_next_move(ErrorCode::kCardBusy);
-  EXPECT_EQ(card.move_relative(kMove, kProfile), ErrorCode::kCardBusy);
+  EXPECT_EQ(card.move_relative(kBothWheelsMove, kProfile), ErrorCode::kCardBusy);
   EXPECT_EQ(card.last_failure().code, ErrorCode::kCardBusy);
   EXPECT_FALSE(moving(1));
   card.stick_next_move();
-  ASSERT_EQ(card.move_relative(kMove, kProfile), ErrorCode::kOk);
+  ASSERT_EQ(card.move_relative(kBothWheelsMove, kProfile), ErrorCode::kOk);
   clock.advance_ms(1000);
   EXPECT_TRUE(moving(1));
   EXPECT_EQ(position(1), 0);
   ASSERT_EQ(card.smooth_stop(kWheels), ErrorCode::kOk);  // stops still work
   EXPECT_FALSE(moving(1));
-  ASSERT_EQ(card.move_relative(kMove, kProfile), ErrorCode::kOk);  // the next one runs
+  ASSERT_EQ(card.move_relative(kBothWheelsMove, kProfile), ErrorCode::kOk);  // the next one runs
   clock.advance_ms(1000);
   EXPECT_EQ(position(1), 500);
 }
 
 TEST_F(MockCardConfig, StopsThatNeverRestRestOnceCleared) {
   card.set_stops_never_rest(true);
-  ASSERT_EQ(card.move_relative(kMove, kProfile), ErrorCode::kOk);
+  ASSERT_EQ(card.move_relative(kBothWheelsMove, kProfile), ErrorCode::kOk);
   clock.advance_ms(10);
   ASSERT_EQ(card.smooth_stop(kWheels), ErrorCode::kOk);
   clock.advance_ms(24 * 3600e3);
@@ -166,9 +166,9 @@ TEST_F(MockCardConfig, TheServoShowsOnAfterTheDelayAndAPersistingAlarmSurvivesCl
 TEST_F(MockCardConfig, DroppedCallsAnswerOkChangeNothingAndAreLoggedAsNotApplied) {
   card.drop_next_calls(CardCall::kJog, 1);
   const AxisVelocity v[] = {{1, 3.0}};
-  ASSERT_EQ(card.jog(v, kJog), ErrorCode::kOk);
+  ASSERT_EQ(card.jog(v, kSlowJog), ErrorCode::kOk);
   EXPECT_FALSE(card.jogging(1));
-  ASSERT_EQ(card.jog(v, kJog), ErrorCode::kOk);  // only the next one
+  ASSERT_EQ(card.jog(v, kSlowJog), ErrorCode::kOk);  // only the next one
   EXPECT_TRUE(card.jogging(1));
   EXPECT_EQ(card.velocity(1), 3.0);
   card.drop_next_calls(CardCall::kSmoothStop, 1);
@@ -184,14 +184,14 @@ TEST_F(MockCardConfig, DroppedCallsAnswerOkChangeNothingAndAreLoggedAsNotApplied
 
 TEST_F(MockCardConfig, AFailAfterCallIsAppliedAndAnswersAnError) {
   card.fail_after_next_call(CardCall::kMoveRelative);
-  EXPECT_EQ(card.move_relative(kMove, kProfile), ErrorCode::kCardCommunication);
+  EXPECT_EQ(card.move_relative(kBothWheelsMove, kProfile), ErrorCode::kCardCommunication);
   EXPECT_TRUE(moving(1)) << "the card took the move before it failed";
   EXPECT_EQ(card.log_from(0).back().result, ErrorCode::kCardCommunication);
 }
 
 TEST_F(MockCardConfig, StaleStatusRepeatsTheLastAnswerOfEachAxis) {
   const AxisVelocity v[] = {{1, 3.0}};
-  ASSERT_EQ(card.jog(v, kJog), ErrorCode::kOk);
+  ASSERT_EQ(card.jog(v, kSlowJog), ErrorCode::kOk);
   clock.advance_ms(10);
   const std::int64_t before = position(1);
   card.set_stale_status_reads(2);
@@ -203,7 +203,7 @@ TEST_F(MockCardConfig, StaleStatusRepeatsTheLastAnswerOfEachAxis) {
 
 TEST_F(MockCardConfig, ASilentCardFailsEveryCallTheEmergencyStopTooWhileItsMotionGoesOn) {
   const AxisVelocity v[] = {{1, 3.0}};
-  ASSERT_EQ(card.jog(v, kJog), ErrorCode::kOk);
+  ASSERT_EQ(card.jog(v, kSlowJog), ErrorCode::kOk);
   card.stop_answering_for_ns(20'000'000);
   EXPECT_FALSE(card.answering());
   AxisStatus st;

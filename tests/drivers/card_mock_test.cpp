@@ -14,8 +14,8 @@ namespace {
 using ajar::testing::FakeClock;
 using testing::status_of;
 
-constexpr std::array<int, 2> kWheels{1, 2};
-constexpr AxisMove kMove[] = {{1, 500}};
+using testing::kWheels;
+constexpr AxisMove kLeftWheelMove[] = {{1, 500}};
 
 // A trapezoidal profile whose moves take a known time: 1 count/ms cruising, 0.01 count/ms^2 ramps
 // (each ramp 100 ms and 50 counts). A move of D >= 100 counts takes (D - 100) + 200 ms.
@@ -32,7 +32,7 @@ std::unique_ptr<MockMotionCard> ready_card(FakeClock& clock, MockFault fault, in
 TEST(MockCardFaults, StuckAcceptsMovesThatNeverProgressUntilStopped) {
   FakeClock clock;
   auto card = ready_card(clock, MockFault::kStuck);
-  ASSERT_TRUE(card->move_relative(kMove, kSlowProfile) == ErrorCode::kOk);
+  ASSERT_TRUE(card->move_relative(kLeftWheelMove, kSlowProfile) == ErrorCode::kOk);
   clock.advance_ms(24 * 3600e3);  // a day: the 600 ms move would have finished many times over
   EXPECT_TRUE(status_of(*card, 1)->moving);
   EXPECT_EQ(status_of(*card, 1)->profile_position_counts, 0);
@@ -44,7 +44,7 @@ TEST(MockCardFaults, SlowStillWorks) {
   FakeClock clock;
   auto card = ready_card(clock, MockFault::kSlow, 1);
   const auto before = card->calls();
-  ASSERT_TRUE(card->move_relative(kMove, kSlowProfile) == ErrorCode::kOk);
+  ASSERT_TRUE(card->move_relative(kLeftWheelMove, kSlowProfile) == ErrorCode::kOk);
   clock.advance_ms(600);  // the move's duration (kSlowProfile)
   EXPECT_FALSE(status_of(*card, 1)->moving);
   EXPECT_EQ(status_of(*card, 1)->profile_position_counts, 500);
@@ -54,7 +54,7 @@ TEST(MockCardFaults, SlowStillWorks) {
 TEST(MockCardFaults, ErrorCodeFailsEverythingButOpenAndClose) {
   FakeClock clock;
   auto card = ready_card(clock, MockFault::kErrorCode);
-  EXPECT_EQ(card->move_relative(kMove, TrapezoidProfile{}), ErrorCode::kDriverError);
+  EXPECT_EQ(card->move_relative(kLeftWheelMove, TrapezoidProfile{}), ErrorCode::kDriverError);
   AxisStatus st;
   EXPECT_EQ(card->axis_status(1, st), ErrorCode::kDriverError);
   EXPECT_EQ(card->smooth_stop(kWheels), ErrorCode::kDriverError);
@@ -90,7 +90,7 @@ TEST(MockCardFaults, GarbageReportsImplausibleStatus) {
     positions.insert(st.profile_position_counts);
   }
   EXPECT_GT(positions.size(), 1U);  // jumps while nothing was commanded
-  EXPECT_TRUE(card->move_relative(kMove, TrapezoidProfile{}) == ErrorCode::kOk);
+  EXPECT_TRUE(card->move_relative(kLeftWheelMove, TrapezoidProfile{}) == ErrorCode::kOk);
 }
 
 TEST(MockCardTime, MovesTakeTheirSimulatedDuration) {

@@ -23,7 +23,7 @@ using testing::kFastTimeScale;
 using testing::status_of;
 using testing::wait_until;
 
-constexpr std::array<int, 2> kWheels{1, 2};
+using testing::kWheels;
 
 // Each maker builds one implementation and makes the next call of a kind hang until released.
 struct MockHangs {
@@ -112,9 +112,8 @@ class CardStall : public ::testing::Test {
   std::unique_ptr<MotionCard> card_;
 };
 
-using Implementations =
-    ::testing::Types<MockHangs, SimHangs, Managed<MockHangs>, Managed<SimHangs>>;
-TYPED_TEST_SUITE(CardStall, Implementations);
+using StallingCards = ::testing::Types<MockHangs, SimHangs, Managed<MockHangs>, Managed<SimHangs>>;
+TYPED_TEST_SUITE(CardStall, StallingCards);
 
 TYPED_TEST(CardStall, TheOutOfBandStopActsWhileAStatusReadHangs) {
   this->jog_both(20.0);

@@ -2,6 +2,7 @@
 // wait (generous deadlines only: tests assert outcomes, never timing).
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <optional>
 #include <string>
@@ -15,6 +16,9 @@ namespace ajar::drivers::testing {
 // Simulated time runs this much faster than real time: moves of a few thousand counts finish in
 // well under a millisecond of real time.
 inline constexpr double kFastTimeScale = 1000.0;
+
+// The two wheel axes of every card test (the card's axes 1 and 2).
+inline constexpr std::array<int, 2> kWheels{1, 2};
 
 inline std::string card_sim_path() {
   return AJAR_CARDSIM_PATH;

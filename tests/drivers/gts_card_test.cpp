@@ -26,7 +26,7 @@ using testing::kFastTimeScale;
 using testing::status_of;
 using testing::wait_until;
 
-constexpr std::array<int, 2> kWheels{1, 2};
+using testing::kWheels;
 
 class GtsOverSimulator : public ::testing::Test {
  protected:

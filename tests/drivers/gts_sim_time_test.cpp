@@ -23,7 +23,7 @@ using testing::status_of;
 
 constexpr int kLeft = 1;
 constexpr int kRight = 2;
-constexpr int kWheels[] = {kLeft, kRight};
+using testing::kWheels;  // {kLeft, kRight}
 
 std::uint64_t seed() {
   if (const char* s = std::getenv("AJAR_SEED"); s != nullptr) return std::strtoull(s, nullptr, 0);

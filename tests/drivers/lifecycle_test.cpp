@@ -18,7 +18,7 @@ namespace {
 using testing::kFastTimeScale;
 using testing::status_of;
 
-constexpr std::array<int, 2> kWheels{1, 2};
+using testing::kWheels;
 
 class ManagedCard : public ::testing::Test {
  protected:

@@ -133,6 +133,19 @@ class AjardProcess {
   std::string err() const {
     return read_text_file(stderr_path_);
   }
+  // Whether stderr holds `text` within `timeout`. ajard logs through an asynchronous logger: a
+  // line it logged before something the test saw (its port file, a reply, an event) reaches
+  // stderr a little later, so a test reading the log of a running ajard waits for the line (the
+  // deadline is for a loaded machine; nothing asserts how long it took). After the exit, err().
+  bool err_shows(const std::string& text,
+                 std::chrono::milliseconds timeout = std::chrono::seconds(20)) const {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    for (;;) {
+      if (err().find(text) != std::string::npos) return true;
+      if (std::chrono::steady_clock::now() > deadline) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  }
   const std::string& stderr_path() const {
     return stderr_path_;
   }

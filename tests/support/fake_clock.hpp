@@ -12,6 +12,9 @@
 
 namespace ajar::testing {
 
+// One millisecond in the clock's nanoseconds.
+inline constexpr std::int64_t kMs = 1'000'000;
+
 class FakeClock {
  public:
   static constexpr std::int64_t kStartNs = 1'000'000'000;  // not 0: a clock rarely starts there
