@@ -279,10 +279,12 @@ ErrorCode axis_fault(const drivers::AxisStatus& status) noexcept {
 
 }  // namespace
 
+ErrorCode ControlLoop::read_fault() const noexcept {
+  return read_error_ == ErrorCode::kOk ? ErrorCode::kCardCommunication : read_error_;
+}
+
 ErrorCode ControlLoop::running_fault(bool silent, int& axis) const noexcept {
-  if (!answered_) {
-    return read_error_ == ErrorCode::kOk ? ErrorCode::kCardCommunication : read_error_;
-  }
+  if (!answered_) return read_fault();
   for (int i = 0; i < 2; ++i) {
     if (const ErrorCode fault = axis_fault(status_[i]); fault != ErrorCode::kOk) {
       axis = axes_[i];
@@ -342,6 +344,9 @@ void ControlLoop::supervise_stopping(std::int64_t now_ns) noexcept {
     smooth_stop_ = false;
     latch(ErrorCode::kVelocityMismatch, 0);
   }
+  // A card that does not answer while the wheels stop latches as it does during a motion: its
+  // lifecycle wrapper has latched it and refuses every move until a recovery (a Reset) clears it.
+  if (!answered_ && !recovery_.running()) latch(read_fault(), 0);
   if (answered_ && !status_[0].moving && !status_[1].moving) {
     finish(LoopReportKind::kMotionStopped, stop_reason_);
   } else if (now_ns > motion_deadline_ns_) {
@@ -363,6 +368,9 @@ void ControlLoop::supervise_idle(std::int64_t now_ns, bool silent) noexcept {
     return;
   }
   if (fault_ != ErrorCode::kOk) return;
+  // A card that does not answer latches now, not at the next move the wrapper would refuse
+  // (a recovery polls a silent card until its own deadline).
+  if (!answered_ && !recovery_.running()) return latch(read_fault(), 0);
   if (arm_moving_.load(std::memory_order_acquire) && silent) {
     latch(ErrorCode::kDeadman, 0);
   } else if (answered_ && !recovery_.running()) {  // a recovery checks alarms itself

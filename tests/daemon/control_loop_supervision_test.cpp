@@ -284,6 +284,47 @@ TEST_F(ControlLoopTest, AStopThatNeverEndsBecomesAnEmergencyStop) {
   EXPECT_GE(card->calls(CardCall::kEmergencyStop), 1U);
 }
 
+// A card that misses one cycle's status reads while nothing runs: its lifecycle wrapper latches
+// CARD_COMMUNICATION and refuses every move until recovered, so the loop latches it then, where it
+// happened (before: no fault, the card shown active, and the operator's next move, acknowledged,
+// failed with CARD_COMMUNICATION at once; found live, tests/attack/card_moves.py).
+TEST_F(ControlLoopTest, ACardThatDoesNotAnswerWhileIdleLatchesAtOnce) {
+  run(3);
+  card->fail_next_calls(2);  // both axis_status reads of the next cycle fail
+  run(1);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kFault, ErrorCode::kCardCommunication));
+  run(5);  // it answers again; the wrapper still refuses moves, and the latch says so
+  EXPECT_EQ(managed->state(), drivers::LifecycleState::kFault);
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kCardCommunication);
+  EXPECT_EQ(loop->snapshot().card_state, drivers::LifecycleState::kFault);
+
+  ASSERT_TRUE(loop->request_recover(1));
+  run(4);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kRecovered, ErrorCode::kOk));
+  EXPECT_EQ(managed->state(), drivers::LifecycleState::kActive);
+  ASSERT_TRUE(loop->post_move({2, 1200, -1200}));
+  run(30);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kMotionFinished));
+}
+
+// The same while a smooth stop runs: latched, and the stop still ends once the wheels rest.
+TEST_F(ControlLoopTest, ACardThatDoesNotAnswerWhileTheWheelsStopLatches) {
+  card->stick_next_move();
+  ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
+  run(2);
+  loop->request_stop();
+  run(1);  // the smooth stop is sent
+  card->fail_next_calls(2);
+  run(1);
+  run(10);
+  const auto rs = reports();
+  EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kCardCommunication));
+  EXPECT_TRUE(has(rs, LoopReportKind::kMotionStopped, ErrorCode::kOk));
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kCardCommunication);
+  EXPECT_FALSE(loop->snapshot().motion_active);
+  EXPECT_FALSE(card->any_moving());
+}
+
 TEST_F(ControlLoopTest, CardRefusingTheMoveLatchesAndReports) {
   card->refuse_next_move(ErrorCode::kCardBadParameter);
   ASSERT_TRUE(loop->post_move({4, 10, 10}));

@@ -449,11 +449,16 @@ class ControlLoop {
   // kOk, or why a running motion stops now: the card did not answer, an axis reports an alarm,
   // a following error or a limit (`axis`: which), or the controller is silent.
   ErrorCode running_fault(bool silent, int& axis) const noexcept;
+  // What a card that did not answer this cycle's status read latches: its read error, or
+  // CARD_COMMUNICATION.
+  ErrorCode read_fault() const noexcept;
   // A move whose wheels rest in position (having moved, or at its target) is finished.
   void finish_move_at_rest() noexcept;
-  // A stop: sent again until the card takes it, ended when the wheels rest or at its deadline.
+  // A stop: sent again until the card takes it, ended when the wheels rest or at its deadline;
+  // a card that does not answer meanwhile latches (read_fault()).
   void supervise_stopping(std::int64_t now_ns) noexcept;
-  // Nothing runs: wheels that move anyway, an arm moving while the controller is silent, alarms.
+  // Nothing runs: wheels that move anyway, a card that does not answer (read_fault()), an arm
+  // moving while the controller is silent, alarms. (A recovery watches the card itself.)
   void supervise_idle(std::int64_t now_ns, bool silent) noexcept;
   drivers::LifecycleState card_state() const noexcept;
 
