@@ -374,9 +374,14 @@ void ControlLoop::supervise_idle(std::int64_t now_ns, bool silent) noexcept {
   if (arm_moving_.load(std::memory_order_acquire) && silent) {
     latch(ErrorCode::kDeadman, 0);
   } else if (answered_ && !recovery_.running()) {  // a recovery checks alarms itself
+    // A drive alarm or a following error (which the card's lifecycle wrapper latches too): now,
+    // naming the axis, rather than at the next move the wrapper would refuse.
     for (int i = 0; i < 2; ++i) {
-      if (status_[i].alarm) {
-        latch(ErrorCode::kAxisAlarm, axes_[i]);
+      const ErrorCode code = status_[i].alarm             ? ErrorCode::kAxisAlarm
+                             : status_[i].following_error ? ErrorCode::kFollowingError
+                                                          : ErrorCode::kOk;
+      if (code != ErrorCode::kOk) {
+        latch(code, axes_[i]);
         break;
       }
     }

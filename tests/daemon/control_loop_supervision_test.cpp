@@ -307,6 +307,32 @@ TEST_F(ControlLoopTest, ACardThatDoesNotAnswerWhileIdleLatchesAtOnce) {
   EXPECT_TRUE(has(reports(), LoopReportKind::kMotionFinished));
 }
 
+// A following error reported while nothing runs latches at once with its axis, as a drive alarm
+// does (before: no fault and the card shown active, while its lifecycle wrapper had latched it; the
+// next move, acknowledged, failed with FOLLOWING_ERROR and no axis).
+TEST_F(ControlLoopTest, AFollowingErrorWhileIdleLatchesWithItsAxis) {
+  run(3);
+  card->inject_following_error(settings.base.right.card_axis);
+  run(1);
+  bool latched = false;
+  for (const auto& r : reports()) {
+    if (r.kind == LoopReportKind::kFault && r.code == ErrorCode::kFollowingError) {
+      latched = true;
+      EXPECT_EQ(r.axis, settings.base.right.card_axis);
+    }
+  }
+  EXPECT_TRUE(latched);
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kFollowingError);
+  EXPECT_EQ(loop->snapshot().card_state, drivers::LifecycleState::kFault);
+
+  ASSERT_TRUE(loop->request_recover(1));  // clears the card's fault
+  run(4);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kRecovered, ErrorCode::kOk));
+  ASSERT_TRUE(loop->post_move({2, 1200, -1200}));
+  run(30);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kMotionFinished));
+}
+
 // The same while a smooth stop runs: latched, and the stop still ends once the wheels rest.
 TEST_F(ControlLoopTest, ACardThatDoesNotAnswerWhileTheWheelsStopLatches) {
   card->stick_next_move();

@@ -458,7 +458,8 @@ class ControlLoop {
   // a card that does not answer meanwhile latches (read_fault()).
   void supervise_stopping(std::int64_t now_ns) noexcept;
   // Nothing runs: wheels that move anyway, a card that does not answer (read_fault()), an arm
-  // moving while the controller is silent, alarms. (A recovery watches the card itself.)
+  // moving while the controller is silent, drive alarms and following errors. (A recovery
+  // watches the card itself.)
   void supervise_idle(std::int64_t now_ns, bool silent) noexcept;
   drivers::LifecycleState card_state() const noexcept;
 
