@@ -347,6 +347,7 @@ void ControlLoop::supervise_stopping(std::int64_t now_ns) noexcept {
   // A card that does not answer while the wheels stop latches as it does during a motion: its
   // lifecycle wrapper has latched it and refuses every move until a recovery (a Reset) clears it.
   if (!answered_ && !recovery_.running()) latch(read_fault(), 0);
+  if (answered_ && !recovery_.running()) latch_drive_fault();  // (the wrapper latched it too)
   if (answered_ && !status_[0].moving && !status_[1].moving) {
     finish(LoopReportKind::kMotionStopped, stop_reason_);
   } else if (now_ns > motion_deadline_ns_) {
@@ -374,17 +375,16 @@ void ControlLoop::supervise_idle(std::int64_t now_ns, bool silent) noexcept {
   if (arm_moving_.load(std::memory_order_acquire) && silent) {
     latch(ErrorCode::kDeadman, 0);
   } else if (answered_ && !recovery_.running()) {  // a recovery checks alarms itself
-    // A drive alarm or a following error (which the card's lifecycle wrapper latches too): now,
-    // naming the axis, rather than at the next move the wrapper would refuse.
-    for (int i = 0; i < 2; ++i) {
-      const ErrorCode code = status_[i].alarm             ? ErrorCode::kAxisAlarm
-                             : status_[i].following_error ? ErrorCode::kFollowingError
-                                                          : ErrorCode::kOk;
-      if (code != ErrorCode::kOk) {
-        latch(code, axes_[i]);
-        break;
-      }
-    }
+    latch_drive_fault();
+  }
+}
+
+void ControlLoop::latch_drive_fault() noexcept {
+  for (int i = 0; i < 2; ++i) {
+    const ErrorCode code = status_[i].alarm             ? ErrorCode::kAxisAlarm
+                           : status_[i].following_error ? ErrorCode::kFollowingError
+                                                        : ErrorCode::kOk;
+    if (code != ErrorCode::kOk) return latch(code, axes_[i]);
   }
 }
 

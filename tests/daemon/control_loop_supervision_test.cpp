@@ -351,6 +351,29 @@ TEST_F(ControlLoopTest, ACardThatDoesNotAnswerWhileTheWheelsStopLatches) {
   EXPECT_FALSE(card->any_moving());
 }
 
+// A following error seen while a stop runs latches in that cycle, with its axis (before: only a
+// flag still set once the wheels rested was seen, by the idle check; a transient one was latched by
+// the card's lifecycle wrapper alone, and the next move, acknowledged, failed without the axis).
+TEST_F(ControlLoopTest, AFollowingErrorWhileTheWheelsStopLatchesWithItsAxis) {
+  ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
+  run(2);
+  loop->request_stop();
+  run(1);  // the smooth stop is sent
+  card->inject_following_error(settings.base.left.card_axis);
+  run(1);
+  bool latched = false;
+  for (const auto& r : reports()) {
+    if (r.kind == LoopReportKind::kFault && r.code == ErrorCode::kFollowingError) {
+      latched = true;
+      EXPECT_EQ(r.axis, settings.base.left.card_axis);
+    }
+  }
+  EXPECT_TRUE(latched);
+  run(10);
+  EXPECT_FALSE(loop->snapshot().motion_active);
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kFollowingError);
+}
+
 TEST_F(ControlLoopTest, CardRefusingTheMoveLatchesAndReports) {
   card->refuse_next_move(ErrorCode::kCardBadParameter);
   ASSERT_TRUE(loop->post_move({4, 10, 10}));
