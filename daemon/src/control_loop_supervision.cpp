@@ -52,11 +52,15 @@ void ControlLoop::enter_stopping(std::int64_t now_ns) noexcept {
 }
 
 void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
-  const bool smooth = card_.smooth_stop(axes_) == ErrorCode::kOk;
+  const ErrorCode smooth_error = card_.smooth_stop(axes_);
+  const bool smooth = smooth_error == ErrorCode::kOk;
   stop_sent_ = smooth || send_emergency_stop(now_ns);
   enter_stopping(now_ns);
   smooth_stop_ = smooth;
   mismatch_since_ns_[0] = mismatch_since_ns_[1] = -1;
+  // A stop the card answered with an error latches it, as a move or a jog does (its lifecycle
+  // wrapper latches a communication error too, refusing every move until a Reset recovers it).
+  if (!smooth) latch(smooth_error, 0);
 }
 
 bool ControlLoop::send_emergency_stop(std::int64_t now_ns) noexcept {

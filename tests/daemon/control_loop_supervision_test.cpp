@@ -374,6 +374,24 @@ TEST_F(ControlLoopTest, AFollowingErrorWhileTheWheelsStopLatchesWithItsAxis) {
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kFollowingError);
 }
 
+// A smooth stop the card answers with an error: emergency-stopped instead, and the error latches
+// (before: nothing latched, while the card's lifecycle wrapper had latched CARD_COMMUNICATION and
+// refused every move: the next Drive, acknowledged, failed at once; found live).
+TEST_F(ControlLoopTest, AStopTheCardAnswersWithAnErrorLatchesIt) {
+  card->stick_next_move();
+  ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
+  run(2);
+  card->fail_after_next_call(CardCall::kSmoothStop);
+  loop->request_stop();
+  run(1);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kFault, ErrorCode::kCardCommunication));
+  EXPECT_GE(card->calls(CardCall::kEmergencyStop), 1U);
+  run(10);
+  EXPECT_FALSE(loop->snapshot().motion_active);
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kCardCommunication);
+  EXPECT_EQ(managed->state(), drivers::LifecycleState::kFault);
+}
+
 TEST_F(ControlLoopTest, CardRefusingTheMoveLatchesAndReports) {
   card->refuse_next_move(ErrorCode::kCardBadParameter);
   ASSERT_TRUE(loop->post_move({4, 10, 10}));

@@ -417,6 +417,7 @@ class ControlLoop {
   static constexpr double kDoorStandoffToleranceM = 0.003;
   void advance_recovery(std::int64_t now_ns) noexcept;
   void end_recovery(ErrorCode code) noexcept;
+  // A smooth stop (an emergency stop when the card refuses it; the refusal latches).
   void begin_stop(std::int64_t now_ns) noexcept;
   // The card did not do what it was told (or answered an error to a command it may have taken):
   // latch `code`, emergency stop, supervise the wheels to rest.
