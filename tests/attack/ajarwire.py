@@ -369,11 +369,13 @@ def engage_ready(c):
     return c.call(CONTACT, CONTACT_PT)
 
 
-def use_tls(pki, identities):
+def use_tls(pki, identities, extra=()):
     """Every Daemon started from now on serves mutual TLS with the scripts/make-certs PKI in pki
-    (ajard.crt/.key, ca.crt, ca.crl); identities: [(cn, role)]."""
+    (ajard.crt/.key, ca.crt, ca.crl); identities: [(cn, role)]; extra: more network.tls keys,
+    ("unlisted: refuse", ...)."""
     global BASE_CONFIG
     ident = "".join("\n      - {cn: %s, role: %s}" % i for i in identities)
+    more = "".join("    %s\n" % line for line in extra)
     BASE_CONFIG = BASE_CONFIG.replace("network:\n", """network:
   tls:
     enabled: true
@@ -381,8 +383,8 @@ def use_tls(pki, identities):
     private_key: %s/ajard.key
     ca: %s/ca.crt
     crl: %s/ca.crl
-    identities:%s
-""" % (pki, pki, pki, pki, ident), 1)
+%s    identities:%s
+""" % (pki, pki, pki, pki, more, ident), 1)
 
 
 def say(*a):
