@@ -86,15 +86,13 @@ void ControlLoop::advance_recovery(std::int64_t now_ns) noexcept {
 }
 
 // Why no motion may start in this cycle (kOk: it may). A drive fault seen in this cycle's status
-// latches; a status read that failed in this cycle refuses without latching (supervision decides
-// about a card that stays silent).
+// latches; a status read that failed in this cycle refuses (supervision latches it in this cycle).
 ErrorCode ControlLoop::check_can_start() noexcept {
   refused_axis_ = 0;
   if (motion_ != Motion::kIdle) return ErrorCode::kMotionInProgress;
   if (fault_ != ErrorCode::kOk) return ErrorCode::kFaultLatched;
   if (arm_at_door_.load(std::memory_order_acquire)) return ErrorCode::kDriveNotAllowed;
-  if (!answered_)
-    return read_error_ == ErrorCode::kOk ? ErrorCode::kCardCommunication : read_error_;
+  if (!answered_) return read_fault();
   for (int i = 0; i < 2; ++i) {
     const drivers::AxisStatus& st = status_[i];
     const ErrorCode code = st.alarm                                   ? ErrorCode::kAxisAlarm

@@ -52,11 +52,15 @@ void ControlLoop::enter_stopping(std::int64_t now_ns) noexcept {
 }
 
 void ControlLoop::begin_stop(std::int64_t now_ns) noexcept {
-  const bool smooth = card_.smooth_stop(axes_) == ErrorCode::kOk;
+  const ErrorCode smooth_error = card_.smooth_stop(axes_);
+  const bool smooth = smooth_error == ErrorCode::kOk;
   stop_sent_ = smooth || send_emergency_stop(now_ns);
   enter_stopping(now_ns);
   smooth_stop_ = smooth;
   mismatch_since_ns_[0] = mismatch_since_ns_[1] = -1;
+  // A stop the card answered with an error latches it, as a move or a jog does (its lifecycle
+  // wrapper latches a communication error too, refusing every move until a Reset recovers it).
+  if (!smooth) latch(smooth_error, 0);
 }
 
 bool ControlLoop::send_emergency_stop(std::int64_t now_ns) noexcept {
@@ -279,10 +283,12 @@ ErrorCode axis_fault(const drivers::AxisStatus& status) noexcept {
 
 }  // namespace
 
+ErrorCode ControlLoop::read_fault() const noexcept {
+  return read_error_ == ErrorCode::kOk ? ErrorCode::kCardCommunication : read_error_;
+}
+
 ErrorCode ControlLoop::running_fault(bool silent, int& axis) const noexcept {
-  if (!answered_) {
-    return read_error_ == ErrorCode::kOk ? ErrorCode::kCardCommunication : read_error_;
-  }
+  if (!answered_) return read_fault();
   for (int i = 0; i < 2; ++i) {
     if (const ErrorCode fault = axis_fault(status_[i]); fault != ErrorCode::kOk) {
       axis = axes_[i];
@@ -342,6 +348,10 @@ void ControlLoop::supervise_stopping(std::int64_t now_ns) noexcept {
     smooth_stop_ = false;
     latch(ErrorCode::kVelocityMismatch, 0);
   }
+  // A card that does not answer while the wheels stop latches as it does during a motion: its
+  // lifecycle wrapper has latched it and refuses every move until a recovery (a Reset) clears it.
+  if (!answered_ && !recovery_.running()) latch(read_fault(), 0);
+  if (answered_ && !recovery_.running()) latch_drive_fault();  // (the wrapper latched it too)
   if (answered_ && !status_[0].moving && !status_[1].moving) {
     finish(LoopReportKind::kMotionStopped, stop_reason_);
   } else if (now_ns > motion_deadline_ns_) {
@@ -363,15 +373,22 @@ void ControlLoop::supervise_idle(std::int64_t now_ns, bool silent) noexcept {
     return;
   }
   if (fault_ != ErrorCode::kOk) return;
+  // A card that does not answer latches now, not at the next move the wrapper would refuse
+  // (a recovery polls a silent card until its own deadline).
+  if (!answered_ && !recovery_.running()) return latch(read_fault(), 0);
   if (arm_moving_.load(std::memory_order_acquire) && silent) {
     latch(ErrorCode::kDeadman, 0);
   } else if (answered_ && !recovery_.running()) {  // a recovery checks alarms itself
-    for (int i = 0; i < 2; ++i) {
-      if (status_[i].alarm) {
-        latch(ErrorCode::kAxisAlarm, axes_[i]);
-        break;
-      }
-    }
+    latch_drive_fault();
+  }
+}
+
+void ControlLoop::latch_drive_fault() noexcept {
+  for (int i = 0; i < 2; ++i) {
+    const ErrorCode code = status_[i].alarm             ? ErrorCode::kAxisAlarm
+                           : status_[i].following_error ? ErrorCode::kFollowingError
+                                                        : ErrorCode::kOk;
+    if (code != ErrorCode::kOk) return latch(code, axes_[i]);
   }
 }
 

@@ -360,5 +360,32 @@ def measure_all(c, plane=True, contact=False, yaw_slope=0.1):
     return out
 
 
+def engage_ready(c):
+    """Measure everything, align (waiting for motion_finished), set the contact point: the
+    procedure at ready_to_engage. Returns the SetContactPoint reply."""
+    measure_all(c, plane=True)
+    c.call(ALIGN)
+    c.wait(lambda m: m.type == EVENT and parse_event(m.p)[0] == "motion_finished", 15)
+    return c.call(CONTACT, CONTACT_PT)
+
+
+def use_tls(pki, identities, extra=()):
+    """Every Daemon started from now on serves mutual TLS with the scripts/make-certs PKI in pki
+    (ajard.crt/.key, ca.crt, ca.crl); identities: [(cn, role)]; extra: more network.tls keys,
+    ("unlisted: refuse", ...)."""
+    global BASE_CONFIG
+    ident = "".join("\n      - {cn: %s, role: %s}" % i for i in identities)
+    more = "".join("    %s\n" % line for line in extra)
+    BASE_CONFIG = BASE_CONFIG.replace("network:\n", """network:
+  tls:
+    enabled: true
+    certificate: %s/ajard.crt
+    private_key: %s/ajard.key
+    ca: %s/ca.crt
+    crl: %s/ca.crl
+%s    identities:%s
+""" % (pki, pki, pki, pki, more, ident), 1)
+
+
 def say(*a):
     print(*a, flush=True)

@@ -1,7 +1,8 @@
 // LD_PRELOAD shim for attack tests: lets a script drive the card simulator's fault injection in a
 // running ajard (gdb inferior calls do not work here). A thread polls $AJAR_SIMCTL (a file) every
 // 5 ms; a line "FAIL fn code count" calls AjarSim_FailNextCalls, "DELAY us" AjarSim_SetCallDelayUs,
-// "FAULT axis kind" AjarSim_InjectFault; the file is removed once applied.
+// "LAG ms" AjarSim_SetEncoderLagMs, "FAULT axis kind" AjarSim_InjectFault; the file is removed once
+// applied.
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <pthread.h>
@@ -30,6 +31,9 @@ static void* watch(void* arg) {
       } else if (sscanf(line, "DELAY %d", &a) == 1) {
         void (*p)(int) = dlsym(h, "AjarSim_SetCallDelayUs");
         if (p) p(a);
+      } else if (sscanf(line, "LAG %d", &a) == 1) {
+        void (*p)(double) = dlsym(h, "AjarSim_SetEncoderLagMs");
+        if (p) p((double)a);
       } else if (sscanf(line, "FAULT %d %d", &a, &b) == 2) {
         void (*p)(int, int) = dlsym(h, "AjarSim_InjectFault");
         if (p) p(a, b);

@@ -4,7 +4,6 @@ the motion must stop and DEADMAN (or another fault) latch; a new session of the 
 Usage: tls_revoke_moving.py [trials]"""
 import os, signal, socket, ssl, struct, subprocess, sys, tempfile, time
 from ajarwire import *
-import ajarwire
 trials = int(sys.argv[1]) if len(sys.argv) > 1 else 3
 pki = tempfile.mkdtemp(prefix="ajar-pki-")
 mc = os.path.join(ROOT, "scripts", "make-certs")
@@ -12,16 +11,7 @@ run = lambda *a: subprocess.run([mc, "--dir", pki] + list(a), check=True, stdout
 run("ca"); run("daemon", "127.0.0.1"); run("operator", "wall", "observer")
 names = ["op%d" % i for i in range(trials)]
 for n in names: run("operator", n, "controller")
-ident = "".join("\n      - {cn: %s, role: controller}" % n for n in names) + "\n      - {cn: wall, role: observer}"
-ajarwire.BASE_CONFIG = ajarwire.BASE_CONFIG.replace("network:\n", """network:
-  tls:
-    enabled: true
-    certificate: %s/ajard.crt
-    private_key: %s/ajard.key
-    ca: %s/ca.crt
-    crl: %s/ca.crl
-    identities:%s
-""" % (pki, pki, pki, pki, ident), 1)
+use_tls(pki, [(n, "controller") for n in names] + [("wall", "observer")])
 d = Daemon({"drivers.kind": "sim"}, name="tlsmove"); d.start()
 def tconn(name, role):
     ctx = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)

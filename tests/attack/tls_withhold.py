@@ -33,20 +33,7 @@ names = ["op%d" % i for i in range(trials + 1)]
 for n in names:
     subprocess.run([mc, "--dir", pki, "operator", n, "controller"], check=True,
                    stdout=subprocess.DEVNULL)
-ident = "".join("\n      - {cn: %s, role: controller}" % n for n in names)
-tls = """network:
-  tls:
-    enabled: true
-    certificate: %s/ajard.crt
-    private_key: %s/ajard.key
-    ca: %s/ca.crt
-    crl: %s/ca.crl
-    handshake_timeout_s: 30
-    unlisted: refuse
-    identities:%s
-""" % (pki, pki, pki, pki, ident)
-BASE = make_config.__globals__["BASE_CONFIG"]
-make_config.__globals__["BASE_CONFIG"] = BASE.replace("network:\n", tls, 1)
+use_tls(pki, [(n, "controller") for n in names], ("handshake_timeout_s: 30", "unlisted: refuse"))
 
 d = Daemon({"drivers.kind": "mock"}, name="tls")
 d.start()

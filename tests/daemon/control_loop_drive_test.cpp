@@ -249,9 +249,13 @@ TEST_F(LoopDrive, AMoveIsRefusedInACycleWhoseStatusReadFailed) {
   EXPECT_EQ(calls(CardCall::kMoveRelative), 0);
   EXPECT_EQ(card.calls(CardCall::kMoveRelative), 0U);  // not even tried
   const auto rs = reports();
-  ASSERT_EQ(rs.size(), 1U);
+  ASSERT_EQ(rs.size(), 2U);
   EXPECT_EQ(rs[0].kind, LoopReportKind::kMoveRefused);
   EXPECT_EQ(rs[0].code, ErrorCode::kCardCommunication);
+  // ... and the idle supervision latches the silence in the same cycle (the card's lifecycle
+  // wrapper has latched it too: no move runs until a recovery).
+  EXPECT_EQ(rs[1].kind, LoopReportKind::kFault);
+  EXPECT_EQ(rs[1].code, ErrorCode::kCardCommunication);
 }
 
 }  // namespace

@@ -284,6 +284,114 @@ TEST_F(ControlLoopTest, AStopThatNeverEndsBecomesAnEmergencyStop) {
   EXPECT_GE(card->calls(CardCall::kEmergencyStop), 1U);
 }
 
+// A card that misses one cycle's status reads while nothing runs: its lifecycle wrapper latches
+// CARD_COMMUNICATION and refuses every move until recovered, so the loop latches it then, where it
+// happened (before: no fault, the card shown active, and the operator's next move, acknowledged,
+// failed with CARD_COMMUNICATION at once; found live, tests/attack/card_moves.py).
+TEST_F(ControlLoopTest, ACardThatDoesNotAnswerWhileIdleLatchesAtOnce) {
+  run(3);
+  card->fail_next_calls(2);  // both axis_status reads of the next cycle fail
+  run(1);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kFault, ErrorCode::kCardCommunication));
+  run(5);  // it answers again; the wrapper still refuses moves, and the latch says so
+  EXPECT_EQ(managed->state(), drivers::LifecycleState::kFault);
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kCardCommunication);
+  EXPECT_EQ(loop->snapshot().card_state, drivers::LifecycleState::kFault);
+
+  ASSERT_TRUE(loop->request_recover(1));
+  run(4);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kRecovered, ErrorCode::kOk));
+  EXPECT_EQ(managed->state(), drivers::LifecycleState::kActive);
+  ASSERT_TRUE(loop->post_move({2, 1200, -1200}));
+  run(30);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kMotionFinished));
+}
+
+// A following error reported while nothing runs latches at once with its axis, as a drive alarm
+// does (before: no fault and the card shown active, while its lifecycle wrapper had latched it; the
+// next move, acknowledged, failed with FOLLOWING_ERROR and no axis).
+TEST_F(ControlLoopTest, AFollowingErrorWhileIdleLatchesWithItsAxis) {
+  run(3);
+  card->inject_following_error(settings.base.right.card_axis);
+  run(1);
+  bool latched = false;
+  for (const auto& r : reports()) {
+    if (r.kind == LoopReportKind::kFault && r.code == ErrorCode::kFollowingError) {
+      latched = true;
+      EXPECT_EQ(r.axis, settings.base.right.card_axis);
+    }
+  }
+  EXPECT_TRUE(latched);
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kFollowingError);
+  EXPECT_EQ(loop->snapshot().card_state, drivers::LifecycleState::kFault);
+
+  ASSERT_TRUE(loop->request_recover(1));  // clears the card's fault
+  run(4);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kRecovered, ErrorCode::kOk));
+  ASSERT_TRUE(loop->post_move({2, 1200, -1200}));
+  run(30);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kMotionFinished));
+}
+
+// The same while a smooth stop runs: latched, and the stop still ends once the wheels rest.
+TEST_F(ControlLoopTest, ACardThatDoesNotAnswerWhileTheWheelsStopLatches) {
+  card->stick_next_move();
+  ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
+  run(2);
+  loop->request_stop();
+  run(1);  // the smooth stop is sent
+  card->fail_next_calls(2);
+  run(1);
+  run(10);
+  const auto rs = reports();
+  EXPECT_TRUE(has(rs, LoopReportKind::kFault, ErrorCode::kCardCommunication));
+  EXPECT_TRUE(has(rs, LoopReportKind::kMotionStopped, ErrorCode::kOk));
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kCardCommunication);
+  EXPECT_FALSE(loop->snapshot().motion_active);
+  EXPECT_FALSE(card->any_moving());
+}
+
+// A following error seen while a stop runs latches in that cycle, with its axis (before: only a
+// flag still set once the wheels rested was seen, by the idle check; a transient one was latched by
+// the card's lifecycle wrapper alone, and the next move, acknowledged, failed without the axis).
+TEST_F(ControlLoopTest, AFollowingErrorWhileTheWheelsStopLatchesWithItsAxis) {
+  ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
+  run(2);
+  loop->request_stop();
+  run(1);  // the smooth stop is sent
+  card->inject_following_error(settings.base.left.card_axis);
+  run(1);
+  bool latched = false;
+  for (const auto& r : reports()) {
+    if (r.kind == LoopReportKind::kFault && r.code == ErrorCode::kFollowingError) {
+      latched = true;
+      EXPECT_EQ(r.axis, settings.base.left.card_axis);
+    }
+  }
+  EXPECT_TRUE(latched);
+  run(10);
+  EXPECT_FALSE(loop->snapshot().motion_active);
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kFollowingError);
+}
+
+// A smooth stop the card answers with an error: emergency-stopped instead, and the error latches
+// (before: nothing latched, while the card's lifecycle wrapper had latched CARD_COMMUNICATION and
+// refused every move: the next Drive, acknowledged, failed at once; found live).
+TEST_F(ControlLoopTest, AStopTheCardAnswersWithAnErrorLatchesIt) {
+  card->stick_next_move();
+  ASSERT_TRUE(loop->post_move({1, 100000, -100000}));
+  run(2);
+  card->fail_after_next_call(CardCall::kSmoothStop);
+  loop->request_stop();
+  run(1);
+  EXPECT_TRUE(has(reports(), LoopReportKind::kFault, ErrorCode::kCardCommunication));
+  EXPECT_GE(card->calls(CardCall::kEmergencyStop), 1U);
+  run(10);
+  EXPECT_FALSE(loop->snapshot().motion_active);
+  EXPECT_EQ(loop->snapshot().fault, ErrorCode::kCardCommunication);
+  EXPECT_EQ(managed->state(), drivers::LifecycleState::kFault);
+}
+
 TEST_F(ControlLoopTest, CardRefusingTheMoveLatchesAndReports) {
   card->refuse_next_move(ErrorCode::kCardBadParameter);
   ASSERT_TRUE(loop->post_move({4, 10, 10}));

@@ -417,6 +417,7 @@ class ControlLoop {
   static constexpr double kDoorStandoffToleranceM = 0.003;
   void advance_recovery(std::int64_t now_ns) noexcept;
   void end_recovery(ErrorCode code) noexcept;
+  // A smooth stop (an emergency stop when the card refuses it; the refusal latches).
   void begin_stop(std::int64_t now_ns) noexcept;
   // The card did not do what it was told (or answered an error to a command it may have taken):
   // latch `code`, emergency stop, supervise the wheels to rest.
@@ -449,12 +450,23 @@ class ControlLoop {
   // kOk, or why a running motion stops now: the card did not answer, an axis reports an alarm,
   // a following error or a limit (`axis`: which), or the controller is silent.
   ErrorCode running_fault(bool silent, int& axis) const noexcept;
+  // What a card that did not answer this cycle's status read latches: its read error, or
+  // CARD_COMMUNICATION.
+  ErrorCode read_fault() const noexcept;
   // A move whose wheels rest in position (having moved, or at its target) is finished.
   void finish_move_at_rest() noexcept;
-  // A stop: sent again until the card takes it, ended when the wheels rest or at its deadline.
+  // A stop: sent again until the card takes it, ended when the wheels rest or at its deadline;
+  // a card that does not answer meanwhile latches (read_fault()), and so does a drive fault
+  // (latch_drive_fault()).
   void supervise_stopping(std::int64_t now_ns) noexcept;
-  // Nothing runs: wheels that move anyway, an arm moving while the controller is silent, alarms.
+  // Nothing runs: wheels that move anyway, a card that does not answer (read_fault()), an arm
+  // moving while the controller is silent, drive alarms and following errors. (A recovery
+  // watches the card itself.)
   void supervise_idle(std::int64_t now_ns, bool silent) noexcept;
+  // The first axis that reports a drive alarm or a following error (which the card's lifecycle
+  // wrapper latches too, refusing every move until recovered) latches it, naming the axis: when
+  // it happens, not at the next move.
+  void latch_drive_fault() noexcept;
   drivers::LifecycleState card_state() const noexcept;
 
   drivers::MotionCard& card_;
