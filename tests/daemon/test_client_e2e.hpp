@@ -33,6 +33,11 @@ inline daemon::Config e2e_config(drivers::DriverKind kind, const std::string& di
   c.network.bind_address = "127.0.0.1";
   c.network.port = 0;
   c.logging.sink = daemon::LogSink::kStderr;
+  // The loop supervisor at its largest timeout (0.5 s, as the config allows): on a loaded CI host
+  // (sanitizers, a build beside the tests) a loop thread starved for 108 ms latched LOOP_STALLED in
+  // a test about something else (EndToEndCardLimits under ASan). The stall tests hang a card call
+  // for good, which any timeout catches; the supervisor's own timing is tested on a fake clock.
+  c.control.stall_timeout_s = 0.5;
   return c;
 }
 
