@@ -273,10 +273,16 @@ void ControlLoop::supervise_motion(std::int64_t now_ns) noexcept {
 
 namespace {
 
-// kOk, or what one axis's status says stops a running motion.
-ErrorCode axis_fault(const drivers::AxisStatus& status) noexcept {
+// kOk, or the drive fault one axis's status reports: what the card's lifecycle wrapper latches too.
+ErrorCode drive_fault(const drivers::AxisStatus& status) noexcept {
   if (status.alarm) return ErrorCode::kAxisAlarm;
   if (status.following_error) return ErrorCode::kFollowingError;
+  return ErrorCode::kOk;
+}
+
+// kOk, or what one axis's status says stops a running motion: a drive fault or a limit.
+ErrorCode axis_fault(const drivers::AxisStatus& status) noexcept {
+  if (const ErrorCode fault = drive_fault(status); fault != ErrorCode::kOk) return fault;
   if (status.positive_limit || status.negative_limit) return ErrorCode::kLimitHit;
   return ErrorCode::kOk;
 }
@@ -348,10 +354,8 @@ void ControlLoop::supervise_stopping(std::int64_t now_ns) noexcept {
     smooth_stop_ = false;
     latch(ErrorCode::kVelocityMismatch, 0);
   }
-  // A card that does not answer while the wheels stop latches as it does during a motion: its
-  // lifecycle wrapper has latched it and refuses every move until a recovery (a Reset) clears it.
-  if (!answered_ && !recovery_.running()) latch(read_fault(), 0);
-  if (answered_ && !recovery_.running()) latch_drive_fault();  // (the wrapper latched it too)
+  // As during a motion: a card that does not answer, a drive fault.
+  latch_card_fault();
   if (answered_ && !status_[0].moving && !status_[1].moving) {
     finish(LoopReportKind::kMotionStopped, stop_reason_);
   } else if (now_ns > motion_deadline_ns_) {
@@ -378,17 +382,17 @@ void ControlLoop::supervise_idle(std::int64_t now_ns, bool silent) noexcept {
   if (!answered_ && !recovery_.running()) return latch(read_fault(), 0);
   if (arm_moving_.load(std::memory_order_acquire) && silent) {
     latch(ErrorCode::kDeadman, 0);
-  } else if (answered_ && !recovery_.running()) {  // a recovery checks alarms itself
-    latch_drive_fault();
+  } else {
+    latch_card_fault();
   }
 }
 
-void ControlLoop::latch_drive_fault() noexcept {
+void ControlLoop::latch_card_fault() noexcept {
+  if (recovery_.running()) return;  // a recovery watches the card itself
+  if (!answered_) return latch(read_fault(), 0);
   for (int i = 0; i < 2; ++i) {
-    const ErrorCode code = status_[i].alarm             ? ErrorCode::kAxisAlarm
-                           : status_[i].following_error ? ErrorCode::kFollowingError
-                                                        : ErrorCode::kOk;
-    if (code != ErrorCode::kOk) return latch(code, axes_[i]);
+    if (const ErrorCode fault = drive_fault(status_[i]); fault != ErrorCode::kOk)
+      return latch(fault, axes_[i]);
   }
 }
 

@@ -90,33 +90,28 @@ GtsMotionCard::GtsMotionCard(GtsCardSettings settings) : settings_(std::move(set
     throw DriverStartupError("GTS card axis_count " + std::to_string(settings_.axis_count) +
                              " outside 1.." + std::to_string(gts::kMaxAxes));
   }
-  dlerror();
-  handle_ = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (handle_ == nullptr) {
-    const char* why = dlerror();
-    throw DriverStartupError("cannot load GTS card library " + path + ": " +
-                             (why != nullptr ? why : "unknown error"));
-  }
+  handle_ = open_library(kGtsCardLibrary, path);
   try {
+    const LibrarySymbols library(handle_, kGtsCardLibrary, path);
     api_ = std::make_unique<Api>(Api{
-        resolve_symbol<gts::GT_Open_t>(handle_, "GT_Open", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_Close_t>(handle_, "GT_Close", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_Reset_t>(handle_, "GT_Reset", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_LoadConfig_t>(handle_, "GT_LoadConfig", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_ClrSts_t>(handle_, "GT_ClrSts", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_AxisOn_t>(handle_, "GT_AxisOn", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_AxisOff_t>(handle_, "GT_AxisOff", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_PrfTrap_t>(handle_, "GT_PrfTrap", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_SetTrapPrm_t>(handle_, "GT_SetTrapPrm", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_PrfJog_t>(handle_, "GT_PrfJog", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_SetJogPrm_t>(handle_, "GT_SetJogPrm", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_SetPos_t>(handle_, "GT_SetPos", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_SetVel_t>(handle_, "GT_SetVel", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_Update_t>(handle_, "GT_Update", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_GetSts_t>(handle_, "GT_GetSts", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_GetPrfPos_t>(handle_, "GT_GetPrfPos", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_GetEncPos_t>(handle_, "GT_GetEncPos", kGtsCardLibrary, path),
-        resolve_symbol<gts::GT_Stop_t>(handle_, "GT_Stop", kGtsCardLibrary, path),
+        library.get<gts::GT_Open_t>("GT_Open"),
+        library.get<gts::GT_Close_t>("GT_Close"),
+        library.get<gts::GT_Reset_t>("GT_Reset"),
+        library.get<gts::GT_LoadConfig_t>("GT_LoadConfig"),
+        library.get<gts::GT_ClrSts_t>("GT_ClrSts"),
+        library.get<gts::GT_AxisOn_t>("GT_AxisOn"),
+        library.get<gts::GT_AxisOff_t>("GT_AxisOff"),
+        library.get<gts::GT_PrfTrap_t>("GT_PrfTrap"),
+        library.get<gts::GT_SetTrapPrm_t>("GT_SetTrapPrm"),
+        library.get<gts::GT_PrfJog_t>("GT_PrfJog"),
+        library.get<gts::GT_SetJogPrm_t>("GT_SetJogPrm"),
+        library.get<gts::GT_SetPos_t>("GT_SetPos"),
+        library.get<gts::GT_SetVel_t>("GT_SetVel"),
+        library.get<gts::GT_Update_t>("GT_Update"),
+        library.get<gts::GT_GetSts_t>("GT_GetSts"),
+        library.get<gts::GT_GetPrfPos_t>("GT_GetPrfPos"),
+        library.get<gts::GT_GetEncPos_t>("GT_GetEncPos"),
+        library.get<gts::GT_Stop_t>("GT_Stop"),
     });
   } catch (...) {
     dlclose(handle_);

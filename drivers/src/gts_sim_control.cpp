@@ -17,43 +17,25 @@ constexpr const char* kCardSimLibrary = "card simulator library";
 }  // namespace
 
 GtsSimControl::GtsSimControl(const std::string& library_path) {
-  handle_ = dlopen(library_path.c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (handle_ == nullptr) {
-    const char* why = dlerror();
-    throw DriverStartupError("cannot load card simulator library " + library_path + ": " +
-                             (why != nullptr ? why : "unknown error"));
-  }
+  handle_ = open_library(kCardSimLibrary, library_path);
   try {
-    reset =
-        resolve_symbol<AjarSim_Reset_t>(handle_, "AjarSim_Reset", kCardSimLibrary, library_path);
-    set_time_scale = resolve_symbol<AjarSim_SetTimeScale_t>(handle_, "AjarSim_SetTimeScale",
-                                                            kCardSimLibrary, library_path);
-    set_manual_clock = resolve_symbol<AjarSim_SetManualClock_t>(handle_, "AjarSim_SetManualClock",
-                                                                kCardSimLibrary, library_path);
-    advance_clock_ns = resolve_symbol<AjarSim_AdvanceClockNs_t>(handle_, "AjarSim_AdvanceClockNs",
-                                                                kCardSimLibrary, library_path);
-    inject_fault_raw = resolve_symbol<AjarSim_InjectFault_t>(handle_, "AjarSim_InjectFault",
-                                                             kCardSimLibrary, library_path);
-    fail_next_calls = resolve_symbol<AjarSim_FailNextCalls_t>(handle_, "AjarSim_FailNextCalls",
-                                                              kCardSimLibrary, library_path);
-    set_call_delay_us = resolve_symbol<AjarSim_SetCallDelayUs_t>(handle_, "AjarSim_SetCallDelayUs",
-                                                                 kCardSimLibrary, library_path);
-    block_next_call = resolve_symbol<AjarSim_BlockNextCall_t>(handle_, "AjarSim_BlockNextCall",
-                                                              kCardSimLibrary, library_path);
-    release_blocked_calls = resolve_symbol<AjarSim_ReleaseBlockedCalls_t>(
-        handle_, "AjarSim_ReleaseBlockedCalls", kCardSimLibrary, library_path);
-    blocked_calls = resolve_symbol<AjarSim_BlockedCalls_t>(handle_, "AjarSim_BlockedCalls",
-                                                           kCardSimLibrary, library_path);
-    set_encoder_lag_ms = resolve_symbol<AjarSim_SetEncoderLagMs_t>(
-        handle_, "AjarSim_SetEncoderLagMs", kCardSimLibrary, library_path);
-    call_count = resolve_symbol<AjarSim_CallCount_t>(handle_, "AjarSim_CallCount", kCardSimLibrary,
-                                                     library_path);
-    last_update_mask = resolve_symbol<AjarSim_LastUpdateMask_t>(handle_, "AjarSim_LastUpdateMask",
-                                                                kCardSimLibrary, library_path);
-    last_stop = resolve_symbol<AjarSim_LastStop_t>(handle_, "AjarSim_LastStop", kCardSimLibrary,
-                                                   library_path);
-    now_ms =
-        resolve_symbol<AjarSim_NowMs_t>(handle_, "AjarSim_NowMs", kCardSimLibrary, library_path);
+    const LibrarySymbols library(handle_, kCardSimLibrary, library_path);
+    reset = library.get<AjarSim_Reset_t>("AjarSim_Reset");
+    set_time_scale = library.get<AjarSim_SetTimeScale_t>("AjarSim_SetTimeScale");
+    set_manual_clock = library.get<AjarSim_SetManualClock_t>("AjarSim_SetManualClock");
+    advance_clock_ns = library.get<AjarSim_AdvanceClockNs_t>("AjarSim_AdvanceClockNs");
+    inject_fault_raw = library.get<AjarSim_InjectFault_t>("AjarSim_InjectFault");
+    fail_next_calls = library.get<AjarSim_FailNextCalls_t>("AjarSim_FailNextCalls");
+    set_call_delay_us = library.get<AjarSim_SetCallDelayUs_t>("AjarSim_SetCallDelayUs");
+    block_next_call = library.get<AjarSim_BlockNextCall_t>("AjarSim_BlockNextCall");
+    release_blocked_calls =
+        library.get<AjarSim_ReleaseBlockedCalls_t>("AjarSim_ReleaseBlockedCalls");
+    blocked_calls = library.get<AjarSim_BlockedCalls_t>("AjarSim_BlockedCalls");
+    set_encoder_lag_ms = library.get<AjarSim_SetEncoderLagMs_t>("AjarSim_SetEncoderLagMs");
+    call_count = library.get<AjarSim_CallCount_t>("AjarSim_CallCount");
+    last_update_mask = library.get<AjarSim_LastUpdateMask_t>("AjarSim_LastUpdateMask");
+    last_stop = library.get<AjarSim_LastStop_t>("AjarSim_LastStop");
+    now_ms = library.get<AjarSim_NowMs_t>("AjarSim_NowMs");
   } catch (...) {
     dlclose(handle_);
     throw;

@@ -456,17 +456,17 @@ class ControlLoop {
   // A move whose wheels rest in position (having moved, or at its target) is finished.
   void finish_move_at_rest() noexcept;
   // A stop: sent again until the card takes it, ended when the wheels rest or at its deadline;
-  // a card that does not answer meanwhile latches (read_fault()), and so does a drive fault
-  // (latch_drive_fault()).
+  // a card that does not answer meanwhile, or a drive fault, latches (latch_card_fault()).
   void supervise_stopping(std::int64_t now_ns) noexcept;
   // Nothing runs: wheels that move anyway, a card that does not answer (read_fault()), an arm
   // moving while the controller is silent, drive alarms and following errors. (A recovery
   // watches the card itself.)
   void supervise_idle(std::int64_t now_ns, bool silent) noexcept;
-  // The first axis that reports a drive alarm or a following error (which the card's lifecycle
-  // wrapper latches too, refusing every move until recovered) latches it, naming the axis: when
-  // it happens, not at the next move.
-  void latch_drive_fault() noexcept;
+  // What the card's lifecycle wrapper latches too, refusing every move until a Reset recovers
+  // it, latched when it happens rather than at the next move: a status read that failed
+  // (read_fault()), else the first axis reporting a drive alarm or a following error, with that
+  // axis. Nothing during a recovery (it watches the card itself).
+  void latch_card_fault() noexcept;
   drivers::LifecycleState card_state() const noexcept;
 
   drivers::MotionCard& card_;
