@@ -3,6 +3,7 @@
 Raw sockets on purpose: several frames in one write, duplicates, bad frames, withheld bytes.
 """
 import os
+import random
 import select
 import signal
 import socket
@@ -389,3 +390,34 @@ def use_tls(pki, identities, extra=()):
 
 def say(*a):
     print(*a, flush=True)
+
+
+class Campaign:
+    """A seeded attack campaign (races.py, races2.py): argv[1] the seed (default: the time),
+    argv[2] the rounds; `rng` draws every random choice; a daemon on sim drivers is started;
+    `verdict` counts each check per name, `report` prints the counts and the RESULT line."""
+
+    def __init__(self, name, default_rounds, echo_ok=False):
+        self.seed = int(sys.argv[1]) if len(sys.argv) > 1 else int(time.time())
+        self.rounds = int(sys.argv[2]) if len(sys.argv) > 2 else default_rounds
+        self.rng = random.Random(self.seed)
+        say("seed", self.seed)
+        self.daemon = Daemon({"drivers.kind": "sim"}, name=name)
+        self.daemon.start()
+        self.fails = []
+        self.counts = {}
+        self.echo_ok = echo_ok
+
+    def verdict(self, name, good, detail):
+        self.counts.setdefault(name, [0, 0])
+        self.counts[name][0 if good else 1] += 1
+        if good and self.echo_ok:
+            say("OK  ", name, "::", detail)
+        if not good:
+            self.fails.append("%s: %s" % (name, detail))
+            say("FAIL", name, "::", detail)
+
+    def report(self, width=55):
+        for k, v in self.counts.items():
+            say("%-*s ok %d fail %d" % (width, k, v[0], v[1]))
+        say("RESULT seed=%d fails=%d" % (self.seed, len(self.fails)))

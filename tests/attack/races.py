@@ -4,29 +4,15 @@
 Usage: races.py [seed] [rounds]
 Each check prints OK/FAIL with what it saw.
 """
-import random
 import struct
 import sys
 import time
 
 from ajarwire import *
 
-seed = int(sys.argv[1]) if len(sys.argv) > 1 else int(time.time())
-rounds = int(sys.argv[2]) if len(sys.argv) > 2 else 5
-rng = random.Random(seed)
-say("seed", seed)
-d = Daemon({"drivers.kind": "sim"}, name="races")
-d.start()
-fails = []
-counts = {}
-
-
-def verdict(name, good, detail):
-    counts.setdefault(name, [0, 0])
-    counts[name][0 if good else 1] += 1
-    if not good:
-        fails.append("%s: %s" % (name, detail))
-        say("FAIL", name, detail)
+campaign = Campaign("races", 5)
+seed, rounds, rng, d = campaign.seed, campaign.rounds, campaign.rng, campaign.daemon
+fails, verdict = campaign.fails, campaign.verdict
 
 
 def fresh(instance=0):
@@ -156,6 +142,4 @@ try:
             break
 finally:
     d.stop()
-for k, v in counts.items():
-    say("%-55s ok %d fail %d" % (k, v[0], v[1]))
-say("RESULT seed=%d fails=%d" % (seed, len(fails)))
+campaign.report(55)

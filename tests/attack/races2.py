@@ -15,29 +15,15 @@
 
 Usage: races2.py [seed] [rounds]
 """
-import random
 import struct
 import sys
 import time
 
 from ajarwire import *
 
-seed = int(sys.argv[1]) if len(sys.argv) > 1 else int(time.time())
-rounds = int(sys.argv[2]) if len(sys.argv) > 2 else 4
-rng = random.Random(seed)
-say("seed", seed)
-d = Daemon({"drivers.kind": "sim"}, name="races2")
-d.start()
-fails = []
-counts = {}
-
-
-def verdict(name, good, detail):
-    counts.setdefault(name, [0, 0])
-    counts[name][0 if good else 1] += 1
-    say("OK  " if good else "FAIL", name, "::", detail)
-    if not good:
-        fails.append("%s: %s" % (name, detail))
+campaign = Campaign("races2", 4, echo_ok=True)
+seed, rounds, rng, d = campaign.seed, campaign.rounds, campaign.rng, campaign.daemon
+fails, verdict = campaign.fails, campaign.verdict
 
 
 def fresh(instance=0):
@@ -250,6 +236,4 @@ try:
 finally:
     rc = d.stop()
     say("ajard exit", rc)
-for k, v in counts.items():
-    say("%-50s ok %d fail %d" % (k, v[0], v[1]))
-say("RESULT seed=%d fails=%d" % (seed, len(fails)))
+campaign.report(50)
