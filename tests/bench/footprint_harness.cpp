@@ -1,10 +1,18 @@
 // Footprint: ajard's resident memory idle, after one procedure and with 257 sessions (256
 // observers subscribed to telemetry at 100 Hz and a controller), as shipped (config/ajard.yaml)
 // and with control.lock_memory (the robot's setting: everything resident is then locked), and
-// exec -> serving (spawn until a Hello is answered, median of 5). Each RSS row comes with a
+// exec -> serving (spawn until a Hello is answered, median of 5), beside what a process start costs
+// on this machine in the same run (`/bin/true`; `ajard --version`: exec, loading ajard's libraries,
+// static initialisation, no start), so that a machine whose page faults are slow (a paravirtualised
+// VM: docs/performance.md) is told from a slower ajard. Each RSS row comes with a
 // /proc/PID/smaps breakdown (binary, libraries, thread stacks, anonymous memory; what is locked)
 // as an INFO line. Memory is not a timing: these figures are valid on a loaded machine too.
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include "harness.hpp"
+
+extern char** environ;
 
 namespace ajar::bench {
 namespace {
@@ -27,6 +35,30 @@ void procedure(Conn& c) {
   p.points[2] = base_point(1.5, 0.0, 1.4);
   (void)c.request(p);
   (void)c.request(GetStatus{});
+}
+
+// Milliseconds from posix_spawn of `argv` (output to /dev/null) to its exit, median of `runs`.
+double exec_to_exit_ms(std::vector<std::string> argv, int runs) {
+  std::vector<char*> args;
+  for (auto& a : argv)
+    args.push_back(a.data());
+  args.push_back(nullptr);
+  posix_spawn_file_actions_t quiet;
+  posix_spawn_file_actions_init(&quiet);
+  posix_spawn_file_actions_addopen(&quiet, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&quiet, 2, "/dev/null", O_WRONLY, 0);
+  std::vector<std::int64_t> took;
+  for (int i = 0; i < runs; ++i) {
+    const std::int64_t t0 = now_ns();
+    pid_t pid = -1;
+    if (posix_spawn(&pid, args[0], &quiet, nullptr, args.data(), environ) != 0)
+      fail("cannot spawn " + argv[0]);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    took.push_back(now_ns() - t0);
+  }
+  posix_spawn_file_actions_destroy(&quiet);
+  return static_cast<double>(quantiles(took).p50) / 1e6;
 }
 
 void measure(const Options& o, const std::string& config, const std::string& mode,
@@ -81,6 +113,13 @@ int main(int argc, char** argv) {
   row("exec -> serving (median of " + std::to_string(starts.size()) + ")",
       quantiles(starts).p50 / 1e6, "ms", std::nullopt, "<= 20 ms",
       "spawn until Welcome; load average " + load_average());
+  created_on(where.server, [&] {
+    row("exec of /bin/true to its exit (median of 15)", exec_to_exit_ms({"/bin/true"}, 15), "ms",
+        std::nullopt, "", "the machine's floor for any start");
+    row("ajard --version to its exit (median of 15)", exec_to_exit_ms({o.ajard, "--version"}, 15),
+        "ms", std::nullopt, "", "exec, loading its libraries, static initialisation");
+    return 0;
+  });
 
   measure(o, o.config, "as shipped", "<= 12 MiB", sessions, where);
   // lock_memory needs CAP_IPC_LOCK or an RLIMIT_MEMLOCK above the resident size; the daemon logs a
