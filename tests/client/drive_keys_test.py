@@ -53,7 +53,19 @@ def pump(seconds):
                 return
 
 
-pump(1.0)
+def pump_until(text, seconds):
+    end = time.monotonic() + seconds
+    while text not in out and time.monotonic() < end:
+        pump(0.05)
+    if text not in out:
+        fail(f"ajarctl drive did not show {text!r} within {seconds} s", out)
+
+
+# Keys are pressed once the first status line is drawn: the terminal is raw from then on. A key
+# typed before that is discarded on purpose (the raw mode is set with TCSAFLUSH: nothing typed
+# while ajarctl was still starting moves the robot), so a fixed wait lost the first key on a
+# loaded machine.
+pump_until(b"\x1b[Kset ", 20)
 for key in (b"\x1b[A", b"w"):
     os.write(fd, key)
     pump(0.5)
