@@ -10,6 +10,7 @@
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <sched.h>
+#include <signal.h>
 #include <sys/socket.h>
 #include <time.h>
 #include <unistd.h>
@@ -59,8 +60,18 @@ inline bool fifo_permitted(int priority) {
   return ok;
 }
 
+// The ajard children alive now (Daemon adds and removes its own): a harness that fails exits
+// without running destructors, and a daemon left running would load every later measurement.
+inline std::vector<pid_t>& live_daemons() {
+  static std::vector<pid_t> pids;
+  return pids;
+}
+
+// Kills the live ajard children and exits 1 with the reason.
 [[noreturn]] inline void fail(const std::string& what) {
   std::fprintf(stderr, "bench: FAILED: %s\n", what.c_str());
+  for (const pid_t pid : live_daemons())
+    ::kill(pid, SIGKILL);
   std::exit(1);
 }
 
@@ -507,6 +518,7 @@ class Daemon {
           dir);
     });
     if (!process_->started()) fail("cannot start " + ajard);
+    live_daemons().push_back(process_->pid());
     // Serving = the port file holds the port and a client gets its Welcome.
     const auto port = test::wait_for_port_file(port_file, *process_, std::chrono::seconds(20),
                                                std::chrono::microseconds(200));
@@ -526,7 +538,10 @@ class Daemon {
 
   // SIGTERM and waits for the exit (killed after 30 s).
   void stop() {
-    if (process_) process_->stop();
+    if (!process_) return;
+    auto& live = live_daemons();
+    live.erase(std::remove(live.begin(), live.end(), process_->pid()), live.end());
+    process_->stop();
     process_.reset();
   }
   std::uint16_t port() const { return port_; }

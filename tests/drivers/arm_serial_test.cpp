@@ -275,7 +275,10 @@ TEST(ArmSerial, AStopToASilentControllerIsSentAgainWhenItAnswers) {
   EXPECT_EQ(rig.sim->phase(), arm::ControllerPhase::kBusy);
   rig.sim->answer_again();
   ASSERT_TRUE(wait_phase(*rig.arm, ArmPhase::kIdle));
-  EXPECT_EQ(rig.sim->counters().stops, 1U);
+  // At least once: a re-sent STOP whose reply is later than the link's timeout (a loaded
+  // ThreadSanitizer run did this) is sent again, with a new sequence number, until one is
+  // answered; STOP is idempotent on the controller. What matters is that idle comes after one.
+  EXPECT_GE(rig.sim->counters().stops, 1U);
   EXPECT_EQ(rig.sim->phase(), arm::ControllerPhase::kIdle);
 }
 
