@@ -172,31 +172,35 @@ std::size_t row_of(std::uint16_t type, std::uint8_t minor) noexcept {
   e.version_minor = h[kOffsetVersionMinor];
 }
 
-// Checks 4-9 of a frame whose header passed checks 1-3 and whose `length` payload bytes follow it
-// in memory; decodes it into `out` (reusing its storage). The header is read once, every check
-// is made, and the error record is written once: cleared for a message, filled for an error.
-void decode_checked(const std::uint8_t* h, std::uint32_t length,
-                    StreamDecoder::Outcome& out) noexcept {
-  const std::uint8_t* payload = h + kHeaderSize;
+// Checks 4-9 of a frame whose header passed checks 1-3 and whose payload (its length from the
+// header) follows it in memory; decodes it into `out` (reusing its storage). The header is read
+// once, every check is made, and the error record is written once: cleared for a message, filled
+// for an error. Only the frame and the outcome are kept across the calls (the CRC's and the
+// type's decoder): every header field is loaded where it is used, so the function saves two
+// registers, not six.
+void decode_checked(const std::uint8_t* h, StreamDecoder::Outcome& out) noexcept {
 #ifndef AJAR_PROTOCOL_FUZZING
-  const bool crc_ok = frame_crc(h, std::span(payload, length)) == get_u32(h + kOffsetCrc);
+  const bool crc_ok = frame_crc(h, std::span(h + kHeaderSize, get_u32(h + kOffsetPayloadLength))) ==
+                      get_u32(h + kOffsetCrc);
 #else
   const bool crc_ok = true;  // the fuzzers' build skips the CRC comparison (tests/fuzz)
 #endif
-  const std::uint16_t flags = get_u16(h + kOffsetFlags);
   const std::uint8_t wire_minor = h[kOffsetVersionMinor];
   const std::size_t row = row_of(get_u16(h + kOffsetType), std::min(wire_minor, kVersionMinor));
   const bool header_ok =
-      crc_ok && (flags & ~static_cast<std::uint16_t>(kFlagKnownMask)) == 0 && row != kNoRow;
-  if (header_ok && kDecoders[row](payload, length, wire_minor, out.envelope.message, out.error)) {
+      crc_ok && (get_u16(h + kOffsetFlags) & ~static_cast<std::uint16_t>(kFlagKnownMask)) == 0 &&
+      row != kNoRow;
+  const std::uint32_t length = get_u32(h + kOffsetPayloadLength);
+  if (header_ok &&
+      kDecoders[row](h + kHeaderSize, length, wire_minor, out.envelope.message, out.error)) {
     out.kind = StreamDecoder::Kind::kMessage;
     out.envelope.request_id = get_u32(h + kOffsetRequestId);
-    out.envelope.flags = flags;
+    out.envelope.flags = get_u16(h + kOffsetFlags);
     // A record this decoder cleared or never filled has code kOk: clear only a filled one.
     if (out.error.code != ErrorCode::kOk) out.error = DecodeError{};
     return;
   }
-  frame_error(h, length, header_ok, out);
+  frame_error(h, get_u32(h + kOffsetPayloadLength), header_ok, out);
 }
 
 // Decodes one whole frame (exactly one: else kBadPayloadLength, framing lost) into `out`.
@@ -219,7 +223,7 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
     e.field = "frame";
     return;
   }
-  decode_checked(h, length, out);
+  decode_checked(h, out);
 }
 
 }  // namespace
@@ -280,7 +284,6 @@ StreamDecoder::Outcome decode_frame(std::span<const std::uint8_t> frame) noexcep
 }
 
 std::size_t StreamDecoder::feed(std::span<const std::uint8_t> in, Outcome& outcome) noexcept {
-  outcome.kind = Kind::kNeedMore;
   // Fast path: a whole frame at the start of `in` whose header passes checks 1-3 is decoded in
   // place, without copying. Anything else (a frame split across calls, a wrong header) goes the
   // byte-wise way below, which finds and reports a wrong header at its first wrong byte.
@@ -289,73 +292,77 @@ std::size_t StreamDecoder::feed(std::span<const std::uint8_t> in, Outcome& outco
     const std::uint32_t length = get_u32(h + kOffsetPayloadLength);
     if (get_u32(h + kOffsetMagic) == kMagic && h[kOffsetVersionMajor] == kVersionMajor &&
         length <= kMaxPayloadSize && in.size() - kHeaderSize >= length) {
-      decode_checked(h, length, outcome);
+      decode_checked(h, outcome);
       return kHeaderSize + length;
     }
   }
-  // The rest, out of line: the fast path above then needs no registers saved.
-  return [&]() __attribute__((noinline))->std::size_t {
-    if (failed_) {
-      outcome.kind = Kind::kError;
-      outcome.error = failure_;
-      return in.size();
-    }
-    std::size_t used = 0;
-    const auto fail = [&](const DecodeError& e) {
-      failed_ = true;
-      failure_ = e;
-      outcome.kind = Kind::kError;
-      outcome.error = e;
-      return used;
-    };
-    if (in.empty()) return 0;
-    // The frame is split across calls (or its header is wrong): it is gathered in the buffer,
-    // allocated now if this is the decoder's first.
+  return feed_bytewise(in, outcome);
+}
+
+// The rest of feed(), out of line: its fast path then saves one register and puts nothing on the
+// stack.
+[[gnu::noinline]] std::size_t StreamDecoder::feed_bytewise(std::span<const std::uint8_t> in,
+                                                           Outcome& outcome) noexcept {
+  outcome.kind = Kind::kNeedMore;
+  if (failed_) {
+    outcome.kind = Kind::kError;
+    outcome.error = failure_;
+    return in.size();
+  }
+  std::size_t used = 0;
+  const auto fail = [&](const DecodeError& e) {
+    failed_ = true;
+    failure_ = e;
+    outcome.kind = Kind::kError;
+    outcome.error = e;
+    return used;
+  };
+  if (in.empty()) return 0;
+  // The frame is split across calls (or its header is wrong): it is gathered in the buffer,
+  // allocated now if this is the decoder's first.
+  if (!buffer_) {
+    buffer_.reset(new (std::nothrow) Buffer);
     if (!buffer_) {
-      buffer_.reset(new (std::nothrow) Buffer);
-      if (!buffer_) {
-        used = in.size();
+      used = in.size();
+      DecodeError e;
+      e.code = ErrorCode::kInternal;
+      e.framing_lost = true;
+      e.field = "frame";
+      e.reason = "out of memory";
+      return fail(e);
+    }
+  }
+  std::uint8_t* const buffer = buffer_->data();
+  if (filled_ < kHeaderSize) {
+    const std::size_t n = std::min(kHeaderSize - filled_, in.size());
+    if (n == 0) return 0;
+    std::memcpy(buffer + filled_, in.data(), n);
+    const std::size_t magic_end = std::min(filled_ + n, kMagicBytes.size());
+    for (std::size_t i = filled_; i < magic_end; ++i) {
+      if (buffer[i] != kMagicBytes[i]) {
+        used = i - filled_ + 1;
         DecodeError e;
-        e.code = ErrorCode::kInternal;
+        e.code = ErrorCode::kBadMagic;
         e.framing_lost = true;
-        e.field = "frame";
-        e.reason = "out of memory";
+        e.field = "header.magic";
         return fail(e);
       }
     }
-    std::uint8_t* const buffer = buffer_->data();
-    if (filled_ < kHeaderSize) {
-      const std::size_t n = std::min(kHeaderSize - filled_, in.size());
-      if (n == 0) return 0;
-      std::memcpy(buffer + filled_, in.data(), n);
-      const std::size_t magic_end = std::min(filled_ + n, kMagicBytes.size());
-      for (std::size_t i = filled_; i < magic_end; ++i) {
-        if (buffer[i] != kMagicBytes[i]) {
-          used = i - filled_ + 1;
-          DecodeError e;
-          e.code = ErrorCode::kBadMagic;
-          e.framing_lost = true;
-          e.field = "header.magic";
-          return fail(e);
-        }
-      }
-      filled_ += n;
-      used = n;
-      if (filled_ < kHeaderSize) return used;
-      DecodeError e;
-      if (!check_header(buffer, e)) return fail(e);
-    }
-    const std::size_t total = kHeaderSize + get_u32(buffer + kOffsetPayloadLength);
-    const std::size_t n = std::min(total - filled_, in.size() - used);
-    if (n > 0) std::memcpy(buffer + filled_, in.data() + used, n);
     filled_ += n;
-    used += n;
-    if (filled_ < total) return used;
-    decode_checked(buffer, static_cast<std::uint32_t>(total - kHeaderSize), outcome);
-    filled_ = 0;
-    return used;
+    used = n;
+    if (filled_ < kHeaderSize) return used;
+    DecodeError e;
+    if (!check_header(buffer, e)) return fail(e);
   }
-  ();
+  const std::size_t total = kHeaderSize + get_u32(buffer + kOffsetPayloadLength);
+  const std::size_t n = std::min(total - filled_, in.size() - used);
+  if (n > 0) std::memcpy(buffer + filled_, in.data() + used, n);
+  filled_ += n;
+  used += n;
+  if (filled_ < total) return used;
+  decode_checked(buffer, outcome);
+  filled_ = 0;
+  return used;
 }
 
 void StreamDecoder::reset() noexcept {
