@@ -21,6 +21,23 @@ namespace {
 
 constexpr std::array<std::uint8_t, 4> kMagicBytes = {0x41, 0x4A, 0x41, 0x52};  // "AJAR"
 
+// The checked Reader's walk of a payload into `t` (decode_as<T>: a payload the FastReader refused,
+// or one whose length is not its layout's), out of line: decode_as<T>'s fast path then saves
+// fewer registers. `fast`: the FastReader refused it (the fuzzers' build checks it was right to).
+template <typename T>
+[[gnu::noinline]] bool decode_with_reader(const std::uint8_t* p, std::size_t size,
+                                          std::uint8_t minor, bool newer,
+                                          [[maybe_unused]] bool fast, T& t,
+                                          DecodeError& e) noexcept {
+  Reader r(std::span(p, size), minor);
+  walk<Text("")>(r, t);
+  const bool decoded = r.finish(newer, e);
+#ifdef AJAR_PROTOCOL_FUZZING
+  if (fast && decoded) std::abort();  // the fast path refused what the checked walk accepts
+#endif
+  return decoded;
+}
+
 // One function per message type (the walk inlined into it), like hand-written field code: decodes
 // the payload p[0, size) of a frame of protocol 1.`wire_minor` into `m`. False: the payload is
 // refused, and e's code, field, value, limit and reason say why (checks 7-9 of docs/protocol.md
@@ -57,13 +74,7 @@ template <typename T>
       return true;
     }
   }
-  Reader r(std::span(p, size), minor);
-  walk<Text("")>(r, *t);
-  const bool decoded = r.finish(newer, e);
-#ifdef AJAR_PROTOCOL_FUZZING
-  if (fast && decoded) std::abort();  // the fast path refused what the checked walk accepts
-#endif
-  return decoded;
+  return decode_with_reader(p, size, minor, newer, fast, *t, e);
 }
 
 template <typename T>
