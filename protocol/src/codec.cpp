@@ -21,6 +21,23 @@ namespace {
 
 constexpr std::array<std::uint8_t, 4> kMagicBytes = {0x41, 0x4A, 0x41, 0x52};  // "AJAR"
 
+// The checked Reader's walk of a payload into `t` (decode_as<T>: a payload the FastReader refused,
+// or one whose length is not its layout's), out of line: decode_as<T>'s fast path then saves
+// fewer registers. `fast`: the FastReader refused it (the fuzzers' build checks it was right to).
+template <typename T>
+[[gnu::noinline]] bool decode_with_reader(const std::uint8_t* p, std::size_t size,
+                                          std::uint8_t minor, bool newer,
+                                          [[maybe_unused]] bool fast, T& t,
+                                          DecodeError& e) noexcept {
+  Reader r(std::span(p, size), minor);
+  walk<Text("")>(r, t);
+  const bool decoded = r.finish(newer, e);
+#ifdef AJAR_PROTOCOL_FUZZING
+  if (fast && decoded) std::abort();  // the fast path refused what the checked walk accepts
+#endif
+  return decoded;
+}
+
 // One function per message type (the walk inlined into it), like hand-written field code: decodes
 // the payload p[0, size) of a frame of protocol 1.`wire_minor` into `m`. False: the payload is
 // refused, and e's code, field, value, limit and reason say why (checks 7-9 of docs/protocol.md
@@ -57,13 +74,7 @@ template <typename T>
       return true;
     }
   }
-  Reader r(std::span(p, size), minor);
-  walk<Text("")>(r, *t);
-  const bool decoded = r.finish(newer, e);
-#ifdef AJAR_PROTOCOL_FUZZING
-  if (fast && decoded) std::abort();  // the fast path refused what the checked walk accepts
-#endif
-  return decoded;
+  return decode_with_reader(p, size, minor, newer, fast, *t, e);
 }
 
 template <typename T>
@@ -125,12 +136,24 @@ std::uint32_t frame_crc(const std::uint8_t* header,
   return crc32c_finish(crc32c_update(crc, payload.data(), payload.size()));
 }
 
-// The row of `type` in the message table when protocol 1.`minor` has it (check 6), else kNoRow.
+// kRowOfType with check 6 made: by minor version 0..kVersionMinor, the row of each type when
+// protocol 1.`minor` has it, else kNoRow (one load per frame instead of the row and its `since`).
+constexpr auto kRowOfTypeInMinor = [] {
+  std::array<std::array<std::uint8_t, kRowOfType.size()>, kVersionMinor + 1> rows{};
+  for (std::size_t minor = 0; minor <= kVersionMinor; ++minor) {
+    for (std::size_t i = 0; i < kRowOfType.size(); ++i) {
+      const std::uint8_t row = kRowOfType[i];
+      rows[minor][i] = row == kNoRow || kMessageTable[row].since > minor ? kNoRow : row;
+    }
+  }
+  return rows;
+}();
+
+// The row of `type` in the message table when protocol 1.`minor` (at most kVersionMinor) has it
+// (check 6), else kNoRow.
 std::size_t row_of(std::uint16_t type, std::uint8_t minor) noexcept {
   const std::size_t i = static_cast<std::size_t>(type) - kLowestType;  // wraps below the lowest
-  if (i >= kRowOfType.size()) return kNoRow;
-  const std::uint8_t row = kRowOfType[i];
-  return row == kNoRow || kMessageTable[row].since > minor ? kNoRow : row;
+  return i < kRowOfType.size() ? kRowOfTypeInMinor[minor][i] : kNoRow;
 }
 
 // The error of a frame whose header passed checks 1-3: checks 4-6 in order when `payload_refused`
@@ -172,31 +195,40 @@ std::size_t row_of(std::uint16_t type, std::uint8_t minor) noexcept {
   e.version_minor = h[kOffsetVersionMinor];
 }
 
-// Checks 4-9 of a frame whose header passed checks 1-3 and whose `length` payload bytes follow it
-// in memory; decodes it into `out` (reusing its storage). The header is read once, every check
-// is made, and the error record is written once: cleared for a message, filled for an error.
-void decode_checked(const std::uint8_t* h, std::uint32_t length,
-                    StreamDecoder::Outcome& out) noexcept {
-  const std::uint8_t* payload = h + kHeaderSize;
+// Checks 4-9 of a frame whose header passed checks 1-3 and whose payload (its length from the
+// header) follows it in memory; decodes it into `out` (reusing its storage). The header is read
+// once, every check is made, and the error record is written once: cleared for a message, filled
+// for an error. Only the frame and the outcome are kept across the calls (the CRC's and the
+// type's decoder): every header field is loaded where it is used. Inlined into its callers: in
+// feed()'s whole-frame path it is the whole of the work, with no call of its own.
+[[gnu::always_inline]] inline void decode_checked(const std::uint8_t* h,
+                                                  StreamDecoder::Outcome& out) noexcept {
 #ifndef AJAR_PROTOCOL_FUZZING
-  const bool crc_ok = frame_crc(h, std::span(payload, length)) == get_u32(h + kOffsetCrc);
+  // frame_crc()'s two pieces, the payload's length loaded after the header's piece: nothing but
+  // the frame and the outcome is held across a call.
+  const std::uint32_t header_crc = crc32c_update(kCrc32cInit, h, kOffsetCrc);
+  const bool crc_ok =
+      crc32c_finish(crc32c_update(header_crc, h + kHeaderSize,
+                                  get_u32(h + kOffsetPayloadLength))) == get_u32(h + kOffsetCrc);
 #else
   const bool crc_ok = true;  // the fuzzers' build skips the CRC comparison (tests/fuzz)
 #endif
-  const std::uint16_t flags = get_u16(h + kOffsetFlags);
   const std::uint8_t wire_minor = h[kOffsetVersionMinor];
   const std::size_t row = row_of(get_u16(h + kOffsetType), std::min(wire_minor, kVersionMinor));
   const bool header_ok =
-      crc_ok && (flags & ~static_cast<std::uint16_t>(kFlagKnownMask)) == 0 && row != kNoRow;
-  if (header_ok && kDecoders[row](payload, length, wire_minor, out.envelope.message, out.error)) {
+      crc_ok && (get_u16(h + kOffsetFlags) & ~static_cast<std::uint16_t>(kFlagKnownMask)) == 0 &&
+      row != kNoRow;
+  const std::uint32_t length = get_u32(h + kOffsetPayloadLength);
+  if (header_ok &&
+      kDecoders[row](h + kHeaderSize, length, wire_minor, out.envelope.message, out.error)) {
     out.kind = StreamDecoder::Kind::kMessage;
     out.envelope.request_id = get_u32(h + kOffsetRequestId);
-    out.envelope.flags = flags;
+    out.envelope.flags = get_u16(h + kOffsetFlags);
     // A record this decoder cleared or never filled has code kOk: clear only a filled one.
     if (out.error.code != ErrorCode::kOk) out.error = DecodeError{};
     return;
   }
-  frame_error(h, length, header_ok, out);
+  frame_error(h, get_u32(h + kOffsetPayloadLength), header_ok, out);
 }
 
 // Decodes one whole frame (exactly one: else kBadPayloadLength, framing lost) into `out`.
@@ -219,7 +251,7 @@ void decode_into(std::span<const std::uint8_t> frame, StreamDecoder::Outcome& ou
     e.field = "frame";
     return;
   }
-  decode_checked(h, length, out);
+  decode_checked(h, out);
 }
 
 }  // namespace
@@ -280,7 +312,6 @@ StreamDecoder::Outcome decode_frame(std::span<const std::uint8_t> frame) noexcep
 }
 
 std::size_t StreamDecoder::feed(std::span<const std::uint8_t> in, Outcome& outcome) noexcept {
-  outcome.kind = Kind::kNeedMore;
   // Fast path: a whole frame at the start of `in` whose header passes checks 1-3 is decoded in
   // place, without copying. Anything else (a frame split across calls, a wrong header) goes the
   // byte-wise way below, which finds and reports a wrong header at its first wrong byte.
@@ -289,73 +320,77 @@ std::size_t StreamDecoder::feed(std::span<const std::uint8_t> in, Outcome& outco
     const std::uint32_t length = get_u32(h + kOffsetPayloadLength);
     if (get_u32(h + kOffsetMagic) == kMagic && h[kOffsetVersionMajor] == kVersionMajor &&
         length <= kMaxPayloadSize && in.size() - kHeaderSize >= length) {
-      decode_checked(h, length, outcome);
-      return kHeaderSize + length;
+      decode_checked(h, outcome);
+      return kHeaderSize + get_u32(h + kOffsetPayloadLength);  // loaded again: one register less
     }
   }
-  // The rest, out of line: the fast path above then needs no registers saved.
-  return [&]() __attribute__((noinline))->std::size_t {
-    if (failed_) {
-      outcome.kind = Kind::kError;
-      outcome.error = failure_;
-      return in.size();
-    }
-    std::size_t used = 0;
-    const auto fail = [&](const DecodeError& e) {
-      failed_ = true;
-      failure_ = e;
-      outcome.kind = Kind::kError;
-      outcome.error = e;
-      return used;
-    };
-    if (in.empty()) return 0;
-    // The frame is split across calls (or its header is wrong): it is gathered in the buffer,
-    // allocated now if this is the decoder's first.
+  return feed_bytewise(in, outcome);
+}
+
+// The rest of feed(), out of line: its fast path then saves one register and puts nothing on the
+// stack.
+[[gnu::noinline]] std::size_t StreamDecoder::feed_bytewise(std::span<const std::uint8_t> in,
+                                                           Outcome& outcome) noexcept {
+  outcome.kind = Kind::kNeedMore;
+  if (failed_) {
+    outcome.kind = Kind::kError;
+    outcome.error = failure_;
+    return in.size();
+  }
+  std::size_t used = 0;
+  const auto fail = [&](const DecodeError& e) {
+    failed_ = true;
+    failure_ = e;
+    outcome.kind = Kind::kError;
+    outcome.error = e;
+    return used;
+  };
+  if (in.empty()) return 0;
+  // The frame is split across calls (or its header is wrong): it is gathered in the buffer,
+  // allocated now if this is the decoder's first.
+  if (!buffer_) {
+    buffer_.reset(new (std::nothrow) Buffer);
     if (!buffer_) {
-      buffer_.reset(new (std::nothrow) Buffer);
-      if (!buffer_) {
-        used = in.size();
+      used = in.size();
+      DecodeError e;
+      e.code = ErrorCode::kInternal;
+      e.framing_lost = true;
+      e.field = "frame";
+      e.reason = "out of memory";
+      return fail(e);
+    }
+  }
+  std::uint8_t* const buffer = buffer_->data();
+  if (filled_ < kHeaderSize) {
+    const std::size_t n = std::min(kHeaderSize - filled_, in.size());
+    if (n == 0) return 0;
+    std::memcpy(buffer + filled_, in.data(), n);
+    const std::size_t magic_end = std::min(filled_ + n, kMagicBytes.size());
+    for (std::size_t i = filled_; i < magic_end; ++i) {
+      if (buffer[i] != kMagicBytes[i]) {
+        used = i - filled_ + 1;
         DecodeError e;
-        e.code = ErrorCode::kInternal;
+        e.code = ErrorCode::kBadMagic;
         e.framing_lost = true;
-        e.field = "frame";
-        e.reason = "out of memory";
+        e.field = "header.magic";
         return fail(e);
       }
     }
-    std::uint8_t* const buffer = buffer_->data();
-    if (filled_ < kHeaderSize) {
-      const std::size_t n = std::min(kHeaderSize - filled_, in.size());
-      if (n == 0) return 0;
-      std::memcpy(buffer + filled_, in.data(), n);
-      const std::size_t magic_end = std::min(filled_ + n, kMagicBytes.size());
-      for (std::size_t i = filled_; i < magic_end; ++i) {
-        if (buffer[i] != kMagicBytes[i]) {
-          used = i - filled_ + 1;
-          DecodeError e;
-          e.code = ErrorCode::kBadMagic;
-          e.framing_lost = true;
-          e.field = "header.magic";
-          return fail(e);
-        }
-      }
-      filled_ += n;
-      used = n;
-      if (filled_ < kHeaderSize) return used;
-      DecodeError e;
-      if (!check_header(buffer, e)) return fail(e);
-    }
-    const std::size_t total = kHeaderSize + get_u32(buffer + kOffsetPayloadLength);
-    const std::size_t n = std::min(total - filled_, in.size() - used);
-    if (n > 0) std::memcpy(buffer + filled_, in.data() + used, n);
     filled_ += n;
-    used += n;
-    if (filled_ < total) return used;
-    decode_checked(buffer, static_cast<std::uint32_t>(total - kHeaderSize), outcome);
-    filled_ = 0;
-    return used;
+    used = n;
+    if (filled_ < kHeaderSize) return used;
+    DecodeError e;
+    if (!check_header(buffer, e)) return fail(e);
   }
-  ();
+  const std::size_t total = kHeaderSize + get_u32(buffer + kOffsetPayloadLength);
+  const std::size_t n = std::min(total - filled_, in.size() - used);
+  if (n > 0) std::memcpy(buffer + filled_, in.data() + used, n);
+  filled_ += n;
+  used += n;
+  if (filled_ < total) return used;
+  decode_checked(buffer, outcome);
+  filled_ = 0;
+  return used;
 }
 
 void StreamDecoder::reset() noexcept {

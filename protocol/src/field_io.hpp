@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cstring>
 #include <span>
 
@@ -82,33 +83,49 @@ class Writer {
 
 constexpr std::array<std::uint8_t, 8> kZeros{};
 
-// The two scans of a string field's N bytes p[0, N) of which the first n are the string: are the
-// bytes [n, N) all zero, and are the bytes [0, n) all printable ASCII (0x20..0x7E)? Eight bytes at
-// a time, with no branch on the bytes and a trip count known at compile time (unrolled): each
-// word's bytes are split by a mask of their index against n. A byte b is not printable ASCII when
-// its top bit is set, or when x = b & 0x7F is below 0x20 (x + 0x60 has no top bit) or is 0x7F
-// (x + 0x01 has it); no sum carries into the next byte (x + 0x60 <= 0xDF). It replaced two loops
-// with run-time bounds (docs/performance.md, "Protocol").
+// Sixteen bytes as one GCC vector: SSE2 on x86-64, NEON on arm64, the same code on both (vector
+// extensions, no intrinsics). A comparison gives 0xFF in every byte where it holds, else 0.
+typedef std::uint8_t Bytes16 __attribute__((vector_size(16)));
+typedef std::int8_t SignedBytes16 __attribute__((vector_size(16)));
+inline constexpr Bytes16 kByteIndex = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+[[gnu::always_inline]] inline bool any_byte_set(Bytes16 v) noexcept {
+  const auto halves = std::bit_cast<std::array<std::uint64_t, 2>>(v);
+  return (halves[0] | halves[1]) != 0;
+}
+
+// A string field's N bytes p[0, N), of which the first n are the string (n <= 255, the wire's u8
+// length; n >= N: all of them), copied to `copy` and scanned: are the bytes [n, N) all zero, and
+// are the bytes [0, n) all printable ASCII (0x20..0x7E)? Sixteen bytes at a time, with no branch
+// on the bytes and a trip count known at compile time (unrolled); a capacity that is not a
+// multiple of sixteen ends with the last sixteen bytes, overlapping the chunk before (the scan
+// never reads outside p[0, N)). Each chunk's bytes are split by their index against n: a byte
+// past the string is ORed into `padding`, and every byte must be printable or past the string
+// (ANDed into `plain_or_padding`). A byte b is printable ASCII exactly when b + 1, as a signed
+// byte, is above 0x20: 0x20..0x7E give 0x21..0x7F, every other value -128..0x20. It replaced eight
+// bytes at a time with masks in 64-bit words (docs/performance.md, "Stream decode vs CRC-only");
+// tests/protocol/string_scan_test.cpp holds it to a byte-by-byte reading.
 struct StringScan {
   bool padding_zero;
   bool plain_ascii;
 };
 template <std::size_t N>
-[[gnu::always_inline]] inline StringScan scan_string(const std::uint8_t* p,
-                                                     std::size_t n) noexcept {
-  static_assert(N % 8 == 0, "string capacities are whole words");
-  constexpr std::uint64_t kLow7 = 0x7F7F7F7F7F7F7F7FULL, kTop = 0x8080808080808080ULL;
-  constexpr std::uint64_t k60 = 0x6060606060606060ULL, k01 = 0x0101010101010101ULL;
-  std::uint64_t padding = 0, not_plain = 0;
-  for (std::size_t k = 0; k < N; k += 8) {
-    const std::uint64_t w = get_u64(p + k);  // byte k + i in bits 8i..8i+7
-    const std::size_t in = n > k ? std::min<std::size_t>(n - k, 8) : 0;  // string bytes here
-    const std::uint64_t string_bytes = in == 0 ? 0 : ~0ULL >> (64 - 8 * in);
-    padding |= w & ~string_bytes;
-    const std::uint64_t x = w & kLow7;
-    not_plain |= (w | ~(x + k60) | (x + k01)) & kTop & string_bytes;
+[[gnu::always_inline]] inline StringScan copy_and_scan_string(const std::uint8_t* p, std::uint8_t n,
+                                                              char* copy) noexcept {
+  static_assert(N >= sizeof(Bytes16), "string capacities are at least sixteen bytes");
+  const Bytes16 length = Bytes16{} + n;
+  Bytes16 padding{}, plain_or_padding = ~Bytes16{};
+  for (std::size_t i = 0; i < (N + sizeof(Bytes16) - 1) / sizeof(Bytes16); ++i) {
+    const std::size_t k = std::min(i * sizeof(Bytes16), N - sizeof(Bytes16));
+    Bytes16 w;
+    std::memcpy(&w, p + k, sizeof w);
+    std::memcpy(copy + k, &w, sizeof w);
+    const auto past_string =
+        std::bit_cast<Bytes16>(kByteIndex + static_cast<std::uint8_t>(k) >= length);
+    padding |= w & past_string;
+    const auto printable = std::bit_cast<SignedBytes16>(w + 1) > 0x20;
+    plain_or_padding &= std::bit_cast<Bytes16>(printable) | past_string;
   }
-  return {padding == 0, not_plain == 0};
+  return {!any_byte_set(padding), !any_byte_set(~plain_or_padding)};
 }
 
 class Reader {
@@ -136,10 +153,9 @@ class Reader {
       fail(ErrorCode::kBadString, f, n, N, "length above capacity");
       return;
     }
-    std::memcpy(s.bytes.data(), q + 1, N);
     s.length = n;
     // Padding must be zero; printable ASCII needs no UTF-8 pass.
-    const StringScan scan = scan_string<N>(q + 1, n);
+    const StringScan scan = copy_and_scan_string<N>(q + 1, n, s.bytes.data());
     if (!scan.padding_zero) {
       fail(ErrorCode::kBadString, f, n, N, "non-zero padding");
     } else if (!scan.plain_ascii && !is_wire_string(s.view())) {
@@ -281,9 +297,8 @@ class FastReader {
   [[gnu::always_inline]] void str(FixedString<N>& s, const char*) noexcept {
     const std::uint8_t* q = take(1 + N);
     const std::uint8_t n = q[0];
-    std::memcpy(s.bytes.data(), q + 1, N);
     s.length = n;
-    const StringScan scan = scan_string<N>(q + 1, n);
+    const StringScan scan = copy_and_scan_string<N>(q + 1, n, s.bytes.data());
     bad_ |= n > N || !scan.padding_zero;
     if (!bad_ && !scan.plain_ascii) bad_ = !is_wire_string(s.view());
   }

@@ -549,9 +549,6 @@ struct MessageInfo {
   std::span<const Refusal> refusals;
 };
 
-template <typename T>
-using Alternative = std::type_identity<T>;
-
 template <std::size_t... I>
 constexpr auto make_message_table(std::index_sequence<I...>) {
   return std::array<MessageInfo, sizeof...(I)>{MessageInfo{
@@ -631,22 +628,6 @@ constexpr const MessageInfo* find_message(MessageType t) noexcept {
   if (type < kLowestType || type > kHighestType) return nullptr;
   const std::uint8_t row = kRowOfType[type - kLowestType];
   return row == kNoRow ? nullptr : &kMessageTable[row];
-}
-
-// Calls f(std::type_identity<T>{}) with the message struct T of type `t` (one indirect call
-// through a table, not a comparison per type); false when `t` is unknown.
-template <typename F>
-bool with_message_type(MessageType t, F&& f) {
-  const MessageInfo* row = find_message(t);
-  if (row == nullptr) return false;
-  using G = std::remove_reference_t<F>;
-  [&]<std::size_t... I>(std::index_sequence<I...>) {
-    static constexpr void (*kCall[])(G&) = {
-        [](G& g) { g(Alternative<std::variant_alternative_t<I, Message>>{}); }...};
-    kCall[static_cast<std::size_t>(row - kMessageTable.data())](f);
-  }
-  (std::make_index_sequence<std::variant_size_v<Message>>{});
-  return true;
 }
 
 }  // namespace ajar::protocol::detail

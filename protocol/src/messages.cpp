@@ -68,6 +68,11 @@ std::size_t copy_wire_string(std::string_view in, char* out, std::size_t capacit
 bool is_wire_string(std::string_view s) noexcept {
   std::size_t i = 0;
   while (i < s.size()) {
+    // Printable ASCII (0x20..0x7E), most of any string, without the sequence's decoding.
+    if (static_cast<unsigned char>(s[i]) - 0x20u < 0x5Fu) {
+      ++i;
+      continue;
+    }
     const std::size_t n = utf8_sequence_length(s, i);
     if (n == 0) return false;
     if (n == 1 && is_control(static_cast<unsigned char>(s[i]))) return false;

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <type_traits>
 #include <utility>
+#include <variant>
 
 #include "little_endian.hpp"
 #include "message_schema.hpp"
@@ -94,6 +95,40 @@ AJAR_WALK_INLINE void walk_elements(IO& io, A& array, std::size_t count,
    ...);
 }
 
+// The Ack's body: the AckBody alternative that the acknowledged type's Schema names (ack_body),
+// by message table row. The walk dispatches on it (five alternatives, inlined), not on the message
+// type (thirty, an indirect call that left the IO in memory).
+template <typename T, typename... A>
+consteval std::uint8_t alternative_index(std::type_identity<std::variant<A...>>) {
+  std::uint8_t i = 0;
+  static_cast<void>(((std::is_same_v<T, A> ? false : (++i, true)) && ...));
+  return i;
+}
+inline constexpr auto kAckBodyOfRow = []<std::size_t... I>(std::index_sequence<I...>) {
+  return std::array<std::uint8_t, sizeof...(I)>{
+      alternative_index<typename Schema<std::variant_alternative_t<I, Message>>::ack_body>(
+          std::type_identity<AckBody>{})...};
+}
+(std::make_index_sequence<std::variant_size_v<Message>>{});
+
+// Body alternative B of an Ack (v: its AckBody), through io.body<B>() and walked; and the same
+// by the alternative's index.
+template <typename B, typename IO, typename V>
+AJAR_WALK_INLINE bool walk_ack_body_as(IO& io, V& v) noexcept {
+  auto* body = io.template body<B>(v);
+  return body != nullptr && walk<Text("")>(io, *body);
+}
+template <typename IO, typename V, std::size_t... I>
+AJAR_WALK_INLINE bool walk_ack_body(IO& io, V& v, std::uint8_t index,
+                                    std::index_sequence<I...>) noexcept {
+  bool walked = true;
+  static_cast<void>(
+      ((I == index &&
+        (walked = walk_ack_body_as<std::variant_alternative_t<I, AckBody>>(io, v), true)) ||
+       ...));
+  return walked;
+}
+
 template <Text Prefix, typename F, typename IO, typename S>
 AJAR_WALK_INLINE bool walk_field(IO& io, S& s) noexcept {
   if (!io.since(F::since)) return false;  // the layout ends where this minor's fields start
@@ -119,14 +154,12 @@ AJAR_WALK_INLINE bool walk_field(IO& io, S& s) noexcept {
     return true;
   } else {
     static_assert(std::is_same_v<K, AckBodyOf<KindArgument<K>::member>>);
-    // The body's fields are named without a prefix ("length_m", "normal.x").
-    bool walked = true;
-    with_message_type(s.*(KindArgument<K>::member), [&]<typename R>(Alternative<R>) {
-      using Body = typename Schema<R>::ack_body;
-      auto* body = io.template body<Body>(v);
-      walked = body != nullptr && walk<Text("")>(io, *body);
-    });
-    return walked;
+    // The body's fields are named without a prefix ("length_m", "normal.x"). A type the table
+    // does not have walks no body.
+    const MessageInfo* row = find_message(s.*(KindArgument<K>::member));
+    if (row == nullptr) return true;
+    return walk_ack_body(io, v, kAckBodyOfRow[static_cast<std::size_t>(row - kMessageTable.data())],
+                         std::make_index_sequence<std::variant_size_v<AckBody>>{});
   }
 }
 

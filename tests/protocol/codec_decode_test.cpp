@@ -104,8 +104,8 @@ TEST(Decode, NewerMinorMayAppendButOlderMayNot) {
 
 // A string field's checks (zero padding, then UTF-8 without control characters) judge every byte
 // value at every place of every length as a byte-by-byte reading of the rule does (is_wire_string
-// for the string, "all zero" for the padding): the decoder scans eight bytes at a time with masks
-// (field_io.hpp, scan_string), whose edges are the word boundaries and the length.
+// for the string, "all zero" for the padding): the decoder scans sixteen bytes at a time
+// (field_io.hpp, copy_and_scan_string), whose edges are the chunk boundaries and the length.
 template <typename Message, std::size_t N>
 void expect_string_checks_as_the_rule(Message m, FixedString<N> Message::*field,
                                       const std::vector<std::uint8_t>& values) {

@@ -154,6 +154,9 @@ class StreamDecoder {
 
  private:
   using Buffer = std::array<std::uint8_t, kMaxFrameSize>;
+  // feed() of what is not a whole frame with a good header at the start of `in`: a failed decoder,
+  // a frame split across calls, a wrong header (found at its first wrong byte).
+  std::size_t feed_bytewise(std::span<const std::uint8_t> in, Outcome& outcome) noexcept;
   std::unique_ptr<Buffer> buffer_;  // not zeroed: only [0, filled_) is read
   std::size_t filled_ = 0;
   bool failed_ = false;
