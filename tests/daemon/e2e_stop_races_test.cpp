@@ -254,9 +254,12 @@ TEST_F(StopRaces, AnEmergencyStopDoesNotWaitForTheControllersSlowDisk) {
   EXPECT_LT(d.engine().settled_generation(), width_generation)
       << "the e-stop Ack came only after the controller's save finished";
   EXPECT_EQ(status_of(observer).latched_fault, ErrorCode::kEmergencyStopped);
-  // The controller's Ack arrives once its save is on disk.
+  // The controller's Ack arrives once its save is on disk, or once the held-reply limit (2 s) has
+  // passed, whichever is first: a loaded ThreadSanitizer run took longer than 2 s for the 1.5 s
+  // save, and the reply went out without waiting (logged). Either way the save completes.
   EXPECT_TRUE(std::holds_alternative<protocol::Ack>(controller.reply_to(width_id)));
-  EXPECT_GE(d.engine().settled_generation(), width_generation);
+  EXPECT_TRUE(eventually([&] { return d.engine().settled_generation() >= width_generation; }))
+      << "the controller's save never finished";
 }
 
 // A disk that does not finish a save in time (4 s here) holds the controller's width Ack at most
