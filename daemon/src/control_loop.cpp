@@ -3,6 +3,7 @@
 // status, supervision and stops are in control_loop_supervision.cpp.
 #include "ajar/daemon/control_loop.hpp"
 
+#include <pthread.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -127,6 +128,7 @@ std::vector<std::string> ControlLoop::start_thread() {
   last_cycle_end_ns_.store(monotonic_now_ns());
   thread_ = std::thread([this, request, promise = std::move(warnings)]() mutable {
     thread_tid_.store(static_cast<int>(::gettid()), std::memory_order_release);
+    pthread_setname_np(pthread_self(), "ajar-loop");  // top -H, perf, /proc/PID/task/*/comm
     auto refused = apply_realtime(request);
     const std::int64_t first = monotonic_now_ns() + period_ns_;
     promise.set_value(std::move(refused));

@@ -39,10 +39,9 @@ EngineImpl::EngineImpl(const Config& config, drivers::DriverSet drivers, EngineO
                                                      w->second.emplace_back(text);
                                                    });
   supervisor_ = std::make_unique<LoopSupervisor>(
-      SupervisedLoop{[this] { return loop_->thread_running(); },
-                     [this] { return loop_->last_cycle_end_ns(); },
-                     [this] { loop_->latch_stalled(); },
-                     [this] { return thread_run_delay_ns(loop_->thread_tid()); }},
+      SupervisedLoop{
+          [this] { return loop_->thread_running(); }, [this] { return loop_->last_cycle_end_ns(); },
+          [this] { loop_->latch_stalled(); }, [this] { return thread_cpu(loop_->thread_tid()); }},
       *card_, axes, config.control);
 }
 

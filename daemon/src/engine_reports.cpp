@@ -130,6 +130,12 @@ void EngineImpl::take_stall() {
           fmt::format("no control-loop cycle for {:.0f} ms (a card call hung): base "
                       "emergency-stopped out of band",
                       static_cast<double>(stall.silent_ns) / 1e6));
+    // The journal only (the detail above fills the wire's 120 bytes): what was excused.
+    warnings_.push_back(fmt::format(
+        "loop supervisor: the control thread made no cycle for {:.0f} ms, {:.0f} ms of it waiting "
+        "for a CPU (excused: the scheduler's, not the card's); stall timeout {:.0f} ms",
+        static_cast<double>(stall.silent_ns) / 1e6, static_cast<double>(stall.excused_ns) / 1e6,
+        static_cast<double>(supervisor_->stall_timeout_ns()) / 1e6));
   }
   if (stall.stops != stall_stops_seen_) {
     stall_stops_seen_ = stall.stops;

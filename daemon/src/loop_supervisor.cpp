@@ -34,27 +34,45 @@ std::string make_realtime(int priority) {
          "); it runs with normal scheduling";
 }
 
+// The text of /proc/self/task/TID/NAME into `text` (NUL-terminated); false when unreadable.
+bool read_task_file(int tid, const char* name, char* text, std::size_t size) noexcept {
+  char path[64];
+  std::snprintf(path, sizeof path, "/proc/self/task/%d/%s", tid, name);
+  const int fd = ::open(path, O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const ssize_t n = ::read(fd, text, size - 1);
+  ::close(fd);
+  if (n <= 0) return false;
+  text[n] = '\0';
+  return true;
+}
+
 }  // namespace
 
-std::int64_t thread_run_delay_ns(int tid) noexcept {
-  if (tid <= 0) return -1;
-  char path[64];
-  std::snprintf(path, sizeof path, "/proc/self/task/%d/schedstat", tid);
-  const int fd = ::open(path, O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return -1;
-  char text[128];
-  const ssize_t n = ::read(fd, text, sizeof text - 1);
-  ::close(fd);
-  if (n <= 0) return -1;
-  text[n] = '\0';
-  // "<ns on a CPU> <ns waiting on a runqueue> <timeslices>"
-  char* end = nullptr;
-  (void)std::strtoll(text, &end, 10);
-  if (end == text) return -1;
-  const char* second = end;
-  const long long waited = std::strtoll(second, &end, 10);
-  if (end == second || waited < 0) return -1;
-  return waited;
+ThreadCpu thread_cpu(int tid) noexcept {
+  ThreadCpu cpu;
+  if (tid <= 0) return cpu;
+  char text[512];
+  if (read_task_file(tid, "schedstat", text, sizeof text)) {
+    // "<ns on a CPU> <ns waiting on a runqueue> <timeslices>"
+    char* end = nullptr;
+    (void)std::strtoll(text, &end, 10);
+    const char* second = end;
+    const long long waited = std::strtoll(second, &end, 10);
+    if (end != second && waited >= 0) cpu.waited_ns = waited;
+  }
+  if (read_task_file(tid, "stat", text, sizeof text)) {
+    // "TID (comm) S ...": the state follows the last ')' (comm may hold any byte)
+    const char* close = std::strrchr(text, ')');
+    cpu.runnable = close != nullptr && close[1] == ' ' && close[2] == 'R';
+  }
+  // The thread's CPU clock, as glibc's pthread_getcpuclockid makes it from the kernel's thread id
+  // (MAKE_THREAD_CPUCLOCK(tid, CPUCLOCK_SCHED)): the kernel brings a running thread's time up to
+  // date when it is read, where schedstat's first field waits for the next tick.
+  const auto clock = static_cast<clockid_t>((~static_cast<unsigned>(tid) << 3) | 4U | 2U);
+  timespec ts{};
+  if (::clock_gettime(clock, &ts) == 0) cpu.on_cpu_ns = ts.tv_sec * 1'000'000'000LL + ts.tv_nsec;
+  return cpu;
 }
 
 LoopSupervisor::LoopSupervisor(SupervisedLoop loop, drivers::MotionCard& card,
@@ -81,14 +99,24 @@ bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
   if (!loop_.running()) {  // not started, or stopping: nothing to watch
     seen_any_ = false;
     quiet_checks_ = 0;
+    last_cpu_ = {};  // a thread started again is another thread
+    last_check_ns_ = -1;
+    waiting_ns_ = 0;
     return false;
   }
   const std::int64_t end = loop_.last_cycle_end_ns();
-  const std::int64_t run_delay = loop_.run_delay_ns ? loop_.run_delay_ns() : -1;
-  const std::int64_t waited = run_delay >= 0 && last_run_delay_ns_ >= 0
-                                  ? std::max<std::int64_t>(0, run_delay - last_run_delay_ns_)
-                                  : 0;
-  last_run_delay_ns_ = run_delay;
+  const ThreadCpu cpu = loop_.thread_cpu ? loop_.thread_cpu() : ThreadCpu{};
+  // Waits that ended since the last check (the kernel adds a wait when the thread gets a CPU);
+  // the wait going on now: runnable at this check and the last with no CPU time in between.
+  const std::int64_t ended_waits =
+      cpu.waited_ns >= 0 && last_cpu_.waited_ns >= 0
+          ? std::max<std::int64_t>(0, cpu.waited_ns - last_cpu_.waited_ns)
+          : 0;
+  const bool still_waiting = cpu.runnable && last_cpu_.runnable && cpu.on_cpu_ns >= 0 &&
+                             cpu.on_cpu_ns == last_cpu_.on_cpu_ns && last_check_ns_ >= 0;
+  waiting_ns_ = still_waiting ? waiting_ns_ + (now_ns - last_check_ns_) : 0;  // else: ended, above
+  last_cpu_ = cpu;
+  last_check_ns_ = now_ns;
   if (!seen_any_ || end != seen_end_ns_) {  // the loop made progress: (re-)armed
     seen_any_ = true;
     seen_end_ns_ = end;
@@ -97,17 +125,18 @@ bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
     stalled_.store(false, std::memory_order_release);
     return false;
   }
-  excused_ns_ += waited;  // the scheduler's, not the card's
+  excused_ns_ += ended_waits;  // the scheduler's, not the card's
   if (quiet_checks_ < kQuietChecks) ++quiet_checks_;
   if (stalled_.load(std::memory_order_relaxed)) return false;  // this stall was acted on
   const std::int64_t silent = now_ns - end;
-  if (quiet_checks_ < kQuietChecks || silent - excused_ns_ < stall_timeout_ns_) return false;
+  const std::int64_t excused = excused_ns_ + waiting_ns_;
+  if (quiet_checks_ < kQuietChecks || silent - excused < stall_timeout_ns_) return false;
   // Stalled. The loop first (a call returning now must find the latch), the engine next (its
   // latch must not wait for the card), then the card.
   stalled_.store(true, std::memory_order_release);
   loop_.latch_stalled();
   last_silent_ns_.store(silent, std::memory_order_relaxed);
-  last_excused_ns_.store(excused_ns_, std::memory_order_relaxed);
+  last_excused_ns_.store(excused, std::memory_order_relaxed);
   stalls_.fetch_add(1, std::memory_order_acq_rel);
   const ErrorCode stop = card_.emergency_stop_out_of_band({axes_, axis_count_});
   last_stop_result_.store(stop, std::memory_order_relaxed);
@@ -135,6 +164,7 @@ std::vector<std::string> LoopSupervisor::start_thread() {
   auto warning = refused.get_future();
   thread_ = std::thread([this, realtime = settings_.realtime, priority = settings_.priority,
                          promise = std::move(refused)]() mutable {
+    pthread_setname_np(pthread_self(), "ajar-supervisor");
     promise.set_value(realtime ? make_realtime(priority) : std::string());
     thread_main();
   });

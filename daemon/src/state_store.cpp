@@ -1,5 +1,6 @@
 #include "ajar/daemon/state_store.hpp"
 
+#include <pthread.h>
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -355,7 +356,10 @@ void StateStore::start() {
   Writer& w = *writer_state_;
   std::lock_guard lock(w.mutex);
   if (writer_.joinable() || w.stopping) return;
-  writer_ = std::thread([shared = writer_state_] { run(shared); });
+  writer_ = std::thread([shared = writer_state_] {
+    pthread_setname_np(pthread_self(), "ajar-store");
+    run(shared);
+  });
 }
 
 std::uint64_t StateStore::submit(StateRecord record) {

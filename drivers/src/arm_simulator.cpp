@@ -1,5 +1,6 @@
 #include "ajar/drivers/arm_simulator.hpp"
 
+#include <pthread.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <pty.h>
@@ -405,7 +406,10 @@ ArmControllerSimulator::ArmControllerSimulator(ArmSimulatorSettings settings)
     throw;
   }
   impl_->plugged = true;
-  impl_->thread = std::thread([impl = impl_.get()] { impl->run(); });
+  impl_->thread = std::thread([impl = impl_.get()] {
+    pthread_setname_np(pthread_self(), "ajar-arm-sim");
+    impl->run();
+  });
 }
 
 ArmControllerSimulator::~ArmControllerSimulator() {

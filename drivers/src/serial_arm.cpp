@@ -1,5 +1,7 @@
 #include "ajar/drivers/serial_arm.hpp"
 
+#include <pthread.h>
+
 #include <cmath>
 #include <string>
 
@@ -44,7 +46,10 @@ Outcome SerialManipulator::connect() {
     impl_->snapshot.last_error = ErrorCode::kOk;
     impl_->apply_controller_locked(reply.phase, reply.task_id);
   }
-  impl_->worker = std::thread([impl = impl_.get()] { impl->run(); });
+  impl_->worker = std::thread([impl = impl_.get()] {
+    pthread_setname_np(pthread_self(), "ajar-arm-serial");
+    impl->run();
+  });
   return Ok{};
 }
 

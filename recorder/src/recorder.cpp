@@ -1,6 +1,7 @@
 // Recorder (recorder.hpp): the recorder thread, its files, rotation, the disk's refusals.
 #include "ajar/recorder/recorder.hpp"
 
+#include <pthread.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
@@ -626,7 +627,10 @@ void Recorder::start() {
   ::chmod(impl_->dir.c_str(), 0750);
   impl_->wall_minus_mono_ns = clock_ns(CLOCK_REALTIME) - clock_ns(CLOCK_MONOTONIC);
   impl_->enforce_budget(false);
-  impl_->thread = std::thread([this] { impl_->run(); });  // it opens the first file
+  impl_->thread = std::thread([this] {  // it opens the first file
+    pthread_setname_np(pthread_self(), "ajar-recorder");
+    impl_->run();
+  });
   impl_->accepting.store(true, std::memory_order_release);
 }
 

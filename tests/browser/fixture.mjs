@@ -92,7 +92,8 @@ export async function startStack(name, { consoleArgs = [], ajardConfig = (yaml) 
   const stack = { name, work };
   // The shipped simulated robot, with the loop's stall detector relaxed to 0.5 s (its maximum): on 2 cores shared
   // with Chromium, a scheduling gap of the (not realtime) control thread is not what these tests
-  // test (LOOP_STALLED has its own tests in tests/daemon and tests/drivers).
+  // test (LOOP_STALLED has its own tests in tests/daemon and tests/drivers). A wait for a CPU is
+  // excused by the supervisor; the margin is for what a VM cannot see (its vCPU taken away).
   const config = path.join(work, 'ajard.yaml');
   writeFileSync(config, ajardConfig(readFileSync(path.join(root, 'config/ajard.yaml'), 'utf8')
     .replace(/^(\s*stall_timeout_s:\s*)[0-9.]+/m, (_, key) => `${key}0.5`)));

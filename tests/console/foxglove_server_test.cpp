@@ -7,6 +7,7 @@
 // finish their upgrade (nothing sent, half a request) hold at most max_clients places and only
 // until upgrade_timeout, then a real client gets in; a client beyond max_clients gets HTTP 503.
 #include "ajar/console/foxglove_server.hpp"
+#include "eventually.hpp"
 
 // <utility> before any Asio header (asio issue 944).
 #include <utility>
@@ -35,6 +36,7 @@ namespace asio = boost::asio;
 namespace beast = boost::beast;
 namespace http = beast::http;
 namespace websocket = beast::websocket;
+using ajar::test::eventually;
 using tcp = asio::ip::tcp;
 using Json = nlohmann::json;
 
@@ -49,17 +51,6 @@ std::vector<Channel> channels() {
   b.topic = "/latched";
   b.latched = true;
   return {a, b};
-}
-
-// Waits for `pred` (polling; a generous bound, never a timing assertion).
-template <typename Pred>
-bool eventually(Pred pred, std::chrono::seconds bound = std::chrono::seconds(20)) {
-  const auto end = std::chrono::steady_clock::now() + bound;
-  while (std::chrono::steady_clock::now() < end) {
-    if (pred()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  return pred();
 }
 
 struct Client {

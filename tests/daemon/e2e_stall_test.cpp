@@ -4,10 +4,16 @@
 // is told; its out-of-band GT_Stop is taken by the card (the journal says so); a Reset is refused
 // while the loop is stalled; once the call returns the motion ends, nothing moves and a Drive is
 // refused until a Reset, after which the base drives again. docs/control-loop.md, "Stalled loop".
+#include <pthread.h>
+#include <sched.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -35,6 +41,26 @@ class AjardStall : public ::testing::Test {
       if (controller.last_telemetry()->moving) return true;
     }
     return false;
+  }
+  // The thread of process `pid` named `name` (its /proc comm), or 0.
+  static int thread_named(pid_t pid, const std::string& name) {
+    const std::string dir = "/proc/" + std::to_string(pid) + "/task";
+    std::error_code ec;
+    for (const auto& task : std::filesystem::directory_iterator(dir, ec)) {
+      std::string comm;
+      std::getline(std::ifstream(task.path() / "comm"), comm);
+      if (comm == name) return std::stoi(task.path().filename().string());
+    }
+    return 0;
+  }
+  // Its schedstat wait for a CPU (ns, the waits that have ended), or -1.
+  static long long waited_ns(pid_t pid, int tid) {
+    std::ifstream in("/proc/" + std::to_string(pid) + "/task/" + std::to_string(tid) +
+                     "/schedstat");
+    long long on_cpu = 0;
+    long long waited = -1;
+    in >> on_cpu >> waited;
+    return in ? waited : -1;
   }
   TempDir dir_;
 };
@@ -67,6 +93,9 @@ TEST_F(AjardStall, AVendorCallThatHangsMidJogIsCaughtTheBaseStoppedAndResetNeede
   EXPECT_TRUE(eventually([&] {
     return ajard.err().find("out-of-band emergency stop taken by the card") != std::string::npos;
   })) << ajard.err();
+  // And how much of the silence was the scheduler's (excused): the rest was the hung call.
+  EXPECT_NE(ajard.err().find("ms of it waiting for a CPU (excused"), std::string::npos)
+      << ajard.err();
   const auto told = observer.wait_event(EventKind::kFaultLatched);
   ASSERT_TRUE(told);
   EXPECT_EQ(told->fault, ErrorCode::kLoopStalled);
@@ -103,6 +132,64 @@ TEST_F(AjardStall, AVendorCallThatHangsMidJogIsCaughtTheBaseStoppedAndResetNeede
   ASSERT_TRUE(reset);
   EXPECT_TRUE(drive_until_moving(controller)) << ajard.err();
   controller.request(protocol::Stop{});
+  ajard.signal(SIGTERM);
+  EXPECT_EQ(ajard.wait_exit(), 0) << ajard.err();
+}
+
+// The control thread kept off its CPU for longer than the stall timeout (pinned to one CPU where a
+// SCHED_FIFO thread of this test spins for 0.9 s; the timeout is 0.5 s) is the scheduler's doing,
+// not a hung call: no LOOP_STALLED, and the loop cycles again. The kernel adds a wait to the
+// thread's schedstat only when the wait ends, so a supervisor that read only that latched here
+// (the browser tests' "no control-loop cycle for 749 ms"); it reads the wait going on now too.
+TEST_F(AjardStall, AControlThreadKeptOffItsCpuIsNotTakenForAHungCall) {
+  if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "needs two CPUs";
+  const std::string config = path("ajard.yaml");
+  std::ofstream(config) << daemon::to_yaml(e2e_config(drivers::DriverKind::kSim, dir_.path(), 10));
+  AjardProcess ajard({"--config", config, "--listen", "127.0.0.1:0", "--port-file", path("port"),
+                      "--state-dir", path("state")},
+                     dir_.path(), "starved");
+  const auto port = wait_for_port_file(path("port"), ajard);
+  ASSERT_TRUE(port) << ajard.err();
+  TestClient controller(*port);
+  ASSERT_EQ(controller.hello(Role::kController, 0x52).granted_role, Role::kController);
+  controller.request_as<protocol::Ack>(protocol::Subscribe{50});
+  ASSERT_TRUE(controller.wait_telemetry(3)) << ajard.err();
+  const int loop = thread_named(ajard.pid(), "ajar-loop");
+  ASSERT_GT(loop, 0) << "no thread named ajar-loop in ajard";
+
+  const std::size_t cpu = 0;
+  cpu_set_t one;
+  CPU_ZERO(&one);
+  CPU_SET(cpu, &one);
+  ASSERT_EQ(sched_setaffinity(loop, sizeof one, &one), 0) << "pinning ajard's control thread";
+  const long long waited_before = waited_ns(ajard.pid(), loop);
+  std::atomic<int> hog{0};  // 1: spun, -1: SCHED_FIFO refused
+  std::thread spinner([&] {
+    pthread_setaffinity_np(pthread_self(), sizeof one, &one);
+    sched_param param{};
+    param.sched_priority = 1;
+    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
+      hog = -1;
+      return;
+    }
+    // 0.9 s: within the kernel's RT budget (0.95 s a second), which would let the thread run.
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(900);
+    while (std::chrono::steady_clock::now() < end) {
+    }
+    hog = 1;
+  });
+  spinner.join();
+  if (hog < 0) GTEST_SKIP() << "SCHED_FIFO refused here: cannot keep a thread off its CPU";
+  // It was kept off its CPU (the test is not vacuous): the kernel added a wait > the timeout.
+  ASSERT_TRUE(eventually([&] {
+    return waited_ns(ajard.pid(), loop) - waited_before > 600'000'000;
+  })) << "ajard's control thread was not kept off its CPU: waited "
+      << (waited_ns(ajard.pid(), loop) - waited_before) / 1'000'000 << " ms";
+  ASSERT_TRUE(controller.wait_telemetry(controller.telemetry_count() + 5)) << ajard.err();
+  EXPECT_EQ(controller.request_as<protocol::Status>(protocol::GetStatus{}).latched_fault,
+            ErrorCode::kOk)
+      << ajard.err();
+  EXPECT_EQ(ajard.err().find("LOOP_STALLED"), std::string::npos) << ajard.err();
   ajard.signal(SIGTERM);
   EXPECT_EQ(ajard.wait_exit(), 0) << ajard.err();
 }

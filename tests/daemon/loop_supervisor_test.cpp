@@ -1,26 +1,33 @@
 // The loop supervisor on a fake clock, by hand (check(now), no thread): a fake loop whose last
 // cycle end the test sets, and the mock card, whose out-of-band stop it must reach. What latches a
 // stall, when it does not, once per stall, in which order, and re-arming.
+#include <pthread.h>
+#include <sched.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
 
 #include <array>
+#include <atomic>
+#include <chrono>
 #include <fstream>
 #include <memory>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/loop_supervisor.hpp"
 #include "ajar/drivers/mock_card.hpp"
+#include "eventually.hpp"
 #include "fake_clock.hpp"
 #include "fake_door.hpp"
 
 namespace ajar::daemon {
 namespace {
 
+using ajar::test::eventually;
 using drivers::CardCall;
 
 using ajar::testing::kMs;
@@ -45,7 +52,7 @@ class LoopSupervisorTest : public ::testing::Test {
                          // The order: the loop's latch comes before the card's stop.
                          latch_calls.push_back(card.calls(CardCall::kEmergencyStopOutOfBand));
                        },
-                       [this] { return run_delay_ns; }},
+                       [this] { return thread; }},
         card, kWheels, settings);
   }
   // The loop completes a cycle at `t` and the supervisor checks right after.
@@ -69,7 +76,7 @@ class LoopSupervisorTest : public ::testing::Test {
   std::unique_ptr<LoopSupervisor> supervisor;
   bool running = true;
   std::int64_t last_end_ns = 1'000 * kMs;
-  std::int64_t run_delay_ns = -1;          // the loop thread's wait for a CPU; -1: unknown
+  ThreadCpu thread;                        // the loop thread as the kernel shows it; unknown
   std::vector<std::uint64_t> latch_calls;  // out-of-band stops already made at each latch
 };
 
@@ -161,37 +168,76 @@ TEST_F(LoopSupervisorTest, ALateSupervisorIsNotEnoughItMustWatchTheSilence) {
 }
 
 TEST_F(LoopSupervisorTest, ALoopThreadWaitingForACpuIsNotStalledAHungOneIs) {
-  // The loop thread is runnable but not scheduled for 2 s (its run_delay grows with the clock):
-  // the scheduler's doing, excused. Then it waits no more but still makes no cycle: a hung call.
-  run_delay_ns = 0;
+  // The loop thread is runnable but gets no CPU for 2 s, as the kernel shows it: state R, its CPU
+  // time standing still, and its schedstat wait standing still too (the kernel adds a wait to
+  // run_delay only when it ends). The scheduler's doing: excused while it goes on (a supervisor
+  // that read only run_delay latched here: the browser tests' LOOP_STALLED of 749 ms).
   const std::int64_t start = 1'000 * kMs;
+  thread = ThreadCpu{0, 1'000 * kMs, false};  // asleep between cycles
   ASSERT_FALSE(cycle_and_check(start));
+  thread.runnable = true;  // woken for the next cycle, and waiting for a CPU from now on
   const std::int64_t step = supervisor->check_period_ns();
   std::int64_t t = start;
   for (; t < start + 2'000 * kMs; t += step) {
-    run_delay_ns += step;
     ASSERT_FALSE(supervisor->check(t + step)) << t;
   }
   EXPECT_EQ(supervisor->stalls(), 0U);
   EXPECT_EQ(oob_stops(), 0U);
+  // It gets a CPU: the kernel adds the whole wait at once; the cycle's card call then hangs
+  // asleep (state S, no more CPU time). Only the silence after the wait counts.
+  thread = ThreadCpu{t - start, 1'001 * kMs, false};
   std::int64_t latched_at = -1;
-  for (int i = 1; i <= 20 && latched_at < 0; ++i) {  // run_delay_ns stands still now
+  for (int i = 1; i <= 20 && latched_at < 0; ++i) {
     if (supervisor->check(t + i * step)) latched_at = t + i * step;
   }
   ASSERT_GE(latched_at, 0);
   EXPECT_GE(latched_at - t, supervisor->stall_timeout_ns());  // only the unexcused silence counts
   const auto stall = supervisor->last_stall();
   EXPECT_EQ(stall.silent_ns, latched_at - start);
-  EXPECT_EQ(stall.excused_ns, t - start);
+  EXPECT_EQ(stall.excused_ns, t - start);  // the wait once: not its seen part and its sum both
   EXPECT_EQ(oob_stops(), 1U);
 }
 
+TEST_F(LoopSupervisorTest, OnlyARunnableThreadWithoutCpuTimeBetweenTwoChecksIsWaiting) {
+  // Runnable at one check and asleep at the next (or the other way round), with no CPU time in
+  // between: no interval where it was surely waiting for a CPU; nothing excused.
+  const std::int64_t start = 1'000 * kMs;
+  thread = ThreadCpu{0, 1'000 * kMs, false};
+  ASSERT_FALSE(cycle_and_check(start));
+  const std::int64_t step = supervisor->check_period_ns();
+  std::int64_t latched_at = -1;
+  for (int i = 1; i <= 40 && latched_at < 0; ++i) {
+    thread.runnable = i % 2 == 0;
+    if (supervisor->check(start + i * step)) latched_at = start + i * step;
+  }
+  ASSERT_GE(latched_at, 0);
+  EXPECT_EQ(latched_at - start, supervisor->stall_timeout_ns());
+  EXPECT_EQ(supervisor->last_stall().excused_ns, 0);
+}
+
 TEST_F(LoopSupervisorTest, AHungCallThatSpinsOnACpuCounts) {
-  // A call that spins (busy-waits on the card) runs on a CPU: no wait for a CPU, the silence
-  // counts as for a call that sleeps.
-  run_delay_ns = 5'000 * kMs;  // whatever it waited before
+  // A call that spins (busy-waits on the card) is runnable and runs: its CPU time grows between
+  // checks. No wait for a CPU; the silence counts as for a call that sleeps.
+  thread = ThreadCpu{5'000 * kMs, 1'000 * kMs, true};  // whatever it waited before
+  const std::int64_t start = 1'000 * kMs;
+  ASSERT_FALSE(cycle_and_check(start));
+  const std::int64_t step = supervisor->check_period_ns();
+  std::int64_t latched_at = -1;
+  for (int i = 1; i <= 40 && latched_at < 0; ++i) {
+    thread.on_cpu_ns += step / 2;  // on a CPU half the time (a loaded machine), never waiting long
+    if (supervisor->check(start + i * step)) latched_at = start + i * step;
+  }
+  ASSERT_GE(latched_at, 0);
+  EXPECT_EQ(latched_at - start, supervisor->stall_timeout_ns());
+  EXPECT_EQ(supervisor->last_stall().excused_ns, 0);
+}
+
+TEST_F(LoopSupervisorTest, AWaitItCannotReadIsNotExcused) {
+  // Runnable with its CPU time unknown (no CPU clock): the wall clock decides.
+  thread = ThreadCpu{-1, -1, true};
   ASSERT_FALSE(cycle_and_check(1'000 * kMs));
-  EXPECT_GE(quiet_checks(1'000 * kMs + 1, 1'000 * kMs), 0);
+  EXPECT_EQ(quiet_checks(1'000 * kMs + supervisor->check_period_ns(), 1'000 * kMs),
+            1'000 * kMs + supervisor->stall_timeout_ns());
   EXPECT_EQ(supervisor->last_stall().excused_ns, 0);
 }
 
@@ -241,12 +287,104 @@ TEST_F(LoopSupervisorTest, TheTimeoutIsAtLeastTwoLoopPeriods) {
   EXPECT_EQ(supervisor->stalls(), 0U);
 }
 
-TEST(LoopSupervisorSchedstat, TheKernelsWaitForACpuIsReadForAThreadOfThisProcess) {
-  EXPECT_EQ(thread_run_delay_ns(0), -1);
-  EXPECT_EQ(thread_run_delay_ns(-5), -1);
-  const std::int64_t first = thread_run_delay_ns(static_cast<int>(::gettid()));
-  if (first < 0) GTEST_SKIP() << "no /proc/self/task/TID/schedstat here: the wall clock decides";
-  EXPECT_GE(thread_run_delay_ns(static_cast<int>(::gettid())), first);  // it only grows
+// thread_cpu() on real threads of this process, as the kernel shows them: a thread asleep, one
+// that spins, and one that is runnable but kept off its CPU by a SCHED_FIFO thread pinned there
+// (needs SCHED_FIFO and two CPUs; skipped, saying so, without them).
+class LoopSupervisorKernel : public ::testing::Test {
+ protected:
+  static bool pin(std::size_t cpu) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(cpu, &set);
+    return pthread_setaffinity_np(pthread_self(), sizeof set, &set) == 0;
+  }
+};
+
+TEST_F(LoopSupervisorKernel, UnknownThreadsAreUnknown) {
+  for (const int tid : {0, -5}) {
+    const ThreadCpu cpu = thread_cpu(tid);
+    EXPECT_EQ(cpu.waited_ns, -1);
+    EXPECT_EQ(cpu.on_cpu_ns, -1);
+    EXPECT_FALSE(cpu.runnable);
+  }
+}
+
+TEST_F(LoopSupervisorKernel, AThreadAsleepIsNotRunnableOneThatSpinsGetsCpuTime) {
+  std::atomic<int> tid{0};
+  std::atomic<bool> spin{false};
+  std::atomic<bool> done{false};
+  std::thread worker([&] {
+    tid = static_cast<int>(::gettid());
+    while (!done) {
+      if (spin) continue;  // busy
+      ::usleep(200);
+    }
+  });
+  while (tid == 0)
+    ::usleep(100);
+  // Asleep most of the time: some read sees it asleep.
+  EXPECT_TRUE(eventually([&] { return !thread_cpu(tid).runnable; })) << "never seen asleep";
+  spin = true;
+  const ThreadCpu first = thread_cpu(tid);
+  EXPECT_TRUE(eventually([&] {
+    const ThreadCpu now = thread_cpu(tid);
+    return now.runnable && now.on_cpu_ns > first.on_cpu_ns;
+  })) << "a spinning thread is runnable and its CPU time grows";
+  done = true;
+  worker.join();
+}
+
+TEST_F(LoopSupervisorKernel, AThreadKeptOffItsCpuIsRunnableAndItsWaitShowsOnlyWhenItEnds) {
+  if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "needs two CPUs";
+  const std::size_t cpu = sched_getcpu() == 0 ? 1 : 0;  // the contended CPU: not this thread's
+  std::atomic<int> tid{0};
+  std::atomic<bool> done{false};
+  std::atomic<int> hog{0};  // 1: spinning at SCHED_FIFO, -1: refused
+  std::atomic<bool> release{false};
+  std::thread waiter([&] {  // wakes every 100 us: runnable at once when the CPU is taken
+    (void)pin(cpu);
+    tid = static_cast<int>(::gettid());
+    while (!done)
+      ::usleep(100);
+  });
+  std::thread spinner([&] {
+    (void)pin(cpu);
+    sched_param param{};
+    param.sched_priority = 1;
+    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
+      hog = -1;
+      return;
+    }
+    hog = 1;
+    // Spin until released, at most 1 s (the kernel's RT throttling allows 0.95 s a second).
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+    while (!release && std::chrono::steady_clock::now() < give_up) {
+    }
+  });
+  while (hog == 0 || tid == 0)
+    ::usleep(100);
+  if (hog < 0) {
+    done = true;
+    spinner.join();
+    waiter.join();
+    GTEST_SKIP() << "SCHED_FIFO refused here: cannot keep a thread off its CPU";
+  }
+  // The waiter wants its CPU and cannot have it: runnable, no CPU time, no wait added yet.
+  ThreadCpu a;
+  EXPECT_TRUE(eventually([&] { return (a = thread_cpu(tid)).runnable; }));
+  ::usleep(20'000);
+  const ThreadCpu b = thread_cpu(tid);
+  release = true;
+  spinner.join();
+  EXPECT_TRUE(b.runnable);
+  EXPECT_EQ(b.on_cpu_ns, a.on_cpu_ns) << "CPU time while kept off its CPU";
+  if (a.waited_ns >= 0) {
+    EXPECT_EQ(b.waited_ns, a.waited_ns) << "the kernel added a wait that has not ended";
+    // Once it runs, the whole wait is added, the 20 ms between the reads included.
+    EXPECT_TRUE(eventually([&] { return thread_cpu(tid).waited_ns - a.waited_ns >= 20'000'000; }));
+  }
+  done = true;
+  waiter.join();
 }
 
 // The systemd watchdog stays the last resort: systemd aborts ajard WatchdogSec after the last ping,

@@ -35,8 +35,10 @@ inline daemon::Config e2e_config(drivers::DriverKind kind, const std::string& di
   c.logging.sink = daemon::LogSink::kStderr;
   // The loop supervisor at its largest timeout (0.5 s, as the config allows): on a loaded CI host
   // (sanitizers, a build beside the tests) a loop thread starved for 108 ms latched LOOP_STALLED in
-  // a test about something else (EndToEndCardLimits under ASan). The stall tests hang a card call
-  // for good, which any timeout catches; the supervisor's own timing is tested on a fake clock.
+  // a test about something else (EndToEndCardLimits under ASan) — a wait for a CPU the supervisor
+  // could not see until it ended (fixed since, docs/control-loop.md); the margin stays for what a
+  // guest cannot see (its vCPU taken by the hypervisor). The stall tests hang a card call for
+  // good, which any timeout catches; the supervisor's own timing is tested on a fake clock.
   c.control.stall_timeout_s = 0.5;
   return c;
 }

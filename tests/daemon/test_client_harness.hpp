@@ -19,6 +19,7 @@
 #include "ajar/daemon/engine.hpp"
 #include "ajar/daemon/server.hpp"
 #include "ajar/daemon/session_hub.hpp"
+#include "eventually.hpp"
 #include "fake_engine.hpp"
 
 namespace ajar::test {
@@ -77,16 +78,5 @@ class ServerThread {
   std::uint16_t port_ = 0;
   std::thread thread_;
 };
-
-// Polls `condition` until true or the deadline; never asserts timing, only eventual truth.
-template <typename F>
-bool eventually(F condition, std::chrono::milliseconds timeout = std::chrono::seconds(20)) {
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < deadline) {
-    if (condition()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  return condition();
-}
 
 }  // namespace ajar::test

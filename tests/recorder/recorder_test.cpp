@@ -19,11 +19,13 @@
 #include <gtest/gtest.h>
 
 #include "ajar/recorder/channels.hpp"
+#include "eventually.hpp"
 #include "mcap_read.hpp"
 
 namespace ajar::recorder {
 namespace {
 namespace fs = std::filesystem;
+using ajar::test::eventually;
 
 struct TempDir {
   fs::path path;
@@ -36,17 +38,6 @@ struct TempDir {
     fs::remove_all(path, ec);
   }
 };
-
-// Waits (bounded, generously) until `pred` holds.
-template <typename Pred>
-bool eventually(Pred pred, std::chrono::milliseconds bound = std::chrono::seconds(20)) {
-  const auto until = std::chrono::steady_clock::now() + bound;
-  while (!pred()) {
-    if (std::chrono::steady_clock::now() > until) return false;
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  return true;
-}
 
 LoopSample sample(std::uint64_t cycle) {
   LoopSample s;

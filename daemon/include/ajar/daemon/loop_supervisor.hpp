@@ -7,10 +7,13 @@
 // when it made no cycle for stall_timeout (control.stall_timeout_s, at least 2 loop periods), not
 // counting the time the control thread spent waiting for a CPU, AND the supervisor itself saw no
 // cycle end in its last kQuietChecks checks. A thread that is runnable but not scheduled (a loaded
-// machine, the thread's CPU time given to others) is the scheduler's doing, not a hung call: its
-// wait is read from the kernel (/proc/self/task/TID/schedstat, run_delay) and excused; a hung call
-// either sleeps in the kernel or spins on a CPU, and both count. Without those statistics the
-// wall clock decides. The quiet checks keep a process that was not scheduled at all (supervisor
+// machine, the thread's CPU time given to others) is the scheduler's doing, not a hung call, and
+// its wait is excused; a hung call either sleeps in the kernel or spins on a CPU, and both count.
+// The wait is read from the kernel (thread_cpu()) in two parts: the waits that have ended (the
+// schedstat run_delay, which the kernel adds only when the thread gets a CPU) and the wait going
+// on now (runnable at two checks in a row with no CPU time between them: a thread cannot fall
+// asleep without a CPU, so it waited all of that interval). Without those statistics the wall
+// clock decides. The quiet checks keep a process that was not scheduled at all (supervisor
 // included) from being taken for a stalled loop: the supervisor acts only on silence it watched.
 // Then, once per stall, in this order:
 //   1. loop.latch_stalled(): the loop latches kLoopStalled the moment the hung call returns
@@ -48,20 +51,31 @@
 
 namespace ajar::daemon {
 
+// A thread's scheduling, read from the kernel at one instant.
+struct ThreadCpu {
+  // Runnable-but-waiting time of the waits that have ended (schedstat run_delay, ns; the kernel
+  // adds a wait when it ends: while the thread waits this stands still). -1: unknown.
+  std::int64_t waited_ns = -1;
+  // CPU time used so far (the thread's CPU clock, ns; exact for a thread on a CPU now). -1:
+  // unknown.
+  std::int64_t on_cpu_ns = -1;
+  bool runnable = false;  // state R: on a CPU or waiting for one (not asleep, not stopped)
+};
+
+// The scheduling of the thread `tid` of this process (/proc/self/task/TID/schedstat and stat, the
+// thread's CPU clock); unknown fields when tid <= 0 or the kernel does not say. No allocation.
+ThreadCpu thread_cpu(int tid) noexcept;
+
 // What the supervisor reads from and tells the loop (the engine wires it to its ControlLoop; the
 // unit tests to a fake). Called on the supervisor's thread: must not block.
 struct SupervisedLoop {
   std::function<bool()> running;                    // the control thread runs
   std::function<std::int64_t()> last_cycle_end_ns;  // CLOCK_MONOTONIC ns of its last cycle's end
   std::function<void()> latch_stalled;              // ControlLoop::latch_stalled()
-  // Optional: how long the control thread has waited for a CPU so far (ns, growing), -1 when
-  // unknown (thread_run_delay_ns()). Empty or -1: the wall clock alone decides.
-  std::function<std::int64_t()> run_delay_ns;
+  // Optional: the control thread's scheduling as the kernel sees it (thread_cpu()). Empty or
+  // unknown fields: the wall clock alone decides.
+  std::function<ThreadCpu()> thread_cpu;
 };
-
-// The time the thread `tid` of this process has spent runnable but waiting for a CPU (ns, the
-// kernel's schedstat run_delay), or -1 when unknown (tid <= 0, no schedstat). No allocation.
-std::int64_t thread_run_delay_ns(int tid) noexcept;
 
 // The supervisor reads the control section: rate_hz, stall_timeout_s, realtime (SCHED_FIFO at
 // `priority` for the supervisor too; the loop's priority, within the unit's LimitRTPRIO).
@@ -122,8 +136,10 @@ class LoopSupervisor {
   std::int64_t seen_end_ns_ = 0;
   bool seen_any_ = false;
   int quiet_checks_ = 0;
-  std::int64_t last_run_delay_ns_ = -1;  // at the last check
-  std::int64_t excused_ns_ = 0;          // waited for a CPU since the check that saw the last end
+  ThreadCpu last_cpu_;  // the control thread at the last check
+  std::int64_t last_check_ns_ = -1;
+  std::int64_t excused_ns_ = 0;  // ended waits for a CPU since the check that saw the last end
+  std::int64_t waiting_ns_ = 0;  // of the wait going on now, the part seen from check to check
 
   // Published.
   std::atomic<bool> stalled_{false};
