@@ -18,9 +18,11 @@ endif()
 # batch compiles in a fraction of the CPU time of its files apart: GCC generates the inline and
 # template code the files share (Asio, Beast, gtest, Eigen, the daemon's headers) once per unit
 # (docs/development.md, "CI time": the Release product 723 -> 484 CPU s, the 7 TLS test files
-# 76 -> 22). A name two files of one target both define collides in a unit: a compile error, never
-# a silent change; a file-local helper lives in an anonymous namespace *and* has a name that says
-# what it does. 0 compiles each file on its own (incremental work on one file; finding which file
+# 76 -> 22). A name two files of one target both define collides in a unit: usually a compile
+# error, but an earlier file's file-local overload, using-declaration or macro can silently change
+# what a later file's call resolves to. So: a file-local helper lives in an anonymous namespace
+# *and* has a name that says what it does, and a source's using-directive or macro (#undef it)
+# reaches the files after it in its unit. 0 compiles each file on its own (incremental work on one file; finding which file
 # an error is in).
 set(AJAR_UNITY_BATCH 8 CACHE STRING "Source files per unity translation unit (0: no unity build)")
 if(AJAR_UNITY_BATCH GREATER 0)

@@ -61,17 +61,24 @@ ThreadCpu thread_cpu(int tid) noexcept {
     const long long waited = std::strtoll(second, &end, 10);
     if (end != second && waited >= 0) cpu.waited_ns = waited;
   }
-  if (read_task_file(tid, "stat", text, sizeof text)) {
-    // "TID (comm) S ...": the state follows the last ')' (comm may hold any byte)
-    const char* close = std::strrchr(text, ')');
-    cpu.runnable = close != nullptr && close[1] == ' ' && close[2] == 'R';
-  }
   // The thread's CPU clock, as glibc's pthread_getcpuclockid makes it from the kernel's thread id
   // (MAKE_THREAD_CPUCLOCK(tid, CPUCLOCK_SCHED)): the kernel brings a running thread's time up to
   // date when it is read, where schedstat's first field waits for the next tick.
   const auto clock = static_cast<clockid_t>((~static_cast<unsigned>(tid) << 3) | 4U | 2U);
-  timespec ts{};
-  if (::clock_gettime(clock, &ts) == 0) cpu.on_cpu_ns = ts.tv_sec * 1'000'000'000LL + ts.tv_nsec;
+  const auto on_cpu_ns = [clock]() -> std::int64_t {
+    timespec ts{};
+    return ::clock_gettime(clock, &ts) == 0 ? ts.tv_sec * 1'000'000'000LL + ts.tv_nsec : -1;
+  };
+  // Waiting only when it got no CPU time around the state's read: a thread that ran (and may
+  // have fallen asleep) between the reads is not taken for one that waited.
+  const std::int64_t before = on_cpu_ns();
+  if (read_task_file(tid, "stat", text, sizeof text)) {
+    // "TID (comm) S ...": the state follows the last ')' (comm may hold any byte)
+    const char* close = std::strrchr(text, ')');
+    cpu.waiting = close != nullptr && close[1] == ' ' && close[2] == 'R';
+  }
+  cpu.on_cpu_ns = on_cpu_ns();
+  cpu.waiting = cpu.waiting && before >= 0 && cpu.on_cpu_ns == before;
   return cpu;
 }
 
@@ -107,12 +114,12 @@ bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
   const std::int64_t end = loop_.last_cycle_end_ns();
   const ThreadCpu cpu = loop_.thread_cpu ? loop_.thread_cpu() : ThreadCpu{};
   // Waits that ended since the last check (the kernel adds a wait when the thread gets a CPU);
-  // the wait going on now: runnable at this check and the last with no CPU time in between.
+  // the wait going on now: waiting at this check and the last with no CPU time in between.
   const std::int64_t ended_waits =
       cpu.waited_ns >= 0 && last_cpu_.waited_ns >= 0
           ? std::max<std::int64_t>(0, cpu.waited_ns - last_cpu_.waited_ns)
           : 0;
-  const bool still_waiting = cpu.runnable && last_cpu_.runnable && cpu.on_cpu_ns >= 0 &&
+  const bool still_waiting = cpu.waiting && last_cpu_.waiting && cpu.on_cpu_ns >= 0 &&
                              cpu.on_cpu_ns == last_cpu_.on_cpu_ns && last_check_ns_ >= 0;
   waiting_ns_ = still_waiting ? waiting_ns_ + (now_ns - last_check_ns_) : 0;  // else: ended, above
   last_cpu_ = cpu;
@@ -130,7 +137,8 @@ bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
   if (stalled_.load(std::memory_order_relaxed)) return false;  // this stall was acted on
   const std::int64_t silent = now_ns - end;
   const std::int64_t excused = excused_ns_ + waiting_ns_;
-  if (quiet_checks_ < kQuietChecks || silent - excused < stall_timeout_ns_) return false;
+  if (quiet_checks_ < kQuietChecks) return false;
+  if (silent - excused < stall_timeout_ns_ && silent < kLatestLatchNs) return false;
   // Stalled. The loop first (a call returning now must find the latch), the engine next (its
   // latch must not wait for the card), then the card.
   stalled_.store(true, std::memory_order_release);

@@ -149,11 +149,12 @@ constexpr auto kRowOfTypeInMinor = [] {
   return rows;
 }();
 
-// The row of `type` in the message table when protocol 1.`minor` (at most kVersionMinor) has it
-// (check 6), else kNoRow.
+// The row of `type` in the message table when protocol 1.`minor` has it (check 6), else kNoRow;
+// a minor above kVersionMinor is taken as kVersionMinor.
 std::size_t row_of(std::uint16_t type, std::uint8_t minor) noexcept {
   const std::size_t i = static_cast<std::size_t>(type) - kLowestType;  // wraps below the lowest
-  return i < kRowOfType.size() ? kRowOfTypeInMinor[minor][i] : kNoRow;
+  const std::size_t m = std::min<std::size_t>(minor, kRowOfTypeInMinor.size() - 1);
+  return i < kRowOfType.size() ? kRowOfTypeInMinor[m][i] : kNoRow;
 }
 
 // The error of a frame whose header passed checks 1-3: checks 4-6 in order when `payload_refused`

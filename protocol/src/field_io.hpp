@@ -112,6 +112,7 @@ template <std::size_t N>
 [[gnu::always_inline]] inline StringScan copy_and_scan_string(const std::uint8_t* p, std::uint8_t n,
                                                               char* copy) noexcept {
   static_assert(N >= sizeof(Bytes16), "string capacities are at least sixteen bytes");
+  static_assert(N <= 255, "a string's length is one byte (the lanes' index arithmetic too)");
   const Bytes16 length = Bytes16{} + n;
   Bytes16 padding{}, plain_or_padding = ~Bytes16{};
   for (std::size_t i = 0; i < (N + sizeof(Bytes16) - 1) / sizeof(Bytes16); ++i) {
@@ -297,7 +298,7 @@ class FastReader {
   [[gnu::always_inline]] void str(FixedString<N>& s, const char*) noexcept {
     const std::uint8_t* q = take(1 + N);
     const std::uint8_t n = q[0];
-    s.length = n;
+    s.length = std::min<std::uint8_t>(n, N);  // a refused frame's string still views in bounds
     const StringScan scan = copy_and_scan_string<N>(q + 1, n, s.bytes.data());
     bad_ |= n > N || !scan.padding_zero;
     if (!bad_ && !scan.plain_ascii) bad_ = !is_wire_string(s.view());

@@ -8,6 +8,7 @@
 // layout being walked does not have, or at a size field that failed.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -110,6 +111,9 @@ inline constexpr auto kAckBodyOfRow = []<std::size_t... I>(std::index_sequence<I
           std::type_identity<AckBody>{})...};
 }
 (std::make_index_sequence<std::variant_size_v<Message>>{});
+static_assert(std::ranges::all_of(kAckBodyOfRow,
+                                  [](std::uint8_t i) { return i < std::variant_size_v<AckBody>; }),
+              "every Schema's ack_body is an alternative of AckBody");
 
 // Body alternative B of an Ack (v: its AckBody), through io.body<B>() and walked; and the same
 // by the alternative's index.

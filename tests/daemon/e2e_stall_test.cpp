@@ -137,14 +137,16 @@ TEST_F(AjardStall, AVendorCallThatHangsMidJogIsCaughtTheBaseStoppedAndResetNeede
 }
 
 // The control thread kept off its CPU for longer than the stall timeout (pinned to one CPU where a
-// SCHED_FIFO thread of this test spins for 0.9 s; the timeout is 0.5 s) is the scheduler's doing,
-// not a hung call: no LOOP_STALLED, and the loop cycles again. The kernel adds a wait to the
-// thread's schedstat only when the wait ends, so a supervisor that read only that latched here
-// (the browser tests' "no control-loop cycle for 749 ms"); it reads the wait going on now too.
+// SCHED_FIFO thread of this test spins for 0.5 s; the timeout is 0.3 s, the latest latch 0.75 s)
+// is the scheduler's doing, not a hung call: no LOOP_STALLED, and the loop cycles again. The
+// kernel adds a wait to the thread's schedstat only when the wait ends, so a supervisor that read
+// only that latched here (the browser tests' "no control-loop cycle for 749 ms"); it reads the
+// wait going on now too. (Margins: ~0.2 s of unexcused silence either side of the wait.)
 TEST_F(AjardStall, AControlThreadKeptOffItsCpuIsNotTakenForAHungCall) {
-  if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "needs two CPUs";
   const std::string config = path("ajard.yaml");
-  std::ofstream(config) << daemon::to_yaml(e2e_config(drivers::DriverKind::kSim, dir_.path(), 10));
+  daemon::Config c = e2e_config(drivers::DriverKind::kSim, dir_.path(), 10);
+  c.control.stall_timeout_s = 0.3;
+  std::ofstream(config) << daemon::to_yaml(c);
   AjardProcess ajard({"--config", config, "--listen", "127.0.0.1:0", "--port-file", path("port"),
                       "--state-dir", path("state")},
                      dir_.path(), "starved");
@@ -157,32 +159,39 @@ TEST_F(AjardStall, AControlThreadKeptOffItsCpuIsNotTakenForAHungCall) {
   const int loop = thread_named(ajard.pid(), "ajar-loop");
   ASSERT_GT(loop, 0) << "no thread named ajar-loop in ajard";
 
-  const std::size_t cpu = 0;
+  cpu_set_t allowed;
+  ASSERT_EQ(sched_getaffinity(0, sizeof allowed, &allowed), 0);
+  if (CPU_COUNT(&allowed) < 2) GTEST_SKIP() << "needs two CPUs this process may use";
+  std::size_t cpu = 0;
+  while (!CPU_ISSET(cpu, &allowed))
+    ++cpu;
   cpu_set_t one;
   CPU_ZERO(&one);
   CPU_SET(cpu, &one);
-  ASSERT_EQ(sched_setaffinity(loop, sizeof one, &one), 0) << "pinning ajard's control thread";
+  if (sched_setaffinity(loop, sizeof one, &one) != 0) {
+    GTEST_SKIP() << "cannot pin ajard's control thread here";
+  }
   const long long waited_before = waited_ns(ajard.pid(), loop);
   std::atomic<int> hog{0};  // 1: spun, -1: SCHED_FIFO refused
   std::thread spinner([&] {
-    pthread_setaffinity_np(pthread_self(), sizeof one, &one);
     sched_param param{};
     param.sched_priority = 1;
-    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
+    if (pthread_setaffinity_np(pthread_self(), sizeof one, &one) != 0 ||
+        pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
       hog = -1;
       return;
     }
-    // 0.9 s: within the kernel's RT budget (0.95 s a second), which would let the thread run.
-    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(900);
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
     while (std::chrono::steady_clock::now() < end) {
     }
     hog = 1;
   });
   spinner.join();
-  if (hog < 0) GTEST_SKIP() << "SCHED_FIFO refused here: cannot keep a thread off its CPU";
+  if (hog < 0)
+    GTEST_SKIP() << "SCHED_FIFO or pinning refused here: cannot keep a thread off its CPU";
   // It was kept off its CPU (the test is not vacuous): the kernel added a wait > the timeout.
   ASSERT_TRUE(eventually([&] {
-    return waited_ns(ajard.pid(), loop) - waited_before > 600'000'000;
+    return waited_ns(ajard.pid(), loop) - waited_before > 400'000'000;
   })) << "ajard's control thread was not kept off its CPU: waited "
       << (waited_ns(ajard.pid(), loop) - waited_before) / 1'000'000 << " ms";
   ASSERT_TRUE(controller.wait_telemetry(controller.telemetry_count() + 5)) << ajard.err();

@@ -12,9 +12,13 @@
 // The wait is read from the kernel (thread_cpu()) in two parts: the waits that have ended (the
 // schedstat run_delay, which the kernel adds only when the thread gets a CPU) and the wait going
 // on now (runnable at two checks in a row with no CPU time between them: a thread cannot fall
-// asleep without a CPU, so it waited all of that interval). Without those statistics the wall
-// clock decides. The quiet checks keep a process that was not scheduled at all (supervisor
-// included) from being taken for a stalled loop: the supervisor acts only on silence it watched.
+// asleep without a CPU, so it waited all of that interval, give or take the instants of the two
+// reads). Without those statistics the wall clock decides. Whatever was excused, a loop silent
+// for kLatestLatchNs is stalled: a thread that never gets a CPU (a higher SCHED_FIFO thread
+// spinning, RT throttling off) or whose CPU time the kernel does not count (interrupts, a
+// hypervisor's steal) stops the base's supervision as surely as a hung call, and systemd's
+// watchdog must not come first. The quiet checks keep a process that was not scheduled at all
+// (supervisor included) from being taken for a stalled loop: it acts only on silence it watched.
 // Then, once per stall, in this order:
 //   1. loop.latch_stalled(): the loop latches kLoopStalled the moment the hung call returns
 //      (nothing it posted before moves; what that call reports is latched as kLoopStalled);
@@ -59,7 +63,8 @@ struct ThreadCpu {
   // CPU time used so far (the thread's CPU clock, ns; exact for a thread on a CPU now). -1:
   // unknown.
   std::int64_t on_cpu_ns = -1;
-  bool runnable = false;  // state R: on a CPU or waiting for one (not asleep, not stopped)
+  // Waiting for a CPU at the read: state R (runnable) with no CPU time around the read.
+  bool waiting = false;
 };
 
 // The scheduling of the thread `tid` of this process (/proc/self/task/TID/schedstat and stat, the
@@ -86,6 +91,10 @@ class LoopSupervisor {
   // Checks per stall timeout, and how many of them in a row must see no cycle end.
   static constexpr int kChecksPerTimeout = 4;
   static constexpr int kQuietChecks = 3;
+  // The longest silence latched late for the scheduler's sake: 0.75 s, so that with a check
+  // period of at most 0.125 s (the config's largest timeout, 0.5 s) the supervisor acts before
+  // systemd can abort ajard (WatchdogSec=2, pinged every second while the loop is healthy).
+  static constexpr std::int64_t kLatestLatchNs = 750'000'000;
 
   // `card` and the loop behind `loop` must outlive the supervisor; `axes` are the wheels (<= 8).
   LoopSupervisor(SupervisedLoop loop, drivers::MotionCard& card, std::span<const int> axes,
