@@ -79,6 +79,9 @@ ThreadCpu thread_cpu(int tid) noexcept {
   }
   cpu.on_cpu_ns = on_cpu_ns();
   cpu.waiting = cpu.waiting && before >= 0 && cpu.on_cpu_ns == before;
+  const int policy = ::sched_getscheduler(tid);  // a thread id names the thread (Linux)
+  cpu.realtime = policy >= 0 && ((policy & ~SCHED_RESET_ON_FORK) == SCHED_FIFO ||
+                                 (policy & ~SCHED_RESET_ON_FORK) == SCHED_RR);
   return cpu;
 }
 
@@ -115,12 +118,14 @@ bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
   const ThreadCpu cpu = loop_.thread_cpu ? loop_.thread_cpu() : ThreadCpu{};
   // Waits that ended since the last check (the kernel adds a wait when the thread gets a CPU);
   // the wait going on now: waiting at this check and the last with no CPU time in between.
+  // A realtime thread's waits are not excused (loop_supervisor.hpp).
   const std::int64_t ended_waits =
-      cpu.waited_ns >= 0 && last_cpu_.waited_ns >= 0
+      cpu.waited_ns >= 0 && last_cpu_.waited_ns >= 0 && !cpu.realtime
           ? std::max<std::int64_t>(0, cpu.waited_ns - last_cpu_.waited_ns)
           : 0;
-  const bool still_waiting = cpu.waiting && last_cpu_.waiting && cpu.on_cpu_ns >= 0 &&
-                             cpu.on_cpu_ns == last_cpu_.on_cpu_ns && last_check_ns_ >= 0;
+  const bool still_waiting = cpu.waiting && last_cpu_.waiting && !cpu.realtime &&
+                             cpu.on_cpu_ns >= 0 && cpu.on_cpu_ns == last_cpu_.on_cpu_ns &&
+                             last_check_ns_ >= 0;
   waiting_ns_ = still_waiting ? waiting_ns_ + (now_ns - last_check_ns_) : 0;  // else: ended, above
   last_cpu_ = cpu;
   last_check_ns_ = now_ns;

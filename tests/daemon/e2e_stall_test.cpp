@@ -62,6 +62,8 @@ class AjardStall : public ::testing::Test {
     in >> on_cpu >> waited;
     return in ? waited : -1;
   }
+  std::string starve_the_control_thread(AjardProcess& ajard, TestClient& controller,
+                                        int hog_priority);
   TempDir dir_;
 };
 
@@ -136,12 +138,54 @@ TEST_F(AjardStall, AVendorCallThatHangsMidJogIsCaughtTheBaseStoppedAndResetNeede
   EXPECT_EQ(ajard.wait_exit(), 0) << ajard.err();
 }
 
-// The control thread kept off its CPU for longer than the stall timeout (pinned to one CPU where a
-// SCHED_FIFO thread of this test spins for 0.5 s; the timeout is 0.3 s, the latest latch 0.75 s)
-// is the scheduler's doing, not a hung call: no LOOP_STALLED, and the loop cycles again. The
-// kernel adds a wait to the thread's schedstat only when the wait ends, so a supervisor that read
-// only that latched here (the browser tests' "no control-loop cycle for 749 ms"); it reads the
-// wait going on now too. (Margins: ~0.2 s of unexcused silence either side of the wait.)
+// ajard's control thread kept off its CPU for 0.5 s, longer than the stall timeout (0.3 s), by
+// a SCHED_FIFO thread of this test at `hog_priority` spinning on the one CPU the control thread is
+// pinned to; the loop cycling again after it. Empty when done, else why it could not be (a skip).
+std::string AjardStall::starve_the_control_thread(AjardProcess& ajard, TestClient& controller,
+                                                  int hog_priority) {
+  const int loop = thread_named(ajard.pid(), "ajar-loop");
+  if (loop <= 0) return "no thread named ajar-loop in ajard";
+  cpu_set_t allowed;
+  if (sched_getaffinity(0, sizeof allowed, &allowed) != 0 || CPU_COUNT(&allowed) < 2) {
+    return "needs two CPUs this process may use";
+  }
+  std::size_t cpu = 0;
+  while (!CPU_ISSET(cpu, &allowed))
+    ++cpu;
+  cpu_set_t one;
+  CPU_ZERO(&one);
+  CPU_SET(cpu, &one);
+  if (sched_setaffinity(loop, sizeof one, &one) != 0) return "cannot pin ajard's control thread";
+  const long long waited_before = waited_ns(ajard.pid(), loop);
+  bool refused = false;
+  std::thread spinner([&] {
+    sched_param param{};
+    param.sched_priority = hog_priority;
+    if (pthread_setaffinity_np(pthread_self(), sizeof one, &one) != 0 ||
+        pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
+      refused = true;
+      return;
+    }
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
+    while (std::chrono::steady_clock::now() < end) {
+    }
+  });
+  spinner.join();
+  if (refused) return "SCHED_FIFO or pinning refused here: cannot keep a thread off its CPU";
+  // It was kept off its CPU (the test is not vacuous): the kernel added a wait > the timeout.
+  EXPECT_TRUE(eventually([&] {
+    return waited_ns(ajard.pid(), loop) - waited_before > 400'000'000;
+  })) << "ajard's control thread was not kept off its CPU: waited "
+      << (waited_ns(ajard.pid(), loop) - waited_before) / 1'000'000 << " ms";
+  EXPECT_TRUE(controller.wait_telemetry(controller.telemetry_count() + 5)) << ajard.err();
+  return {};
+}
+
+// Not realtime (SCHED_OTHER), the control thread kept off its CPU is the scheduler's doing, not a
+// hung call: no LOOP_STALLED, and the loop cycles again. The kernel adds a wait to the thread's
+// schedstat only when the wait ends, so a supervisor that read only that latched here (the browser
+// tests' "no control-loop cycle for 749 ms"); it reads the wait going on now too. (Margins: ~0.2 s
+// of unexcused silence to the timeout, 0.25 s to the latest latch, 0.75 s.)
 TEST_F(AjardStall, AControlThreadKeptOffItsCpuIsNotTakenForAHungCall) {
   const std::string config = path("ajard.yaml");
   daemon::Config c = e2e_config(drivers::DriverKind::kSim, dir_.path(), 10);
@@ -156,49 +200,48 @@ TEST_F(AjardStall, AControlThreadKeptOffItsCpuIsNotTakenForAHungCall) {
   ASSERT_EQ(controller.hello(Role::kController, 0x52).granted_role, Role::kController);
   controller.request_as<protocol::Ack>(protocol::Subscribe{50});
   ASSERT_TRUE(controller.wait_telemetry(3)) << ajard.err();
-  const int loop = thread_named(ajard.pid(), "ajar-loop");
-  ASSERT_GT(loop, 0) << "no thread named ajar-loop in ajard";
-
-  cpu_set_t allowed;
-  ASSERT_EQ(sched_getaffinity(0, sizeof allowed, &allowed), 0);
-  if (CPU_COUNT(&allowed) < 2) GTEST_SKIP() << "needs two CPUs this process may use";
-  std::size_t cpu = 0;
-  while (!CPU_ISSET(cpu, &allowed))
-    ++cpu;
-  cpu_set_t one;
-  CPU_ZERO(&one);
-  CPU_SET(cpu, &one);
-  if (sched_setaffinity(loop, sizeof one, &one) != 0) {
-    GTEST_SKIP() << "cannot pin ajard's control thread here";
+  if (const std::string why = starve_the_control_thread(ajard, controller, 1); !why.empty()) {
+    GTEST_SKIP() << why;
   }
-  const long long waited_before = waited_ns(ajard.pid(), loop);
-  std::atomic<int> hog{0};  // 1: spun, -1: SCHED_FIFO refused
-  std::thread spinner([&] {
-    sched_param param{};
-    param.sched_priority = 1;
-    if (pthread_setaffinity_np(pthread_self(), sizeof one, &one) != 0 ||
-        pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
-      hog = -1;
-      return;
-    }
-    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
-    while (std::chrono::steady_clock::now() < end) {
-    }
-    hog = 1;
-  });
-  spinner.join();
-  if (hog < 0)
-    GTEST_SKIP() << "SCHED_FIFO or pinning refused here: cannot keep a thread off its CPU";
-  // It was kept off its CPU (the test is not vacuous): the kernel added a wait > the timeout.
-  ASSERT_TRUE(eventually([&] {
-    return waited_ns(ajard.pid(), loop) - waited_before > 400'000'000;
-  })) << "ajard's control thread was not kept off its CPU: waited "
-      << (waited_ns(ajard.pid(), loop) - waited_before) / 1'000'000 << " ms";
-  ASSERT_TRUE(controller.wait_telemetry(controller.telemetry_count() + 5)) << ajard.err();
   EXPECT_EQ(controller.request_as<protocol::Status>(protocol::GetStatus{}).latched_fault,
             ErrorCode::kOk)
       << ajard.err();
   EXPECT_EQ(ajard.err().find("LOOP_STALLED"), std::string::npos) << ajard.err();
+  ajard.signal(SIGTERM);
+  EXPECT_EQ(ajard.wait_exit(), 0) << ajard.err();
+}
+
+// Realtime (control.realtime: SCHED_FIFO at priority 10), the same starvation by a SCHED_FIFO
+// thread above it is a stall: only another realtime thread can keep the loop waiting, and the
+// base is as unsupervised as with a hung call. LOOP_STALLED, nothing excused.
+TEST_F(AjardStall, ARealtimeControlThreadKeptOffItsCpuIsStalled) {
+  const std::string config = path("ajard.yaml");
+  daemon::Config c = e2e_config(drivers::DriverKind::kSim, dir_.path(), 10);
+  c.control.stall_timeout_s = 0.3;
+  c.control.realtime = true;
+  c.control.priority = 10;
+  std::ofstream(config) << daemon::to_yaml(c);
+  AjardProcess ajard({"--config", config, "--listen", "127.0.0.1:0", "--port-file", path("port"),
+                      "--state-dir", path("state")},
+                     dir_.path(), "starved-rt");
+  const auto port = wait_for_port_file(path("port"), ajard);
+  ASSERT_TRUE(port) << ajard.err();
+  if (ajard.err().find("refused") != std::string::npos) {
+    GTEST_SKIP() << "SCHED_FIFO refused to ajard here:\n" << ajard.err();
+  }
+  TestClient controller(*port);
+  ASSERT_EQ(controller.hello(Role::kController, 0x53).granted_role, Role::kController);
+  controller.request_as<protocol::Ack>(protocol::Subscribe{50});
+  ASSERT_TRUE(controller.wait_telemetry(3)) << ajard.err();
+  if (const std::string why = starve_the_control_thread(ajard, controller, 20); !why.empty()) {
+    GTEST_SKIP() << why;
+  }
+  const auto fault = controller.wait_event(EventKind::kFaultLatched);
+  ASSERT_TRUE(fault) << "no fault latched for a realtime loop kept off its CPU\n" << ajard.err();
+  EXPECT_EQ(fault->fault, ErrorCode::kLoopStalled);
+  EXPECT_TRUE(eventually([&] {
+    return ajard.err().find(" ms, 0 ms of it waiting for a CPU (excused") != std::string::npos;
+  })) << ajard.err();
   ajard.signal(SIGTERM);
   EXPECT_EQ(ajard.wait_exit(), 0) << ajard.err();
 }

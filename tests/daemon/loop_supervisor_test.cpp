@@ -224,6 +224,23 @@ TEST_F(LoopSupervisorTest, ALoopThatNeverGetsACpuIsStalledAtTheLatest) {
   }
 }
 
+TEST_F(LoopSupervisorTest, ARealtimeLoopThreadKeptWaitingIsStalled) {
+  // SCHED_FIFO (control.realtime granted): only another realtime thread keeps it off a CPU, and
+  // the base is as unsupervised as with a hung call. Its waits, going on or ended, are not excused.
+  const std::int64_t start = 1'000 * kMs;
+  thread = ThreadCpu{0, 1'000 * kMs, true, true};
+  ASSERT_FALSE(cycle_and_check(start));
+  const std::int64_t step = supervisor->check_period_ns();
+  std::int64_t latched_at = -1;
+  for (int i = 1; i <= 40 && latched_at < 0; ++i) {
+    if (i == 2) thread.waited_ns += 2 * step;  // a wait that ended, then another going on
+    if (supervisor->check(start + i * step)) latched_at = start + i * step;
+  }
+  ASSERT_GE(latched_at, 0);
+  EXPECT_EQ(latched_at - start, supervisor->stall_timeout_ns());
+  EXPECT_EQ(supervisor->last_stall().excused_ns, 0);
+}
+
 TEST_F(LoopSupervisorTest, OnlyARunnableThreadWithoutCpuTimeBetweenTwoChecksIsWaiting) {
   // Runnable at one check and asleep at the next (or the other way round), with no CPU time in
   // between: no interval where it was surely waiting for a CPU; nothing excused.
@@ -403,6 +420,7 @@ TEST_F(LoopSupervisorKernel, AThreadKeptOffItsCpuIsWaitingAndItsWaitShowsOnlyWhe
   });
   while (tid == 0)
     ::usleep(100);
+  std::atomic<int> spinner_tid{0};
   std::thread spinner([&] {
     sched_param param{};
     param.sched_priority = 1;
@@ -410,6 +428,7 @@ TEST_F(LoopSupervisorKernel, AThreadKeptOffItsCpuIsWaitingAndItsWaitShowsOnlyWhe
       hog = -1;
       return;
     }
+    spinner_tid = static_cast<int>(::gettid());
     hog = 1;
     // Until released, at most 0.9 s (RT throttling would let the waiter run at 0.95 s).
     const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(900);
@@ -441,6 +460,7 @@ TEST_F(LoopSupervisorKernel, AThreadKeptOffItsCpuIsWaitingAndItsWaitShowsOnlyWhe
       eventually([&] { return (a = thread_cpu(tid)).waiting; }, std::chrono::milliseconds(500));
   ::usleep(20'000);
   const ThreadCpu b = thread_cpu(tid);
+  const ThreadCpu hog_cpu = thread_cpu(spinner_tid);
   const bool held = !gave_up;  // the spinner still held the CPU after the second read
   release_the_cpu();
   if (!held) {
@@ -449,6 +469,9 @@ TEST_F(LoopSupervisorKernel, AThreadKeptOffItsCpuIsWaitingAndItsWaitShowsOnlyWhe
   }
   EXPECT_TRUE(seen_waiting);
   EXPECT_TRUE(b.waiting);
+  EXPECT_FALSE(b.realtime);
+  EXPECT_TRUE(hog_cpu.realtime) << "the SCHED_FIFO spinner";
+  EXPECT_FALSE(hog_cpu.waiting) << "the spinner is on its CPU";
   EXPECT_EQ(b.on_cpu_ns, a.on_cpu_ns) << "CPU time while kept off its CPU";
   if (a.waited_ns >= 0) {
     EXPECT_EQ(b.waited_ns, a.waited_ns) << "the kernel added a wait that has not ended";

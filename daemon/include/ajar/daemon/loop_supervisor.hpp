@@ -8,7 +8,9 @@
 // counting the time the control thread spent waiting for a CPU, AND the supervisor itself saw no
 // cycle end in its last kQuietChecks checks. A thread that is runnable but not scheduled (a loaded
 // machine, the thread's CPU time given to others) is the scheduler's doing, not a hung call, and
-// its wait is excused; a hung call either sleeps in the kernel or spins on a CPU, and both count.
+// its wait is excused — unless the thread is realtime (SCHED_FIFO/RR): then only another realtime
+// thread can keep it waiting, a fault of the robot's set-up that leaves the base unsupervised all
+// the same. A hung call either sleeps in the kernel or spins on a CPU, and both count.
 // The wait is read from the kernel (thread_cpu()) in two parts: the waits that have ended (the
 // schedstat run_delay, which the kernel adds only when the thread gets a CPU) and the wait going
 // on now (runnable at two checks in a row with no CPU time between them: a thread cannot fall
@@ -65,6 +67,9 @@ struct ThreadCpu {
   std::int64_t on_cpu_ns = -1;
   // Waiting for a CPU at the read: state R (runnable) with no CPU time around the read.
   bool waiting = false;
+  // Scheduled SCHED_FIFO or SCHED_RR (control.realtime granted): a wait of such a thread is not
+  // the scheduler's ordinary sharing but another realtime thread taking its CPU: not excused.
+  bool realtime = false;
 };
 
 // The scheduling of the thread `tid` of this process (/proc/self/task/TID/schedstat and stat, the
