@@ -364,7 +364,8 @@ void control_fields(Io& io, C& c) {
             c.aligned_tolerance_rad, 0.0, 0.5, "rad");
   io.number({"stall_timeout_s",
              "the loop supervisor: no control-loop cycle for this long (at least 2 periods), not "
-             "counting the control thread's waits for a CPU (up to 0.75 s of silence) → the "
+             "counting a non-realtime control thread's waits for a CPU (up to 0.75 s of "
+             "silence) → the "
              "base is emergency-stopped out of band and `LOOP_STALLED` latches "
              "(docs/control-loop.md, \"Stalled loop\"); at most 0.5 s so that the supervisor acts "
              "before systemd's watchdog (`WatchdogSec=2`)"},
