@@ -19,10 +19,21 @@ before(async () => { stack = await startStack('console'); });
 after(async () => { await closeBrowser(); if (stack) await stack.stop(failed); });
 // Each test on the shared stack; the processes' output is printed when one fails.
 // `body(P)` gets a fresh page at 1280x720; a failure leaves a screenshot and the page's log.
+// A fault an earlier test left latched (it failed for it) is Reset first, saying so: each test
+// fails for what it tests, not for the one before it.
 function item(name, body, timeout = 60000) {
   test(name, { timeout }, async () => {
     const P = await openPage(stack);
-    try { await body(P); } catch (e) { failed = true; await dumpPages(name.replace(/\W+/g, '-').slice(0, 40)); throw e; } finally { await P.close(); }
+    try {
+      await P.page.waitForFunction(() => !['—', 'unknown'].includes(document.getElementById('state').textContent));  // ajard's status shown
+      const left = await P.page.textContent('#fault');
+      if (left !== 'none') {
+        console.log(`# ${name}: an earlier test left ${left} latched: Reset first`);
+        await P.page.click('#btn-reset');
+        await P.page.waitForFunction(() => document.getElementById('fault').textContent === 'none');
+      }
+      await body(P);
+    } catch (e) { failed = true; await dumpPages(name.replace(/\W+/g, '-').slice(0, 40)); throw e; } finally { await P.close(); }
   });
 }
 
