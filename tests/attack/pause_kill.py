@@ -62,6 +62,17 @@ def pause():
     return len(tail.latches) == 0, "LOOP_STALLED latched %d" % len(tail.latches)
 
 
+def signal_and_wait(d, sig):
+    """Sends sig; the exit status (None: still running 20 s later) and how long it took."""
+    t0 = time.monotonic()
+    d.signal(sig)
+    try:
+        rc = d.p.wait(20)
+    except Exception:
+        rc = None
+    return rc, time.monotonic() - t0
+
+
 def restart_check(d, expect):
     """After the exit: start again; the fault latched, no travel in 1 s, a Drive refused."""
     d.start()
@@ -95,12 +106,7 @@ def kill_or_term_starved(sig):
         hog.spin(hold)
         time.sleep(at)
         t0 = time.monotonic()
-        d.signal(sig)
-        try:
-            rc = d.p.wait(20)
-        except Exception:
-            rc = None
-        took = time.monotonic() - t0
+        rc, took = signal_and_wait(d, sig)
         h0, h1 = hog.done()
         hog.close()
         c.close()
@@ -137,12 +143,7 @@ def kill_or_term_stalled(sig):
             time.sleep(0.01)
         time.sleep(rng.uniform(0.0, 0.5))
         t0 = time.monotonic()
-        d.signal(sig)
-        try:
-            rc = d.p.wait(20)
-        except Exception:
-            rc = None
-        took = time.monotonic() - t0
+        rc, took = signal_and_wait(d, sig)
         os.unlink(flag)
         tail.stop = True
         c.close()
