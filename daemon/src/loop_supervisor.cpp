@@ -112,6 +112,7 @@ bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
     last_cpu_ = {};  // a thread started again is another thread
     last_check_ns_ = -1;
     waiting_ns_ = 0;
+    unshown_ns_ = 0;
     return false;
   }
   const std::int64_t end = loop_.last_cycle_end_ns();
@@ -126,7 +127,14 @@ bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
   const bool still_waiting = cpu.waiting && last_cpu_.waiting && !cpu.realtime &&
                              cpu.on_cpu_ns >= 0 && cpu.on_cpu_ns == last_cpu_.on_cpu_ns &&
                              last_check_ns_ >= 0;
-  waiting_ns_ = still_waiting ? waiting_ns_ + (now_ns - last_check_ns_) : 0;  // else: ended, above
+  if (still_waiting) {
+    waiting_ns_ += now_ns - last_check_ns_;
+  } else {  // the wait ended: its seen part stays excused until run_delay shows the wait (a check
+            // can read run_delay just before the thread gets its CPU and the clock just after)
+    unshown_ns_ += waiting_ns_;
+    waiting_ns_ = 0;
+  }
+  unshown_ns_ = std::max<std::int64_t>(0, unshown_ns_ - ended_waits);
   last_cpu_ = cpu;
   last_check_ns_ = now_ns;
   if (!seen_any_ || end != seen_end_ns_) {  // the loop made progress: (re-)armed
@@ -134,6 +142,7 @@ bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
     seen_end_ns_ = end;
     quiet_checks_ = 0;
     excused_ns_ = 0;
+    unshown_ns_ = 0;
     stalled_.store(false, std::memory_order_release);
     return false;
   }
@@ -141,7 +150,7 @@ bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
   if (quiet_checks_ < kQuietChecks) ++quiet_checks_;
   if (stalled_.load(std::memory_order_relaxed)) return false;  // this stall was acted on
   const std::int64_t silent = now_ns - end;
-  const std::int64_t excused = excused_ns_ + waiting_ns_;
+  const std::int64_t excused = excused_ns_ + unshown_ns_ + waiting_ns_;
   if (quiet_checks_ < kQuietChecks) return false;
   if (silent - excused < stall_timeout_ns_ && silent < kLatestLatchNs) return false;
   // Stalled. The loop first (a call returning now must find the latch), the engine next (its

@@ -241,6 +241,39 @@ TEST_F(LoopSupervisorTest, ARealtimeLoopThreadKeptWaitingIsStalled) {
   EXPECT_EQ(supervisor->last_stall().excused_ns, 0);
 }
 
+TEST_F(LoopSupervisorTest, AWaitThatEndsBetweenTheReadsOfOneCheckStaysExcused) {
+  // thread_cpu() reads run_delay, then the CPU clock around the state: the thread can get its CPU
+  // in between. That check sees the wait over (the clock moved) but not yet in run_delay (the
+  // kernel adds it when the thread gets the CPU, after that read); the next check sees it there.
+  // The wait seen from check to check stays excused until run_delay shows it (before: the torn
+  // check latched the whole wait as a hung call; tests/attack/FINDINGS.md, wave 12, A1).
+  const std::int64_t start = 1'000 * kMs;
+  thread = ThreadCpu{0, 1'000 * kMs, false};  // asleep between cycles
+  ASSERT_FALSE(cycle_and_check(start));
+  thread.waiting = true;  // woken, waiting for a CPU from now on
+  const std::int64_t step = supervisor->check_period_ns();
+  std::int64_t t = start + step;
+  for (; t < start + 600 * kMs; t += step) {
+    ASSERT_FALSE(supervisor->check(t)) << t;
+  }
+  // The torn check: the CPU clock read after the wait ended (on its CPU: not waiting), run_delay
+  // before.
+  thread = ThreadCpu{0, 1'000 * kMs + 5'000, false};
+  EXPECT_FALSE(supervisor->check(t));
+  // The next: run_delay shows the whole wait; the cycle's card call now hangs asleep.
+  const std::int64_t waited = t - start - step / 2;
+  thread = ThreadCpu{waited, 1'000 * kMs + 10'000, false};
+  EXPECT_FALSE(supervisor->check(t + step));
+  EXPECT_EQ(supervisor->stalls(), 0U);
+  EXPECT_EQ(oob_stops(), 0U);
+  // Counted once: the hang latches one timeout of unexcused silence after the wait.
+  const std::int64_t latched_at = quiet_checks(t + 2 * step, 1'000 * kMs);
+  ASSERT_GE(latched_at, 0);
+  EXPECT_EQ(supervisor->last_stall().excused_ns, waited);
+  EXPECT_GE(latched_at - start - waited, supervisor->stall_timeout_ns());
+  EXPECT_LT(latched_at - start - waited, supervisor->stall_timeout_ns() + step);
+}
+
 TEST_F(LoopSupervisorTest, OnlyARunnableThreadWithoutCpuTimeBetweenTwoChecksIsWaiting) {
   // Runnable at one check and asleep at the next (or the other way round), with no CPU time in
   // between: no interval where it was surely waiting for a CPU; nothing excused.

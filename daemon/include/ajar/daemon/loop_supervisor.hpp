@@ -15,12 +15,14 @@
 // schedstat run_delay, which the kernel adds only when the thread gets a CPU) and the wait going
 // on now (runnable at two checks in a row with no CPU time between them: a thread cannot fall
 // asleep without a CPU, so it waited all of that interval, give or take the instants of the two
-// reads). Without those statistics the wall clock decides. Whatever was excused, a loop silent
-// for kLatestLatchNs is stalled: a thread that never gets a CPU (a higher SCHED_FIFO thread
-// spinning, RT throttling off) or whose CPU time the kernel does not count (interrupts, a
-// hypervisor's steal) stops the base's supervision as surely as a hung call, and systemd's
-// watchdog must not come first. The quiet checks keep a process that was not scheduled at all
-// (supervisor included) from being taken for a stalled loop: it acts only on silence it watched.
+// reads); once that wait ends its seen part stays excused until run_delay shows the wait (one
+// check can read run_delay just before the thread gets its CPU and its clock just after). Without
+// those statistics the wall clock decides. Whatever was excused, a loop silent for kLatestLatchNs
+// is stalled: a thread that never gets a CPU (a higher SCHED_FIFO thread spinning, RT throttling
+// off) or whose CPU time the kernel does not count (interrupts, a hypervisor's steal) stops the
+// base's supervision as surely as a hung call, and systemd's watchdog must not come first. The
+// quiet checks keep a process that was not scheduled at all (supervisor included) from being
+// taken for a stalled loop: it acts only on silence it watched.
 // Then, once per stall, in this order:
 //   1. loop.latch_stalled(): the loop latches kLoopStalled the moment the hung call returns
 //      (nothing it posted before moves; what that call reports is latched as kLoopStalled);
@@ -154,6 +156,7 @@ class LoopSupervisor {
   std::int64_t last_check_ns_ = -1;
   std::int64_t excused_ns_ = 0;  // ended waits for a CPU since the check that saw the last end
   std::int64_t waiting_ns_ = 0;  // of the wait going on now, the part seen from check to check
+  std::int64_t unshown_ns_ = 0;  // seen parts of ended waits that run_delay does not show yet
 
   // Published.
   std::atomic<bool> stalled_{false};
