@@ -12,8 +12,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -64,7 +66,24 @@ class AjardStall : public ::testing::Test {
   }
   std::string starve_the_control_thread(AjardProcess& ajard, TestClient& controller,
                                         int hog_priority);
+  // ajard on the simulated card with `c` (ajard_), and a controller receiving its telemetry
+  // (controller_). Use under ASSERT_NO_FATAL_FAILURE.
+  void start_ajard(const daemon::Config& c, const std::string& name) {
+    std::ofstream(path("ajard.yaml")) << daemon::to_yaml(c);
+    ajard_ = std::make_unique<AjardProcess>(
+        std::vector<std::string>{"--config", path("ajard.yaml"), "--listen", "127.0.0.1:0",
+                                 "--port-file", path("port"), "--state-dir", path("state")},
+        dir_.path(), name);
+    const auto port = wait_for_port_file(path("port"), *ajard_);
+    ASSERT_TRUE(port) << ajard_->err();
+    controller_ = std::make_unique<TestClient>(*port);
+    ASSERT_EQ(controller_->hello(Role::kController, 0x52).granted_role, Role::kController);
+    controller_->request_as<protocol::Ack>(protocol::Subscribe{50});
+    ASSERT_TRUE(controller_->wait_telemetry(3)) << ajard_->err();
+  }
   TempDir dir_;
+  std::unique_ptr<AjardProcess> ajard_;
+  std::unique_ptr<TestClient> controller_;
 };
 
 TEST_F(AjardStall, AVendorCallThatHangsMidJogIsCaughtTheBaseStoppedAndResetNeeded) {
@@ -187,23 +206,14 @@ std::string AjardStall::starve_the_control_thread(AjardProcess& ajard, TestClien
 // tests' "no control-loop cycle for 749 ms"); it reads the wait going on now too. (Margins: ~0.2 s
 // of unexcused silence to the timeout, 0.25 s to the latest latch, 0.75 s.)
 TEST_F(AjardStall, AControlThreadKeptOffItsCpuIsNotTakenForAHungCall) {
-  const std::string config = path("ajard.yaml");
   daemon::Config c = e2e_config(drivers::DriverKind::kSim, dir_.path(), 10);
   c.control.stall_timeout_s = 0.3;
-  std::ofstream(config) << daemon::to_yaml(c);
-  AjardProcess ajard({"--config", config, "--listen", "127.0.0.1:0", "--port-file", path("port"),
-                      "--state-dir", path("state")},
-                     dir_.path(), "starved");
-  const auto port = wait_for_port_file(path("port"), ajard);
-  ASSERT_TRUE(port) << ajard.err();
-  TestClient controller(*port);
-  ASSERT_EQ(controller.hello(Role::kController, 0x52).granted_role, Role::kController);
-  controller.request_as<protocol::Ack>(protocol::Subscribe{50});
-  ASSERT_TRUE(controller.wait_telemetry(3)) << ajard.err();
-  if (const std::string why = starve_the_control_thread(ajard, controller, 1); !why.empty()) {
+  ASSERT_NO_FATAL_FAILURE(start_ajard(c, "starved"));
+  AjardProcess& ajard = *ajard_;
+  if (const std::string why = starve_the_control_thread(ajard, *controller_, 1); !why.empty()) {
     GTEST_SKIP() << why;
   }
-  EXPECT_EQ(controller.request_as<protocol::Status>(protocol::GetStatus{}).latched_fault,
+  EXPECT_EQ(controller_->request_as<protocol::Status>(protocol::GetStatus{}).latched_fault,
             ErrorCode::kOk)
       << ajard.err();
   EXPECT_EQ(ajard.err().find("LOOP_STALLED"), std::string::npos) << ajard.err();
@@ -215,28 +225,19 @@ TEST_F(AjardStall, AControlThreadKeptOffItsCpuIsNotTakenForAHungCall) {
 // thread above it is a stall: only another realtime thread can keep the loop waiting, and the
 // base is as unsupervised as with a hung call. LOOP_STALLED, nothing excused.
 TEST_F(AjardStall, ARealtimeControlThreadKeptOffItsCpuIsStalled) {
-  const std::string config = path("ajard.yaml");
   daemon::Config c = e2e_config(drivers::DriverKind::kSim, dir_.path(), 10);
   c.control.stall_timeout_s = 0.3;
   c.control.realtime = true;
   c.control.priority = 10;
-  std::ofstream(config) << daemon::to_yaml(c);
-  AjardProcess ajard({"--config", config, "--listen", "127.0.0.1:0", "--port-file", path("port"),
-                      "--state-dir", path("state")},
-                     dir_.path(), "starved-rt");
-  const auto port = wait_for_port_file(path("port"), ajard);
-  ASSERT_TRUE(port) << ajard.err();
+  ASSERT_NO_FATAL_FAILURE(start_ajard(c, "starved-rt"));
+  AjardProcess& ajard = *ajard_;
   if (ajard.err().find("refused") != std::string::npos) {
     GTEST_SKIP() << "SCHED_FIFO refused to ajard here:\n" << ajard.err();
   }
-  TestClient controller(*port);
-  ASSERT_EQ(controller.hello(Role::kController, 0x53).granted_role, Role::kController);
-  controller.request_as<protocol::Ack>(protocol::Subscribe{50});
-  ASSERT_TRUE(controller.wait_telemetry(3)) << ajard.err();
-  if (const std::string why = starve_the_control_thread(ajard, controller, 20); !why.empty()) {
+  if (const std::string why = starve_the_control_thread(ajard, *controller_, 20); !why.empty()) {
     GTEST_SKIP() << why;
   }
-  const auto fault = controller.wait_event(EventKind::kFaultLatched);
+  const auto fault = controller_->wait_event(EventKind::kFaultLatched);
   ASSERT_TRUE(fault) << "no fault latched for a realtime loop kept off its CPU\n" << ajard.err();
   EXPECT_EQ(fault->fault, ErrorCode::kLoopStalled);
   EXPECT_TRUE(eventually([&] {
