@@ -130,6 +130,8 @@ echo "ajard --check-config $root/etc/ajar/ajard.yaml: valid"
 "$ajard" --config "$root/usr/share/ajar/examples/ajard.sim.yaml" --listen 127.0.0.1:0 \
   --port-file "$work/port" --state-dir "$work/state" >"$work/ajard.log" 2>&1 &
 pid=$!
+# A failed check below must not leave this ajard running (it outlives the test's mount namespace).
+trap 'kill -KILL $pid 2>/dev/null || true' EXIT
 for _ in $(seq 1 200); do [[ -s $work/port ]] && break; kill -0 $pid 2>/dev/null || break; sleep 0.05; done
 [[ -s $work/port ]] || { cat "$work/ajard.log"; fail "ajard did not start on the simulated drivers"; }
 port=$(cat "$work/port")
