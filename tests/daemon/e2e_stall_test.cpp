@@ -64,8 +64,7 @@ class AjardStall : public ::testing::Test {
     in >> on_cpu >> waited;
     return in ? waited : -1;
   }
-  std::string starve_the_control_thread(AjardProcess& ajard, TestClient& controller,
-                                        int hog_priority);
+  std::string starve_the_control_thread(int hog_priority);
   // ajard on the simulated card with `c` (ajard_), and a controller receiving its telemetry
   // (controller_). Use under ASSERT_NO_FATAL_FAILURE.
   void start_ajard(const daemon::Config& c, const std::string& name) {
@@ -157,11 +156,11 @@ TEST_F(AjardStall, AVendorCallThatHangsMidJogIsCaughtTheBaseStoppedAndResetNeede
   EXPECT_EQ(ajard.wait_exit(), 0) << ajard.err();
 }
 
-// ajard's control thread kept off its CPU for 0.5 s, longer than the stall timeout (0.3 s), by
+// ajard_'s control thread kept off its CPU for 0.5 s, longer than the stall timeout (0.3 s), by
 // a SCHED_FIFO thread of this test at `hog_priority` spinning on the one CPU the control thread is
 // pinned to; the loop cycling again after it. Empty when done, else why it could not be (a skip).
-std::string AjardStall::starve_the_control_thread(AjardProcess& ajard, TestClient& controller,
-                                                  int hog_priority) {
+std::string AjardStall::starve_the_control_thread(int hog_priority) {
+  AjardProcess& ajard = *ajard_;
   const int loop = thread_named(ajard.pid(), "ajar-loop");
   if (loop <= 0) return "no thread named ajar-loop in ajard";
   cpu_set_t allowed;
@@ -196,7 +195,7 @@ std::string AjardStall::starve_the_control_thread(AjardProcess& ajard, TestClien
     return waited_ns(ajard.pid(), loop) - waited_before > 400'000'000;
   })) << "ajard's control thread was not kept off its CPU: waited "
       << (waited_ns(ajard.pid(), loop) - waited_before) / 1'000'000 << " ms";
-  EXPECT_TRUE(controller.wait_telemetry(controller.telemetry_count() + 5)) << ajard.err();
+  EXPECT_TRUE(controller_->wait_telemetry(controller_->telemetry_count() + 5)) << ajard.err();
   return {};
 }
 
@@ -210,7 +209,7 @@ TEST_F(AjardStall, AControlThreadKeptOffItsCpuIsNotTakenForAHungCall) {
   c.control.stall_timeout_s = 0.3;
   ASSERT_NO_FATAL_FAILURE(start_ajard(c, "starved"));
   AjardProcess& ajard = *ajard_;
-  if (const std::string why = starve_the_control_thread(ajard, *controller_, 1); !why.empty()) {
+  if (const std::string why = starve_the_control_thread(1); !why.empty()) {
     GTEST_SKIP() << why;
   }
   EXPECT_EQ(controller_->request_as<protocol::Status>(protocol::GetStatus{}).latched_fault,
@@ -234,7 +233,7 @@ TEST_F(AjardStall, ARealtimeControlThreadKeptOffItsCpuIsStalled) {
   if (ajard.err().find("refused") != std::string::npos) {
     GTEST_SKIP() << "SCHED_FIFO refused to ajard here:\n" << ajard.err();
   }
-  if (const std::string why = starve_the_control_thread(ajard, *controller_, 20); !why.empty()) {
+  if (const std::string why = starve_the_control_thread(20); !why.empty()) {
     GTEST_SKIP() << why;
   }
   const auto fault = controller_->wait_event(EventKind::kFaultLatched);
