@@ -215,7 +215,7 @@ std::size_t row_of(std::uint16_t type, std::uint8_t minor) noexcept {
   const bool crc_ok = true;  // the fuzzers' build skips the CRC comparison (tests/fuzz)
 #endif
   const std::uint8_t wire_minor = h[kOffsetVersionMinor];
-  const std::size_t row = row_of(get_u16(h + kOffsetType), std::min(wire_minor, kVersionMinor));
+  const std::size_t row = row_of(get_u16(h + kOffsetType), wire_minor);
   const bool header_ok =
       crc_ok && (get_u16(h + kOffsetFlags) & ~static_cast<std::uint16_t>(kFlagKnownMask)) == 0 &&
       row != kNoRow;
