@@ -227,5 +227,35 @@ TEST(SeqLock, ReaderNeverSeesATornValue) {
   EXPECT_EQ(lock.load().a, 20000U);
 }
 
+TEST(SeqLock, TryLoadNeverWaitsAndNeverSeesATornValue) {
+  // One attempt: a read that overlaps a store fails (value untouched) rather than spinning, and
+  // a read that succeeds is a whole published value.
+  SeqLock<Wide> lock;
+  std::atomic<bool> done{false};
+  std::thread writer([&] {
+    for (std::uint64_t i = 1; i <= 20000; ++i) {
+      lock.store(Wide{i, i, i, static_cast<double>(i)});
+    }
+    done = true;
+  });
+  std::uint64_t last = 0;
+  while (!done) {
+    Wide w{7, 7, 7, 7.0};
+    if (!lock.try_load(w)) {
+      ASSERT_EQ(w.a, 7U);  // untouched
+      continue;
+    }
+    ASSERT_EQ(w.a, w.b);
+    ASSERT_EQ(w.b, w.c);
+    ASSERT_EQ(static_cast<double>(w.a), w.d);
+    ASSERT_GE(w.a, last);
+    last = w.a;
+  }
+  writer.join();
+  Wide w{};
+  ASSERT_TRUE(lock.try_load(w)) << "no writer: the first attempt succeeds";
+  EXPECT_EQ(w.a, 20000U);
+}
+
 }  // namespace
 }  // namespace ajar::daemon
