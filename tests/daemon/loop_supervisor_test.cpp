@@ -509,6 +509,50 @@ class LoopSupervisorKernel : public ::testing::Test {
     CPU_SET(cpu, &set);
     return pthread_setaffinity_np(pthread_self(), sizeof set, &set) == 0;
   }
+  // A SCHED_FIFO (priority 1) thread pinned to `cpu`, spinning until release(), at most 0.9 s
+  // (RT throttling would let the others run at 0.95 s). The constructor returns once it spins
+  // or was refused.
+  class FifoSpinner {
+   public:
+    explicit FifoSpinner(std::size_t cpu) : thread_([this, cpu] { run(cpu); }) {
+      while (state_ == 0)
+        ::usleep(100);
+    }
+    ~FifoSpinner() { release(); }
+    FifoSpinner(const FifoSpinner&) = delete;
+    FifoSpinner& operator=(const FifoSpinner&) = delete;
+    bool refused() const { return state_ < 0; }  // SCHED_FIFO or pinning refused
+    bool gave_up() const { return gave_up_; }    // it stopped at 0.9 s, before release()
+    int tid() const { return tid_; }
+    void release() {
+      release_ = true;
+      if (thread_.joinable()) thread_.join();
+    }
+
+   private:
+    void run(std::size_t cpu) {
+      sched_param param{};
+      param.sched_priority = 1;
+      if (!pin(cpu) || pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
+        state_ = -1;
+        return;
+      }
+      tid_ = static_cast<int>(::gettid());
+      state_ = 1;
+      const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(900);
+      while (!release_) {
+        if (std::chrono::steady_clock::now() > give_up) {
+          gave_up_ = true;
+          break;
+        }
+      }
+    }
+    std::atomic<int> state_{0};  // 1: spinning, -1: refused
+    std::atomic<int> tid_{0};
+    std::atomic<bool> release_{false};
+    std::atomic<bool> gave_up_{false};
+    std::thread thread_;  // last: started once the flags exist
+  };
   cpu_set_t saved_{};                 // this (the test's) thread's CPUs, restored after
   std::vector<std::size_t> allowed_;  // the first two of them
 };
@@ -568,9 +612,6 @@ TEST_F(LoopSupervisorKernel, AThreadKeptOffItsCpuIsWaitingAndItsWaitShowsOnlyWhe
   if (!pin(allowed_[0])) GTEST_SKIP() << "cannot pin this thread";
   std::atomic<int> tid{0};
   std::atomic<bool> done{false};
-  std::atomic<int> hog{0};  // 1: spinning at SCHED_FIFO, -1: refused
-  std::atomic<bool> release{false};
-  std::atomic<bool> gave_up{false};
   std::thread waiter([&] {  // wakes every 100 us: runnable at once when the CPU is taken
     if (pin(contended))
       tid = static_cast<int>(::gettid());
@@ -581,37 +622,13 @@ TEST_F(LoopSupervisorKernel, AThreadKeptOffItsCpuIsWaitingAndItsWaitShowsOnlyWhe
   });
   while (tid == 0)
     ::usleep(100);
-  std::atomic<int> spinner_tid{0};
-  std::thread spinner([&] {
-    sched_param param{};
-    param.sched_priority = 1;
-    if (!pin(contended) || pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
-      hog = -1;
-      return;
-    }
-    spinner_tid = static_cast<int>(::gettid());
-    hog = 1;
-    // Until released, at most 0.9 s (RT throttling would let the waiter run at 0.95 s).
-    const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(900);
-    while (!release) {
-      if (std::chrono::steady_clock::now() > give_up) {
-        gave_up = true;
-        break;
-      }
-    }
-  });
-  while (hog == 0)
-    ::usleep(100);
-  const auto release_the_cpu = [&] {
-    release = true;
-    if (spinner.joinable()) spinner.join();
-  };
+  FifoSpinner spinner(contended);
   const auto end = [&] {
-    release_the_cpu();
+    spinner.release();
     done = true;
     waiter.join();
   };
-  if (hog < 0 || tid < 0) {
+  if (spinner.refused() || tid < 0) {
     end();
     GTEST_SKIP() << "SCHED_FIFO or pinning refused here: cannot keep a thread off its CPU";
   }
@@ -621,9 +638,9 @@ TEST_F(LoopSupervisorKernel, AThreadKeptOffItsCpuIsWaitingAndItsWaitShowsOnlyWhe
       eventually([&] { return (a = thread_cpu(tid)).waiting; }, std::chrono::milliseconds(500));
   ::usleep(20'000);
   const ThreadCpu b = thread_cpu(tid);
-  const ThreadCpu hog_cpu = thread_cpu(spinner_tid);
-  const bool held = !gave_up;  // the spinner still held the CPU after the second read
-  release_the_cpu();
+  const ThreadCpu hog_cpu = thread_cpu(spinner.tid());
+  const bool held = !spinner.gave_up();  // the spinner still held the CPU after the second read
+  spinner.release();
   if (!held) {
     end();
     GTEST_SKIP() << "this thread was not scheduled within 0.9 s: a loaded machine";
@@ -688,34 +705,13 @@ TEST_F(LoopSupervisorKernel, ASleeperKeptOffItsCpuPastItsWakeUpHasHadNoSwitchInS
     FAIL() << "the thread did not go to sleep with its record out";
   }
   const LoopSleep record = published.load();
-  std::atomic<int> hog{0};  // 1: spinning at SCHED_FIFO, -1: refused
-  std::atomic<bool> release{false};
-  std::atomic<bool> gave_up{false};
-  std::thread spinner([&] {
-    sched_param param{};
-    param.sched_priority = 1;
-    if (!pin(contended) || pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
-      hog = -1;
-      return;
-    }
-    hog = 1;
-    const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(900);
-    while (!release) {
-      if (std::chrono::steady_clock::now() > give_up) {
-        gave_up = true;
-        break;
-      }
-    }
-  });
-  while (hog == 0)
-    ::usleep(100);
+  FifoSpinner spinner(contended);
   const auto end = [&] {
-    release = true;
-    spinner.join();
+    spinner.release();
     finish = true;
     sleeper.join();
   };
-  if (hog < 0) {
+  if (spinner.refused()) {
     end();
     GTEST_SKIP() << "SCHED_FIFO or pinning refused here: cannot keep a thread off its CPU";
   }
@@ -723,8 +719,8 @@ TEST_F(LoopSupervisorKernel, ASleeperKeptOffItsCpuPastItsWakeUpHasHadNoSwitchInS
     ::usleep(1'000);
   const ThreadCpu past = thread_cpu(tid);
   const LoopSleep still = published.load();
-  const bool held = !gave_up;
-  release = true;
+  const bool held = !spinner.gave_up();
+  spinner.release();
   if (!held) {
     end();
     GTEST_SKIP() << "this thread was not scheduled within 0.9 s: a loaded machine";
