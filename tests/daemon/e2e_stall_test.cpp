@@ -199,8 +199,7 @@ std::string AjardStall::starve_the_control_thread(int hog_priority, int loop_ms,
   }
   const long long waited_before = waited_ns(ajard.pid(), loop);
   std::atomic<bool> refused{false};
-  const auto start = std::chrono::steady_clock::now();
-  const auto spin = [&](const cpu_set_t& cpu, int ms) {
+  const auto spin = [&](const cpu_set_t& cpu, int ms) {  // for `ms` from when it holds the CPU
     sched_param param{};
     param.sched_priority = hog_priority;
     if (pthread_setaffinity_np(pthread_self(), sizeof cpu, &cpu) != 0 ||
@@ -208,7 +207,7 @@ std::string AjardStall::starve_the_control_thread(int hog_priority, int loop_ms,
       refused = true;
       return;
     }
-    const auto end = start + std::chrono::milliseconds(ms);
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
     while (std::chrono::steady_clock::now() < end) {
     }
   };
