@@ -160,9 +160,12 @@ bool ControlLoop::stop_thread(std::int64_t limit_ns) noexcept {
 }
 
 void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
+  const OwnSchedstat own;  // this thread's: what it publishes of its sleep (sleep_record())
   std::int64_t deadline = first_deadline_ns;
   while (!exit_requested_.load(std::memory_order_relaxed)) {
+    sleep_.store(own.going_to_sleep(deadline));
     sleep_until_ns(deadline);
+    sleep_.store(LoopSleep{});  // awake: the first thing it does with its CPU
     const std::int64_t wake = monotonic_now_ns();
     cycle(wake);
     const std::int64_t end = monotonic_now_ns();

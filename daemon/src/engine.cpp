@@ -41,7 +41,8 @@ EngineImpl::EngineImpl(const Config& config, drivers::DriverSet drivers, EngineO
   supervisor_ = std::make_unique<LoopSupervisor>(
       SupervisedLoop{
           [this] { return loop_->thread_running(); }, [this] { return loop_->last_cycle_end_ns(); },
-          [this] { loop_->latch_stalled(); }, [this] { return thread_cpu(loop_->thread_tid()); }},
+          [this] { loop_->latch_stalled(); }, [this] { return thread_cpu(loop_->thread_tid()); },
+          [this] { return loop_->sleep_record(); }},
       *card_, axes, config.control);
 }
 

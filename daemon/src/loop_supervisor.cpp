@@ -1,16 +1,12 @@
 // The loop supervisor (loop_supervisor.hpp): a check of the loop's last cycle end, its thread.
 #include "ajar/daemon/loop_supervisor.hpp"
 
-#include <fcntl.h>
 #include <pthread.h>
 #include <sched.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <future>
 #include <stdexcept>
@@ -34,56 +30,7 @@ std::string make_realtime(int priority) {
          "); it runs with normal scheduling";
 }
 
-// The text of /proc/self/task/TID/NAME into `text` (NUL-terminated); false when unreadable.
-bool read_task_file(int tid, const char* name, char* text, std::size_t size) noexcept {
-  char path[64];
-  std::snprintf(path, sizeof path, "/proc/self/task/%d/%s", tid, name);
-  const int fd = ::open(path, O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return false;
-  const ssize_t n = ::read(fd, text, size - 1);
-  ::close(fd);
-  if (n <= 0) return false;
-  text[n] = '\0';
-  return true;
-}
-
 }  // namespace
-
-ThreadCpu thread_cpu(int tid) noexcept {
-  ThreadCpu cpu;
-  if (tid <= 0) return cpu;
-  char text[512];
-  if (read_task_file(tid, "schedstat", text, sizeof text)) {
-    // "<ns on a CPU> <ns waiting on a runqueue> <timeslices>"
-    char* end = nullptr;
-    (void)std::strtoll(text, &end, 10);
-    const char* second = end;
-    const long long waited = std::strtoll(second, &end, 10);
-    if (end != second && waited >= 0) cpu.waited_ns = waited;
-  }
-  // The thread's CPU clock, as glibc's pthread_getcpuclockid makes it from the kernel's thread id
-  // (MAKE_THREAD_CPUCLOCK(tid, CPUCLOCK_SCHED)): the kernel brings a running thread's time up to
-  // date when it is read, where schedstat's first field waits for the next tick.
-  const auto clock = static_cast<clockid_t>((~static_cast<unsigned>(tid) << 3) | 4U | 2U);
-  const auto on_cpu_ns = [clock]() -> std::int64_t {
-    timespec ts{};
-    return ::clock_gettime(clock, &ts) == 0 ? ts.tv_sec * 1'000'000'000LL + ts.tv_nsec : -1;
-  };
-  // Waiting only when it got no CPU time around the state's read: a thread that ran (and may
-  // have fallen asleep) between the reads is not taken for one that waited.
-  const std::int64_t before = on_cpu_ns();
-  if (read_task_file(tid, "stat", text, sizeof text)) {
-    // "TID (comm) S ...": the state follows the last ')' (comm may hold any byte)
-    const char* close = std::strrchr(text, ')');
-    cpu.waiting = close != nullptr && close[1] == ' ' && close[2] == 'R';
-  }
-  cpu.on_cpu_ns = on_cpu_ns();
-  cpu.waiting = cpu.waiting && before >= 0 && cpu.on_cpu_ns == before;
-  const int policy = ::sched_getscheduler(tid);  // a thread id names the thread (Linux)
-  cpu.realtime = policy >= 0 && ((policy & ~SCHED_RESET_ON_FORK) == SCHED_FIFO ||
-                                 (policy & ~SCHED_RESET_ON_FORK) == SCHED_RR);
-  return cpu;
-}
 
 LoopSupervisor::LoopSupervisor(SupervisedLoop loop, drivers::MotionCard& card,
                                std::span<const int> axes, const LoopSupervisorSettings& settings)
@@ -111,38 +58,48 @@ bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
     quiet_checks_ = 0;
     last_cpu_ = {};  // a thread started again is another thread
     last_check_ns_ = -1;
-    waiting_ns_ = 0;
     unshown_ns_ = 0;
     return false;
   }
   const std::int64_t end = loop_.last_cycle_end_ns();
   const ThreadCpu cpu = loop_.thread_cpu ? loop_.thread_cpu() : ThreadCpu{};
-  // Waits that ended since the last check (the kernel adds a wait when the thread gets a CPU);
-  // the wait going on now: waiting at this check and the last with no CPU time in between.
+  const LoopSleep sleep = loop_.sleep ? loop_.sleep() : LoopSleep{};
   // A realtime thread's waits are not excused (loop_supervisor.hpp).
+  const bool excusable = !cpu.realtime;
+  // Waits that ended since the last check (the kernel adds a wait when the thread gets a CPU, or
+  // what it has waited so far when it moves it to another CPU).
   const std::int64_t ended_waits =
-      cpu.waited_ns >= 0 && last_cpu_.waited_ns >= 0 && !cpu.realtime
+      excusable && cpu.waited_ns >= 0 && last_cpu_.waited_ns >= 0
           ? std::max<std::int64_t>(0, cpu.waited_ns - last_cpu_.waited_ns)
           : 0;
-  const bool still_waiting = cpu.waiting && last_cpu_.waiting && !cpu.realtime &&
-                             cpu.on_cpu_ns >= 0 && cpu.on_cpu_ns == last_cpu_.on_cpu_ns &&
-                             last_check_ns_ >= 0;
-  if (still_waiting) {
-    waiting_ns_ += now_ns - last_check_ns_;
-  } else {  // the wait ended: its seen part stays excused until run_delay shows the wait (a check
-            // can read run_delay just before the thread gets its CPU and the clock just after)
-    unshown_ns_ += waiting_ns_;
-    waiting_ns_ = 0;
+  // The wait going on, from check to check: waiting at this check and the last with no CPU time
+  // in between.
+  const bool still_waiting = excusable && cpu.waiting && last_cpu_.waiting && cpu.on_cpu_ns >= 0 &&
+                             cpu.on_cpu_ns == last_cpu_.on_cpu_ns && last_check_ns_ >= 0;
+  // The wait going on, exactly: the thread is in the loop's sleep and has had no CPU since it
+  // went to sleep; past its planned wake-up it waits for one (thread_schedule.hpp, LoopSleep).
+  const bool in_its_sleep = excusable && sleep.wake_ns > 0 && sleep.switch_ins > 0 &&
+                            cpu.switch_ins == sleep.switch_ins && sleep.waited_ns >= 0 &&
+                            cpu.waited_ns >= sleep.waited_ns;
+  const std::int64_t shown_since_sleep = in_its_sleep ? cpu.waited_ns - sleep.waited_ns : 0;
+  if (in_its_sleep) {  // every earlier wait is in run_delay (the thread read it after them)
+    unshown_ns_ = std::max<std::int64_t>(
+        0, std::max<std::int64_t>(0, now_ns - sleep.wake_ns) - shown_since_sleep);
+  } else {  // the seen part of a wait stays excused until run_delay shows it (a check can read
+            // run_delay just before the thread gets its CPU and its clock just after)
+    unshown_ns_ = std::max<std::int64_t>(
+        0, unshown_ns_ + (still_waiting ? now_ns - last_check_ns_ : 0) - ended_waits);
   }
-  unshown_ns_ = std::max<std::int64_t>(0, unshown_ns_ - ended_waits);
   last_cpu_ = cpu;
   last_check_ns_ = now_ns;
   if (!seen_any_ || end != seen_end_ns_) {  // the loop made progress: (re-)armed
     seen_any_ = true;
     seen_end_ns_ = end;
     quiet_checks_ = 0;
-    excused_ns_ = 0;
-    unshown_ns_ = 0;
+    // The silence starts at the new end: of the waits so far only one going on in the sleep
+    // after it belongs to it (the thread had a CPU for that cycle).
+    excused_ns_ = shown_since_sleep;
+    if (!in_its_sleep) unshown_ns_ = 0;
     stalled_.store(false, std::memory_order_release);
     return false;
   }
@@ -150,7 +107,7 @@ bool LoopSupervisor::check(std::int64_t now_ns) noexcept {
   if (quiet_checks_ < kQuietChecks) ++quiet_checks_;
   if (stalled_.load(std::memory_order_relaxed)) return false;  // this stall was acted on
   const std::int64_t silent = now_ns - end;
-  const std::int64_t excused = excused_ns_ + unshown_ns_ + waiting_ns_;
+  const std::int64_t excused = excused_ns_ + unshown_ns_;
   if (quiet_checks_ < kQuietChecks) return false;
   if (silent - excused < stall_timeout_ns_ && silent < kLatestLatchNs) return false;
   // Stalled. The loop first (a call returning now must find the latch), the engine next (its

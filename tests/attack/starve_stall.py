@@ -9,6 +9,10 @@ Usage: starve_stall.py MODE [trials] [seed]      (env TIMEOUTS="0.1,0.02", DUR=2
   tear       the same with back-to-back short hogs (30-80 ms, 10-50 ms apart): every hog's end
              is a chance for a check that reads run_delay before the wait ends and the CPU clock
              after it (use TIMEOUTS=0.02: a latch with silent > 28 ms and ~0 excused at a hog's end)
+  late       the same as fifo with hogs of 0.3-0.7 s, and the supervisor (pinned to the other CPU
+             with ajard's other threads) kept off its CPU by a second SCHED_FIFO hog for the
+             first 40-85 % of each: it sees the loop's wait only late (wave 12, A3; no latch
+             expected since the control thread publishes its sleep).
   cfs        the same with 1-4 nice-0 spinners pinned to the loop's CPU for 0.5-3 s at a time.
   cgroup     the same with ajard (every thread) in a cgroup-v1 cpu group throttled to 1-5 ms per
              50-500 ms for 1-3 s at a time; `cgroup-loop`: only the ajar-loop thread in it.
@@ -239,7 +243,8 @@ def starve_trial(timeout, trial):
         cg = "/sys/fs/cgroup/cpu/ajar-attack3-%d" % os.getpid()
         os.makedirs(cg, exist_ok=True)
     hogs, t_end = [], time.monotonic() + DUR
-    fifo = Hog(LOOPCPU, "fifo", 50) if MODE in ("fifo", "tear") else None
+    fifo = Hog(LOOPCPU, "fifo", 50) if MODE in ("fifo", "tear", "late") else None
+    blind = Hog(OTHERCPU, "fifo", 50) if MODE == "late" else None  # keeps the supervisor off
     while time.monotonic() < t_end:
         time.sleep(rng.uniform(0.3, 1.5))
         if MODE == "none":
@@ -251,6 +256,14 @@ def starve_trial(timeout, trial):
                 fifo.spin(dur)
                 hogs.append(("fifo", dur) + fifo.done())
                 time.sleep(rng.uniform(0.01, 0.05))
+            continue
+        if MODE == "late":  # the supervisor looks again only after 40-85 % of the loop's wait
+            dur = rng.uniform(0.3, 0.7)
+            blind_dur = dur * rng.uniform(0.4, 0.85)
+            fifo.spin(dur)
+            blind.spin(blind_dur)
+            blind.done()
+            hogs.append(("late (supervisor %.2fs)" % blind_dur, dur) + fifo.done())
             continue
         if MODE == "fifo":
             dur = rng.uniform(0.2, 0.9)
@@ -292,6 +305,8 @@ def starve_trial(timeout, trial):
     obs.close()
     if fifo:
         fifo.close()
+    if blind:
+        blind.close()
     if cg:
         try:
             os.rmdir(cg)
@@ -469,7 +484,7 @@ def rt_starve():
 if MAIN:
     say("seed %d mode %s trials %d timeouts %s DUR %.0f loop CPU %d pin others %s (loadavg %s)" % (
         SEED, MODE, TRIALS, TIMEOUTS, DUR, LOOPCPU, PIN_OTHERS, loadavg()))
-    if MODE in ("none", "fifo", "tear", "cfs", "cgroup", "cgroup-loop"):
+    if MODE in ("none", "fifo", "tear", "late", "cfs", "cgroup", "cgroup-loop"):
         total = {}
         for timeout in TIMEOUTS:
             for trial in range(TRIALS):

@@ -205,26 +205,56 @@ struct Wide {
   double d = 0;
 };
 
-TEST(SeqLock, ReaderNeverSeesATornValue) {
-  SeqLock<Wide> lock;
-  std::atomic<bool> done{false};
-  std::thread writer([&] {
+// Publishes Wide{i, i, i, i} for i = 1..20000, then sets `done`.
+std::thread publish_counting(SeqLock<Wide>& lock, std::atomic<bool>& done) {
+  return std::thread([&lock, &done] {
     for (std::uint64_t i = 1; i <= 20000; ++i) {
       lock.store(Wide{i, i, i, static_cast<double>(i)});
     }
     done = true;
   });
+}
+// One value publish_counting() published, not parts of two.
+bool is_whole(const Wide& w) {
+  return w.a == w.b && w.b == w.c && static_cast<double>(w.a) == w.d;
+}
+
+TEST(SeqLock, ReaderNeverSeesATornValue) {
+  SeqLock<Wide> lock;
+  std::atomic<bool> done{false};
+  std::thread writer = publish_counting(lock, done);
   std::uint64_t last = 0;
   while (!done) {
     const Wide w = lock.load();
-    ASSERT_EQ(w.a, w.b);
-    ASSERT_EQ(w.b, w.c);
-    ASSERT_EQ(static_cast<double>(w.a), w.d);
+    ASSERT_TRUE(is_whole(w)) << w.a << " " << w.b << " " << w.c << " " << w.d;
     ASSERT_GE(w.a, last);  // published values only move forward
     last = w.a;
   }
   writer.join();
   EXPECT_EQ(lock.load().a, 20000U);
+}
+
+TEST(SeqLock, TryLoadNeverWaitsAndNeverSeesATornValue) {
+  // One attempt: a read that overlaps a store fails (value untouched) rather than spinning, and
+  // a read that succeeds is a whole published value.
+  SeqLock<Wide> lock;
+  std::atomic<bool> done{false};
+  std::thread writer = publish_counting(lock, done);
+  std::uint64_t last = 0;
+  while (!done) {
+    Wide w{7, 0, 0, 0.0};
+    if (!lock.try_load(w)) {
+      ASSERT_EQ(w.a, 7U);  // untouched
+      continue;
+    }
+    ASSERT_TRUE(is_whole(w)) << w.a << " " << w.b << " " << w.c << " " << w.d;
+    ASSERT_GE(w.a, last);
+    last = w.a;
+  }
+  writer.join();
+  Wide w{};
+  ASSERT_TRUE(lock.try_load(w)) << "no writer: the first attempt succeeds";
+  EXPECT_EQ(w.a, 20000U);
 }
 
 }  // namespace

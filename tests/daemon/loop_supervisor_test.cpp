@@ -22,7 +22,11 @@
 #include <vector>
 
 #include "ajar/daemon/config.hpp"
+#include "ajar/daemon/control_loop.hpp"
 #include "ajar/daemon/loop_supervisor.hpp"
+#include "ajar/daemon/realtime.hpp"
+#include "ajar/daemon/seqlock.hpp"
+#include "ajar/drivers/lifecycle.hpp"
 #include "ajar/drivers/mock_card.hpp"
 #include "eventually.hpp"
 #include "fake_clock.hpp"
@@ -56,7 +60,7 @@ class LoopSupervisorTest : public ::testing::Test {
                          // The order: the loop's latch comes before the card's stop.
                          latch_calls.push_back(card.calls(CardCall::kEmergencyStopOutOfBand));
                        },
-                       [this] { return thread; }},
+                       [this] { return thread; }, [this] { return sleep; }},
         card, kWheels, settings);
   }
   // The loop completes a cycle at `t` and the supervisor checks right after.
@@ -81,6 +85,7 @@ class LoopSupervisorTest : public ::testing::Test {
   bool running = true;
   std::int64_t last_end_ns = 1'000 * kMs;
   ThreadCpu thread;                        // the loop thread as the kernel shows it; unknown
+  LoopSleep sleep;                         // what it published of its sleep; awake
   std::vector<std::uint64_t> latch_calls;  // out-of-band stops already made at each latch
 };
 
@@ -274,6 +279,129 @@ TEST_F(LoopSupervisorTest, AWaitThatEndsBetweenTheReadsOfOneCheckStaysExcused) {
   EXPECT_LT(latched_at - start - waited, supervisor->stall_timeout_ns() + step);
 }
 
+TEST_F(LoopSupervisorTest, AWaitThatBeganLongBeforeTheSupervisorLookedIsExcusedInFull) {
+  // The control thread went to sleep after its cycle, asking to wake 2 ms later, and from then on
+  // waited for a CPU; the supervisor, starved as well, looks again only 300 ms later. Its sleep
+  // record (planned wake-up, the switch-ins it slept with: unchanged, it has had no CPU since)
+  // says it has waited since its wake-up: all of that is excused at the first look. Before, only
+  // the wait from the first check that saw it on was: latched at the third check, "no cycle for
+  // 350 ms" (tests/attack/FINDINGS.md, wave 12, A3: "1197 ms, 518 ms of it waiting").
+  const std::int64_t start = 1'000 * kMs;
+  const std::int64_t wake = start + 2 * kMs;
+  thread = ThreadCpu{0, 1'000 * kMs, false, false, 7};  // asleep between cycles
+  sleep = LoopSleep{wake, 7, 0};
+  ASSERT_FALSE(cycle_and_check(start));
+  thread.waiting = true;  // past its wake-up: runnable, no CPU (clock, run_delay, switch-ins still)
+  const std::int64_t step = supervisor->check_period_ns();
+  std::int64_t t = start + 300 * kMs;
+  for (; t <= start + 400 * kMs; t += step) {
+    ASSERT_FALSE(supervisor->check(t)) << "latched at " << (t - start) / kMs << " ms";
+  }
+  // It gets its CPU at 410 ms: the kernel adds the whole wait; it wakes (awake) and the cycle's
+  // card call hangs asleep. The wait is excused once, not as its exact part and run_delay both.
+  const std::int64_t waited = start + 410 * kMs - wake;
+  thread = ThreadCpu{waited, 1'001 * kMs, false, false, 8};
+  sleep = LoopSleep{};
+  const std::int64_t latched_at = quiet_checks(t, 1'000 * kMs);
+  ASSERT_GE(latched_at, 0);
+  EXPECT_EQ(supervisor->last_stall().excused_ns, waited);
+  EXPECT_GE(latched_at - start - waited, supervisor->stall_timeout_ns());
+  EXPECT_LT(latched_at - start - waited, supervisor->stall_timeout_ns() + step);
+  EXPECT_EQ(oob_stops(), 1U);
+}
+
+TEST_F(LoopSupervisorTest, AWaitRunDelayShowsInPartWhileItGoesOnIsCountedOnce) {
+  // The kernel adds what a waiting thread has waited so far to run_delay when it moves it to
+  // another CPU: the wait shows in part while it goes on. That part is not excused a second time,
+  // by the sleep record (exact) nor by the checks that see the thread runnable without a CPU
+  // (before: both, a wait of 388 ms excused as 548).
+  for (const bool record : {true, false}) {
+    make();
+    const std::int64_t start = 1'000 * kMs;
+    const std::int64_t wake = start + 2 * kMs;
+    thread = ThreadCpu{0, 1'000 * kMs, false, false, 7};
+    sleep = record ? LoopSleep{wake, 7, 0} : LoopSleep{};
+    ASSERT_FALSE(cycle_and_check(start));
+    thread.waiting = true;
+    const std::int64_t step = supervisor->check_period_ns();
+    std::int64_t t = start + step;
+    for (; t < start + 400 * kMs; t += step) {
+      if (t == start + 200 * kMs) thread.waited_ns = 198 * kMs;  // moved to another CPU
+      ASSERT_FALSE(supervisor->check(t)) << record << " " << (t - start) / kMs;
+    }
+    // Its CPU at 390 ms: the rest of the wait shows; the cycle's card call hangs asleep.
+    const std::int64_t waited = start + 390 * kMs - wake;
+    thread = ThreadCpu{waited, 1'001 * kMs, false, false, 8};
+    sleep = LoopSleep{};
+    const std::int64_t latched_at = quiet_checks(t, 1'000 * kMs);
+    ASSERT_GE(latched_at, 0) << record;
+    EXPECT_EQ(supervisor->last_stall().excused_ns, waited) << record;
+    EXPECT_GE(latched_at - start - waited, supervisor->stall_timeout_ns()) << record;
+    EXPECT_LT(latched_at - start - waited, supervisor->stall_timeout_ns() + step) << record;
+  }
+}
+
+TEST_F(LoopSupervisorTest, TheSleepRecordExcusesNoHungCall) {
+  // The thread woke at its planned wake-up, got its CPU at once and its cycle's card call hangs:
+  // asleep in the kernel or spinning. Whatever the record says, it is not a wait in the loop's
+  // sleep: the thread said it woke; or (a record read before that, or a kernel that does not
+  // count switch-ins) it had a CPU since, or nothing proves it had none. Latched at the timeout,
+  // nothing excused.
+  struct Case {
+    const char* what;
+    LoopSleep after;      // the record the supervisor reads during the hang
+    std::int64_t ins;     // the thread's switch-ins then (7 when it went to sleep)
+    std::int64_t waited;  // its run_delay then (0 when it went to sleep)
+    bool spins;           // the call spins on a CPU (its clock moves, runnable)
+  };
+  const std::int64_t start = 1'000 * kMs;
+  const std::int64_t wake = start + 2 * kMs;
+  const Case cases[] = {
+      {"awake, hung asleep", LoopSleep{}, 8, 0, false},
+      {"awake, spinning without a switch", LoopSleep{}, 7, 0, true},
+      {"stale record, hung asleep", LoopSleep{wake, 7, 0}, 8, 0, false},
+      {"stale record, spinning", LoopSleep{wake, 7, 0}, 9, 0, true},
+      {"switch-ins not counted", LoopSleep{wake, 0, 0}, 0, 0, false},
+      {"switch-ins unknown", LoopSleep{wake, 7, 0}, -1, 0, false},
+      {"run_delay unknown", LoopSleep{wake, 7, -1}, 7, -1, false},
+  };
+  for (const Case& c : cases) {
+    make();
+    thread = ThreadCpu{0, 1'000 * kMs, false, false, 7};
+    sleep = LoopSleep{wake, 7, 0};
+    ASSERT_FALSE(cycle_and_check(start));
+    thread = ThreadCpu{c.waited, 1'000 * kMs + 10'000, c.spins, false, c.ins};
+    sleep = c.after;
+    const std::int64_t step = supervisor->check_period_ns();
+    std::int64_t latched_at = -1;
+    for (int i = 1; i <= 40 && latched_at < 0; ++i) {
+      if (c.spins) thread.on_cpu_ns += step / 2;
+      if (supervisor->check(start + i * step)) latched_at = start + i * step;
+    }
+    ASSERT_GE(latched_at, 0) << c.what;
+    EXPECT_EQ(latched_at - start, supervisor->stall_timeout_ns()) << c.what;
+    EXPECT_EQ(supervisor->last_stall().excused_ns, 0) << c.what;
+  }
+}
+
+TEST_F(LoopSupervisorTest, ARealtimeLoopPastItsWakeUpIsNotExcused) {
+  // SCHED_FIFO: the exact wait is not excused either (only another realtime thread keeps it off
+  // its CPU). The A3 case: latched at the third quiet check, nothing excused.
+  const std::int64_t start = 1'000 * kMs;
+  thread = ThreadCpu{0, 1'000 * kMs, false, true, 7};
+  sleep = LoopSleep{start + 2 * kMs, 7, 0};
+  ASSERT_FALSE(cycle_and_check(start));
+  thread.waiting = true;
+  const std::int64_t step = supervisor->check_period_ns();
+  std::int64_t latched_at = -1;
+  for (std::int64_t t = start + 300 * kMs; t <= start + 700 * kMs && latched_at < 0; t += step) {
+    if (supervisor->check(t)) latched_at = t;
+  }
+  ASSERT_GE(latched_at, 0);
+  EXPECT_EQ(latched_at - start, 300 * kMs + (LoopSupervisor::kQuietChecks - 1) * step);
+  EXPECT_EQ(supervisor->last_stall().excused_ns, 0);
+}
+
 TEST_F(LoopSupervisorTest, OnlyARunnableThreadWithoutCpuTimeBetweenTwoChecksIsWaiting) {
   // Runnable at one check and asleep at the next (or the other way round), with no CPU time in
   // between: no interval where it was surely waiting for a CPU; nothing excused.
@@ -381,6 +509,50 @@ class LoopSupervisorKernel : public ::testing::Test {
     CPU_SET(cpu, &set);
     return pthread_setaffinity_np(pthread_self(), sizeof set, &set) == 0;
   }
+  // A SCHED_FIFO (priority 1) thread pinned to `cpu`, spinning until release(), at most 0.9 s
+  // (RT throttling would let the others run at 0.95 s). The constructor returns once it spins
+  // or was refused.
+  class FifoSpinner {
+   public:
+    explicit FifoSpinner(std::size_t cpu) : thread_([this, cpu] { run(cpu); }) {
+      while (state_ == 0)
+        ::usleep(100);
+    }
+    ~FifoSpinner() { release(); }
+    FifoSpinner(const FifoSpinner&) = delete;
+    FifoSpinner& operator=(const FifoSpinner&) = delete;
+    bool refused() const { return state_ < 0; }  // SCHED_FIFO or pinning refused
+    bool gave_up() const { return gave_up_; }    // it stopped at 0.9 s, before release()
+    int tid() const { return tid_; }
+    void release() {
+      release_ = true;
+      if (thread_.joinable()) thread_.join();
+    }
+
+   private:
+    void run(std::size_t cpu) {
+      sched_param param{};
+      param.sched_priority = 1;
+      if (!pin(cpu) || pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
+        state_ = -1;
+        return;
+      }
+      tid_ = static_cast<int>(::gettid());
+      state_ = 1;
+      const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(900);
+      while (!release_) {
+        if (std::chrono::steady_clock::now() > give_up) {
+          gave_up_ = true;
+          break;
+        }
+      }
+    }
+    std::atomic<int> state_{0};  // 1: spinning, -1: refused
+    std::atomic<int> tid_{0};
+    std::atomic<bool> release_{false};
+    std::atomic<bool> gave_up_{false};
+    std::thread thread_;  // last: started once the flags exist
+  };
   cpu_set_t saved_{};                 // this (the test's) thread's CPUs, restored after
   std::vector<std::size_t> allowed_;  // the first two of them
 };
@@ -440,9 +612,6 @@ TEST_F(LoopSupervisorKernel, AThreadKeptOffItsCpuIsWaitingAndItsWaitShowsOnlyWhe
   if (!pin(allowed_[0])) GTEST_SKIP() << "cannot pin this thread";
   std::atomic<int> tid{0};
   std::atomic<bool> done{false};
-  std::atomic<int> hog{0};  // 1: spinning at SCHED_FIFO, -1: refused
-  std::atomic<bool> release{false};
-  std::atomic<bool> gave_up{false};
   std::thread waiter([&] {  // wakes every 100 us: runnable at once when the CPU is taken
     if (pin(contended))
       tid = static_cast<int>(::gettid());
@@ -453,37 +622,13 @@ TEST_F(LoopSupervisorKernel, AThreadKeptOffItsCpuIsWaitingAndItsWaitShowsOnlyWhe
   });
   while (tid == 0)
     ::usleep(100);
-  std::atomic<int> spinner_tid{0};
-  std::thread spinner([&] {
-    sched_param param{};
-    param.sched_priority = 1;
-    if (!pin(contended) || pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
-      hog = -1;
-      return;
-    }
-    spinner_tid = static_cast<int>(::gettid());
-    hog = 1;
-    // Until released, at most 0.9 s (RT throttling would let the waiter run at 0.95 s).
-    const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(900);
-    while (!release) {
-      if (std::chrono::steady_clock::now() > give_up) {
-        gave_up = true;
-        break;
-      }
-    }
-  });
-  while (hog == 0)
-    ::usleep(100);
-  const auto release_the_cpu = [&] {
-    release = true;
-    if (spinner.joinable()) spinner.join();
-  };
+  FifoSpinner spinner(contended);
   const auto end = [&] {
-    release_the_cpu();
+    spinner.release();
     done = true;
     waiter.join();
   };
-  if (hog < 0 || tid < 0) {
+  if (spinner.refused() || tid < 0) {
     end();
     GTEST_SKIP() << "SCHED_FIFO or pinning refused here: cannot keep a thread off its CPU";
   }
@@ -493,9 +638,9 @@ TEST_F(LoopSupervisorKernel, AThreadKeptOffItsCpuIsWaitingAndItsWaitShowsOnlyWhe
       eventually([&] { return (a = thread_cpu(tid)).waiting; }, std::chrono::milliseconds(500));
   ::usleep(20'000);
   const ThreadCpu b = thread_cpu(tid);
-  const ThreadCpu hog_cpu = thread_cpu(spinner_tid);
-  const bool held = !gave_up;  // the spinner still held the CPU after the second read
-  release_the_cpu();
+  const ThreadCpu hog_cpu = thread_cpu(spinner.tid());
+  const bool held = !spinner.gave_up();  // the spinner still held the CPU after the second read
+  spinner.release();
   if (!held) {
     end();
     GTEST_SKIP() << "this thread was not scheduled within 0.9 s: a loaded machine";
@@ -512,6 +657,123 @@ TEST_F(LoopSupervisorKernel, AThreadKeptOffItsCpuIsWaitingAndItsWaitShowsOnlyWhe
     EXPECT_TRUE(eventually([&] { return thread_cpu(tid).waited_ns - a.waited_ns >= 20'000'000; }));
   }
   end();
+}
+
+TEST_F(LoopSupervisorKernel, ASleeperKeptOffItsCpuPastItsWakeUpHasHadNoSwitchInSinceItSlept) {
+  // What the exact wait rests on, as the kernel shows it: a thread that published its record
+  // (OwnSchedstat, as the control thread does) and sleeps until its wake-up, kept off its CPU
+  // past it by a SCHED_FIFO thread, has the switch-ins and run_delay of its record and is
+  // runnable with its clock still; once it runs, its switch-ins move and the wait shows.
+  if (allowed_.size() < 2) GTEST_SKIP() << "needs two CPUs this process may use";
+  const std::size_t contended = allowed_[1];
+  if (!pin(allowed_[0])) GTEST_SKIP() << "cannot pin this thread";
+  SeqLock<LoopSleep> published;  // as ControlLoop::sleep_record() reads it
+  std::atomic<int> tid{0};
+  std::atomic<std::int64_t> wake{0};
+  std::atomic<bool> finish{false};
+  std::thread sleeper([&] {
+    if (!pin(contended)) {
+      tid = -1;
+      return;
+    }
+    const OwnSchedstat own;
+    tid = static_cast<int>(::gettid());
+    while (wake == 0)
+      ::usleep(100);
+    published.store(own.going_to_sleep(wake));
+    sleep_until_ns(wake);
+    published.store(LoopSleep{});
+    while (!finish)  // still there for the reads after it woke
+      ::usleep(100);
+  });
+  while (tid == 0)
+    ::usleep(100);
+  if (tid < 0) {
+    sleeper.join();
+    GTEST_SKIP() << "cannot pin a thread";
+  }
+  const std::int64_t w = monotonic_now_ns() + 200 * kMs;
+  wake = w;
+  // Asleep in its sleep (state S) with its record out, before the spinner takes its CPU.
+  if (!eventually([&] {
+        std::ifstream stat("/proc/self/task/" + std::to_string(tid.load()) + "/stat");
+        std::string text((std::istreambuf_iterator<char>(stat)), {});
+        return published.load().wake_ns == w && text.find(") S ") != std::string::npos;
+      })) {
+    finish = true;
+    sleeper.join();
+    FAIL() << "the thread did not go to sleep with its record out";
+  }
+  const LoopSleep record = published.load();
+  FifoSpinner spinner(contended);
+  const auto end = [&] {
+    spinner.release();
+    finish = true;
+    sleeper.join();
+  };
+  if (spinner.refused()) {
+    end();
+    GTEST_SKIP() << "SCHED_FIFO or pinning refused here: cannot keep a thread off its CPU";
+  }
+  while (monotonic_now_ns() < w + 100 * kMs)  // past its wake-up: runnable, kept off its CPU
+    ::usleep(1'000);
+  const ThreadCpu past = thread_cpu(tid);
+  const LoopSleep still = published.load();
+  const bool held = !spinner.gave_up();
+  spinner.release();
+  if (!held) {
+    end();
+    GTEST_SKIP() << "this thread was not scheduled within 0.9 s: a loaded machine";
+  }
+  if (record.switch_ins < 0) {
+    end();
+    GTEST_SKIP() << "no schedstat switch-ins here (/proc/thread-self/schedstat)";
+  }
+  EXPECT_GT(record.switch_ins, 0);
+  EXPECT_GE(record.waited_ns, 0);
+  EXPECT_EQ(still.wake_ns, w) << "it has not woken";
+  EXPECT_EQ(past.switch_ins, record.switch_ins) << "no CPU since it went to sleep";
+  EXPECT_EQ(past.waited_ns, record.waited_ns) << "its wait has not ended";
+  EXPECT_TRUE(past.waiting) << "runnable, its clock still";
+  // It runs: its switch-ins move, the wait shows (at least the 100 ms past its wake-up), awake.
+  EXPECT_TRUE(eventually([&] {
+    const ThreadCpu now = thread_cpu(tid);
+    return now.switch_ins > record.switch_ins && now.waited_ns - record.waited_ns >= 100 * kMs;
+  }));
+  EXPECT_TRUE(eventually([&] { return published.load().wake_ns == 0; })) << "awake";
+  end();
+}
+
+// The control thread of a real ControlLoop (mock card, steady clock) publishes its sleep between
+// cycles, with its own schedstat; hung in a card call it is not in its sleep (it said it woke):
+// the exact wait never covers a hang.
+TEST(LoopSupervisorLoop, TheControlThreadPublishesItsSleepAndIsAwakeInAHungCall) {
+  auto mock = std::make_unique<drivers::MockMotionCard>();
+  drivers::MockMotionCard& card = *mock;
+  ControlLoopSettings settings;
+  settings.control.rate_hz = 500;
+  const int axes[2] = {settings.base.left.card_axis, settings.base.right.card_axis};
+  drivers::ManagedMotionCard managed(std::move(mock), axes);
+  ASSERT_TRUE(managed.configure().ok());
+  ASSERT_TRUE(managed.activate().ok());
+  ControlLoop loop(managed, settings);
+  EXPECT_EQ(loop.sleep_record().wake_ns, 0) << "no thread: awake";
+  (void)loop.start_thread();
+  LoopSleep asleep;
+  ASSERT_TRUE(eventually([&] { return (asleep = loop.sleep_record()).wake_ns > 0; }));
+  const ThreadCpu after = thread_cpu(loop.thread_tid());
+  if (after.switch_ins >= 0) {  // the kernel counts them: the thread read its own
+    EXPECT_GT(asleep.switch_ins, 0);
+    EXPECT_LE(asleep.switch_ins, after.switch_ins);
+    EXPECT_GE(asleep.waited_ns, 0);
+    EXPECT_LE(asleep.waited_ns, after.waited_ns);
+  }
+  card.set_block_status(true);  // the next status read hangs
+  ASSERT_TRUE(eventually([&] { return card.blocked_calls() > 0; }));
+  EXPECT_EQ(loop.sleep_record().wake_ns, 0) << "a thread hung in a card call is not in its sleep";
+  card.set_block_status(false);
+  EXPECT_TRUE(eventually([&] { return loop.sleep_record().wake_ns > 0; }));
+  loop.stop_thread();
 }
 
 // The systemd watchdog stays the last resort: systemd aborts ajard WatchdogSec after the last ping,
@@ -542,8 +804,9 @@ TEST(LoopSupervisorWatchdog, TheSupervisorActsBeforeSystemdsWatchdogForEveryAcce
   LoopSupervisorSettings settings;
   settings.rate_hz = 10;  // the slowest loop the config accepts: the longest floor
   settings.stall_timeout_s = c.control.stall_timeout_s;
-  const LoopSupervisor supervisor(SupervisedLoop{[] { return true; }, [] { return 0; }, [] {}, {}},
-                                  card, kWheels, settings);
+  const LoopSupervisor supervisor(
+      SupervisedLoop{[] { return true; }, [] { return 0; }, [] {}, {}, {}}, card, kWheels,
+      settings);
   // The latest latch: the timeout, or kLatestLatchNs of silence for a loop excused as starved;
   // a check period after it at worst. systemd pings every WatchdogSec / 2 while the loop is
   // healthy, so it can abort ajard WatchdogSec / 2 after the loop went silent.

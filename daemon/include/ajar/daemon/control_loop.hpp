@@ -49,7 +49,9 @@
 //      latched fault; completion (both axes at rest and in position); end of a stop (both at
 //      rest). A stop the card refused is re-sent (as an emergency stop) every cycle;
 //   6. the published snapshot (seqlock). The thread then records the cycle's timing (deadline,
-//      wake-up, end) in statistics(): readable from any other thread.
+//      wake-up, end) in statistics(): readable from any other thread. Around its sleep until the
+//      next deadline it publishes sleep_record() (its planned wake-up and its own schedstat, one
+//      pread; "awake" when it wakes): the loop supervisor's exact wait for a CPU.
 // Limits are computed from what the card is told: a move's trapezoid comes from its profile
 // (move_profile(): the wheel limits, and the body's drive limits for anything but an exact turn in
 // place); its deadline from that same trapezoid; a jog's velocities from the limiter and its ramp
@@ -86,6 +88,7 @@
 #include "ajar/daemon/config.hpp"
 #include "ajar/daemon/loop_statistics.hpp"
 #include "ajar/daemon/seqlock.hpp"
+#include "ajar/daemon/thread_schedule.hpp"
 #include "ajar/drivers/lifecycle.hpp"
 #include "ajar/drivers/motion_card.hpp"
 
@@ -365,6 +368,13 @@ class ControlLoop {
   // The control thread's kernel thread id (0 before start_thread()): the supervisor reads the
   // thread's scheduling statistics by it.
   int thread_tid() const noexcept { return thread_tid_.load(std::memory_order_acquire); }
+  // What the control thread published of its sleep between cycles (thread_schedule.hpp): before
+  // it sleeps, its planned wake-up and its own schedstat; awake as soon as it wakes. One attempt
+  // at the seqlock: a read that overlaps the thread's store says awake (it was on a CPU then).
+  LoopSleep sleep_record() const noexcept {
+    LoopSleep sleep;
+    return sleep_.try_load(sleep) ? sleep : LoopSleep{};
+  }
   // The loop supervisor found the loop stalled (and stopped the card out of band). Never
   // refused, any thread: like a fault stop, it cancels what was posted before it and latches
   // kLoopStalled; the loop acts on it as soon as its stalled call returns: an in-band emergency
@@ -499,6 +509,7 @@ class ControlLoop {
   SeqLock<LoopSnapshot> published_;
   std::atomic<std::int64_t> last_cycle_end_ns_{0};
   std::atomic<int> thread_tid_{0};
+  SeqLock<LoopSleep> sleep_;  // sleep_record(); written by the control thread only
   std::atomic<bool> thread_running_{false};
   std::atomic<bool> thread_ended_{false};  // thread_main() returned
 

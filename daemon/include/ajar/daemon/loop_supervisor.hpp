@@ -11,12 +11,26 @@
 // its wait is excused — unless the thread is realtime (SCHED_FIFO/RR): then only another realtime
 // thread can keep it waiting, a fault of the robot's set-up that leaves the base unsupervised all
 // the same. A hung call either sleeps in the kernel or spins on a CPU, and both count.
-// The wait is read from the kernel (thread_cpu()) in two parts: the waits that have ended (the
-// schedstat run_delay, which the kernel adds only when the thread gets a CPU) and the wait going
-// on now (runnable at two checks in a row with no CPU time between them: a thread cannot fall
-// asleep without a CPU, so it waited all of that interval, give or take the instants of the two
-// reads); once that wait ends its seen part stays excused until run_delay shows the wait (one
-// check can read run_delay just before the thread gets its CPU and its clock just after). Without
+// The wait is read from the kernel (thread_cpu()) and from the control thread (LoopSleep), three
+// ways, each wait counted once:
+//   - the waits that have ended: the schedstat run_delay, which the kernel adds to only when the
+//     thread gets a CPU (or moves the waiting thread to another CPU: the part so far);
+//   - the wait going on, exactly: the control thread publishes, just before its sleep between
+//     cycles, the wake-up it asks for and its schedstat switch-ins and run_delay, and "awake" as
+//     soon as it wakes (thread_schedule.hpp). Found in that sleep past its wake-up, with the
+//     switch-ins it went to sleep with (it has had no CPU since), it has waited for one since
+//     its wake-up, however late the supervisor looks (a supervisor starved itself saw only the
+//     end of such a wait: tests/attack/FINDINGS.md, wave 12, A3); of that wait, run_delay minus
+//     the one it slept with shows already. The supervisor then knows every earlier wait is in
+//     run_delay (the thread read it after them). A thread hung in a card call is not in that
+//     sleep: it woke, or it had a CPU since;
+//   - the wait going on elsewhere (the thread kept off its CPU mid-cycle, or no sleep record):
+//     runnable at two checks in a row with no CPU time between them (a thread cannot fall
+//     asleep without a CPU, so it waited all of that interval, give or take the instants of the
+//     two reads).
+// A wait seen going on stays excused once it ends until run_delay shows it (one check can read
+// run_delay just before the thread gets its CPU and its clock just after), and what run_delay
+// shows of it is not excused again: the seen part is what run_delay does not show yet. Without
 // those statistics the wall clock decides. Whatever was excused, a loop silent for kLatestLatchNs
 // is stalled: a thread that never gets a CPU (a higher SCHED_FIFO thread spinning, RT throttling
 // off) or whose CPU time the kernel does not count (interrupts, a hypervisor's steal) stops the
@@ -55,28 +69,10 @@
 
 #include "ajar/core/error.hpp"
 #include "ajar/daemon/config.hpp"
+#include "ajar/daemon/thread_schedule.hpp"
 #include "ajar/drivers/motion_card.hpp"
 
 namespace ajar::daemon {
-
-// A thread's scheduling, read from the kernel at one instant.
-struct ThreadCpu {
-  // Runnable-but-waiting time of the waits that have ended (schedstat run_delay, ns; the kernel
-  // adds a wait when it ends: while the thread waits this stands still). -1: unknown.
-  std::int64_t waited_ns = -1;
-  // CPU time used so far (the thread's CPU clock, ns; exact for a thread on a CPU now). -1:
-  // unknown.
-  std::int64_t on_cpu_ns = -1;
-  // Waiting for a CPU at the read: state R (runnable) with no CPU time around the read.
-  bool waiting = false;
-  // Scheduled SCHED_FIFO or SCHED_RR (control.realtime granted): a wait of such a thread is not
-  // the scheduler's ordinary sharing but another realtime thread taking its CPU: not excused.
-  bool realtime = false;
-};
-
-// The scheduling of the thread `tid` of this process (/proc/self/task/TID/schedstat and stat, the
-// thread's CPU clock); unknown fields when tid <= 0 or the kernel does not say. No allocation.
-ThreadCpu thread_cpu(int tid) noexcept;
 
 // What the supervisor reads from and tells the loop (the engine wires it to its ControlLoop; the
 // unit tests to a fake). Called on the supervisor's thread: must not block.
@@ -87,6 +83,9 @@ struct SupervisedLoop {
   // Optional: the control thread's scheduling as the kernel sees it (thread_cpu()). Empty or
   // unknown fields: the wall clock alone decides.
   std::function<ThreadCpu()> thread_cpu;
+  // Optional: what the control thread published of its sleep (ControlLoop::sleep_record()).
+  // Empty or unknown: the exact wait is not known, the other rules still apply.
+  std::function<LoopSleep()> sleep;
 };
 
 // The supervisor reads the control section: rate_hz, stall_timeout_s, realtime (SCHED_FIFO at
@@ -154,9 +153,8 @@ class LoopSupervisor {
   int quiet_checks_ = 0;
   ThreadCpu last_cpu_;  // the control thread at the last check
   std::int64_t last_check_ns_ = -1;
-  std::int64_t excused_ns_ = 0;  // ended waits for a CPU since the check that saw the last end
-  std::int64_t waiting_ns_ = 0;  // of the wait going on now, the part seen from check to check
-  std::int64_t unshown_ns_ = 0;  // seen parts of ended waits that run_delay does not show yet
+  std::int64_t excused_ns_ = 0;  // waits run_delay showed since the check that saw the last end
+  std::int64_t unshown_ns_ = 0;  // waits seen (ended or going on) that run_delay does not show yet
 
   // Published.
   std::atomic<bool> stalled_{false};

@@ -36,17 +36,23 @@ class SeqLock {
 
   // Any thread. Retries while the writer is in the middle of a store.
   T load() const noexcept {
-    std::array<std::uint64_t, kWords> buffer{};
-    for (;;) {
-      const std::uint64_t before = sequence_.load(std::memory_order_acquire);
-      if ((before & 1U) != 0) continue;
-      for (std::size_t i = 0; i < kWords; ++i)
-        buffer[i] = words_[i].load(std::memory_order_acquire);
-      if (sequence_.load(std::memory_order_relaxed) == before) break;
-    }
     T value;
-    std::memcpy(static_cast<void*>(&value), buffer.data(), sizeof(T));
+    while (!try_load(value)) {
+    }
     return value;
+  }
+
+  // Any thread, one attempt: never waits for the writer (a reader that must not spin behind a
+  // writer it may be keeping off its CPU). False, `value` untouched, when a store overlapped it.
+  bool try_load(T& value) const noexcept {
+    std::array<std::uint64_t, kWords> buffer{};
+    const std::uint64_t before = sequence_.load(std::memory_order_acquire);
+    if ((before & 1U) != 0) return false;
+    for (std::size_t i = 0; i < kWords; ++i)
+      buffer[i] = words_[i].load(std::memory_order_acquire);
+    if (sequence_.load(std::memory_order_relaxed) != before) return false;
+    std::memcpy(static_cast<void*>(&value), buffer.data(), sizeof(T));
+    return true;
   }
 
  private:
