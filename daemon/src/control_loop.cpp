@@ -4,6 +4,7 @@
 #include "ajar/daemon/control_loop.hpp"
 
 #include <pthread.h>
+#include <sched.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -161,11 +162,15 @@ bool ControlLoop::stop_thread(std::int64_t limit_ns) noexcept {
 
 void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
   const OwnSchedstat own;  // this thread's: what it publishes of its sleep (sleep_record())
+  // A realtime thread's waits are never excused (loop_supervisor.hpp): it publishes nothing, and
+  // its cycle makes no system call for it (sleep_record() stays "awake").
+  const int policy = ::sched_getscheduler(0);
+  const bool publish_sleep = policy != SCHED_FIFO && policy != SCHED_RR;
   std::int64_t deadline = first_deadline_ns;
   while (!exit_requested_.load(std::memory_order_relaxed)) {
-    sleep_.store(own.going_to_sleep(deadline));
+    if (publish_sleep) sleep_.store(own.going_to_sleep(deadline));
     sleep_until_ns(deadline);
-    sleep_.store(LoopSleep{});  // awake: the first thing it does with its CPU
+    if (publish_sleep) sleep_.store(LoopSleep{});  // awake: the first thing it does with its CPU
     const std::int64_t wake = monotonic_now_ns();
     cycle(wake);
     const std::int64_t end = monotonic_now_ns();

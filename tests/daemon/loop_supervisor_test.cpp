@@ -776,6 +776,33 @@ TEST(LoopSupervisorLoop, TheControlThreadPublishesItsSleepAndIsAwakeInAHungCall)
   loop.stop_thread();
 }
 
+// A realtime control thread publishes nothing of its sleep (none of its waits is excused, so its
+// cycle makes no system call for it): its record stays "awake" while it cycles.
+TEST(LoopSupervisorLoop, ARealtimeControlThreadPublishesNoSleep) {
+  auto mock = std::make_unique<drivers::MockMotionCard>();
+  ControlLoopSettings settings;
+  settings.control.rate_hz = 500;
+  settings.control.realtime = true;
+  settings.control.priority = 10;
+  const int axes[2] = {settings.base.left.card_axis, settings.base.right.card_axis};
+  drivers::ManagedMotionCard managed(std::move(mock), axes);
+  ASSERT_TRUE(managed.configure().ok());
+  ASSERT_TRUE(managed.activate().ok());
+  ControlLoop loop(managed, settings);
+  const auto refused = loop.start_thread();
+  if (!refused.empty()) {
+    loop.stop_thread();
+    GTEST_SKIP() << "SCHED_FIFO refused here: " << refused.front();
+  }
+  const std::uint64_t first = loop.statistics().cycles();
+  ASSERT_TRUE(eventually([&] { return loop.statistics().cycles() >= first + 50; }));
+  // Sampled while it cycles (asleep most of each 2 ms period): never a planned wake-up.
+  for (int i = 0; i < 2000; ++i) {
+    ASSERT_EQ(loop.sleep_record().wake_ns, 0) << "sample " << i;
+  }
+  loop.stop_thread();
+}
+
 // The systemd watchdog stays the last resort: systemd aborts ajard WatchdogSec after the last ping,
 // that is at least WatchdogSec / 2 (the ping interval) after the loop stalled; the supervisor acts
 // at worst one check after control.stall_timeout_s (a check lands just before the timeout) — for

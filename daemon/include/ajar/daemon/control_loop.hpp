@@ -50,8 +50,9 @@
 //      rest). A stop the card refused is re-sent (as an emergency stop) every cycle;
 //   6. the published snapshot (seqlock). The thread then records the cycle's timing (deadline,
 //      wake-up, end) in statistics(): readable from any other thread. Around its sleep until the
-//      next deadline it publishes sleep_record() (its planned wake-up and its own schedstat, one
-//      pread; "awake" when it wakes): the loop supervisor's exact wait for a CPU.
+//      next deadline a SCHED_OTHER thread publishes sleep_record() (its planned wake-up and its own
+//      schedstat, one pread; "awake" when it wakes): the loop supervisor's exact wait for a CPU. A
+//      realtime thread (SCHED_FIFO/RR at its start) publishes nothing: no wait of it is excused.
 // Limits are computed from what the card is told: a move's trapezoid comes from its profile
 // (move_profile(): the wheel limits, and the body's drive limits for anything but an exact turn in
 // place); its deadline from that same trapezoid; a jog's velocities from the limiter and its ramp
@@ -369,7 +370,8 @@ class ControlLoop {
   // thread's scheduling statistics by it.
   int thread_tid() const noexcept { return thread_tid_.load(std::memory_order_acquire); }
   // What the control thread published of its sleep between cycles (thread_schedule.hpp): before
-  // it sleeps, its planned wake-up and its own schedstat; awake as soon as it wakes. One attempt
+  // it sleeps, its planned wake-up and its own schedstat; awake as soon as it wakes (always, for a
+  // thread that was realtime when it started: it publishes nothing). One attempt
   // at the seqlock: a read that overlaps the thread's store says awake (it was on a CPU then).
   LoopSleep sleep_record() const noexcept {
     LoopSleep sleep;
