@@ -205,15 +205,6 @@ class JogVelocityCheckStarved : public ajar::testing::DetLoopTest {
       }
     }
   }
-  // Cycles (2 ms) until a fault latches, at most `limit`.
-  int cycles_until_fault(int limit) {
-    int n = 0;
-    while (n < limit && loop->snapshot().fault == ErrorCode::kOk) {
-      run(1);
-      ++n;
-    }
-    return n;
-  }
   // The velocity check's tolerance (docs/control-loop.md, "What the wheels do") over the card's
   // jog ramp: how long the ramp the card was told takes to leave a wheel that does not follow
   // outside it; then velocity_mismatch_s; in cycles, with one for the measurement after the gap.
@@ -232,7 +223,7 @@ TEST_F(JogVelocityCheckStarved, ACardThatIgnoresTheReversalLatches) {
   jog_at_top_speed();
   starve(-kJogSpeedMS, 500 * kMs);
   card.drop_next_calls(CardCall::kJog, 1'000'000);
-  const int cycles = cycles_until_fault(2000);
+  const int cycles = run_until_fault(2000);
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kVelocityMismatch);
   EXPECT_LE(cycles, latch_bound_cycles());
   EXPECT_GE(calls(CardCall::kEmergencyStop), 1);
@@ -243,7 +234,7 @@ TEST_F(JogVelocityCheckStarved, ACardThatKeepsRunningAfterToldZeroLatches) {
   jog_at_top_speed();
   starve(0.0, 500 * kMs);
   card.drop_next_calls(CardCall::kJog, 1'000'000);
-  const int cycles = cycles_until_fault(2000);
+  const int cycles = run_until_fault(2000);
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kVelocityMismatch);
   EXPECT_LE(cycles, latch_bound_cycles());
 }
@@ -260,7 +251,7 @@ TEST_F(JogVelocityCheckStarved, ACardThatRunsTheWrongWayLatches) {
   card.drop_next_calls(CardCall::kJog, 1'000'000);  // and it keeps doing so
   starve(kJogSpeedMS, 1000 * kMs);                  // the card reverses (1 s), the loop starved
   ASSERT_NEAR(card.velocity(left_axis), -top, 1e-6);
-  const int cycles = cycles_until_fault(2000);
+  const int cycles = run_until_fault(2000);
   EXPECT_EQ(loop->snapshot().fault, ErrorCode::kVelocityMismatch);
   EXPECT_LE(cycles, static_cast<int>(settings.velocity_mismatch_s * 1e3 / 2.0) + 3);
   EXPECT_GE(calls(CardCall::kEmergencyStop), 1);
