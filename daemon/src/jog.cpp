@@ -61,12 +61,14 @@ Jog::Step Jog::step(std::int64_t now_ns, const core::PlanarPose& pose) noexcept 
   st.guard_limiting = target.linear_m_s > forward_limit;
   st.guard_limit_m_s = std::isfinite(forward_limit) ? forward_limit : 0.0;
   if (st.guard_limiting) target.linear_m_s = forward_limit;
-  const std::int64_t elapsed_ns = std::clamp<std::int64_t>(now_ns - last_ns_, 0, 10 * period_ns_);
-  const double dt_s = static_cast<double>(elapsed_ns) / kNsPerS;
+  const std::int64_t since_ns = std::max<std::int64_t>(now_ns - last_ns_, 0);
   last_ns_ = now_ns;
-  // The card's ramp toward what it was told (profile_), for the velocity check.
+  // The limiter steps at most 10 periods' worth after a late cycle (no jump in the command) ...
+  const double dt_s = static_cast<double>(std::min(since_ns, 10 * period_ns_)) / kNsPerS;
+  // ... but the card ramped toward what it was told (profile_) the whole time, also while the loop
+  // made no cycle (a starved thread): the velocity check's model of it runs on in its time.
   const double ramp =
-      profile_.acceleration_counts_per_ms2 * static_cast<double>(elapsed_ns) / 1e6 * card_scale_;
+      profile_.acceleration_counts_per_ms2 * static_cast<double>(since_ns) / 1e6 * card_scale_;
   for (int i = 0; i < 2; ++i) {
     expected_counts_per_ms_[i] +=
         std::clamp(told_counts_per_ms_[i] - expected_counts_per_ms_[i], -ramp, ramp);

@@ -116,15 +116,6 @@ class LoopDeadlines : public ajar::testing::DetLoopTest {
     ASSERT_TRUE(card.jogging(left_axis));
     ASSERT_EQ(loop->snapshot().fault, ErrorCode::kOk);
   }
-  // Cycles until a fault latches (at most `limit`); the number run.
-  int run_until_fault(int limit) {
-    int n = 0;
-    while (n < limit && loop->snapshot().fault == ErrorCode::kOk) {
-      run(1);
-      ++n;
-    }
-    return n;
-  }
   static bool has(const std::vector<LoopReport>& rs, LoopReportKind kind) {
     for (const auto& r : rs)
       if (r.kind == kind) return true;

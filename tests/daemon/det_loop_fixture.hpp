@@ -43,6 +43,15 @@ class DetLoopTest : public ::testing::Test {
       loop->cycle(now());
     }
   }
+  // Cycles (as run(1)) until a fault latches in the loop, at most `limit`: the number run.
+  int run_until_fault(int limit) {
+    int n = 0;
+    while (n < limit && loop->snapshot().fault == ErrorCode::kOk) {
+      run(1);
+      ++n;
+    }
+    return n;
+  }
   std::int64_t now() const { return clock.now_ns(); }
   std::vector<daemon::LoopReport> reports() {
     std::vector<daemon::LoopReport> out;

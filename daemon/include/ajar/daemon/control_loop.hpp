@@ -240,7 +240,9 @@ double planned_duration_s(std::int64_t distance_counts,
 // where the base is, clamps speed and acceleration (core::limit_velocity), and says whether the
 // card gets new wheel velocities; the loop makes the card call and tells sent(). Also the card's
 // ramp toward what it was told (the velocity check's band) and when the jog, told zero, starts
-// coming to rest.
+// coming to rest. After a late cycle (a starved thread) the limiter steps at most 10 periods'
+// worth, while the card's ramp is followed over the whole time since the last step: the card ran
+// on meanwhile.
 class Jog {
  public:
   // `counts_per_wheel_rad`: motor counts per wheel radian; `card_scale`: card time per loop time.
@@ -280,7 +282,7 @@ class Jog {
   bool resting() const noexcept { return resting_; }  // told zero: the loop's deadline to rest runs
 
   // The velocity check's band for wheel `i` (counts/ms): between what the card was told and its
-  // ramp toward it.
+  // ramp toward it (in the card's time, up to the last step()).
   double band_low(int i) const noexcept {
     return std::min(told_counts_per_ms_[i], expected_counts_per_ms_[i]);
   }
