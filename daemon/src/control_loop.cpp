@@ -4,7 +4,6 @@
 #include "ajar/daemon/control_loop.hpp"
 
 #include <pthread.h>
-#include <sched.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -164,8 +163,7 @@ void ControlLoop::thread_main(std::int64_t first_deadline_ns) noexcept {
   const OwnSchedstat own;  // this thread's: what it publishes of its sleep (sleep_record())
   // A realtime thread's waits are never excused (loop_supervisor.hpp): it publishes nothing, and
   // its cycle makes no system call for it (sleep_record() stays "awake").
-  const int policy = ::sched_getscheduler(0);
-  const bool publish_sleep = policy != SCHED_FIFO && policy != SCHED_RR;
+  const bool publish_sleep = !thread_is_realtime(0);
   std::int64_t deadline = first_deadline_ns;
   while (!exit_requested_.load(std::memory_order_relaxed)) {
     if (publish_sleep) sleep_.store(own.going_to_sleep(deadline));

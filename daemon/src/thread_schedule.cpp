@@ -66,10 +66,14 @@ ThreadCpu thread_cpu(int tid) noexcept {
   }
   cpu.on_cpu_ns = on_cpu_ns();
   cpu.waiting = cpu.waiting && before >= 0 && cpu.on_cpu_ns == before;
-  const int policy = ::sched_getscheduler(tid);  // a thread id names the thread (Linux)
-  cpu.realtime = policy >= 0 && ((policy & ~SCHED_RESET_ON_FORK) == SCHED_FIFO ||
-                                 (policy & ~SCHED_RESET_ON_FORK) == SCHED_RR);
+  cpu.realtime = thread_is_realtime(tid);
   return cpu;
+}
+
+bool thread_is_realtime(int tid) noexcept {
+  const int policy = ::sched_getscheduler(tid);  // a thread id names the thread (Linux)
+  return policy >= 0 && ((policy & ~SCHED_RESET_ON_FORK) == SCHED_FIFO ||
+                         (policy & ~SCHED_RESET_ON_FORK) == SCHED_RR);
 }
 
 OwnSchedstat::OwnSchedstat() noexcept

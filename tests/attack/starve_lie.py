@@ -84,12 +84,7 @@ try:
         where = rng.choice(["before", "during", "after"])
         dur = rng.uniform(0.2, 0.6) * HOGSCALE
         clear()
-        c.call(STOP)
-        time.sleep(0.4)
-        for _ in range(50):
-            if ok(c.call(RESET, b"\x00")):
-                break
-            time.sleep(0.1)
+        ss.stop_then_reset(c, 0.4)
         c.log.clear()
         seen = []
         sign = rng.choice([1, -1])  # both ways: the base does not drift into the door guard

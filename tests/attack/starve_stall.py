@@ -338,6 +338,18 @@ def starve_trial(timeout, trial):
     return len(lat), len(other), len(hogs), rc, longer
 
 
+def stop_then_reset(c, settle_s, tries=50):
+    """Stop, wait settle_s, then Reset (parameters kept) until it is acknowledged (0.1 s apart);
+    True when it was."""
+    c.call(STOP)
+    time.sleep(settle_s)
+    for _ in range(tries):
+        if ok(c.call(RESET, b"\x00")):
+            return True
+        time.sleep(0.1)
+    return False
+
+
 # ---------------------------------------------------------------- latch modes
 def hang_trials(timeout):
     flag = "/tmp/ajar-attack3-hang-%d" % os.getpid()
@@ -360,12 +372,7 @@ def hang_trials(timeout):
     check_s = timeout / 4
     rows, misses, late = [], 0, 0
     for trial in range(TRIALS):
-        c.call(STOP)
-        time.sleep(0.3)
-        for _ in range(50):
-            if ok(c.call(RESET, b"\x00")):
-                break
-            time.sleep(0.1)
+        stop_then_reset(c, 0.3)
         for _ in range(5):
             c.call(DRIVE, drive(0.1, 0.0))
             time.sleep(0.04)

@@ -30,6 +30,9 @@ struct ThreadCpu {
 // thread's CPU clock); unknown fields when tid <= 0 or the kernel does not say. No allocation.
 ThreadCpu thread_cpu(int tid) noexcept;
 
+// The thread `tid` of this process (0: the calling thread) is scheduled SCHED_FIFO or SCHED_RR.
+bool thread_is_realtime(int tid) noexcept;
+
 // What the control thread publishes of its sleep between two cycles. Just before it sleeps: the
 // wake-up it asks for and its own schedstat read then; as soon as it wakes: awake (wake_ns 0).
 // From its planned wake-up on a sleeping thread is runnable (give or take the timer's slack, 50 us
